@@ -1,0 +1,43 @@
+//! Ray casting: the first hit only, shaded by the Phong model with hard shadows.
+//!
+//! Glass and mirrors show only their own surface shading (the thesis's Fig. 12): nothing is
+//! reflected or refracted, and every object, glass included, casts a full shadow.
+
+use super::{Integrator, RenderParams};
+use crate::geometry::Ray;
+use crate::lighting::{emitted, phong_local, ShadowMode};
+use crate::sampler::Sampler;
+use crate::scene::effects::Support;
+use crate::scene::{Effect, Scene};
+use crate::stats::RayCounts;
+use glam::Vec3;
+
+/// First-hit Phong shading with hard shadows.
+pub struct RayCast;
+
+impl Integrator for RayCast {
+    fn name(&self) -> &'static str {
+        "raycast"
+    }
+
+    fn description(&self) -> &'static str {
+        "ray casting: first hit, Phong shading, hard shadows; glass shows only its surface"
+    }
+
+    fn support(&self, effect: Effect) -> Support {
+        match effect {
+            Effect::SoftShadows => Support::Approximates("an area light acts as a point light at its centre"),
+            Effect::Textures | Effect::Meshes => Support::Simulates,
+        }
+    }
+
+    fn radiance(&self, scene: &Scene, _: &RenderParams, ray: &Ray, _: &mut Sampler, rays: &mut RayCounts) -> Vec3 {
+        let Some(isect) = scene.intersect(ray, f32::INFINITY) else {
+            return scene.settings.background;
+        };
+        let wo = -ray.dir;
+        let material = scene.material_of(isect.primitive);
+        emitted(scene, isect.primitive, &isect.hit, wo)
+            + phong_local(scene, material, &isect.hit, wo, ShadowMode::Opaque, rays)
+    }
+}

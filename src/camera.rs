@@ -1,0 +1,122 @@
+//! The pinhole camera.
+
+use crate::geometry::Ray;
+use glam::{Vec2, Vec3};
+
+/// A pinhole camera with a vertical field of view; pixel (0,0) is the top-left one.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Camera {
+    /// Eye position.
+    pub position: Vec3,
+    /// Unit view direction.
+    pub forward: Vec3,
+    /// Unit vector to the image's right.
+    pub right: Vec3,
+    /// Unit vector to the image's top.
+    pub up: Vec3,
+    /// Vertical field of view in degrees.
+    pub fov_degrees: f32,
+    /// Image width in pixels.
+    pub width: u32,
+    /// Image height in pixels.
+    pub height: u32,
+    /// Half the image plane's height at distance 1.
+    tan_half_fov: f32,
+}
+
+impl Camera {
+    /// A camera at `position` looking at `look_at`; `None` when `up` is parallel to the view
+    /// direction or the view direction is zero.
+    pub fn new(
+        position: Vec3,
+        look_at: Vec3,
+        up: Vec3,
+        fov_degrees: f32,
+        width: u32,
+        height: u32,
+    ) -> Option<Camera> {
+        let forward = (look_at - position).try_normalize()?;
+        let right = forward.cross(up).try_normalize()?;
+        if forward.cross(up).length() < 1e-6 * up.length() {
+            return None;
+        }
+        let up = right.cross(forward);
+        Some(Camera {
+            position,
+            forward,
+            right,
+            up,
+            fov_degrees,
+            width,
+            height,
+            tan_half_fov: (0.5 * fov_degrees.to_radians()).tan(),
+        })
+    }
+
+    /// The ray through film position `film` in pixel units (x right, y down; (0.5, 0.5) is the
+    /// centre of the top-left pixel).
+    pub fn generate_ray(&self, film: Vec2) -> Ray {
+        let aspect = self.width as f32 / self.height as f32;
+        let ndc_x = (2.0 * film.x / self.width as f32 - 1.0) * aspect * self.tan_half_fov;
+        let ndc_y = (1.0 - 2.0 * film.y / self.height as f32) * self.tan_half_fov;
+        let dir = (self.forward + ndc_x * self.right + ndc_y * self.up).normalize();
+        Ray::new(self.position, dir)
+    }
+
+    /// The film position (pixel units) where the point `p` projects, if it is in front of the
+    /// camera.
+    pub fn project(&self, p: Vec3) -> Option<Vec2> {
+        let d = p - self.position;
+        let z = d.dot(self.forward);
+        if z <= 0.0 {
+            return None;
+        }
+        let aspect = self.width as f32 / self.height as f32;
+        let ndc_x = d.dot(self.right) / (z * self.tan_half_fov * aspect);
+        let ndc_y = d.dot(self.up) / (z * self.tan_half_fov);
+        Some(Vec2::new(
+            (ndc_x + 1.0) * 0.5 * self.width as f32,
+            (1.0 - ndc_y) * 0.5 * self.height as f32,
+        ))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn cam() -> Camera {
+        Camera::new(Vec3::new(0.0, 1.0, 4.0), Vec3::new(0.0, 1.0, 0.0), Vec3::Y, 40.0, 64, 32)
+            .unwrap()
+    }
+
+    #[test]
+    fn the_centre_ray_looks_at_the_target_without_negative_zeros() {
+        let r = cam().generate_ray(Vec2::new(32.0, 16.0));
+        assert!(r.dir.abs_diff_eq(-Vec3::Z, 1e-6));
+        assert!(r.dir.to_array().iter().all(|c| !(*c == 0.0 && c.is_sign_negative())));
+    }
+
+    #[test]
+    fn top_edge_ray_makes_half_the_field_of_view() {
+        let r = cam().generate_ray(Vec2::new(32.0, 0.0));
+        let angle = r.dir.dot(-Vec3::Z).acos().to_degrees();
+        assert!((angle - 20.0).abs() < 1e-3, "{angle}");
+        assert!(r.dir.y > 0.0, "row 0 is the top of the image");
+    }
+
+    #[test]
+    fn projection_inverts_ray_generation() {
+        let c = cam();
+        let film = Vec2::new(10.3, 27.9);
+        let r = c.generate_ray(film);
+        let back = c.project(r.at(3.7)).unwrap();
+        assert!((back - film).length() < 1e-3);
+    }
+
+    #[test]
+    fn up_parallel_to_view_is_refused() {
+        assert!(Camera::new(Vec3::ZERO, Vec3::Y, Vec3::Y, 40.0, 8, 8).is_none());
+        assert!(Camera::new(Vec3::ZERO, Vec3::ZERO, Vec3::Y, 40.0, 8, 8).is_none());
+    }
+}

@@ -1,0 +1,410 @@
+//! The `vitrum` command line: `render`, `info`, `integrators`.
+//!
+//! Exit codes: 0 success; 2 bad input (options, scene file, image file) with a message naming
+//! the problem; 1 any other failure.
+
+use crate::integrators::{self, Integrator, RenderParams};
+use crate::output::exr::{write_exr, ExrMetadata};
+use crate::output::png::write_png;
+use crate::render::{self, Budget, RenderOptions, RenderOutput};
+use crate::scene::compile::{MAX_PIXELS, MAX_SIDE};
+use crate::scene::effects::Support;
+use crate::scene::{self, Scene};
+use clap::{Parser, Subcommand};
+use serde_json::json;
+use std::io::IsTerminal;
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+/// vitrum: render scenes with transparent objects by every classic method.
+#[derive(Parser, Debug)]
+#[command(name = "vitrum", version, about)]
+pub struct Cli {
+    /// What to do.
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+/// The subcommands.
+#[derive(Subcommand, Debug)]
+pub enum Command {
+    /// Render a scene (the embedded default scene when none is given) to an EXR file.
+    Render(RenderArgs),
+    /// Describe a scene: objects, materials, lights, BVH statistics and effects.
+    Info(InfoArgs),
+    /// List the integrators.
+    Integrators,
+}
+
+/// Options of `vitrum render`.
+#[derive(clap::Args, Debug, Clone)]
+pub struct RenderArgs {
+    /// Scene file (TOML); the embedded default scene when omitted.
+    pub scene: Option<PathBuf>,
+    /// Integrator name (see `vitrum integrators`); default from the scene file.
+    #[arg(short, long)]
+    pub integrator: Option<String>,
+    /// Samples per pixel.
+    #[arg(long, conflicts_with = "time")]
+    pub spp: Option<u32>,
+    /// Render whole passes until this many seconds have passed.
+    #[arg(long)]
+    pub time: Option<f64>,
+    /// Image size, e.g. 400x300.
+    #[arg(long, value_parser = parse_resolution)]
+    pub resolution: Option<(u32, u32)>,
+    /// Seed of the random streams.
+    #[arg(long)]
+    pub seed: Option<u64>,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Maximum recursion depth.
+    #[arg(long)]
+    pub max_depth: Option<u32>,
+    /// Constant dielectric reflectance instead of exact Fresnel (the thesis used 0.06).
+    #[arg(long)]
+    pub reflectance: Option<f32>,
+    /// Output EXR file.
+    #[arg(short, long, default_value = "render.exr")]
+    pub output: PathBuf,
+    /// Also write a tone-mapped sRGB PNG preview.
+    #[arg(long)]
+    pub png: Option<PathBuf>,
+    /// Exposure of the PNG preview in stops (default from the scene file).
+    #[arg(long, allow_hyphen_values = true)]
+    pub exposure: Option<f32>,
+    /// Print the summary as one JSON object on stdout.
+    #[arg(long)]
+    pub json: bool,
+    /// No progress bar, no summary line (warnings still go to stderr).
+    #[arg(long)]
+    pub quiet: bool,
+    /// Refuse to render when the integrator cannot simulate an effect the scene calls for.
+    #[arg(long)]
+    pub strict: bool,
+}
+
+/// Options of `vitrum info`.
+#[derive(clap::Args, Debug)]
+pub struct InfoArgs {
+    /// Scene file (TOML); the embedded default scene when omitted.
+    pub scene: Option<PathBuf>,
+    /// Print as one JSON object.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// A failure and its exit code.
+#[derive(Debug)]
+pub enum CliError {
+    /// Bad input from the user (exit code 2).
+    BadInput(String),
+    /// Anything else (exit code 1).
+    Failure(String),
+}
+
+impl CliError {
+    /// The process exit code.
+    pub fn exit_code(&self) -> i32 {
+        match self {
+            CliError::BadInput(_) => 2,
+            CliError::Failure(_) => 1,
+        }
+    }
+}
+
+fn parse_resolution(s: &str) -> Result<(u32, u32), String> {
+    let (w, h) = s.split_once(['x', 'X']).ok_or_else(|| format!("`{s}` is not WIDTHxHEIGHT, e.g. 800x800"))?;
+    let parse = |v: &str| v.trim().parse::<u32>().map_err(|_| format!("`{v}` is not a whole number of pixels"));
+    let (w, h) = (parse(w)?, parse(h)?);
+    if w == 0 || h == 0 {
+        return Err(format!("{w}x{h}: width and height must be at least 1"));
+    }
+    if w > MAX_SIDE || h > MAX_SIDE || w as u64 * h as u64 > MAX_PIXELS {
+        return Err(format!("{w}x{h} is too large: at most {MAX_SIDE} per side and {MAX_PIXELS} pixels"));
+    }
+    Ok((w, h))
+}
+
+/// Run the command line; returns the process exit code.
+pub fn main() -> i32 {
+    let cli = match Cli::try_parse() {
+        Ok(c) => c,
+        Err(e) => {
+            let _ = e.print();
+            return if e.use_stderr() { 2 } else { 0 };
+        }
+    };
+    let result = match cli.command {
+        Command::Render(args) => run_render(&args),
+        Command::Info(args) => run_info(&args),
+        Command::Integrators => {
+            for i in integrators::all() {
+                println!("{:<12} {}", i.name(), i.description());
+            }
+            Ok(())
+        }
+    };
+    match result {
+        Ok(()) => 0,
+        Err(e) => {
+            let (CliError::BadInput(m) | CliError::Failure(m)) = &e;
+            eprintln!("vitrum: error: {m}");
+            e.exit_code()
+        }
+    }
+}
+
+/// Load the given scene file, or the embedded default.
+pub fn load_scene(path: Option<&Path>) -> Result<Scene, CliError> {
+    match path {
+        Some(p) => scene::load(p).map_err(|e| CliError::BadInput(e.to_string())),
+        None => Ok(scene::load_default()),
+    }
+}
+
+fn integrator_named(name: &str) -> Result<Box<dyn Integrator>, CliError> {
+    integrators::create(name).ok_or_else(|| {
+        CliError::BadInput(format!("unknown integrator `{name}`; known: {}", integrators::names().join(", ")))
+    })
+}
+
+/// Check that an output file can be created before spending time on a render.
+fn check_output_path(path: &Path, extension: &str) -> Result<(), CliError> {
+    let ext_ok = path.extension().and_then(|e| e.to_str()).is_some_and(|e| e.eq_ignore_ascii_case(extension));
+    if !ext_ok {
+        return Err(CliError::BadInput(format!("{}: the output file must end in .{extension}", path.display())));
+    }
+    let parent = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
+    if !parent.is_dir() {
+        return Err(CliError::BadInput(format!("{}: the folder {} does not exist", path.display(), parent.display())));
+    }
+    Ok(())
+}
+
+/// Warn about (or, when `strict`, refuse) effects the integrator does not simulate.
+fn check_effects(scene: &Scene, integrator: &dyn Integrator, strict: bool) -> Result<(), CliError> {
+    for u in &scene.effects.0 {
+        let (verb, how) = match integrator.support(u.effect) {
+            Support::Simulates => continue,
+            Support::Approximates(how) => ("approximates", how),
+            Support::Ignores(how) => ("ignores", how),
+        };
+        let message = format!("`{}` {verb} {} ({}): {how}", integrator.name(), u.effect, u.reason);
+        if strict {
+            return Err(CliError::BadInput(format!("{message}; refusing because of --strict")));
+        }
+        eprintln!("vitrum: warning: {message}");
+    }
+    Ok(())
+}
+
+/// Options of a render after applying command-line overrides to the scene's defaults.
+pub fn render_options(scene: &Scene, args: &RenderArgs) -> Result<RenderOptions, CliError> {
+    let s = &scene.settings;
+    let budget = match (args.spp, args.time) {
+        (_, Some(t)) if !(t.is_finite() && t > 0.0) => {
+            return Err(CliError::BadInput(format!("--time {t}: must be a positive number of seconds")))
+        }
+        (_, Some(t)) => Budget::Time(Duration::from_secs_f64(t)),
+        (Some(0), _) => return Err(CliError::BadInput("--spp 0: at least one sample per pixel".into())),
+        (Some(n), _) => Budget::Samples(n),
+        (None, None) => Budget::Samples(s.spp),
+    };
+    let reflectance = match args.reflectance {
+        Some(r) if !(0.0..=1.0).contains(&r) => {
+            return Err(CliError::BadInput(format!("--reflectance {r}: must be in [0, 1]")))
+        }
+        Some(r) => Some(r),
+        None => s.reflectance,
+    };
+    Ok(RenderOptions {
+        budget,
+        resolution: args.resolution,
+        seed: args.seed.unwrap_or(s.seed),
+        params: RenderParams { max_depth: args.max_depth.unwrap_or(s.max_depth), reflectance },
+    })
+}
+
+fn run_render(args: &RenderArgs) -> Result<(), CliError> {
+    let scene = load_scene(args.scene.as_deref())?;
+    for w in &scene.warnings {
+        eprintln!("vitrum: warning: {w}");
+    }
+    let integrator = integrator_named(args.integrator.as_deref().unwrap_or(&scene.settings.integrator))?;
+    let opts = render_options(&scene, args)?;
+    check_output_path(&args.output, "exr")?;
+    if let Some(png) = &args.png {
+        check_output_path(png, "png")?;
+    }
+    check_effects(&scene, integrator.as_ref(), args.strict)?;
+    if args.threads == Some(0) {
+        return Err(CliError::BadInput("--threads 0: at least one thread".into()));
+    }
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(args.threads.unwrap_or(0))
+        .build()
+        .map_err(|e| CliError::Failure(format!("cannot start worker threads: {e}")))?;
+
+    let bar = (!args.quiet && std::io::stderr().is_terminal()).then(|| {
+        let bar = indicatif::ProgressBar::new(0);
+        bar.set_style(
+            indicatif::ProgressStyle::with_template("{spinner} {msg} [{bar:40}] {pos}/{len} rows, ETA {eta}")
+                .expect("valid template")
+                .progress_chars("=> "),
+        );
+        bar.set_message(integrator.name());
+        bar
+    });
+    let progress = |done: u64, total: u64| {
+        if let Some(b) = &bar {
+            b.set_length(total);
+            b.set_position(done);
+        }
+    };
+    let out = pool.install(|| render::render(&scene, integrator.as_ref(), &opts, &progress));
+    if let Some(b) = bar {
+        b.finish_and_clear();
+    }
+
+    let meta = ExrMetadata {
+        version: crate::VERSION.to_string(),
+        integrator: integrator.name().to_string(),
+        spp: out.spp,
+        seed: opts.seed,
+        render_time_seconds: out.seconds,
+        rays: out.rays,
+        scene: format!("{} ({})", scene.origin.name, scene.origin.hash),
+        effects: scene.effects.names(),
+    };
+    write_exr(&args.output, &out.image, &meta).map_err(|e| CliError::Failure(e.to_string()))?;
+    if let Some(png) = &args.png {
+        let exposure = args.exposure.unwrap_or(scene.settings.exposure);
+        write_png(png, &out.image, exposure).map_err(|e| CliError::Failure(e.to_string()))?;
+    }
+    if out.non_finite_samples > 0 {
+        eprintln!("vitrum: warning: {} sample(s) were NaN or infinite", out.non_finite_samples);
+    }
+    report(args, &scene, integrator.name(), &opts, &out);
+    Ok(())
+}
+
+/// Print the one-line summary (or the JSON object).
+fn report(args: &RenderArgs, scene: &Scene, integrator: &str, opts: &RenderOptions, out: &RenderOutput) {
+    let mrays = out.rays.total() as f64 / out.seconds.max(1e-9) / 1e6;
+    if args.json {
+        let summary = json!({
+            "integrator": integrator,
+            "scene": scene.origin.name,
+            "scene_hash": scene.origin.hash,
+            "width": out.image.width,
+            "height": out.image.height,
+            "spp": out.spp,
+            "seed": opts.seed,
+            "max_depth": opts.params.max_depth,
+            "seconds": out.seconds,
+            "rays": {
+                "primary": out.rays.primary,
+                "reflected": out.rays.reflected,
+                "refracted": out.rays.refracted,
+                "shadow": out.rays.shadow,
+                "total": out.rays.total(),
+            },
+            "mrays_per_second": mrays,
+            "non_finite_samples": out.non_finite_samples,
+            "effects": scene.effects.names(),
+            "output": args.output,
+            "png": args.png,
+        });
+        println!("{summary}");
+    } else if !args.quiet {
+        eprintln!(
+            "{integrator}: {}x{} at {} spp in {:.3} s, {} rays (primary {}, reflected {}, refracted {}, shadow {}), {:.2} Mrays/s -> {}",
+            out.image.width,
+            out.image.height,
+            out.spp,
+            out.seconds,
+            out.rays.total(),
+            out.rays.primary,
+            out.rays.reflected,
+            out.rays.refracted,
+            out.rays.shadow,
+            mrays,
+            args.output.display()
+        );
+    }
+}
+
+fn run_info(args: &InfoArgs) -> Result<(), CliError> {
+    let scene = load_scene(args.scene.as_deref())?;
+    let all = integrators::all();
+    let support_text = |s: Support| match s {
+        Support::Simulates => "simulates".to_string(),
+        Support::Approximates(how) => format!("approximates: {how}"),
+        Support::Ignores(how) => format!("ignores: {how}"),
+    };
+    let b = &scene.bvh_stats;
+    if args.json {
+        let effects: Vec<_> = scene
+            .effects
+            .0
+            .iter()
+            .map(|u| {
+                let support: serde_json::Map<String, serde_json::Value> =
+                    all.iter().map(|i| (i.name().to_string(), json!(support_text(i.support(u.effect))))).collect();
+                json!({"effect": u.effect.name(), "reason": u.reason, "integrators": support})
+            })
+            .collect();
+        let summary = json!({
+            "scene": scene.origin.name,
+            "hash": scene.origin.hash,
+            "resolution": [scene.camera.width, scene.camera.height],
+            "objects": scene.objects.iter().map(|o| json!({"name": o.name, "kind": o.kind, "material": o.material, "primitives": o.primitives})).collect::<Vec<_>>(),
+            "materials": scene.materials.iter().map(|m| json!({"name": m.name, "type": format!("{:?}", m.bsdf)})).collect::<Vec<_>>(),
+            "lights": scene.lights.len(),
+            "bvh": {"nodes": b.nodes, "primitives": b.primitives, "depth": b.depth, "build_seconds": b.build_seconds,
+                    "bounds_min": b.bounds.0.to_array(), "bounds_max": b.bounds.1.to_array()},
+            "effects": effects,
+            "warnings": scene.warnings,
+        });
+        println!("{summary}");
+        return Ok(());
+    }
+    println!("scene      {} (hash {})", scene.origin.name, scene.origin.hash);
+    println!("camera     {}x{}, fov {}°", scene.camera.width, scene.camera.height, scene.camera.fov_degrees);
+    println!("objects    {}", scene.objects.len());
+    for o in &scene.objects {
+        println!("  {:<24} {:<16} material {:<12} {} primitive(s)", o.name, o.kind, o.material, o.primitives);
+    }
+    println!("materials  {}", scene.materials.len());
+    for m in &scene.materials {
+        println!("  {:<24} {:?}", m.name, m.bsdf);
+    }
+    println!("lights     {}", scene.lights.len());
+    for l in &scene.lights {
+        println!("  {l:?}");
+    }
+    println!(
+        "bvh        CwBvh, {} nodes, {} primitives, depth {}, built in {:.3} ms, bounds {} .. {}",
+        b.nodes,
+        b.primitives,
+        b.depth,
+        b.build_seconds * 1e3,
+        b.bounds.0,
+        b.bounds.1
+    );
+    if scene.effects.0.is_empty() {
+        println!("effects    none (every method renders this scene fully)");
+    }
+    for u in &scene.effects.0 {
+        println!("effect     {}: {}", u.effect, u.reason);
+        for i in &all {
+            println!("  {:<12} {}", i.name(), support_text(i.support(u.effect)));
+        }
+    }
+    for w in &scene.warnings {
+        println!("warning    {w}");
+    }
+    Ok(())
+}

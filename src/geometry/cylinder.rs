@@ -1,0 +1,292 @@
+//! Open cylinder walls (caps are separate disks).
+
+use std::f32::consts::TAU;
+
+use glam::{Vec2, Vec3};
+
+use super::sphere::radial_roots;
+use super::{point_error, seam_slack, Bounds, Ray, SurfaceHit};
+
+/// The wall of a cylinder between `base` and `base + axis·height`, without caps.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Cylinder {
+    base: Vec3,
+    /// Local frame: `u`, `v` span the cross-section, `w` is the unit axis.
+    u: Vec3,
+    v: Vec3,
+    w: Vec3,
+    radius: f32,
+    height: f32,
+}
+
+impl Cylinder {
+    /// Wall of radius `radius` from `base` along `axis` (normalised) for `height`.
+    pub fn new(base: Vec3, axis: Vec3, radius: f32, height: f32) -> Cylinder {
+        let w = axis.normalize_or(Vec3::Z);
+        let (u, v) = w.any_orthonormal_pair();
+        Cylinder { base, u, v, w, radius, height }
+    }
+
+    /// `x` expressed in the local frame (axial component last).
+    #[inline]
+    fn local(&self, x: Vec3) -> Vec3 {
+        Vec3::new(x.dot(self.u), x.dot(self.v), x.dot(self.w))
+    }
+
+    /// Nearest hit distance in the open interval (`tmin`, `tmax`); rays parallel to the axis miss.
+    #[inline]
+    pub fn intersect(&self, ray: &Ray, tmin: f32, tmax: f32) -> Option<f32> {
+        let f = self.local(ray.origin - self.base);
+        let d = self.local(ray.dir);
+        let (t0, t1) = radial_roots(f.truncate().extend(0.0), d.truncate().extend(0.0), self.radius)?;
+        if t0 >= tmax || t1 <= tmin {
+            return None;
+        }
+        let slack = seam_slack(self.radius + self.height, f);
+        [t0, t1].into_iter().find(|&t| {
+            let z = f.z + t * d.z;
+            t > tmin && t < tmax && z >= -slack && z <= self.height + slack
+        })
+    }
+
+    /// Full hit record for a hit at `t`, with the radial component reprojected onto the wall.
+    pub fn surface(&self, ray: &Ray, t: f32) -> SurfaceHit {
+        let q = (ray.origin - self.base) + t * ray.dir;
+        let z = q.dot(self.w);
+        let n = (q - z * self.w).normalize_or(self.u);
+        let p = self.base + (z * self.w + self.radius * n);
+        let phi = n.dot(self.v).atan2(n.dot(self.u));
+        let u = if phi < 0.0 { phi + TAU } else { phi } / TAU;
+        let v = if self.height > 0.0 { z / self.height } else { 0.0 };
+        SurfaceHit {
+            t,
+            p,
+            n,
+            uv: Vec2::new(u.clamp(0.0, 1.0), v.clamp(0.0, 1.0)),
+            // Radially, as for the sphere, n·r is within γ(6)·r ≤ γ(11)·(|p|∞ + |base|∞) of the
+            // wall (roundoff of `q − z·w` only tilts n, moving p tangentially); recomposing
+            // base + (z·w + r·n) rounds four more times on terms bounded by
+            // √3·(|p|∞ + |base|∞), since |z| can be ≫ r on a tall cylinder: γ(11 + 7) = γ(18).
+            p_error: point_error(p, self.base, 18),
+        }
+    }
+
+    /// Bounds of the two end circles: along world axis i a circle of normal w extends
+    /// `r·√(1 − w_i²)` either side of its centre.
+    pub fn bounds(&self) -> Bounds {
+        let top = self.base + self.w * self.height;
+        let extent = self.radius * (Vec3::ONE - self.w * self.w).max(Vec3::ZERO).powf(0.5);
+        Bounds { min: self.base.min(top) - extent, max: self.base.max(top) + extent }
+    }
+
+    /// Wall area 2πrh.
+    pub fn area(&self) -> f32 {
+        TAU * self.radius * self.height
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::{spawn_origin, Disk};
+    use rand::{RngExt, SeedableRng};
+    use rand_pcg::Pcg32;
+
+    fn ray(o: [f32; 3], d: [f32; 3]) -> Ray {
+        Ray::new(Vec3::from(o), Vec3::from(d).normalize())
+    }
+
+    fn unit_y() -> Cylinder {
+        // Radius 1, from y = 0 to y = 2.
+        Cylinder::new(Vec3::ZERO, Vec3::Y, 1.0, 2.0)
+    }
+
+    fn random_unit(rng: &mut Pcg32) -> Vec3 {
+        let z = 2.0 * rng.random::<f32>() - 1.0;
+        let phi = TAU * rng.random::<f32>();
+        let s = (1.0 - z * z).max(0.0).sqrt();
+        Vec3::new(s * phi.cos(), s * phi.sin(), z)
+    }
+
+    #[test]
+    fn head_on_hit_in_the_middle() {
+        let c = unit_y();
+        let r = ray([-5.0, 1.0, 0.0], [1.0, 0.0, 0.0]);
+        let t = c.intersect(&r, 0.0, f32::INFINITY).unwrap();
+        assert_eq!(t, 4.0);
+        let h = c.surface(&r, t);
+        assert_eq!(h.n, -Vec3::X);
+        assert_eq!(h.p, Vec3::new(-1.0, 1.0, 0.0));
+        assert!((h.uv.y - 0.5).abs() < 1e-6);
+        // Oblique axis: head-on through the middle of a cylinder along (1,1,1).
+        let axis = Vec3::ONE.normalize();
+        let c = Cylinder::new(Vec3::new(1.0, 2.0, 3.0), axis, 0.5, 4.0);
+        let mid = Vec3::new(1.0, 2.0, 3.0) + axis * 2.0;
+        let side = axis.any_orthonormal_pair().0;
+        let r = Ray::new(mid + side * 3.0, -side);
+        let t = c.intersect(&r, 0.0, f32::INFINITY).unwrap();
+        assert!((t - 2.5).abs() < 1e-5, "t = {t}");
+        let h = c.surface(&r, t);
+        assert!((h.n - side).length() < 1e-6);
+    }
+
+    #[test]
+    fn miss_and_open_interval() {
+        let c = unit_y();
+        assert_eq!(c.intersect(&ray([-5.0, 1.0, 1.5], [1.0, 0.0, 0.0]), 0.0, f32::INFINITY), None);
+        let r = ray([-5.0, 1.0, 0.0], [1.0, 0.0, 0.0]);
+        // Roots at exactly 4 and 6.
+        assert_eq!(c.intersect(&r, 0.0, 4.0), None);
+        assert_eq!(c.intersect(&r, 4.0, 10.0), Some(6.0));
+        assert_eq!(c.intersect(&r, 4.0, 6.0), None);
+        assert_eq!(c.intersect(&r, 6.0, f32::INFINITY), None);
+    }
+
+    #[test]
+    fn ray_from_inside_hits_far_wall() {
+        let c = unit_y();
+        let r = ray([0.0, 1.0, 0.0], [0.0, 0.0, 1.0]);
+        let t = c.intersect(&r, 0.0, f32::INFINITY).unwrap();
+        assert_eq!(t, 1.0);
+        assert_eq!(c.surface(&r, t).n, Vec3::Z);
+    }
+
+    #[test]
+    fn rays_along_the_axis_miss_without_nan() {
+        let c = unit_y();
+        for o in [[0.0, -1.0, 0.0], [0.5, 1.0, 0.0], [3.0, -1.0, 0.0], [1.0, -1.0, 0.0]] {
+            for d in [[0.0, 1.0, 0.0], [0.0, -1.0, 0.0]] {
+                assert_eq!(c.intersect(&ray(o, d), 0.0, f32::INFINITY), None);
+            }
+        }
+        // Almost parallel: finite answers only.
+        let r = Ray::new(Vec3::new(0.5, -1.0, 0.0), Vec3::new(1e-20, 1.0, 0.0));
+        assert_eq!(c.intersect(&r, 0.0, f32::INFINITY), None);
+        let r = Ray::new(Vec3::new(0.5, -1.0, 0.0), Vec3::new(1e-7, 1.0, 0.0).normalize());
+        assert_eq!(c.intersect(&r, 0.0, f32::INFINITY), None);
+        let zero = Ray { origin: Vec3::ZERO, dir: Vec3::ZERO };
+        assert_eq!(c.intersect(&zero, 0.0, f32::INFINITY), None);
+    }
+
+    #[test]
+    fn grazing_ray() {
+        let c = unit_y();
+        let r = ray([-5.0, 1.0, 1.0], [1.0, 0.0, 0.0]);
+        let t = c.intersect(&r, 0.0, f32::INFINITY).unwrap();
+        assert_eq!(t, 5.0);
+        assert_eq!(c.surface(&r, t).n, Vec3::Z);
+        // Oblique grazing rays: either a hit at the tangent point or a miss, never NaN.
+        let mut rng = Pcg32::seed_from_u64(5);
+        for _ in 0..10_000 {
+            let axis = random_unit(&mut rng);
+            let c = Cylinder::new(Vec3::new(1.0, -2.0, 3.0), axis, 0.7, 5.0);
+            let (e0, e1) = axis.any_orthonormal_pair();
+            let phi = TAU * rng.random::<f32>();
+            let radial = phi.cos() * e0 + phi.sin() * e1;
+            let tangent = (axis.cross(radial) + axis * (rng.random::<f32>() - 0.5)).normalize();
+            let touch = Vec3::new(1.0, -2.0, 3.0) + axis * 2.5 + radial * 0.7;
+            let r = Ray::new(touch - tangent * 10.0, tangent);
+            if let Some(t) = c.intersect(&r, 0.0, f32::INFINITY) {
+                assert!((t - 10.0).abs() < 0.05, "t = {t}");
+                assert!(c.surface(&r, t).n.is_finite());
+            }
+        }
+    }
+
+    #[test]
+    fn height_range() {
+        let c = unit_y();
+        let eps = 1e-4;
+        assert_eq!(c.intersect(&ray([-5.0, 2.0 + eps, 0.0], [1.0, 0.0, 0.0]), 0.0, 100.0), None);
+        assert_eq!(c.intersect(&ray([-5.0, -eps, 0.0], [1.0, 0.0, 0.0]), 0.0, 100.0), None);
+        assert_eq!(c.intersect(&ray([-5.0, 2.0 - eps, 0.0], [1.0, 0.0, 0.0]), 0.0, 100.0), Some(4.0));
+        assert_eq!(c.intersect(&ray([-5.0, eps, 0.0], [1.0, 0.0, 0.0]), 0.0, 100.0), Some(4.0));
+        // Exactly on the rim circles.
+        assert_eq!(c.intersect(&ray([-5.0, 2.0, 0.0], [1.0, 0.0, 0.0]), 0.0, 100.0), Some(4.0));
+        assert_eq!(c.intersect(&ray([-5.0, 0.0, 0.0], [1.0, 0.0, 0.0]), 0.0, 100.0), Some(4.0));
+        // Passing over the top through the open end: the far wall is inside the range.
+        let r = ray([-5.0, 3.0, 0.0], [1.0, -0.2, 0.0]);
+        let t = c.intersect(&r, 0.0, 100.0).unwrap();
+        assert!((r.at(t).x - 1.0).abs() < 1e-5, "{:?}", r.at(t));
+    }
+
+    #[test]
+    fn wall_and_caps_have_no_seam_gap() {
+        let mut rng = Pcg32::seed_from_u64(13);
+        for case in 0..4_000 {
+            let base = Vec3::new(rng.random(), rng.random(), rng.random()) * 20.0 - 10.0;
+            let axis = if case % 4 == 0 { Vec3::Y } else { random_unit(&mut rng) };
+            let radius = 0.1 + rng.random::<f32>() * 3.0;
+            let height = 0.1 + rng.random::<f32>() * 6.0;
+            let wall = Cylinder::new(base, axis, radius, height);
+            let top = Disk::new(base + axis * height, axis, radius, 0.0);
+            let bottom = Disk::new(base, -axis, radius, 0.0);
+            let (e0, e1) = axis.any_orthonormal_pair();
+            let phi = TAU * rng.random::<f32>();
+            let end = if rng.random::<bool>() { height } else { 0.0 };
+            let target = base + axis * end + radius * (phi.cos() * e0 + phi.sin() * e1);
+            let center = base + axis * (height * 0.5);
+            let o = match case % 3 {
+                0 => center + (random_unit(&mut rng) * (radius + height) * (1.0 + 30.0 * rng.random::<f32>())),
+                1 => base + axis * (height * rng.random::<f32>()) + 0.95 * radius * rng.random::<f32>() * e0,
+                _ => center,
+            };
+            let d = (target - o).normalize();
+            let r = Ray::new(o, d);
+            let expect = (target - o).length();
+            // Only the hit at the rim matters, not an earlier crossing of the wall or a cap.
+            let (lo, hi) = (expect * (1.0 - 1e-3), expect * (1.0 + 1e-3));
+            let hits = [wall.intersect(&r, lo, hi), top.intersect(&r, lo, hi), bottom.intersect(&r, lo, hi)];
+            assert!(
+                hits.iter().any(Option::is_some),
+                "case {case}: rim ray missed wall and caps: {hits:?}, expected {expect}"
+            );
+        }
+    }
+
+    #[test]
+    fn spawned_rays_do_not_self_intersect() {
+        let mut rng = Pcg32::seed_from_u64(17);
+        let mut checked = 0;
+        while checked < 2_000 {
+            let base = Vec3::new(rng.random(), rng.random(), rng.random()) * 200.0 - 100.0;
+            let axis = random_unit(&mut rng);
+            let radius = 0.01 + rng.random::<f32>() * 5.0;
+            let height = 0.01 + rng.random::<f32>() * 50.0;
+            let c = Cylinder::new(base, axis, radius, height);
+            let (e0, e1) = axis.any_orthonormal_pair();
+            let phi = TAU * rng.random::<f32>();
+            let target = base
+                + axis * (height * rng.random::<f32>())
+                + radius * (phi.cos() * e0 + phi.sin() * e1);
+            let o = if checked % 3 == 0 {
+                base + axis * (height * rng.random::<f32>()) + 0.9 * radius * rng.random::<f32>() * e1
+            } else {
+                target + random_unit(&mut rng) * (radius + height) * (0.5 + 5.0 * rng.random::<f32>())
+            };
+            let r = Ray::new(o, (target - o).normalize());
+            let Some(t) = c.intersect(&r, 0.0, f32::INFINITY) else { continue };
+            let hit = c.surface(&r, t);
+            let reflected = r.dir - 2.0 * r.dir.dot(hit.n) * hit.n;
+            let mut other = random_unit(&mut rng);
+            if other.dot(hit.n).signum() == reflected.dot(hit.n).signum() {
+                other = -other;
+            }
+            for w in [reflected, other] {
+                let spawned = Ray::new(spawn_origin(&hit, w), w);
+                let again = c.intersect(&spawned, 0.0, 1e-3 * radius.min(height));
+                assert_eq!(again, None, "self-hit from {hit:?} towards {w}");
+            }
+            checked += 1;
+        }
+    }
+
+    #[test]
+    fn bounds_and_area() {
+        let c = unit_y();
+        let b = c.bounds();
+        assert_eq!(b.min, Vec3::new(-1.0, 0.0, -1.0));
+        assert_eq!(b.max, Vec3::new(1.0, 2.0, 1.0));
+        assert!((c.area() - 2.0 * TAU).abs() < 1e-5);
+    }
+}

@@ -1,0 +1,163 @@
+//! Disks and annuli.
+
+use std::f32::consts::{PI, TAU};
+
+use glam::{Vec2, Vec3};
+
+use super::{plane_hit, plane_point, planar_surface, seam_slack, Bounds, Ray, SurfaceHit};
+
+/// A disk of radius `radius` around `center`, with a hole of `inner_radius` (an annulus if > 0).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Disk {
+    center: Vec3,
+    normal: Vec3,
+    /// In-plane frame for the angular texture coordinate.
+    tangent: (Vec3, Vec3),
+    radius: f32,
+    inner_radius: f32,
+}
+
+impl Disk {
+    /// Disk or annulus facing `normal` (normalised); `inner_radius` 0 gives a full disk.
+    pub fn new(center: Vec3, normal: Vec3, radius: f32, inner_radius: f32) -> Disk {
+        let normal = normal.normalize_or(Vec3::Z);
+        Disk { center, normal, tangent: normal.any_orthonormal_pair(), radius, inner_radius }
+    }
+
+    /// Nearest hit distance in the open interval (`tmin`, `tmax`); rays in the plane miss.
+    #[inline]
+    pub fn intersect(&self, ray: &Ray, tmin: f32, tmax: f32) -> Option<f32> {
+        let (t, f, q) = plane_hit(self.normal, self.center, ray, tmin, tmax)?;
+        // The out-of-plane part of q is roundoff, negligible once squared.
+        let dist2 = q.length_squared();
+        let slack = seam_slack(self.radius, f);
+        let (outer, inner) = (self.radius + slack, (self.inner_radius - slack).max(0.0));
+        (dist2 <= outer * outer && dist2 >= inner * inner).then_some(t)
+    }
+
+    /// Full hit record for a hit at `t`, with the point projected onto the plane.
+    pub fn surface(&self, ray: &Ray, t: f32) -> SurfaceHit {
+        let q = plane_point(self.normal, self.center, ray, t);
+        let dist = q.length();
+        let phi = q.dot(self.tangent.1).atan2(q.dot(self.tangent.0));
+        let u = if phi < 0.0 { phi + TAU } else { phi } / TAU;
+        let width = self.radius - self.inner_radius;
+        let v = if width > 0.0 { (self.radius - dist) / width } else { 0.0 };
+        let uv = Vec2::new(u.clamp(0.0, 1.0), v.clamp(0.0, 1.0));
+        planar_surface(self.normal, self.center, q, t, uv)
+    }
+
+    /// Bounds of the rim circle: along world axis i it extends `r·√(1 − n_i²)`.
+    pub fn bounds(&self) -> Bounds {
+        let extent = self.radius * (Vec3::ONE - self.normal * self.normal).max(Vec3::ZERO).powf(0.5);
+        Bounds { min: self.center - extent, max: self.center + extent }
+    }
+
+    /// Area π(r² − r_inner²).
+    pub fn area(&self) -> f32 {
+        PI * (self.radius * self.radius - self.inner_radius * self.inner_radius)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::spawn_origin;
+    use rand::{RngExt, SeedableRng};
+    use rand_pcg::Pcg32;
+
+    fn ray(o: [f32; 3], d: [f32; 3]) -> Ray {
+        Ray::new(Vec3::from(o), Vec3::from(d).normalize())
+    }
+
+    fn random_unit(rng: &mut Pcg32) -> Vec3 {
+        let z = 2.0 * rng.random::<f32>() - 1.0;
+        let phi = TAU * rng.random::<f32>();
+        let s = (1.0 - z * z).max(0.0).sqrt();
+        Vec3::new(s * phi.cos(), s * phi.sin(), z)
+    }
+
+    #[test]
+    fn head_on_hit() {
+        let d = Disk::new(Vec3::new(0.0, 1.0, 0.0), Vec3::Y, 2.0, 0.0);
+        let r = ray([0.5, 4.0, 0.5], [0.0, -1.0, 0.0]);
+        let t = d.intersect(&r, 0.0, f32::INFINITY).unwrap();
+        assert_eq!(t, 3.0);
+        let h = d.surface(&r, t);
+        assert_eq!(h.n, Vec3::Y);
+        assert_eq!(h.p, Vec3::new(0.5, 1.0, 0.5));
+        // From behind: same surface, same (given) normal.
+        let r = ray([0.5, -1.0, 0.5], [0.0, 1.0, 0.0]);
+        let t = d.intersect(&r, 0.0, f32::INFINITY).unwrap();
+        assert_eq!(t, 2.0);
+        assert_eq!(d.surface(&r, t).n, Vec3::Y);
+        // Oblique, tilted disk: t = distance to the centre.
+        let n = Vec3::new(1.0, 2.0, 3.0).normalize();
+        let d = Disk::new(Vec3::new(4.0, 5.0, 6.0), n, 1.0, 0.0);
+        let r = Ray::new(Vec3::new(4.0, 5.0, 6.0) + n * 7.0, -n);
+        let t = d.intersect(&r, 0.0, f32::INFINITY).unwrap();
+        assert!((t - 7.0).abs() < 1e-5);
+    }
+
+    #[test]
+    fn miss_open_interval_and_parallel() {
+        let d = Disk::new(Vec3::ZERO, Vec3::Z, 1.0, 0.0);
+        assert_eq!(d.intersect(&ray([1.5, 0.0, 1.0], [0.0, 0.0, -1.0]), 0.0, f32::INFINITY), None);
+        let r = ray([0.0, 0.0, 2.0], [0.0, 0.0, -1.0]);
+        assert_eq!(d.intersect(&r, 0.0, 2.0), None);
+        assert_eq!(d.intersect(&r, 2.0, 3.0), None);
+        assert_eq!(d.intersect(&r, 1.999, 2.001), Some(2.0));
+        // Ray in the plane of the disk, and behind it.
+        assert_eq!(d.intersect(&ray([-5.0, 0.0, 0.0], [1.0, 0.0, 0.0]), 0.0, f32::INFINITY), None);
+        assert_eq!(d.intersect(&ray([0.0, 0.0, 2.0], [0.0, 0.0, 1.0]), 0.0, f32::INFINITY), None);
+        let zero = Ray { origin: Vec3::ZERO, dir: Vec3::ZERO };
+        assert_eq!(d.intersect(&zero, 0.0, f32::INFINITY), None);
+    }
+
+    #[test]
+    fn annulus_hole_and_edges() {
+        let d = Disk::new(Vec3::ZERO, Vec3::Z, 2.0, 1.0);
+        let down = |x: f32| d.intersect(&ray([x, 0.0, 3.0], [0.0, 0.0, -1.0]), 0.0, f32::INFINITY);
+        assert_eq!(down(0.0), None);
+        assert_eq!(down(0.999), None);
+        assert_eq!(down(1.0), Some(3.0));
+        assert_eq!(down(1.5), Some(3.0));
+        assert_eq!(down(2.0), Some(3.0));
+        assert_eq!(down(2.001), None);
+        let h = d.surface(&ray([1.5, 0.0, 3.0], [0.0, 0.0, -1.0]), 3.0);
+        assert!((h.uv.y - 0.5).abs() < 1e-6);
+        assert!((d.area() - 3.0 * PI).abs() < 1e-5);
+        let b = Disk::new(Vec3::ZERO, Vec3::Z, 2.0, 0.0).bounds();
+        assert_eq!((b.min, b.max), (Vec3::new(-2.0, -2.0, 0.0), Vec3::new(2.0, 2.0, 0.0)));
+    }
+
+    #[test]
+    fn spawned_rays_do_not_self_intersect() {
+        let mut rng = Pcg32::seed_from_u64(19);
+        let mut checked = 0;
+        while checked < 2_000 {
+            let center = Vec3::new(rng.random(), rng.random(), rng.random()) * 200.0 - 100.0;
+            let normal = random_unit(&mut rng);
+            let radius = 0.01 + rng.random::<f32>() * 10.0;
+            let d = Disk::new(center, normal, radius, radius * 0.3);
+            let (e0, e1) = normal.any_orthonormal_pair();
+            let phi = TAU * rng.random::<f32>();
+            let rho = radius * (0.3 + 0.7 * rng.random::<f32>());
+            let target = center + rho * (phi.cos() * e0 + phi.sin() * e1);
+            let o = target + random_unit(&mut rng) * radius * (0.1 + 20.0 * rng.random::<f32>());
+            let r = Ray::new(o, (target - o).normalize());
+            let Some(t) = d.intersect(&r, 0.0, f32::INFINITY) else { continue };
+            let hit = d.surface(&r, t);
+            let reflected = r.dir - 2.0 * r.dir.dot(hit.n) * hit.n;
+            let mut other = random_unit(&mut rng);
+            if other.dot(hit.n).signum() == reflected.dot(hit.n).signum() {
+                other = -other;
+            }
+            for w in [reflected, other] {
+                let spawned = Ray::new(spawn_origin(&hit, w), w);
+                assert_eq!(d.intersect(&spawned, 0.0, 1e-3 * radius), None, "self-hit {hit:?}");
+            }
+            checked += 1;
+        }
+    }
+}

@@ -1,0 +1,249 @@
+//! Rays, analytic shapes and triangles: intersection, surface geometry and robust ray spawning.
+//!
+//! Every shape answers two questions: `intersect` (the nearest parametric distance in an open
+//! interval, as cheaply as possible, called inside BVH traversal) and `surface` (the full hit record
+//! for the one hit that won). Hit points come with a conservative absolute error bound so that new
+//! rays can leave the surface without re-hitting it (see [`spawn_origin`]).
+
+mod cylinder;
+mod disk;
+mod polygon;
+mod quad;
+mod sphere;
+mod triangle;
+
+pub use cylinder::Cylinder;
+pub use disk::Disk;
+pub use polygon::Polygon;
+pub use quad::Quad;
+pub use sphere::Sphere;
+pub use triangle::Triangle;
+
+use glam::{Vec2, Vec3};
+
+/// A ray with a unit-length direction.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Ray {
+    /// Where the ray starts.
+    pub origin: Vec3,
+    /// Unit direction; `-0.0` components are canonicalised to `+0.0` by [`Ray::new`].
+    pub dir: Vec3,
+}
+
+impl Ray {
+    /// A ray from `origin` along the unit vector `dir` (negative zeros become positive zeros).
+    #[inline]
+    pub fn new(origin: Vec3, dir: Vec3) -> Ray {
+        Ray { origin, dir: dir + Vec3::ZERO }
+    }
+
+    /// The point at parametric distance `t`.
+    #[inline]
+    pub fn at(&self, t: f32) -> Vec3 {
+        self.origin + self.dir * t
+    }
+}
+
+/// Geometry of a ray–surface hit.
+#[derive(Clone, Copy, Debug)]
+pub struct SurfaceHit {
+    /// Parametric distance along the ray.
+    pub t: f32,
+    /// The hit point, refined onto the surface where the shape allows it.
+    pub p: Vec3,
+    /// Unit geometric normal on the shape's *outside*: the side its interface calls outside.
+    pub n: Vec3,
+    /// Surface parameterisation in [0,1]² (used by textures).
+    pub uv: Vec2,
+    /// Conservative bound on the absolute error of every coordinate of `p`.
+    pub p_error: f32,
+}
+
+/// Axis-aligned bounding box.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Bounds {
+    /// Minimum corner.
+    pub min: Vec3,
+    /// Maximum corner.
+    pub max: Vec3,
+}
+
+/// Unit roundoff of f32 arithmetic.
+pub const MACHINE_EPSILON: f32 = f32::EPSILON * 0.5;
+
+/// The γ(n) error-growth bound of Higham / pbrt: n·ε / (1 − n·ε).
+#[inline]
+pub const fn gamma(n: i32) -> f32 {
+    (n as f32 * MACHINE_EPSILON) / (1.0 - n as f32 * MACHINE_EPSILON)
+}
+
+/// Error bound for a hit point computed to within `ulps` units of roundoff of its own magnitude
+/// and of the magnitude of the shape's reference point `reference`.
+#[inline]
+pub fn point_error(p: Vec3, reference: Vec3, ulps: i32) -> f32 {
+    gamma(ulps) * (p.abs().max_element() + reference.abs().max_element())
+}
+
+/// Origin for a ray leaving a surface point in direction `w`: `p` pushed along the geometric
+/// normal `n` to the side `w` points to, by the point's error bound, then rounded away from it.
+#[inline]
+pub fn spawn_origin(hit: &SurfaceHit, w: Vec3) -> Vec3 {
+    let mut offset = hit.n * (hit.p_error * 4.0 + f32::MIN_POSITIVE);
+    if w.dot(hit.n) < 0.0 {
+        offset = -offset;
+    }
+    let mut po = hit.p + offset;
+    for i in 0..3 {
+        if offset[i] > 0.0 {
+            po[i] = po[i].next_up();
+        } else if offset[i] < 0.0 {
+            po[i] = po[i].next_down();
+        }
+    }
+    po
+}
+
+/// A geometric primitive the BVH holds: one analytic surface or one triangle.
+#[derive(Clone, Debug)]
+pub enum Shape {
+    /// Full sphere, or a sphere clipped by a plane (a bowl's hemisphere).
+    Sphere(Sphere),
+    /// Open cylinder wall (caps are separate disks).
+    Cylinder(Cylinder),
+    /// Disk or annulus.
+    Disk(Disk),
+    /// Parallelogram.
+    Quad(Quad),
+    /// Planar convex polygon.
+    Polygon(Polygon),
+    /// Triangle (from a mesh).
+    Triangle(Triangle),
+}
+
+impl Shape {
+    /// Nearest hit distance in the open interval (`tmin`, `tmax`), or `None`.
+    #[inline]
+    pub fn intersect(&self, ray: &Ray, tmin: f32, tmax: f32) -> Option<f32> {
+        match self {
+            Shape::Sphere(s) => s.intersect(ray, tmin, tmax),
+            Shape::Cylinder(s) => s.intersect(ray, tmin, tmax),
+            Shape::Disk(s) => s.intersect(ray, tmin, tmax),
+            Shape::Quad(s) => s.intersect(ray, tmin, tmax),
+            Shape::Polygon(s) => s.intersect(ray, tmin, tmax),
+            Shape::Triangle(s) => s.intersect(ray, tmin, tmax),
+        }
+    }
+
+    /// Full hit record for a hit at distance `t` previously returned by [`Shape::intersect`].
+    #[inline]
+    pub fn surface(&self, ray: &Ray, t: f32) -> SurfaceHit {
+        match self {
+            Shape::Sphere(s) => s.surface(ray, t),
+            Shape::Cylinder(s) => s.surface(ray, t),
+            Shape::Disk(s) => s.surface(ray, t),
+            Shape::Quad(s) => s.surface(ray, t),
+            Shape::Polygon(s) => s.surface(ray, t),
+            Shape::Triangle(s) => s.surface(ray, t),
+        }
+    }
+
+    /// Conservative world-space bounds.
+    pub fn bounds(&self) -> Bounds {
+        match self {
+            Shape::Sphere(s) => s.bounds(),
+            Shape::Cylinder(s) => s.bounds(),
+            Shape::Disk(s) => s.bounds(),
+            Shape::Quad(s) => s.bounds(),
+            Shape::Polygon(s) => s.bounds(),
+            Shape::Triangle(s) => s.bounds(),
+        }
+    }
+
+    /// Surface area (used for light sampling and statistics).
+    pub fn area(&self) -> f32 {
+        match self {
+            Shape::Sphere(s) => s.area(),
+            Shape::Cylinder(s) => s.area(),
+            Shape::Disk(s) => s.area(),
+            Shape::Quad(s) => s.area(),
+            Shape::Polygon(s) => s.area(),
+            Shape::Triangle(s) => s.area(),
+        }
+    }
+
+    /// Short name of the shape kind.
+    pub fn kind(&self) -> &'static str {
+        match self {
+            Shape::Sphere(_) => "sphere",
+            Shape::Cylinder(_) => "cylinder",
+            Shape::Disk(_) => "disk",
+            Shape::Quad(_) => "quad",
+            Shape::Polygon(_) => "polygon",
+            Shape::Triangle(_) => "triangle",
+        }
+    }
+}
+
+/// Roundoff scale (in units of γ) of the seam slack, see [`seam_slack`].
+const SEAM_ULPS: i32 = 8;
+
+/// Absolute slack by which bounded-range checks (cylinder height, disk radius, clipped-sphere
+/// height, quad/polygon edges) accept points beyond their exact edge, so that analytic pieces
+/// meeting at a seam overlap instead of leaving a crack. The hit coordinate being checked is
+/// computed from `origin_offset` (ray origin minus the shape's reference point) and a `t` of
+/// similar magnitude, so its roundoff is a few ulps of `size + |origin_offset|`; the slack is
+/// `γ(SEAM_ULPS)` of that, i.e. a relative 1e-6 for a ray starting next to the shape.
+#[inline]
+pub(crate) fn seam_slack(size: f32, origin_offset: Vec3) -> f32 {
+    gamma(SEAM_ULPS) * (size + origin_offset.abs().max_element())
+}
+
+/// The smallest box holding all `points` (empty slice gives an inverted, empty box).
+pub(crate) fn bounds_of(points: &[Vec3]) -> Bounds {
+    points.iter().fold(
+        Bounds { min: Vec3::INFINITY, max: Vec3::NEG_INFINITY },
+        |b, &p| Bounds { min: b.min.min(p), max: b.max.max(p) },
+    )
+}
+
+/// Hit of `ray` with the plane through `reference` with unit normal `n`, if its distance lies in
+/// the open interval (`tmin`, `tmax`): returns `t`, the origin relative to `reference` and the
+/// hit point relative to `reference` (all planar shapes work relative to their reference point
+/// so that roundoff scales with the shape, not with the world coordinates).
+#[inline]
+pub(crate) fn plane_hit(n: Vec3, reference: Vec3, ray: &Ray, tmin: f32, tmax: f32) -> Option<(f32, Vec3, Vec3)> {
+    let denom = n.dot(ray.dir);
+    if denom == 0.0 {
+        return None;
+    }
+    let f = ray.origin - reference;
+    let t = -n.dot(f) / denom;
+    if !(t > tmin && t < tmax) {
+        return None;
+    }
+    Some((t, f, f + t * ray.dir))
+}
+
+/// The point at `t` along `ray`, relative to `reference` and projected onto the plane through
+/// `reference` with unit normal `n`.
+#[inline]
+pub(crate) fn plane_point(n: Vec3, reference: Vec3, ray: &Ray, t: f32) -> Vec3 {
+    let q = (ray.origin - reference) + t * ray.dir;
+    q - q.dot(n) * n
+}
+
+/// Hit record of a planar shape from the projected in-plane offset `q` of [`plane_point`].
+#[inline]
+pub(crate) fn planar_surface(n: Vec3, reference: Vec3, q: Vec3, t: f32, uv: Vec2) -> SurfaceHit {
+    let p = reference + q;
+    SurfaceHit {
+        t,
+        p,
+        n,
+        uv,
+        // After the projection the residual off-plane component of q is the roundoff of
+        // `q − (q·n)n`: γ(3)·|q|₂ from the dot product plus two roundings, γ(5)·|q|₂, and
+        // |q|₂ ≤ √3·(|p|∞ + |reference|∞) makes it < γ(9)·(…); adding the reference: γ(10).
+        p_error: point_error(p, reference, 10),
+    }
+}

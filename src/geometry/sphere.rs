@@ -1,0 +1,357 @@
+//! Spheres, optionally clipped by a plane, and the numerically stable quadratic they share with
+//! cylinders.
+
+use std::f32::consts::{PI, TAU};
+
+use glam::{Vec2, Vec3};
+
+use super::{point_error, seam_slack, Bounds, Ray, SurfaceHit};
+
+/// Below this squared direction length a ray counts as parallel to a cylinder's axis (its wall
+/// hit would lie beyond 1e15 radii); it also keeps `b / 2a` and `q / a` finite.
+const MIN_QUADRATIC_A: f32 = 1e-30;
+
+/// Both roots, ascending, of `|f + t·d|² = radius²`, or `None` when the line misses the circle
+/// or sphere. `f` is the ray origin relative to the centre and `d` the direction; the cylinder
+/// passes both with their axial component zeroed.
+///
+/// Numerically stable form of Ray Tracing Gems ch. 7 / pbrt-v4: the discriminant is computed
+/// from the distance of the line to the centre, `4a(r − |v|)(r + |v|)` with `v = f − (b/2a)·d`,
+/// which does not cancel for far-away rays, and the roots are `q/a` and `c/q` with
+/// `q = −½(b ± √disc)`, which avoids subtracting nearly equal numbers. A tangent ray gives a
+/// double root, never NaN.
+#[inline]
+pub(crate) fn radial_roots(f: Vec3, d: Vec3, radius: f32) -> Option<(f32, f32)> {
+    let a = d.length_squared();
+    if !(a >= MIN_QUADRATIC_A) {
+        return None;
+    }
+    let b = 2.0 * f.dot(d);
+    let c = f.length_squared() - radius * radius;
+    let closest = (f - (b / (2.0 * a)) * d).length();
+    let discrim = 4.0 * a * (radius + closest) * (radius - closest);
+    if !(discrim >= 0.0) {
+        return None;
+    }
+    let root = discrim.sqrt();
+    let q = if b < 0.0 { -0.5 * (b - root) } else { -0.5 * (b + root) };
+    if q == 0.0 {
+        // b = 0 and a zero discriminant: the double root is at t = −b/2a = 0.
+        return Some((0.0, 0.0));
+    }
+    let (t0, t1) = (q / a, c / q);
+    Some(if t0 <= t1 { (t0, t1) } else { (t1, t0) })
+}
+
+/// A sphere, or the part of it with `(p − center)·axis <= max_height`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Sphere {
+    center: Vec3,
+    radius: f32,
+    /// Pole of the uv parameterisation and normal of the clipping plane (unit).
+    axis: Vec3,
+    /// Tangents completing `axis` to an orthonormal frame (uv longitude origin).
+    tangent: (Vec3, Vec3),
+    max_height: f32,
+    clipped: bool,
+}
+
+impl Sphere {
+    /// Full sphere; its uv pole is +Y.
+    pub fn new(center: Vec3, radius: f32) -> Sphere {
+        Sphere::clipped(center, radius, Vec3::Y, f32::INFINITY)
+    }
+
+    /// Sphere keeping only points with `(p − center)·axis <= max_height` (axis is normalised).
+    pub fn clipped(center: Vec3, radius: f32, axis: Vec3, max_height: f32) -> Sphere {
+        let axis = axis.normalize_or(Vec3::Y);
+        Sphere {
+            center,
+            radius,
+            axis,
+            tangent: axis.any_orthonormal_pair(),
+            max_height,
+            clipped: max_height < radius,
+        }
+    }
+
+    /// Nearest hit distance in the open interval (`tmin`, `tmax`); the far root when the near
+    /// one is clipped away or behind the origin.
+    #[inline]
+    pub fn intersect(&self, ray: &Ray, tmin: f32, tmax: f32) -> Option<f32> {
+        let f = ray.origin - self.center;
+        let (t0, t1) = radial_roots(f, ray.dir, self.radius)?;
+        if t0 >= tmax || t1 <= tmin {
+            return None;
+        }
+        let limit = if self.clipped {
+            self.max_height + seam_slack(self.radius, f)
+        } else {
+            f32::INFINITY
+        };
+        [t0, t1].into_iter().find(|&t| {
+            t > tmin && t < tmax && (!self.clipped || (f + t * ray.dir).dot(self.axis) <= limit)
+        })
+    }
+
+    /// Full hit record for a hit at `t`, with the point reprojected onto the sphere.
+    pub fn surface(&self, ray: &Ray, t: f32) -> SurfaceHit {
+        let n = ((ray.origin - self.center) + t * ray.dir).normalize_or(self.axis);
+        let p = self.center + n * self.radius;
+        let cos_theta = n.dot(self.axis).clamp(-1.0, 1.0);
+        let phi = n.dot(self.tangent.1).atan2(n.dot(self.tangent.0));
+        let u = if phi < 0.0 { phi + TAU } else { phi } / TAU;
+        SurfaceHit {
+            t,
+            p,
+            n,
+            uv: Vec2::new(u.clamp(0.0, 1.0), cos_theta.acos() / PI),
+            // Radially only the length of n matters: `normalize` (dot, sqrt, reciprocal,
+            // product) leaves a relative error below γ(5) and scaling by r rounds once more,
+            // γ(6)·r; r ≤ √3·(|p|∞ + |center|∞) makes it < γ(11)·(…); adding the centre: γ(12).
+            p_error: point_error(p, self.center, 12),
+        }
+    }
+
+    /// Bounds of the whole sphere (conservative for a clipped one).
+    pub fn bounds(&self) -> Bounds {
+        Bounds { min: self.center - self.radius, max: self.center + self.radius }
+    }
+
+    /// Area of the kept part: the zone of height `min(max_height, r) + r`.
+    pub fn area(&self) -> f32 {
+        let h = self.max_height.clamp(-self.radius, self.radius);
+        TAU * self.radius * (h + self.radius)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::spawn_origin;
+    use rand::{RngExt, SeedableRng};
+    use rand_pcg::Pcg32;
+
+    fn ray(o: [f32; 3], d: [f32; 3]) -> Ray {
+        Ray::new(Vec3::from(o), Vec3::from(d).normalize())
+    }
+
+    fn close(a: f32, b: f32, tol: f32) -> bool {
+        (a - b).abs() <= tol
+    }
+
+    #[test]
+    fn head_on_hit_exact_t_and_normal() {
+        let s = Sphere::new(Vec3::new(0.0, 0.0, 5.0), 2.0);
+        let r = ray([0.0, 0.0, 0.0], [0.0, 0.0, 1.0]);
+        let t = s.intersect(&r, 0.0, f32::INFINITY).unwrap();
+        assert_eq!(t, 3.0);
+        let h = s.surface(&r, t);
+        assert_eq!(h.n, Vec3::new(0.0, 0.0, -1.0));
+        assert_eq!(h.p, Vec3::new(0.0, 0.0, 3.0));
+        assert!(h.p_error > 0.0 && h.p_error < 1e-5);
+        assert!(h.uv.x >= 0.0 && h.uv.x <= 1.0 && h.uv.y >= 0.0 && h.uv.y <= 1.0);
+    }
+
+    #[test]
+    fn miss() {
+        let s = Sphere::new(Vec3::ZERO, 1.0);
+        assert_eq!(s.intersect(&ray([0.0, 1.5, -5.0], [0.0, 0.0, 1.0]), 0.0, f32::INFINITY), None);
+        // Sphere behind the ray.
+        assert_eq!(s.intersect(&ray([0.0, 0.0, 5.0], [0.0, 0.0, 1.0]), 0.0, f32::INFINITY), None);
+    }
+
+    #[test]
+    fn open_interval() {
+        let s = Sphere::new(Vec3::ZERO, 1.0);
+        let r = ray([0.0, 0.0, -5.0], [0.0, 0.0, 1.0]);
+        // Roots at exactly 4 and 6.
+        assert_eq!(s.intersect(&r, 0.0, 4.0), None);
+        assert_eq!(s.intersect(&r, 0.0, 4.5), Some(4.0));
+        assert_eq!(s.intersect(&r, 4.0, 10.0), Some(6.0));
+        assert_eq!(s.intersect(&r, 4.0, 6.0), None);
+        assert_eq!(s.intersect(&r, 6.0, 10.0), None);
+    }
+
+    #[test]
+    fn tangent_ray_is_consistent_and_finite() {
+        let s = Sphere::new(Vec3::ZERO, 1.0);
+        // Exactly grazing: closest distance 1 = radius, discriminant exactly 0.
+        let r = ray([-10.0, 1.0, 0.0], [1.0, 0.0, 0.0]);
+        let t = s.intersect(&r, 0.0, f32::INFINITY).unwrap();
+        assert_eq!(t, 10.0);
+        let h = s.surface(&r, t);
+        assert_eq!(h.n, Vec3::Y);
+        assert_eq!(h.p, Vec3::Y);
+        // Oblique tangents: the discriminant may round either way, but never to NaN, and a hit
+        // is at the tangent point.
+        let mut rng = Pcg32::seed_from_u64(7);
+        for _ in 0..10_000 {
+            let n = random_unit(&mut rng);
+            let tangent = n.any_orthonormal_pair().0;
+            let center = Vec3::new(rng.random(), rng.random(), rng.random()) * 10.0;
+            let radius = 0.1 + rng.random::<f32>() * 3.0;
+            let s = Sphere::new(center, radius);
+            let dist = 1.0 + rng.random::<f32>() * 100.0;
+            let o = center + n * radius - tangent * dist;
+            let r = Ray::new(o, tangent);
+            if let Some(t) = s.intersect(&r, 0.0, f32::INFINITY) {
+                assert!(t.is_finite());
+                assert!(close(t, dist, 1e-2 * dist), "t {t} expected {dist}");
+                let h = s.surface(&r, t);
+                assert!(h.n.is_finite() && h.p.is_finite());
+            }
+        }
+    }
+
+    #[test]
+    fn ray_from_inside_returns_far_root() {
+        let s = Sphere::new(Vec3::new(1.0, 2.0, 3.0), 2.0);
+        let r = ray([1.0, 2.0, 3.0], [1.0, 0.0, 0.0]);
+        assert_eq!(s.intersect(&r, 0.0, f32::INFINITY), Some(2.0));
+        let r = ray([1.0, 2.5, 3.0], [0.0, -1.0, 0.0]);
+        let t = s.intersect(&r, 0.0, f32::INFINITY).unwrap();
+        assert_eq!(t, 2.5);
+        assert_eq!(s.surface(&r, t).n, -Vec3::Y);
+    }
+
+    #[test]
+    fn far_away_ray_keeps_precision() {
+        let s = Sphere::new(Vec3::new(0.0, 0.0, 0.0), 1.0);
+        // Off-centre by 0.6: true hit at 1e4 − 0.8.
+        let r = ray([0.6, 0.0, -1.0e4], [0.0, 0.0, 1.0]);
+        let t = s.intersect(&r, 0.0, f32::INFINITY).unwrap();
+        assert!(close(t, 1.0e4 - 0.8, 1e-3 * 1e4), "t = {t}");
+        let h = s.surface(&r, t);
+        assert!((h.p - Vec3::new(0.6, 0.0, -0.8)).length() < 5e-3, "{:?}", h.p);
+        // Oblique far ray, nearest root checked against f64.
+        let o = Vec3::new(-7.0e3, 3.0e3, 5.0e3);
+        let target = Vec3::new(0.3, -0.5, 0.2);
+        let d = (target - o).normalize();
+        let t = s.intersect(&Ray::new(o, d), 0.0, f32::INFINITY).unwrap();
+        let (o64, d64) = (o.as_dvec3(), d.as_dvec3());
+        let b = o64.dot(d64);
+        let t64 = -b - (b * b - (o64.length_squared() - 1.0)).sqrt();
+        assert!(((t as f64 - t64) / t64).abs() < 1e-3, "t {t} vs {t64}");
+    }
+
+    #[test]
+    fn clipped_sphere_returns_far_hit_and_accepts_rim() {
+        // Bowl: the lower hemisphere of the unit sphere.
+        let s = Sphere::clipped(Vec3::ZERO, 1.0, Vec3::Y, 0.0);
+        // From above, straight down: the near hit (0,1,0) is clipped, the far one (0,−1,0) kept.
+        let r = ray([0.0, 5.0, 0.0], [0.0, -1.0, 0.0]);
+        let t = s.intersect(&r, 0.0, f32::INFINITY).unwrap();
+        assert_eq!(t, 6.0);
+        assert_eq!(s.surface(&r, t).n, -Vec3::Y);
+        // From below: near hit kept.
+        let r = ray([0.0, -5.0, 0.0], [0.0, 1.0, 0.0]);
+        assert_eq!(s.intersect(&r, 0.0, f32::INFINITY), Some(4.0));
+        // Exactly at the rim height: accepted.
+        let r = ray([-5.0, 0.0, 0.0], [1.0, 0.0, 0.0]);
+        assert_eq!(s.intersect(&r, 0.0, f32::INFINITY), Some(4.0));
+        // Entirely above the cut: miss.
+        let r = ray([-5.0, 0.5, 0.0], [1.0, 0.0, 0.0]);
+        assert_eq!(s.intersect(&r, 0.0, f32::INFINITY), None);
+        // Half sphere area.
+        assert!(close(s.area(), TAU, 1e-5));
+        assert!(close(Sphere::new(Vec3::ZERO, 1.0).area(), 2.0 * TAU, 1e-5));
+    }
+
+    fn random_unit(rng: &mut Pcg32) -> Vec3 {
+        let z = 2.0 * rng.random::<f32>() - 1.0;
+        let phi = TAU * rng.random::<f32>();
+        let s = (1.0 - z * z).max(0.0).sqrt();
+        Vec3::new(s * phi.cos(), s * phi.sin(), z)
+    }
+
+    #[test]
+    fn bowl_and_rim_annulus_have_no_seam_gap() {
+        use crate::geometry::Disk;
+        let mut rng = Pcg32::seed_from_u64(11);
+        for case in 0..4_000 {
+            let center = Vec3::new(rng.random(), rng.random(), rng.random()) * 20.0 - 10.0;
+            let radius = 0.2 + rng.random::<f32>() * 5.0;
+            let axis = random_unit(&mut rng);
+            let bowl = Sphere::clipped(center, radius, axis, 0.0);
+            let rim = Disk::new(center, axis, radius * 1.5, radius);
+            let (e0, e1) = axis.any_orthonormal_pair();
+            let phi = TAU * rng.random::<f32>();
+            let target = center + radius * (phi.cos() * e0 + phi.sin() * e1);
+            let o = if case % 2 == 0 {
+                center + random_unit(&mut rng) * radius * (1.0 + 30.0 * rng.random::<f32>())
+            } else {
+                center + random_unit(&mut rng) * radius * 0.9 * rng.random::<f32>()
+            };
+            let d = (target - o).normalize();
+            let r = Ray::new(o, d);
+            let expect = (target - o).length();
+            // Only the hit at the rim matters, not an earlier crossing of the bowl.
+            let (lo, hi) = (expect * (1.0 - 1e-3), expect * (1.0 + 1e-3));
+            let hits = [bowl.intersect(&r, lo, hi), rim.intersect(&r, lo, hi)];
+            if hits.iter().all(Option::is_none) {
+                let f = o - center;
+                let roots = radial_roots(f, d, radius);
+                eprintln!("center {center} r {radius} axis {axis} o {o} d {d} target {target} roots {roots:?}");
+                if let Some((t0, t1)) = roots {
+                    for t in [t0, t1] { eprintln!("t {t} h {} slack {}", (f + t * d).dot(axis), seam_slack(radius, f)); }
+                }
+                let q = (o - center) + (-(axis.dot(o - center)) / axis.dot(d)) * d;
+                eprintln!("disk t {} rho {} (inner {})", -(axis.dot(o - center)) / axis.dot(d), q.length(), radius);
+            }
+            assert!(
+                hits.iter().any(Option::is_some),
+                "case {case}: rim ray missed both pieces: {hits:?}, expected t {expect}"
+            );
+        }
+    }
+
+    #[test]
+    fn spawned_rays_do_not_self_intersect() {
+        let mut rng = Pcg32::seed_from_u64(3);
+        let mut checked = 0;
+        while checked < 2_000 {
+            let center = Vec3::new(rng.random(), rng.random(), rng.random()) * 200.0 - 100.0;
+            let radius = 0.01 + rng.random::<f32>() * 10.0;
+            let s = if checked % 2 == 0 {
+                Sphere::new(center, radius)
+            } else {
+                Sphere::clipped(center, radius, random_unit(&mut rng), radius * 0.3)
+            };
+            let inside = checked % 3 == 0;
+            let o = if inside {
+                center + random_unit(&mut rng) * radius * 0.99 * rng.random::<f32>()
+            } else {
+                center + random_unit(&mut rng) * radius * (1.5 + 20.0 * rng.random::<f32>())
+            };
+            let target = center + random_unit(&mut rng) * radius;
+            let r = Ray::new(o, (target - o).normalize());
+            let Some(t) = s.intersect(&r, 0.0, f32::INFINITY) else { continue };
+            let hit = s.surface(&r, t);
+            assert!(((hit.p - center).length() - radius).abs() <= hit.p_error * 2.0);
+            let reflected = r.dir - 2.0 * r.dir.dot(hit.n) * hit.n;
+            let mut other = random_unit(&mut rng);
+            if other.dot(hit.n).signum() == reflected.dot(hit.n).signum() {
+                other = -other;
+            }
+            for w in [reflected, other] {
+                let spawned = Ray::new(spawn_origin(&hit, w), w);
+                let again = s.intersect(&spawned, 0.0, 1e-3 * radius);
+                assert_eq!(again, None, "self-hit from {hit:?} towards {w}");
+            }
+            checked += 1;
+        }
+    }
+
+    #[test]
+    fn degenerate_inputs_are_finite() {
+        let s = Sphere::new(Vec3::ZERO, 1.0);
+        let zero = Ray { origin: Vec3::new(0.0, 0.0, -3.0), dir: Vec3::ZERO };
+        assert_eq!(s.intersect(&zero, 0.0, f32::INFINITY), None);
+        // Origin exactly on the surface, tangent direction: double root at 0, not in (0, ∞).
+        let r = ray([0.0, 1.0, 0.0], [1.0, 0.0, 0.0]);
+        assert_eq!(s.intersect(&r, 0.0, f32::INFINITY), None);
+        let h = s.surface(&Ray::new(Vec3::ZERO, Vec3::X), 0.0);
+        assert!(h.n.is_finite() && h.p.is_finite());
+    }
+}

@@ -1,0 +1,340 @@
+//! Mesh triangles with watertight intersection (Woop, Benthin & Wald 2013).
+
+use glam::{Vec2, Vec3};
+
+use super::{bounds_of, gamma, point_error, Bounds, Ray, SurfaceHit, MACHINE_EPSILON};
+
+/// A triangle counter-clockwise around its normal `normalize((p1 − p0) × (p2 − p0))`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Triangle {
+    p: [Vec3; 3],
+    /// Unit geometric normal (zero for an exactly degenerate triangle).
+    normal: Vec3,
+}
+
+impl Triangle {
+    /// Triangle through the three vertices.
+    pub fn new(p0: Vec3, p1: Vec3, p2: Vec3) -> Triangle {
+        Triangle { p: [p0, p1, p2], normal: (p1 - p0).cross(p2 - p0).normalize_or_zero() }
+    }
+
+    /// True when the area is zero or indistinguishable from zero: `|e0 × e1|` at most 8 ulps of
+    /// the longest edge squared (the roundoff level of the cross product itself), or not finite.
+    pub fn is_degenerate(&self) -> bool {
+        let [p0, p1, p2] = self.p;
+        let longest = (p1 - p0)
+            .length_squared()
+            .max((p2 - p0).length_squared())
+            .max((p2 - p1).length_squared());
+        let twice_area = (p1 - p0).cross(p2 - p0).length();
+        !(twice_area > 8.0 * MACHINE_EPSILON * longest)
+    }
+
+    /// Woop–Benthin–Wald watertight test: the hit distance (in (0, `tmax`], conservatively
+    /// positive) and barycentrics `[b0, b1, b2]`. Points on an edge or vertex count as inside
+    /// for every triangle sharing it, and the sign of an edge function depends only on the
+    /// edge's two (sheared) vertices, so shared edges never leave a crack.
+    #[inline]
+    fn watertight(&self, ray: &Ray, tmax: f32) -> Option<(f32, [f32; 3])> {
+        // Permute so that the dominant direction component is z, then shear the direction to +z.
+        let kz = ray.dir.abs().max_position();
+        if ray.dir[kz] == 0.0 {
+            return None;
+        }
+        let kx = (kz + 1) % 3;
+        let ky = (kx + 1) % 3;
+        let permute = |v: Vec3| Vec3::new(v[kx], v[ky], v[kz]);
+        let d = permute(ray.dir);
+        let (sx, sy, sz) = (-d.x / d.z, -d.y / d.z, 1.0 / d.z);
+        let shear = |v: Vec3| {
+            let v = permute(v - ray.origin);
+            Vec3::new(v.x + sx * v.z, v.y + sy * v.z, v.z * sz)
+        };
+        let [a, b, c] = self.p.map(shear);
+
+        // Edge functions: plain products (no FMA) so that the edge shared by two triangles gets
+        // exactly negated values; exact zeros are re-evaluated in f64, where the products are
+        // exact and only the difference rounds (sign-preserving).
+        let edge = |p: Vec3, q: Vec3| p.x * q.y - p.y * q.x;
+        let mut e = [edge(b, c), edge(c, a), edge(a, b)];
+        if e.contains(&0.0) {
+            let edge64 = |p: Vec3, q: Vec3| {
+                (f64::from(p.x) * f64::from(q.y) - f64::from(p.y) * f64::from(q.x)) as f32
+            };
+            e = [edge64(b, c), edge64(c, a), edge64(a, b)];
+        }
+        let [e0, e1, e2] = e;
+        if (e0 < 0.0 || e1 < 0.0 || e2 < 0.0) && (e0 > 0.0 || e1 > 0.0 || e2 > 0.0) {
+            return None;
+        }
+        let det = e0 + e1 + e2;
+        if det == 0.0 {
+            return None;
+        }
+        let t_scaled = e0 * a.z + e1 * b.z + e2 * c.z;
+        if det < 0.0 && (t_scaled >= 0.0 || t_scaled < tmax * det) {
+            return None;
+        }
+        if det > 0.0 && (t_scaled <= 0.0 || t_scaled > tmax * det) {
+            return None;
+        }
+        let inv_det = 1.0 / det;
+        let t = t_scaled * inv_det;
+
+        // pbrt-v4's conservative bound on the error of t: reject hits that may lie behind.
+        let max_abs = |f: fn(Vec3) -> f32| f(a).abs().max(f(b).abs()).max(f(c).abs());
+        let max_zt = max_abs(|v| v.z);
+        let max_xt = max_abs(|v| v.x);
+        let max_yt = max_abs(|v| v.y);
+        let delta_z = gamma(3) * max_zt;
+        let delta_x = gamma(5) * (max_xt + max_zt);
+        let delta_y = gamma(5) * (max_yt + max_zt);
+        let delta_e = 2.0 * (gamma(2) * max_xt * max_yt + delta_y * max_xt + delta_x * max_yt);
+        let max_e = e0.abs().max(e1.abs()).max(e2.abs());
+        let delta_t =
+            3.0 * (gamma(3) * max_e * max_zt + delta_e * max_zt + delta_z * max_e) * inv_det.abs();
+        if t <= delta_t {
+            return None;
+        }
+        Some((t, [e0 * inv_det, e1 * inv_det, e2 * inv_det]))
+    }
+
+    /// Nearest hit distance in the open interval (`tmin`, `tmax`), watertight across shared edges.
+    #[inline]
+    pub fn intersect(&self, ray: &Ray, tmin: f32, tmax: f32) -> Option<f32> {
+        let (t, _) = self.watertight(ray, tmax)?;
+        (t > tmin && t < tmax).then_some(t)
+    }
+
+    /// Full hit record for a hit at `t`; uv = barycentrics (b1, b2).
+    pub fn surface(&self, ray: &Ray, t: f32) -> SurfaceHit {
+        let n = if self.normal == Vec3::ZERO { -ray.dir } else { self.normal };
+        let [p0, p1, p2] = self.p;
+        match self.watertight(ray, f32::INFINITY) {
+            Some((_, [b0, b1, b2])) => {
+                let p = b0 * p0 + b1 * p1 + b2 * p2;
+                // pbrt-v4's bound for a barycentric interpolation: γ(7)·Σ|b_i·p_i|.
+                let abs_sum = (b0 * p0).abs() + (b1 * p1).abs() + (b2 * p2).abs();
+                SurfaceHit { t, p, n, uv: Vec2::new(b1, b2), p_error: gamma(7) * abs_sum.max_element() }
+            }
+            // Only reachable for a `t` that intersect() did not produce: use the ray point, with
+            // the roundoff of o + t·d on magnitudes up to the largest vertex coordinate.
+            None => {
+                let p = ray.at(t);
+                let largest = p0.abs().max(p1.abs()).max(p2.abs());
+                SurfaceHit { t, p, n, uv: Vec2::ZERO, p_error: point_error(p, largest, 8) }
+            }
+        }
+    }
+
+    /// Bounds of the three vertices.
+    pub fn bounds(&self) -> Bounds {
+        bounds_of(&self.p)
+    }
+
+    /// Area `½|(p1 − p0) × (p2 − p0)|`.
+    pub fn area(&self) -> f32 {
+        let [p0, p1, p2] = self.p;
+        0.5 * (p1 - p0).cross(p2 - p0).length()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::spawn_origin;
+    use rand::{RngExt, SeedableRng};
+    use rand_pcg::Pcg32;
+    use std::f64::consts::PI;
+
+    fn ray(o: [f32; 3], d: [f32; 3]) -> Ray {
+        Ray::new(Vec3::from(o), Vec3::from(d).normalize())
+    }
+
+    fn random_unit(rng: &mut Pcg32) -> Vec3 {
+        let z = 2.0 * rng.random::<f32>() - 1.0;
+        let phi = std::f32::consts::TAU * rng.random::<f32>();
+        let s = (1.0 - z * z).max(0.0).sqrt();
+        Vec3::new(s * phi.cos(), s * phi.sin(), z)
+    }
+
+    /// Right triangle in z = 0: (0,0,0), (1,0,0), (0,1,0), normal +Z.
+    fn unit() -> Triangle {
+        Triangle::new(Vec3::ZERO, Vec3::X, Vec3::Y)
+    }
+
+    #[test]
+    fn head_on_hit() {
+        let tri = unit();
+        let r = ray([0.25, 0.5, 3.0], [0.0, 0.0, -1.0]);
+        let t = tri.intersect(&r, 0.0, f32::INFINITY).unwrap();
+        assert_eq!(t, 3.0);
+        let h = tri.surface(&r, t);
+        assert_eq!(h.n, Vec3::Z);
+        assert_eq!(h.p, Vec3::new(0.25, 0.5, 0.0));
+        assert_eq!(h.uv, Vec2::new(0.25, 0.5));
+        assert!(h.p_error > 0.0 && h.p_error < 1e-6);
+        // From behind: same normal (the geometric one), oblique direction.
+        let r = Ray::new(Vec3::new(0.25, 0.25, -2.0) - Vec3::new(1.0, 2.0, 0.0), Vec3::new(1.0, 2.0, 2.0) / 3.0);
+        let t = tri.intersect(&r, 0.0, f32::INFINITY).unwrap();
+        assert!((t - 3.0).abs() < 1e-6, "t = {t}");
+        assert_eq!(tri.surface(&r, t).n, Vec3::Z);
+        assert_eq!(tri.area(), 0.5);
+        let b = tri.bounds();
+        assert_eq!((b.min, b.max), (Vec3::ZERO, Vec3::new(1.0, 1.0, 0.0)));
+    }
+
+    #[test]
+    fn miss_and_open_interval() {
+        let tri = unit();
+        assert_eq!(tri.intersect(&ray([0.6, 0.6, 1.0], [0.0, 0.0, -1.0]), 0.0, 10.0), None);
+        assert_eq!(tri.intersect(&ray([-0.1, 0.5, 1.0], [0.0, 0.0, -1.0]), 0.0, 10.0), None);
+        assert_eq!(tri.intersect(&ray([0.2, 0.2, 1.0], [1.0, 0.0, 0.0]), 0.0, 10.0), None);
+        assert_eq!(tri.intersect(&ray([0.2, 0.2, 1.0], [0.0, 0.0, 1.0]), 0.0, 10.0), None);
+        let r = ray([0.2, 0.2, 1.0], [0.0, 0.0, -1.0]);
+        assert_eq!(tri.intersect(&r, 0.0, 1.0), None);
+        assert_eq!(tri.intersect(&r, 1.0, 2.0), None);
+        assert_eq!(tri.intersect(&r, 0.5, 1.5), Some(1.0));
+        let zero = Ray { origin: Vec3::Z, dir: Vec3::ZERO };
+        assert_eq!(tri.intersect(&zero, 0.0, 10.0), None);
+    }
+
+    #[test]
+    fn vertices_and_edges_hit() {
+        let tri = unit();
+        for (x, y) in [(0.0, 0.0), (1.0, 0.0), (0.0, 1.0), (0.5, 0.5), (0.5, 0.0), (0.0, 0.5)] {
+            let r = ray([x, y, 1.0], [0.0, 0.0, -1.0]);
+            assert_eq!(tri.intersect(&r, 0.0, 10.0), Some(1.0), "at ({x}, {y})");
+            assert_eq!(tri.surface(&r, 1.0).p, Vec3::new(x, y, 0.0));
+        }
+    }
+
+    #[test]
+    fn degenerate_triangles() {
+        let line = Triangle::new(Vec3::ZERO, Vec3::X, Vec3::X * 2.0);
+        assert!(line.is_degenerate());
+        assert!(Triangle::new(Vec3::ZERO, Vec3::ZERO, Vec3::ZERO).is_degenerate());
+        assert!(Triangle::new(Vec3::ZERO, Vec3::X, Vec3::new(2.0, 1e-9, 0.0)).is_degenerate());
+        assert!(!unit().is_degenerate());
+        assert!(!Triangle::new(Vec3::ZERO, Vec3::X, Vec3::new(0.5, 1e-3, 0.0)).is_degenerate());
+        for d in [[0.0, 0.0, -1.0], [0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 1.0]] {
+            let r = ray([0.5, -1.0, 1.0], d);
+            assert_eq!(line.intersect(&r, 0.0, f32::INFINITY), None);
+            let h = line.surface(&r, 1.0);
+            assert!(h.n.is_finite() && h.p.is_finite() && h.n != Vec3::ZERO);
+        }
+    }
+
+    /// Closed UV sphere with shared vertices; axis-aligned and 45° directions from the centre
+    /// pass exactly through vertices (coordinates computed in f64 and snapped to exact zeros).
+    fn uv_sphere(center: Vec3, radius: f32, n_lat: usize, n_lon: usize) -> (Vec<Vec3>, Vec<Triangle>) {
+        let snap = |x: f64| if x.abs() < 1e-12 { 0.0 } else { x };
+        let mut verts = vec![center + Vec3::Y * radius];
+        for i in 1..n_lat {
+            let theta = PI * i as f64 / n_lat as f64;
+            for j in 0..n_lon {
+                let phi = 2.0 * PI * j as f64 / n_lon as f64;
+                let unit = [theta.sin() * phi.cos(), theta.cos(), theta.sin() * phi.sin()];
+                verts.push(center + radius * Vec3::from(unit.map(|x| snap(x) as f32)));
+            }
+        }
+        verts.push(center - Vec3::Y * radius);
+        let south = verts.len() - 1;
+        let ring = |i: usize, j: usize| 1 + (i - 1) * n_lon + j % n_lon;
+        let mut idx = Vec::new();
+        for j in 0..n_lon {
+            idx.push([0, ring(1, j + 1), ring(1, j)]);
+            idx.push([south, ring(n_lat - 1, j), ring(n_lat - 1, j + 1)]);
+            for i in 1..n_lat - 1 {
+                let (a, b, c, d) = (ring(i, j), ring(i, j + 1), ring(i + 1, j), ring(i + 1, j + 1));
+                idx.push([a, b, c]);
+                idx.push([b, d, c]);
+            }
+        }
+        let tris = idx.iter().map(|&[a, b, c]| Triangle::new(verts[a], verts[b], verts[c])).collect();
+        (verts, tris)
+    }
+
+    #[test]
+    fn closed_mesh_is_watertight() {
+        let mut rng = Pcg32::seed_from_u64(37);
+        let mut total = 0;
+        for (center, radius) in [(Vec3::ZERO, 1.0), (Vec3::new(3.0, -2.0, 5.0), 2.5)] {
+            let (verts, tris) = uv_sphere(center, radius, 24, 48);
+            assert_eq!(tris.len(), 2 * 48 * 23);
+            let mut origins = vec![center];
+            for axis in [Vec3::X, Vec3::Y, Vec3::Z] {
+                origins.push(center + axis * radius * 0.5);
+                origins.push(center - axis * radius * 0.25);
+            }
+            while origins.len() < 40 {
+                origins.push(center + random_unit(&mut rng) * radius * 0.95 * rng.random::<f32>());
+            }
+            // Targets: every vertex, every edge midpoint, the 26 lattice directions.
+            let mut targets: Vec<Vec3> = verts.clone();
+            for t in &tris {
+                targets.extend([0.5 * (t.p[0] + t.p[1]), 0.5 * (t.p[1] + t.p[2]), 0.5 * (t.p[2] + t.p[0])]);
+            }
+            for x in -1..=1_i32 {
+                for y in -1..=1_i32 {
+                    for z in -1..=1_i32 {
+                        if (x, y, z) != (0, 0, 0) {
+                            targets.push(center + Vec3::new(x as f32, y as f32, z as f32).normalize());
+                        }
+                    }
+                }
+            }
+            let mut rays = Vec::new();
+            for (k, &o) in origins.iter().enumerate() {
+                // The centre shoots at every target, other origins at a random subset; all
+                // shoot some random directions too.
+                if k == 0 {
+                    rays.extend(targets.iter().filter_map(|&p| (p - o).try_normalize()).map(|d| Ray::new(o, d)));
+                } else {
+                    for _ in 0..150 {
+                        let p = targets[rng.random_range(0..targets.len())];
+                        rays.extend((p - o).try_normalize().map(|d| Ray::new(o, d)));
+                    }
+                }
+                rays.extend((0..50).map(|_| Ray::new(o, random_unit(&mut rng))));
+            }
+            for r in &rays {
+                let hit = tris.iter().any(|t| t.intersect(r, 0.0, f32::INFINITY).is_some());
+                assert!(hit, "{r:?} escaped the closed mesh");
+            }
+            total += rays.len();
+        }
+        assert!(total >= 20_000, "only {total} rays");
+    }
+
+    #[test]
+    fn spawned_rays_do_not_self_intersect() {
+        let mut rng = Pcg32::seed_from_u64(41);
+        let mut checked = 0;
+        while checked < 2_000 {
+            let p0 = Vec3::new(rng.random(), rng.random(), rng.random()) * 200.0 - 100.0;
+            let scale = 0.01 + 10.0 * rng.random::<f32>();
+            let tri = Triangle::new(p0, p0 + random_unit(&mut rng) * scale, p0 + random_unit(&mut rng) * scale);
+            if tri.is_degenerate() {
+                continue;
+            }
+            let (b1, b2) = (rng.random::<f32>(), rng.random::<f32>());
+            let (b1, b2) = if b1 + b2 > 1.0 { (1.0 - b1, 1.0 - b2) } else { (b1, b2) };
+            let target = (1.0 - b1 - b2) * tri.p[0] + b1 * tri.p[1] + b2 * tri.p[2];
+            let o = target + random_unit(&mut rng) * scale * (0.1 + 20.0 * rng.random::<f32>());
+            let r = Ray::new(o, (target - o).normalize());
+            let Some(t) = tri.intersect(&r, 0.0, f32::INFINITY) else { continue };
+            let hit = tri.surface(&r, t);
+            let reflected = r.dir - 2.0 * r.dir.dot(hit.n) * hit.n;
+            let mut other = random_unit(&mut rng);
+            if other.dot(hit.n).signum() == reflected.dot(hit.n).signum() {
+                other = -other;
+            }
+            for w in [reflected, other] {
+                let spawned = Ray::new(spawn_origin(&hit, w), w);
+                assert_eq!(tri.intersect(&spawned, 0.0, f32::INFINITY), None, "self-hit {hit:?}");
+            }
+            checked += 1;
+        }
+    }
+}

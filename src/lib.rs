@@ -1,0 +1,26 @@
+//! vitrum: a research renderer for scenes with transparent objects.
+//!
+//! One scene description, one BVH, every classic method: ray casting, Whitted ray tracing and the
+//! methods that follow. Data flow: `scene::desc` (TOML) → `scene::compile` → [`scene::Scene`] →
+//! an [`integrators::Integrator`] driven by [`render`] → [`output`] (EXR, PNG, JSON).
+
+pub mod camera;
+pub mod cli;
+pub mod geometry;
+pub mod image;
+pub mod light;
+pub mod material;
+pub mod optics;
+pub mod output;
+pub mod lighting;
+pub mod render;
+pub mod sampler;
+pub mod scene;
+pub mod stats;
+
+// The integrators live in the top-level `integrators/` folder, one file per method (DESIGN.md).
+#[path = "../integrators/mod.rs"]
+pub mod integrators;
+
+/// The crate version, written into every output file.
+pub const VERSION: &str = env!("CARGO_PKG_VERSION");

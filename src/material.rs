@@ -1,0 +1,153 @@
+//! Materials: the physical description and the empirical Phong terms of ray casting and Whitted.
+
+use glam::Vec3;
+
+/// How a diffuse albedo varies over a surface.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Texture {
+    /// One colour everywhere.
+    Constant(Vec3),
+    /// A 3-D checkerboard with cells of side `size` (the thesis's floor).
+    Checker {
+        /// Colour of the cells whose index sum is even.
+        color1: Vec3,
+        /// Colour of the other cells.
+        color2: Vec3,
+        /// Cell edge length in scene units.
+        size: f32,
+    },
+}
+
+impl Texture {
+    /// The colour at world point `p`.
+    pub fn eval(&self, p: Vec3) -> Vec3 {
+        match self {
+            Texture::Constant(c) => *c,
+            Texture::Checker { color1, color2, size } => {
+                // A tiny bias keeps points on cell boundaries (walls, floors at integer
+                // multiples of `size`) from flickering between cells.
+                let cell = ((p / *size) + Vec3::splat(1e-4)).floor();
+                let parity = (cell.x as i64 + cell.y as i64 + cell.z as i64).rem_euclid(2);
+                if parity == 0 {
+                    *color1
+                } else {
+                    *color2
+                }
+            }
+        }
+    }
+}
+
+/// Empirical Phong coefficients (Phong 1975, extended for ray tracing as in the thesis §3.2).
+///
+/// Local shading is `ka·C·L_ambient + Σ_lights V·E·(kd·C/π + ks·(h+2)/(2π)·max(0, r·v)^h)` with `E`
+/// the irradiance from the light and `C` the surface colour. With `kd = 1, ks = 0` the diffuse
+/// term is exactly Lambertian direct lighting.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Phong {
+    /// Ambient weight k_a.
+    pub ambient: f32,
+    /// Diffuse weight k_d.
+    pub diffuse: f32,
+    /// Specular weight k_s.
+    pub specular: f32,
+    /// Highlight exponent h.
+    pub shininess: f32,
+}
+
+/// The physical behaviour of a surface.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Bsdf {
+    /// Lambertian reflector with the given albedo.
+    Diffuse(Texture),
+    /// Perfect specular reflector with reflectance per channel.
+    Mirror(Vec3),
+    /// Smooth dielectric interface.
+    Dielectric {
+        /// Refractive index on the side opposite the normal (inside).
+        ior_inside: f32,
+        /// Refractive index on the side the normal points to (outside).
+        ior_outside: f32,
+    },
+}
+
+/// A material: physical behaviour plus its empirical Phong terms.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Material {
+    /// Name in the scene file (composite bodies add a suffix for derived interfaces).
+    pub name: String,
+    /// Physical description.
+    pub bsdf: Bsdf,
+    /// Empirical terms for `raycast` and `whitted`.
+    pub phong: Phong,
+}
+
+impl Material {
+    /// The Phong defaults derived from a physical material: a diffuse surface is pure Lambert
+    /// (k_a = k_d = 1, no highlight); a mirror or a dielectric has no diffuse or ambient part and
+    /// a sharp highlight (h = 200) weighted by its normal-incidence reflectance, the Phong stand-in
+    /// for the reflection of a point light that a perfectly specular surface cannot otherwise show.
+    pub fn default_phong(bsdf: &Bsdf) -> Phong {
+        let highlight = |ks: f32| Phong { ambient: 0.0, diffuse: 0.0, specular: ks, shininess: 200.0 };
+        match bsdf {
+            Bsdf::Diffuse(_) => Phong { ambient: 1.0, diffuse: 1.0, specular: 0.0, shininess: 1.0 },
+            Bsdf::Mirror(c) => highlight(c.max_element()),
+            Bsdf::Dielectric { ior_inside, ior_outside } => {
+                highlight(((ior_inside - ior_outside) / (ior_inside + ior_outside)).powi(2))
+            }
+        }
+    }
+
+    /// The surface colour `C` of the Phong model at point `p`.
+    pub fn phong_color(&self, p: Vec3) -> Vec3 {
+        match &self.bsdf {
+            Bsdf::Diffuse(t) => t.eval(p),
+            Bsdf::Mirror(c) => *c,
+            Bsdf::Dielectric { .. } => Vec3::ONE,
+        }
+    }
+
+    /// Whether light passes through this material.
+    pub fn is_transmissive(&self) -> bool {
+        matches!(self.bsdf, Bsdf::Dielectric { .. })
+    }
+
+    /// The same interface seen from the other side (inside and outside indices swapped), used
+    /// for the inner surfaces of hollow bodies.
+    pub fn swapped_interface(&self) -> Material {
+        let bsdf = match self.bsdf {
+            Bsdf::Dielectric { ior_inside, ior_outside } => {
+                Bsdf::Dielectric { ior_inside: ior_outside, ior_outside: ior_inside }
+            }
+            ref other => other.clone(),
+        };
+        Material { name: format!("{} (inner)", self.name), bsdf, phong: self.phong }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn checker_alternates_and_is_stable_on_cell_boundaries() {
+        let t = Texture::Checker { color1: Vec3::ONE, color2: Vec3::ZERO, size: 0.5 };
+        assert_eq!(t.eval(Vec3::new(0.25, 0.0, 0.25)), Vec3::ONE);
+        assert_eq!(t.eval(Vec3::new(0.75, 0.0, 0.25)), Vec3::ZERO);
+        assert_eq!(t.eval(Vec3::new(-0.25, 0.0, 0.25)), Vec3::ZERO);
+        // a floor at y = 0 (a cell boundary) and one a hair below it read the same cell
+        assert_eq!(t.eval(Vec3::new(0.25, 0.0, 0.25)), t.eval(Vec3::new(0.25, -1e-6, 0.25)));
+    }
+
+    #[test]
+    fn swapping_an_interface_twice_is_the_identity() {
+        let glass = Material {
+            name: "glass".into(),
+            bsdf: Bsdf::Dielectric { ior_inside: 1.5, ior_outside: 1.0 },
+            phong: Material::default_phong(&Bsdf::Dielectric { ior_inside: 1.5, ior_outside: 1.0 }),
+        };
+        let inner = glass.swapped_interface();
+        assert_eq!(inner.bsdf, Bsdf::Dielectric { ior_inside: 1.0, ior_outside: 1.5 });
+        assert_eq!(inner.swapped_interface().bsdf, glass.bsdf);
+    }
+}

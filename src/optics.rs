@@ -1,0 +1,146 @@
+//! Reflection, refraction (Snell's law) and dielectric Fresnel reflectance.
+//!
+//! Conventions: `wi` points *away* from the surface (towards where the light or viewer is), `n` is
+//! a unit normal on the same side as `wi`, and `eta` is the ratio n_transmitted / n_incident.
+
+use glam::Vec3;
+
+/// Mirror reflection of the away-pointing direction `wi` about the unit normal `n`.
+#[inline]
+pub fn reflect(wi: Vec3, n: Vec3) -> Vec3 {
+    2.0 * wi.dot(n) * n - wi
+}
+
+/// Refracted direction for `wi` (away-pointing, on the side of `n`), with `eta` = n_t / n_i.
+/// Returns `None` on total internal reflection instead of a NaN direction.
+#[inline]
+pub fn refract(wi: Vec3, n: Vec3, eta: f32) -> Option<Vec3> {
+    let cos_i = wi.dot(n).clamp(-1.0, 1.0);
+    let sin2_i = (1.0 - cos_i * cos_i).max(0.0);
+    let sin2_t = sin2_i / (eta * eta);
+    if sin2_t >= 1.0 {
+        return None;
+    }
+    let cos_t = (1.0 - sin2_t).sqrt();
+    Some((-wi / eta + (cos_i / eta - cos_t) * n).normalize())
+}
+
+/// Unpolarised Fresnel reflectance of a dielectric interface for incidence cosine `cos_i`
+/// (measured on the incident side, clamped to [0,1]) and `eta` = n_t / n_i; 1 under total
+/// internal reflection.
+#[inline]
+pub fn fresnel_dielectric(cos_i: f32, eta: f32) -> f32 {
+    let cos_i = cos_i.clamp(0.0, 1.0);
+    let sin2_t = (1.0 - cos_i * cos_i).max(0.0) / (eta * eta);
+    if sin2_t >= 1.0 {
+        return 1.0;
+    }
+    let cos_t = (1.0 - sin2_t).sqrt();
+    let r_parl = (eta * cos_i - cos_t) / (eta * cos_i + cos_t);
+    let r_perp = (cos_i - eta * cos_t) / (cos_i + eta * cos_t);
+    0.5 * (r_parl * r_parl + r_perp * r_perp)
+}
+
+/// Critical angle (radians) for light going from index `n_i` into the lower index `n_t`;
+/// `None` when `n_t >= n_i` (no total internal reflection).
+pub fn critical_angle(n_i: f32, n_t: f32) -> Option<f32> {
+    (n_t < n_i).then(|| (n_t / n_i).asin())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn dir_at(theta: f32) -> Vec3 {
+        Vec3::new(theta.sin(), theta.cos(), 0.0)
+    }
+
+    #[test]
+    fn reflection_mirrors_about_the_normal() {
+        let r = reflect(Vec3::new(1.0, 1.0, 0.0).normalize(), Vec3::Y);
+        assert!((r - Vec3::new(-1.0, 1.0, 0.0).normalize()).length() < 1e-6);
+    }
+
+    #[test]
+    fn snell_law_holds_for_many_angles() {
+        for eta in [1.5f32, 1.0 / 1.5, 1.33, 2.4] {
+            for k in 0..89 {
+                let theta_i = (k as f32).to_radians();
+                let wi = dir_at(theta_i);
+                match refract(wi, Vec3::Y, eta) {
+                    Some(wt) => {
+                        assert!((wt.length() - 1.0).abs() < 1e-5);
+                        assert!(wt.y < 0.0, "transmitted ray must cross the surface");
+                        let sin_t = (wt.x * wt.x + wt.z * wt.z).sqrt();
+                        // n_i sin(theta_i) = n_t sin(theta_t)  <=>  sin_i = eta sin_t
+                        assert!((theta_i.sin() - eta * sin_t).abs() < 1e-5, "eta {eta} theta {k}");
+                        // the refracted ray lies in the plane of incidence, on the other side
+                        assert!(wt.x <= 1e-6 && wt.z.abs() < 1e-6);
+                    }
+                    None => {
+                        assert!(eta < 1.0 && theta_i.sin() / eta >= 1.0 - 1e-6, "spurious TIR");
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn total_internal_reflection_exactly_beyond_the_critical_angle() {
+        let (n_glass, n_air) = (1.5f32, 1.0f32);
+        let crit = critical_angle(n_glass, n_air).unwrap();
+        assert!((crit - (1.0f32 / 1.5).asin()).abs() < 1e-7);
+        let eta = n_air / n_glass;
+        let below = dir_at(crit * (1.0 - 1e-4));
+        let above = dir_at(crit * (1.0 + 1e-4));
+        assert!(refract(below, Vec3::Y, eta).is_some());
+        assert!(refract(above, Vec3::Y, eta).is_none());
+        assert_eq!(fresnel_dielectric(above.y, eta), 1.0);
+        assert!(fresnel_dielectric(below.y, eta) < 1.0);
+        assert!(critical_angle(1.0, 1.5).is_none());
+    }
+
+    #[test]
+    fn fresnel_at_normal_incidence_matches_the_closed_form() {
+        for (n1, n2) in [(1.0f32, 1.5f32), (1.5, 1.0), (1.0, 1.33), (1.33, 1.52), (1.0, 3.0)] {
+            let expected = ((n1 - n2) / (n1 + n2)).powi(2);
+            let r = fresnel_dielectric(1.0, n2 / n1);
+            assert!((r - expected).abs() < 1e-6, "{n1}->{n2}: {r} vs {expected}");
+        }
+    }
+
+    #[test]
+    fn fresnel_is_symmetric_and_energy_is_conserved() {
+        // R is the same from both sides for corresponding angles (Stokes), so R + T = 1 with T = 1 - R
+        // equal to the transmittance computed from the other side.
+        let eta = 1.5f32;
+        for k in 0..90 {
+            let theta_i = (k as f32).to_radians();
+            let r = fresnel_dielectric(theta_i.cos(), eta);
+            assert!((0.0..=1.0).contains(&r));
+            let wt = refract(dir_at(theta_i), Vec3::Y, eta).unwrap();
+            let r_back = fresnel_dielectric(-wt.y, 1.0 / eta);
+            assert!((r - r_back).abs() < 1e-5, "theta {k}: {r} vs {r_back}");
+            // Brewster: the parallel term vanishes at tan(theta) = eta
+        }
+        let brewster = eta.atan();
+        let r = fresnel_dielectric(brewster.cos(), eta);
+        let cos_t = (1.0 - brewster.sin().powi(2) / (eta * eta)).sqrt();
+        let r_perp = ((brewster.cos() - eta * cos_t) / (brewster.cos() + eta * cos_t)).powi(2);
+        assert!((r - 0.5 * r_perp).abs() < 1e-6);
+    }
+
+    #[test]
+    fn grazing_and_out_of_range_cosines_stay_finite() {
+        for cos in [-0.5f32, 0.0, 1e-30, 1.0, 1.0000001] {
+            for eta in [1.5f32, 1.0 / 1.5, 1.0] {
+                let r = fresnel_dielectric(cos, eta);
+                assert!(r.is_finite() && (0.0..=1.0).contains(&r));
+            }
+        }
+        assert_eq!(fresnel_dielectric(0.0, 1.5), 1.0);
+        let wt = refract(Vec3::X, Vec3::Y, 1.5).unwrap();
+        assert!(wt.is_finite());
+        assert!(refract(Vec3::Y, Vec3::Y, 1.0).unwrap().abs_diff_eq(-Vec3::Y, 1e-6));
+    }
+}

@@ -1,0 +1,407 @@
+//! OpenEXR output: float32 linear RGB in one scanline layer, with the render's metadata in the header.
+
+use super::{check_pixel_count, write_atomically, OutputError};
+use crate::image::Image;
+use crate::stats::RayCounts;
+use exr::image::{Encoding, Layer, SpecificChannels};
+use exr::math::Vec2;
+use exr::meta::attribute::{AttributeValue, ChannelList, Text};
+use exr::meta::header::LayerAttributes;
+use exr::meta::MetaData;
+// The reader/writer builder traits and `read()`.
+use exr::prelude::traits::*;
+use std::collections::BTreeMap;
+use std::io::Cursor;
+use std::path::Path;
+
+/// Render metadata stored in the EXR header.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct ExrMetadata {
+    /// The renderer version (`vitrum:version`; the software name is "vitrum {version}").
+    pub version: String,
+    /// The integrator name (`vitrum:integrator`).
+    pub integrator: String,
+    /// Samples per pixel (`vitrum:spp`, an int attribute).
+    pub spp: u32,
+    /// The random seed (`vitrum:seed`, decimal text because an EXR int cannot hold a u64).
+    pub seed: u64,
+    /// Wall-clock render time (`renderTimeSeconds`, a float attribute).
+    pub render_time_seconds: f64,
+    /// Rays traced (`vitrum:rays`, text like "primary=640000 reflected=1234 refracted=2345 shadow=99999").
+    pub rays: RayCounts,
+    /// The scene as "path (content hash)" (`vitrum:scene`).
+    pub scene: String,
+    /// The effects the scene calls for (`vitrum:effects`).
+    pub effects: String,
+}
+
+/// The name of the (single) layer the beauty image is written to.
+const BEAUTY_LAYER: &str = "beauty";
+
+/// An EXR text attribute holding the UTF-8 bytes of `s` (`Text::from` would panic beyond Latin-1).
+fn text(s: &str) -> Text {
+    Text::from_slice_unchecked(s.as_bytes())
+}
+
+/// A text attribute value.
+fn text_value(s: &str) -> AttributeValue {
+    AttributeValue::Text(text(s))
+}
+
+/// The `vitrum:rays` text for `rays`.
+fn rays_text(rays: &RayCounts) -> String {
+    format!(
+        "primary={} reflected={} refracted={} shadow={}",
+        rays.primary, rays.reflected, rays.refracted, rays.shadow
+    )
+}
+
+/// The custom header attributes for `meta` (see DESIGN.md, "EXR files").
+fn metadata_attributes(
+    path: &Path,
+    meta: &ExrMetadata,
+) -> Result<Vec<(&'static str, AttributeValue)>, OutputError> {
+    let spp = i32::try_from(meta.spp).map_err(|_| {
+        OutputError::format(
+            path,
+            format!("spp {} does not fit the EXR int attribute", meta.spp),
+        )
+    })?;
+    Ok(vec![
+        ("vitrum:version", text_value(&meta.version)),
+        ("vitrum:integrator", text_value(&meta.integrator)),
+        ("vitrum:spp", AttributeValue::I32(spp)),
+        ("vitrum:seed", text_value(&meta.seed.to_string())),
+        (
+            "renderTimeSeconds",
+            AttributeValue::F32(meta.render_time_seconds as f32),
+        ),
+        ("vitrum:rays", text_value(&rays_text(&meta.rays))),
+        ("vitrum:scene", text_value(&meta.scene)),
+        ("vitrum:effects", text_value(&meta.effects)),
+    ])
+}
+
+/// Map an EXR library error about `path`: I/O errors keep their kind, the rest become [`OutputError::Exr`].
+fn exr_error(path: &Path, error: exr::error::Error) -> OutputError {
+    match error {
+        exr::error::Error::Io(source) => OutputError::io(path, source),
+        other => OutputError::Exr {
+            path: path.to_path_buf(),
+            message: other.to_string(),
+        },
+    }
+}
+
+/// Write `image` as float32 RGB with ZIP-compressed scanlines (`SMALL_LOSSLESS`) in one layer, atomically.
+pub fn write_exr(path: &Path, image: &Image, meta: &ExrMetadata) -> Result<(), OutputError> {
+    check_pixel_count(path, image)?;
+    let mut attributes = LayerAttributes::named(BEAUTY_LAYER);
+    attributes.software_name = Some(text(&format!("vitrum {}", meta.version)));
+    for (name, value) in metadata_attributes(path, meta)? {
+        attributes.other.insert(text(name), value);
+    }
+    let width = image.width;
+    let pixels = SpecificChannels::rgb(|p: Vec2<usize>| {
+        let c = image.pixels[p.y() * width + p.x()];
+        (c.x, c.y, c.z)
+    });
+    let layer = Layer::new(
+        (image.width, image.height),
+        attributes,
+        Encoding::SMALL_LOSSLESS,
+        pixels,
+    );
+    let file = exr::image::Image::from_layer(layer);
+    // Errors name the final path: the temporary name means nothing to the user.
+    write_atomically(path, |tmp| {
+        file.write().to_file(tmp).map_err(|e| exr_error(path, e))
+    })
+}
+
+/// Read the first layer's R, G, B channels as f32 plus all header attributes (image- and layer-level) as strings.
+pub fn read_exr(path: &Path) -> Result<(Image, BTreeMap<String, String>), OutputError> {
+    // Read once and decode twice (pixels, then the raw headers), so both come from the same file version.
+    let bytes = std::fs::read(path).map_err(|e| OutputError::io(path, e))?;
+    let file = read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .all_channels()
+        .all_layers()
+        .all_attributes()
+        .from_buffered(Cursor::new(&bytes))
+        .map_err(|e| exr_error(path, e))?;
+    let meta =
+        MetaData::read_from_buffered(Cursor::new(&bytes), false).map_err(|e| exr_error(path, e))?;
+    let (Some(layer), Some(header)) = (file.layer_data.first(), meta.headers.first()) else {
+        return Err(OutputError::format(path, "the EXR file has no layers"));
+    };
+
+    let channels = &layer.channel_data.list;
+    let channel = |name: &str| {
+        channels.iter().find(|c| c.name.eq(name)).ok_or_else(|| {
+            let found: Vec<String> = channels.iter().map(|c| utf8(c.name.as_slice())).collect();
+            OutputError::format(
+                path,
+                format!(
+                    "not an RGB EXR: the first layer has no {name} channel (it has: {})",
+                    found.join(", ")
+                ),
+            )
+        })
+    };
+    let rgb = [channel("R")?, channel("G")?, channel("B")?];
+    let mut image = Image::new(layer.size.width(), layer.size.height());
+    if rgb
+        .iter()
+        .any(|c| c.sample_data.len() != image.pixels.len())
+    {
+        return Err(OutputError::format(
+            path,
+            "subsampled R, G, B channels are not supported",
+        ));
+    }
+    let [r, g, b] = rgb.map(|c| c.sample_data.values_as_f32());
+    for (pixel, ((r, g), b)) in image.pixels.iter_mut().zip(r.zip(g).zip(b)) {
+        *pixel = glam::Vec3::new(r, g, b);
+    }
+
+    let attributes = header
+        .all_named_attributes()
+        .map(|(name, value)| (utf8(name), attribute_string(&value)))
+        .collect();
+    Ok((image, attributes))
+}
+
+/// EXR text bytes as a string (we write UTF-8; anything else is decoded lossily).
+fn utf8(bytes: &[u8]) -> String {
+    String::from_utf8_lossy(bytes).into_owned()
+}
+
+/// A header attribute value as a string: text as-is, numbers in decimal, vectors as "(x, y)",
+/// windows as "(min)-(max)", the rest in debug form.
+fn attribute_string(value: &AttributeValue) -> String {
+    match value {
+        AttributeValue::Text(t) => utf8(t.as_slice()),
+        AttributeValue::TextVector(ts) => ts
+            .iter()
+            .map(|t| utf8(t.as_slice()))
+            .collect::<Vec<_>>()
+            .join(", "),
+        AttributeValue::I32(v) => v.to_string(),
+        AttributeValue::F32(v) => v.to_string(),
+        AttributeValue::F64(v) => v.to_string(),
+        AttributeValue::ChannelList(ChannelList { list, .. }) => list
+            .iter()
+            .map(|c| format!("{}:{:?}", utf8(c.name.as_slice()), c.sample_type))
+            .collect::<Vec<_>>()
+            .join(", "),
+        AttributeValue::Compression(c) => format!("{c:?}"),
+        AttributeValue::LineOrder(l) => format!("{l:?}"),
+        AttributeValue::BlockType(b) => format!("{b:?}"),
+        // The OpenEXR convention: inclusive min and max corners.
+        AttributeValue::IntegerBounds(b) => {
+            let (min, max) = (b.position, b.max());
+            format!("({}, {})-({}, {})", min.x(), min.y(), max.x(), max.y())
+        }
+        AttributeValue::IntVec2(v) => format!("({}, {})", v.x(), v.y()),
+        AttributeValue::FloatVec2(v) => format!("({}, {})", v.x(), v.y()),
+        other => format!("{other:?}"),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::output::tests::dir_entries;
+    use glam::Vec3;
+
+    /// A 7x5 image with distinct values in every channel, negative zero, NaN and infinities.
+    fn test_image() -> Image {
+        let mut image = Image::new(7, 5);
+        for (i, p) in image.pixels.iter_mut().enumerate() {
+            let i = i as f32;
+            *p = Vec3::new(i * 0.37, 1.0 / (i + 1.0), 1000.0 + i * 1e-3);
+        }
+        image.pixels[3] = Vec3::new(f32::NAN, 0.5, -0.0);
+        image.pixels[12] = Vec3::new(f32::INFINITY, f32::NEG_INFINITY, 2.0);
+        image.pixels[34] = Vec3::new(1e-40, f32::MAX, -3.5); // a denormal and the largest float
+        image
+    }
+
+    fn test_metadata() -> ExrMetadata {
+        ExrMetadata {
+            version: "0.1.0".into(),
+            integrator: "path".into(),
+            spp: 64,
+            seed: u64::MAX - 6, // beyond i32 and f64 precision
+            render_time_seconds: 12.5,
+            rays: RayCounts {
+                primary: 640_000,
+                reflected: 1234,
+                refracted: 2345,
+                shadow: 99_999,
+            },
+            scene: "scenes/cornell ü.toml (blake3:0123abcd)".into(),
+            effects: "dispersion, soft shadows".into(),
+        }
+    }
+
+    fn bits(image: &Image) -> Vec<[u32; 3]> {
+        image
+            .pixels
+            .iter()
+            .map(|p| p.to_array().map(f32::to_bits))
+            .collect()
+    }
+
+    #[test]
+    fn round_trip_is_bit_exact_with_metadata() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("render.exr");
+        let image = test_image();
+        write_exr(&path, &image, &test_metadata()).unwrap();
+        assert_eq!(dir_entries(dir.path()), ["render.exr"]);
+        assert_eq!(
+            &std::fs::read(&path).unwrap()[..4],
+            &[0x76, 0x2f, 0x31, 0x01],
+            "EXR magic number"
+        );
+
+        let (back, attrs) = read_exr(&path).unwrap();
+        assert_eq!((back.width, back.height), (7, 5));
+        assert_eq!(bits(&back), bits(&image));
+        assert_eq!(back.non_finite_count(), 2);
+
+        let expected = [
+            ("vitrum:version", "0.1.0"),
+            ("vitrum:integrator", "path"),
+            ("vitrum:spp", "64"),
+            ("vitrum:seed", "18446744073709551609"),
+            ("renderTimeSeconds", "12.5"),
+            (
+                "vitrum:rays",
+                "primary=640000 reflected=1234 refracted=2345 shadow=99999",
+            ),
+            ("vitrum:scene", "scenes/cornell ü.toml (blake3:0123abcd)"),
+            ("vitrum:effects", "dispersion, soft shadows"),
+            ("software", "vitrum 0.1.0"),
+            ("name", "beauty"),
+            ("channels", "B:F32, G:F32, R:F32"),
+            ("compression", "ZIP16"),
+            ("lineOrder", "Increasing"),
+            ("dataWindow", "(0, 0)-(6, 4)"),
+            ("displayWindow", "(0, 0)-(6, 4)"),
+            ("screenWindowCenter", "(0, 0)"),
+        ];
+        for (name, value) in expected {
+            assert_eq!(
+                attrs.get(name).map(String::as_str),
+                Some(value),
+                "attribute {name} in {attrs:?}"
+            );
+        }
+    }
+
+    #[test]
+    fn file_is_a_single_part_scanline_zip_rgb_exr() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("render.exr");
+        write_exr(&path, &test_image(), &ExrMetadata::default()).unwrap();
+        let meta = MetaData::read_from_file(&path, true).unwrap();
+        assert_eq!(meta.headers.len(), 1);
+        let header = &meta.headers[0];
+        assert_eq!(header.compression, exr::meta::attribute::Compression::ZIP16);
+        assert_eq!(header.blocks, exr::meta::BlockDescription::ScanLines);
+        assert_eq!(
+            header.channels.uniform_sample_type,
+            Some(exr::meta::attribute::SampleType::F32)
+        );
+        assert_eq!(header.channels.list.len(), 3);
+    }
+
+    #[test]
+    fn write_replaces_an_existing_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("render.exr");
+        std::fs::write(&path, "old").unwrap();
+        write_exr(&path, &test_image(), &ExrMetadata::default()).unwrap();
+        assert_eq!(bits(&read_exr(&path).unwrap().0), bits(&test_image()));
+        assert_eq!(dir_entries(dir.path()), ["render.exr"]);
+    }
+
+    #[test]
+    fn failed_write_leaves_nothing_behind() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("render.exr");
+        let meta = ExrMetadata {
+            spp: u32::MAX,
+            ..ExrMetadata::default()
+        };
+        let err = write_exr(&path, &test_image(), &meta).unwrap_err();
+        assert!(err.to_string().contains("render.exr"), "{err}");
+        let mut short = test_image();
+        short.pixels.pop();
+        assert!(write_exr(&path, &short, &ExrMetadata::default()).is_err());
+        assert!(dir_entries(dir.path()).is_empty());
+    }
+
+    #[test]
+    fn missing_file_is_an_io_error_naming_the_path() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("missing.exr");
+        let err = read_exr(&path).unwrap_err();
+        assert!(
+            matches!(&err, OutputError::Io { source, .. } if source.kind() == std::io::ErrorKind::NotFound)
+        );
+        assert!(err.to_string().contains("missing.exr"), "{err}");
+    }
+
+    #[test]
+    fn non_exr_files_are_errors_naming_the_path() {
+        let dir = tempfile::tempdir().unwrap();
+        let text = dir.path().join("notes.exr");
+        std::fs::write(&text, "this is not an EXR file\n").unwrap();
+        let empty = dir.path().join("empty.exr");
+        std::fs::write(&empty, "").unwrap();
+        let truncated = dir.path().join("truncated.exr");
+        write_exr(&truncated, &test_image(), &test_metadata()).unwrap();
+        let bytes = std::fs::read(&truncated).unwrap();
+        std::fs::write(&truncated, &bytes[..bytes.len() / 2]).unwrap();
+
+        for path in [text, empty, truncated] {
+            let err = read_exr(&path).unwrap_err();
+            let name = path.file_name().unwrap().to_str().unwrap();
+            assert!(err.to_string().contains(name), "{err}");
+        }
+    }
+
+    #[test]
+    fn exr_without_rgb_is_a_format_error() {
+        use exr::prelude::{AnyChannel, AnyChannels, FlatSamples, SmallVec};
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("depth.exr");
+        let channels = AnyChannels::sort(SmallVec::from_vec(vec![AnyChannel::new(
+            "Z",
+            FlatSamples::F32(vec![1.0; 6]),
+        )]));
+        let layer = Layer::new(
+            (3, 2),
+            LayerAttributes::default(),
+            Encoding::UNCOMPRESSED,
+            channels,
+        );
+        exr::image::Image::from_layer(layer)
+            .write()
+            .to_file(&path)
+            .unwrap();
+
+        let err = read_exr(&path).unwrap_err();
+        assert!(matches!(err, OutputError::Format { .. }), "{err:?}");
+        let message = err.to_string();
+        assert!(
+            message.contains("depth.exr") && message.contains("not an RGB EXR"),
+            "{message}"
+        );
+    }
+}

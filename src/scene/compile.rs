@@ -1,0 +1,499 @@
+//! Scene compilation: text → [`SceneDesc`] → validated, expanded, BVH-accelerated [`Scene`].
+
+use super::bodies::{self, BodySurface};
+use super::desc::{LightDesc, MaterialDesc, PhongDesc, Rgb, SceneDesc, ShapeDesc, TextureDesc};
+use super::effects::{Effect, Effects};
+use super::source::{FieldPath, SceneError, Source};
+use super::{BvhStats, ObjectSummary, Primitive, RenderSettings, Scene, SceneOrigin, DEFAULT_SCENE};
+use crate::camera::Camera;
+use crate::geometry::{Polygon, Quad, Shape, Sphere, Disk};
+use crate::light::Light;
+use crate::material::{Bsdf, Material, Phong, Texture};
+use glam::{Vec3, Vec3A};
+use obvhs::aabb::Aabb;
+use obvhs::cwbvh::builder::build_cwbvh;
+use obvhs::BvhBuildParams;
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+/// Largest image the renderer accepts, in pixels (checked before any allocation).
+pub const MAX_PIXELS: u64 = 1 << 26;
+/// Largest image side in pixels.
+pub const MAX_SIDE: u32 = 65536;
+
+/// Display name of the embedded default scene.
+pub const DEFAULT_SCENE_NAME: &str = "<embedded default scene>";
+
+/// Load and compile a scene file.
+pub fn load(path: &Path) -> Result<Scene, SceneError> {
+    let text = std::fs::read_to_string(path)
+        .map_err(|source| SceneError::Io { path: path.to_path_buf(), source })?;
+    load_str(&text, &path.display().to_string(), path.parent())
+}
+
+/// Compile the embedded default scene.
+pub fn load_default() -> Scene {
+    load_str(DEFAULT_SCENE, DEFAULT_SCENE_NAME, None).expect("the embedded default scene is valid")
+}
+
+/// Compile scene text; `name` is used in messages and `dir` resolves relative mesh paths.
+pub fn load_str(text: &str, name: &str, dir: Option<&Path>) -> Result<Scene, SceneError> {
+    let source = Source::new(name, text);
+    let desc = parse(&source)?;
+    Compiler { source: &source, dir: dir.map(Path::to_path_buf) }.compile(&desc, text)
+}
+
+/// Parse the text into a [`SceneDesc`], with located errors.
+pub fn parse(source: &Source) -> Result<SceneDesc, SceneError> {
+    if let Err(e) = toml_edit::ImDocument::parse(source.text) {
+        let offset = e.span().map_or(0, |s| s.start);
+        return Err(source.error_at_offset(offset, format!("TOML syntax error: {}", e.message())));
+    }
+    source.check_numbers()?;
+    toml::from_str::<SceneDesc>(source.text).map_err(|e| {
+        let message = e.message().to_string();
+        // An unknown key inside a flattened table is reported at the table: find the key.
+        let offset = unknown_field(&message)
+            .and_then(|key| {
+                let range = e.span()?;
+                let within = source.text.get(range.clone())?;
+                within.find(&format!("{key} ")).or_else(|| within.find(&format!("{key}="))).map(|i| range.start + i)
+            })
+            .or_else(|| e.span().map(|s| s.start))
+            .unwrap_or(0);
+        source.error_at_offset(offset, message)
+    })
+}
+
+/// The key named in a serde "unknown field `x`" message.
+fn unknown_field(message: &str) -> Option<&str> {
+    let rest = message.strip_prefix("unknown field `")?;
+    rest.split('`').next()
+}
+
+/// 64-bit FNV-1a of a text, in hex.
+pub fn content_hash(text: &str) -> String {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    for b in text.bytes() {
+        h ^= b as u64;
+        h = h.wrapping_mul(0x0100_0000_01b3);
+    }
+    format!("{h:016x}")
+}
+
+struct Compiler<'a> {
+    source: &'a Source<'a>,
+    dir: Option<PathBuf>,
+}
+
+/// Checks of scalar values, reported at their field.
+impl Compiler<'_> {
+    fn err(&self, path: &FieldPath, message: impl Into<String>) -> SceneError {
+        self.source.error_at(path, message)
+    }
+
+    fn positive(&self, path: &FieldPath, x: f32) -> Result<f32, SceneError> {
+        if x > 0.0 {
+            Ok(x)
+        } else {
+            Err(self.err(path, format!("must be greater than 0 (got {x})")))
+        }
+    }
+
+    fn non_negative(&self, path: &FieldPath, x: f32) -> Result<f32, SceneError> {
+        if x >= 0.0 {
+            Ok(x)
+        } else {
+            Err(self.err(path, format!("must be 0 or greater (got {x})")))
+        }
+    }
+
+    fn color(&self, path: &FieldPath, c: Rgb) -> Result<Vec3, SceneError> {
+        let v = Vec3::from_array(c.channels());
+        if v.min_element() < 0.0 {
+            return Err(self.err(path, format!("colour channels must be 0 or greater (got {v})")));
+        }
+        Ok(v)
+    }
+
+    fn direction(&self, path: &FieldPath, v: [f32; 3]) -> Result<Vec3, SceneError> {
+        Vec3::from_array(v)
+            .try_normalize()
+            .ok_or_else(|| self.err(path, "must be a non-zero vector"))
+    }
+
+    fn compile(&self, desc: &SceneDesc, text: &str) -> Result<Scene, SceneError> {
+        let camera = self.camera(desc)?;
+        let settings = self.settings(desc)?;
+        let mut effects = Effects::default();
+
+        let mut materials = Vec::new();
+        let mut material_index = HashMap::new();
+        for (name, m) in &desc.materials {
+            let path = FieldPath::from("materials").key(name);
+            let material = self.material(&path, name, m)?;
+            if let Bsdf::Diffuse(Texture::Checker { .. }) = material.bsdf {
+                effects.add(Effect::Textures, format!("material `{name}` has a checker texture"));
+            }
+            material_index.insert(name.clone(), materials.len() as u32);
+            materials.push(material);
+        }
+        // Inner surfaces of hollow bodies use the interface seen from the other side.
+        let mut swapped_index: HashMap<u32, u32> = HashMap::new();
+
+        let mut primitives = Vec::new();
+        let mut objects = Vec::new();
+        let mut warnings = Vec::new();
+        for (i, object) in desc.objects.iter().enumerate() {
+            let path = FieldPath::from("objects").index(i);
+            let Some(&material) = material_index.get(&object.material) else {
+                let known: Vec<&str> = desc.materials.keys().map(String::as_str).collect();
+                return Err(self.err(
+                    &path.key("material"),
+                    format!(
+                        "unknown material `{}`; defined materials: {}",
+                        object.material,
+                        if known.is_empty() { "none".to_string() } else { known.join(", ") }
+                    ),
+                ));
+            };
+            let kind = shape_kind(&object.shape);
+            let surfaces = self.shape(&path, &object.shape, &mut warnings)?;
+            if matches!(object.shape, ShapeDesc::Mesh { .. }) {
+                effects.add(Effect::Meshes, format!("objects[{i}] is a triangle mesh"));
+            }
+            let object_id = objects.len() as u32;
+            objects.push(ObjectSummary {
+                name: object.name.clone().unwrap_or_else(|| format!("{kind} #{i}")),
+                kind: kind.to_string(),
+                material: object.material.clone(),
+                primitives: surfaces.len(),
+            });
+            for (shape, swapped) in surfaces {
+                let material = if swapped {
+                    *swapped_index.entry(material).or_insert_with(|| {
+                        materials.push(materials[material as usize].swapped_interface());
+                        materials.len() as u32 - 1
+                    })
+                } else {
+                    material
+                };
+                primitives.push(Primitive { shape, material, light: None, object: object_id });
+            }
+        }
+
+        let mut lights = Vec::new();
+        for (i, l) in desc.lights.iter().enumerate() {
+            let path = FieldPath::from("lights").index(i);
+            let light = self.light(&path, l)?;
+            if let Light::Quad { corner, u, v, .. } = light {
+                effects.add(Effect::SoftShadows, format!("lights[{i}] is an area light"));
+                let emitter_material = materials.len() as u32;
+                let bsdf = Bsdf::Diffuse(Texture::Constant(Vec3::ZERO));
+                let phong = Phong { ambient: 0.0, diffuse: 0.0, specular: 0.0, shininess: 1.0 };
+                materials.push(Material { name: format!("light #{i}"), bsdf, phong });
+                primitives.push(Primitive {
+                    shape: Shape::Quad(Quad::new(corner, u, v)),
+                    material: emitter_material,
+                    light: Some(lights.len() as u32),
+                    object: objects.len() as u32,
+                });
+                objects.push(ObjectSummary {
+                    name: format!("area light #{i}"),
+                    kind: "quad light".into(),
+                    material: format!("light #{i}"),
+                    primitives: 1,
+                });
+            }
+            lights.push(light);
+        }
+
+        let (primitives, bvh, bvh_stats) = build_bvh(primitives);
+        Ok(Scene {
+            primitives,
+            materials,
+            lights,
+            camera,
+            settings,
+            effects,
+            objects,
+            origin: SceneOrigin { name: self.source.name.clone(), hash: content_hash(text) },
+            bvh_scale: bvh_stats.scale,
+            bvh_stats,
+            warnings,
+            bvh,
+        })
+    }
+
+    fn camera(&self, desc: &SceneDesc) -> Result<Camera, SceneError> {
+        let c = &desc.camera;
+        let path = FieldPath::from("camera");
+        let [w, h] = c.resolution;
+        if w == 0 || h == 0 {
+            return Err(self.err(&path.key("resolution"), format!("width and height must be at least 1 (got {w}×{h})")));
+        }
+        if w > MAX_SIDE || h > MAX_SIDE || w as u64 * h as u64 > MAX_PIXELS {
+            return Err(self.err(
+                &path.key("resolution"),
+                format!("{w}×{h} is too large: at most {MAX_SIDE} per side and {MAX_PIXELS} pixels in all"),
+            ));
+        }
+        if !(c.fov > 0.0 && c.fov < 180.0) {
+            return Err(self.err(&path.key("fov"), format!("must be between 0 and 180 degrees, exclusive (got {})", c.fov)));
+        }
+        let position = Vec3::from_array(c.position);
+        let look_at = Vec3::from_array(c.look_at);
+        if (look_at - position).length() == 0.0 {
+            return Err(self.err(&path.key("look_at"), "must differ from camera.position"));
+        }
+        let up = self.direction(&path.key("up"), c.up)?;
+        Camera::new(position, look_at, up, c.fov, w, h).ok_or_else(|| {
+            self.err(&path.key("up"), "must not be parallel to the view direction (look_at − position)")
+        })
+    }
+
+    fn settings(&self, desc: &SceneDesc) -> Result<RenderSettings, SceneError> {
+        let r = &desc.render;
+        let path = FieldPath::from("render");
+        if r.spp == 0 {
+            return Err(self.err(&path.key("spp"), "must be at least 1"));
+        }
+        if crate::integrators::create(&r.integrator).is_none() {
+            return Err(self.err(
+                &path.key("integrator"),
+                format!("unknown integrator `{}`; known: {}", r.integrator, crate::integrators::names().join(", ")),
+            ));
+        }
+        if let Some(rho) = r.reflectance {
+            if !(0.0..=1.0).contains(&rho) {
+                return Err(self.err(&path.key("reflectance"), format!("must be in [0, 1] (got {rho})")));
+            }
+        }
+        Ok(RenderSettings {
+            integrator: r.integrator.clone(),
+            spp: r.spp,
+            max_depth: r.max_depth,
+            seed: r.seed,
+            ambient: self.color(&path.key("ambient"), r.ambient)?,
+            background: self.color(&path.key("background"), r.background)?,
+            reflectance: r.reflectance,
+            exposure: r.exposure,
+        })
+    }
+
+    fn phong(&self, path: &FieldPath, p: &PhongDesc, bsdf: &Bsdf) -> Result<Phong, SceneError> {
+        let d = Material::default_phong(bsdf);
+        let path = path.key("phong");
+        let get = |key: &str, v: Option<f32>, default: f32| match v {
+            Some(x) => self.non_negative(&path.key(key), x),
+            None => Ok(default),
+        };
+        Ok(Phong {
+            ambient: get("ambient", p.ambient, d.ambient)?,
+            diffuse: get("diffuse", p.diffuse, d.diffuse)?,
+            specular: get("specular", p.specular, d.specular)?,
+            shininess: get("shininess", p.shininess, d.shininess)?,
+        })
+    }
+
+    fn material(&self, path: &FieldPath, name: &str, m: &MaterialDesc) -> Result<Material, SceneError> {
+        let (bsdf, phong) = match m {
+            MaterialDesc::Diffuse { color, texture, phong } => {
+                let texture = match texture {
+                    None => Texture::Constant(self.color(&path.key("color"), *color)?),
+                    Some(TextureDesc::Checker { color1, color2, size }) => {
+                        let t = path.key("texture");
+                        Texture::Checker {
+                            color1: self.color(&t.key("color1"), *color1)?,
+                            color2: self.color(&t.key("color2"), *color2)?,
+                            size: self.positive(&t.key("size"), *size)?,
+                        }
+                    }
+                };
+                (Bsdf::Diffuse(texture), phong)
+            }
+            MaterialDesc::Mirror { color, phong } => (Bsdf::Mirror(self.color(&path.key("color"), *color)?), phong),
+            MaterialDesc::Dielectric { ior, ior_outside, phong } => {
+                let ior_inside = self.positive(&path.key("ior"), *ior)?;
+                let ior_outside = self.positive(&path.key("ior_outside"), *ior_outside)?;
+                (Bsdf::Dielectric { ior_inside, ior_outside }, phong)
+            }
+        };
+        let phong = self.phong(path, phong, &bsdf)?;
+        Ok(Material { name: name.to_string(), bsdf, phong })
+    }
+
+    fn shape(&self, path: &FieldPath, shape: &ShapeDesc, warnings: &mut Vec<String>) -> Result<Vec<BodySurface>, SceneError> {
+        let v = Vec3::from_array;
+        Ok(match shape {
+            ShapeDesc::Sphere { center, radius } => {
+                let r = self.positive(&path.key("radius"), *radius)?;
+                vec![(Shape::Sphere(Sphere::new(v(*center), r)), false)]
+            }
+            ShapeDesc::Cylinder { base, axis, radius, height, caps } => {
+                let axis = self.direction(&path.key("axis"), *axis)?;
+                let r = self.positive(&path.key("radius"), *radius)?;
+                let h = self.positive(&path.key("height"), *height)?;
+                bodies::cylinder(v(*base), axis, r, h, *caps)
+            }
+            ShapeDesc::Disk { center, normal, radius, inner_radius } => {
+                let n = self.direction(&path.key("normal"), *normal)?;
+                let r = self.positive(&path.key("radius"), *radius)?;
+                let ri = self.non_negative(&path.key("inner_radius"), *inner_radius)?;
+                if ri >= r {
+                    return Err(self.err(&path.key("inner_radius"), format!("must be smaller than radius {r} (got {ri})")));
+                }
+                vec![(Shape::Disk(Disk::new(v(*center), n, r, ri)), false)]
+            }
+            ShapeDesc::Quad { corner, u, v: edge_v } => {
+                let (u, ev) = (v(*u), v(*edge_v));
+                if u.cross(ev).length() <= 1e-12 * u.length_squared().max(ev.length_squared()) || u.cross(ev).length() == 0.0 {
+                    return Err(self.err(&path.key("u"), "u and v must be non-zero and not parallel (the quad has no area)"));
+                }
+                vec![(Shape::Quad(Quad::new(v(*corner), u, ev)), false)]
+            }
+            ShapeDesc::Polygon { vertices } => {
+                let verts = vertices.iter().map(|p| v(*p)).collect();
+                let polygon = Polygon::new(verts).map_err(|e| self.err(&path.key("vertices"), e))?;
+                vec![(Shape::Polygon(polygon), false)]
+            }
+            ShapeDesc::Mesh { file, scale, translate } => {
+                let scale = self.positive(&path.key("scale"), *scale)?;
+                let full = match &self.dir {
+                    Some(d) => d.join(file),
+                    None => PathBuf::from(file),
+                };
+                let (triangles, degenerate) =
+                    super::mesh::load_obj(&full, scale, v(*translate)).map_err(|e| self.err(&path.key("file"), e))?;
+                if degenerate > 0 {
+                    warnings.push(format!("{path}: skipped {degenerate} degenerate triangle(s) in {}", full.display()));
+                }
+                triangles.into_iter().map(|t| (Shape::Triangle(t), false)).collect()
+            }
+            ShapeDesc::HollowSphere { center, radius, inner_radius } => {
+                let r = self.positive(&path.key("radius"), *radius)?;
+                let ri = self.positive(&path.key("inner_radius"), *inner_radius)?;
+                if ri >= r {
+                    return Err(self.err(&path.key("inner_radius"), format!("must be smaller than radius {r} (got {ri})")));
+                }
+                bodies::hollow_sphere(v(*center), r, ri)
+            }
+            ShapeDesc::Bowl { center, axis, radius, thickness } => {
+                let axis = self.direction(&path.key("axis"), *axis)?;
+                let r = self.positive(&path.key("radius"), *radius)?;
+                let t = self.positive(&path.key("thickness"), *thickness)?;
+                if t >= r {
+                    return Err(self.err(&path.key("thickness"), format!("must be smaller than radius {r} (got {t})")));
+                }
+                bodies::bowl(v(*center), axis, r, t)
+            }
+            ShapeDesc::DrinkingGlass { base, axis, radius, height, wall, bottom } => {
+                let axis = self.direction(&path.key("axis"), *axis)?;
+                let r = self.positive(&path.key("radius"), *radius)?;
+                let h = self.positive(&path.key("height"), *height)?;
+                let w = self.positive(&path.key("wall"), *wall)?;
+                let b = self.positive(&path.key("bottom"), *bottom)?;
+                if w >= r {
+                    return Err(self.err(&path.key("wall"), format!("must be smaller than radius {r} (got {w})")));
+                }
+                if b >= h {
+                    return Err(self.err(&path.key("bottom"), format!("must be smaller than height {h} (got {b})")));
+                }
+                bodies::drinking_glass(v(*base), axis, r, h, w, b)
+            }
+        })
+    }
+
+    fn light(&self, path: &FieldPath, l: &LightDesc) -> Result<Light, SceneError> {
+        let v = Vec3::from_array;
+        Ok(match l {
+            LightDesc::Point { position, intensity } => {
+                Light::Point { position: v(*position), intensity: self.color(&path.key("intensity"), *intensity)? }
+            }
+            LightDesc::Quad { corner, u, v: ev, radiance } => {
+                let (u, ev) = (v(*u), v(*ev));
+                let normal = u.cross(ev).try_normalize().ok_or_else(|| {
+                    self.err(&path.key("u"), "u and v must be non-zero and not parallel (a light needs an area > 0)")
+                })?;
+                Light::Quad { corner: v(*corner), u, v: ev, normal, radiance: self.color(&path.key("radiance"), *radiance)? }
+            }
+        })
+    }
+}
+
+/// The `shape = "..."` name of a shape description.
+fn shape_kind(s: &ShapeDesc) -> &'static str {
+    match s {
+        ShapeDesc::Sphere { .. } => "sphere",
+        ShapeDesc::Cylinder { .. } => "cylinder",
+        ShapeDesc::Disk { .. } => "disk",
+        ShapeDesc::Quad { .. } => "quad",
+        ShapeDesc::Polygon { .. } => "polygon",
+        ShapeDesc::Mesh { .. } => "mesh",
+        ShapeDesc::HollowSphere { .. } => "hollow_sphere",
+        ShapeDesc::Bowl { .. } => "bowl",
+        ShapeDesc::DrinkingGlass { .. } => "drinking_glass",
+    }
+}
+
+/// The power of two that maps the scene's extent to about 1000 BVH units.
+fn scale_for_extent(extent: f32) -> f32 {
+    if !(extent.is_finite() && extent > 0.0) {
+        return 1.0;
+    }
+    2f32.powi((extent / 1000.0).log2().round().clamp(-100.0, 100.0) as i32)
+}
+
+/// Build the CwBvh over all primitives (in BVH units) and reorder them to BVH order.
+fn build_bvh(primitives: Vec<Primitive>) -> (Vec<Primitive>, obvhs::cwbvh::CwBvh, BvhStats) {
+    let start = Instant::now();
+    let bounds: Vec<_> = primitives.iter().map(|p| p.shape.bounds()).collect();
+    let (mut lo, mut hi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
+    for b in &bounds {
+        lo = lo.min(b.min);
+        hi = hi.max(b.max);
+    }
+    let scale = scale_for_extent((hi - lo).max_element());
+    let inv = 1.0 / scale;
+    let aabbs: Vec<Aabb> =
+        bounds.iter().map(|b| Aabb::new(Vec3A::from(b.min * inv), Vec3A::from(b.max * inv))).collect();
+    let mut core = Duration::ZERO;
+    let bvh = build_cwbvh(&aabbs, BvhBuildParams::medium_build(), &mut core);
+    let ordered: Vec<Primitive> =
+        bvh.primitive_indices.iter().map(|&i| primitives[i as usize].clone()).collect();
+    let stats = BvhStats {
+        nodes: bvh.nodes.len(),
+        primitives: ordered.len(),
+        depth: cwbvh_depth(&bvh),
+        build_seconds: start.elapsed().as_secs_f64(),
+        bounds: if ordered.is_empty() { (Vec3::ZERO, Vec3::ZERO) } else { (lo, hi) },
+        scale,
+    };
+    (ordered, bvh, stats)
+}
+
+/// Depth of a CwBvh's node tree.
+fn cwbvh_depth(bvh: &obvhs::cwbvh::CwBvh) -> usize {
+    if bvh.nodes.is_empty() {
+        return 0;
+    }
+    let mut depth = 0;
+    let mut stack = vec![(0usize, 1usize)];
+    while let Some((i, d)) = stack.pop() {
+        depth = depth.max(d);
+        let node = &bvh.nodes[i];
+        let mut child = node.child_base_idx as usize;
+        for slot in 0..8 {
+            if node.is_child_empty(slot) {
+                continue;
+            }
+            if node.is_leaf(slot) {
+                continue;
+            }
+            stack.push((child, d + 1));
+            child += 1;
+        }
+    }
+    depth
+}

@@ -1,0 +1,364 @@
+//! The scene file as written by hand: plain serde data, unknown fields rejected.
+//!
+//! Units: lengths in scene units (metres suggested), angles in degrees, point-light intensity in
+//! W/sr, area-light radiance in W/(m²·sr), colours as linear RGB (a single number means grey).
+//! `scenes/README.md` documents every field; keep the two in step.
+
+use serde::Deserialize;
+use std::collections::BTreeMap;
+
+/// A point or vector in scene units.
+pub type Vec3Desc = [f32; 3];
+
+/// A linear RGB colour, written either as `[r, g, b]` or as one grey value.
+#[derive(Clone, Copy, Debug, Deserialize, PartialEq)]
+#[serde(untagged)]
+pub enum Rgb {
+    /// One value for all three channels.
+    Grey(f32),
+    /// Red, green, blue.
+    Rgb([f32; 3]),
+}
+
+impl Rgb {
+    /// The three channels.
+    pub fn channels(self) -> [f32; 3] {
+        match self {
+            Rgb::Grey(g) => [g; 3],
+            Rgb::Rgb(c) => c,
+        }
+    }
+}
+
+/// The whole scene file.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SceneDesc {
+    /// The pinhole camera.
+    pub camera: CameraDesc,
+    /// Render defaults; command-line options override them.
+    #[serde(default)]
+    pub render: RenderDesc,
+    /// Named materials, referenced by objects.
+    #[serde(default)]
+    pub materials: BTreeMap<String, MaterialDesc>,
+    /// Geometry.
+    #[serde(default)]
+    pub objects: Vec<ObjectDesc>,
+    /// Light sources.
+    #[serde(default)]
+    pub lights: Vec<LightDesc>,
+}
+
+/// Camera placement and image size.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CameraDesc {
+    /// Eye position.
+    pub position: Vec3Desc,
+    /// The point the camera looks at.
+    pub look_at: Vec3Desc,
+    /// Which way is up (must not be parallel to the view direction).
+    #[serde(default = "default_up")]
+    pub up: Vec3Desc,
+    /// Vertical field of view in degrees, in (0, 180).
+    #[serde(default = "default_fov")]
+    pub fov: f32,
+    /// Image size `[width, height]` in pixels.
+    #[serde(default = "default_resolution")]
+    pub resolution: [u32; 2],
+}
+
+fn default_up() -> Vec3Desc {
+    [0.0, 1.0, 0.0]
+}
+fn default_fov() -> f32 {
+    40.0
+}
+fn default_resolution() -> [u32; 2] {
+    [800, 800]
+}
+
+/// Render defaults stored with the scene.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RenderDesc {
+    /// Integrator name (`vitrum integrators` lists them).
+    #[serde(default = "default_integrator")]
+    pub integrator: String,
+    /// Samples per pixel.
+    #[serde(default = "default_spp")]
+    pub spp: u32,
+    /// Maximum recursion depth (reflection/refraction bounces).
+    #[serde(default = "default_max_depth")]
+    pub max_depth: u32,
+    /// Seed of every random stream.
+    #[serde(default)]
+    pub seed: u64,
+    /// Scene-level ambient radiance of the empirical Phong model (raycast, whitted).
+    #[serde(default = "default_zero_rgb")]
+    pub ambient: Rgb,
+    /// Radiance of rays that leave the scene.
+    #[serde(default = "default_zero_rgb")]
+    pub background: Rgb,
+    /// Constant dielectric reflectance instead of exact Fresnel (the thesis used 0.06).
+    #[serde(default)]
+    pub reflectance: Option<f32>,
+    /// Exposure of the PNG preview, in stops.
+    #[serde(default)]
+    pub exposure: f32,
+}
+
+impl Default for RenderDesc {
+    fn default() -> Self {
+        RenderDesc {
+            integrator: default_integrator(),
+            spp: default_spp(),
+            max_depth: default_max_depth(),
+            seed: 0,
+            ambient: default_zero_rgb(),
+            background: default_zero_rgb(),
+            reflectance: None,
+            exposure: 0.0,
+        }
+    }
+}
+
+fn default_integrator() -> String {
+    "whitted".into()
+}
+fn default_spp() -> u32 {
+    1
+}
+fn default_max_depth() -> u32 {
+    5
+}
+fn default_zero_rgb() -> Rgb {
+    Rgb::Grey(0.0)
+}
+
+/// Empirical Phong coefficients used by ray casting and Whitted; absent ones take the
+/// material's defaults.
+#[derive(Clone, Copy, Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PhongDesc {
+    /// Ambient weight k_a.
+    pub ambient: Option<f32>,
+    /// Diffuse (Lambert) weight k_d.
+    pub diffuse: Option<f32>,
+    /// Specular highlight weight k_s.
+    pub specular: Option<f32>,
+    /// Highlight exponent h (sharpness).
+    pub shininess: Option<f32>,
+}
+
+/// A texture for a diffuse colour.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
+pub enum TextureDesc {
+    /// A 3-D checkerboard of two colours with cells of side `size`.
+    Checker {
+        /// First colour.
+        color1: Rgb,
+        /// Second colour.
+        color2: Rgb,
+        /// Edge length of one cell in scene units.
+        size: f32,
+    },
+}
+
+/// A named material.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
+pub enum MaterialDesc {
+    /// Lambertian reflector.
+    Diffuse {
+        /// Albedo (ignored when a texture is given).
+        #[serde(default = "default_albedo")]
+        color: Rgb,
+        /// Optional texture for the albedo.
+        texture: Option<TextureDesc>,
+        /// Empirical Phong terms.
+        #[serde(default)]
+        phong: PhongDesc,
+    },
+    /// Perfect mirror.
+    Mirror {
+        /// Reflectance per channel.
+        #[serde(default = "default_one_rgb")]
+        color: Rgb,
+        /// Empirical Phong terms.
+        #[serde(default)]
+        phong: PhongDesc,
+    },
+    /// Smooth dielectric interface: refractive index on the inside and the outside.
+    Dielectric {
+        /// Index on the side opposite the surface normal (inside a closed body).
+        ior: f32,
+        /// Index on the side the normal points to.
+        #[serde(default = "default_ior_outside")]
+        ior_outside: f32,
+        /// Empirical Phong terms.
+        #[serde(default)]
+        phong: PhongDesc,
+    },
+}
+
+fn default_albedo() -> Rgb {
+    Rgb::Grey(0.8)
+}
+fn default_one_rgb() -> Rgb {
+    Rgb::Grey(1.0)
+}
+fn default_ior_outside() -> f32 {
+    1.0
+}
+fn default_axis() -> Vec3Desc {
+    [0.0, 1.0, 0.0]
+}
+fn default_true() -> bool {
+    true
+}
+
+/// One object: a shape or a composite body, with a material.
+#[derive(Clone, Debug, Deserialize)]
+pub struct ObjectDesc {
+    /// Optional name shown by `vitrum info`.
+    #[serde(default)]
+    pub name: Option<String>,
+    /// Material name (a key of `[materials]`).
+    pub material: String,
+    /// The geometry.
+    #[serde(flatten)]
+    pub shape: ShapeDesc,
+}
+
+/// The geometry of an object, chosen by `shape = "..."`.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(tag = "shape", rename_all = "snake_case", deny_unknown_fields)]
+pub enum ShapeDesc {
+    /// A full sphere.
+    Sphere {
+        /// Centre.
+        center: Vec3Desc,
+        /// Radius.
+        radius: f32,
+    },
+    /// A finite cylinder, capped by default.
+    Cylinder {
+        /// Centre of the bottom cap.
+        base: Vec3Desc,
+        /// Direction from bottom to top (normalised).
+        #[serde(default = "default_axis")]
+        axis: Vec3Desc,
+        /// Radius.
+        radius: f32,
+        /// Length along the axis.
+        height: f32,
+        /// Close both ends with disks.
+        #[serde(default = "default_true")]
+        caps: bool,
+    },
+    /// A disk, or an annulus when `inner_radius > 0`.
+    Disk {
+        /// Centre.
+        center: Vec3Desc,
+        /// Normal (the side called outside).
+        normal: Vec3Desc,
+        /// Outer radius.
+        radius: f32,
+        /// Radius of the hole.
+        #[serde(default)]
+        inner_radius: f32,
+    },
+    /// A parallelogram `corner + a·u + b·v`, a, b in [0, 1]; normal `u × v`.
+    Quad {
+        /// One corner.
+        corner: Vec3Desc,
+        /// First edge.
+        u: Vec3Desc,
+        /// Second edge.
+        v: Vec3Desc,
+    },
+    /// A planar convex polygon, vertices counter-clockwise seen from the normal side.
+    Polygon {
+        /// At least three vertices.
+        vertices: Vec<Vec3Desc>,
+    },
+    /// A triangle mesh from a Wavefront OBJ file (path relative to the scene file).
+    Mesh {
+        /// The OBJ file.
+        file: String,
+        /// Uniform scale applied first.
+        #[serde(default = "default_scale")]
+        scale: f32,
+        /// Translation applied after scaling.
+        #[serde(default)]
+        translate: Vec3Desc,
+    },
+    /// A hollow sphere: a shell between `inner_radius` and `radius`.
+    HollowSphere {
+        /// Centre.
+        center: Vec3Desc,
+        /// Outer radius.
+        radius: f32,
+        /// Inner radius.
+        inner_radius: f32,
+    },
+    /// A spherical bowl: a hemispherical shell opening along `axis`, closed by a flat rim ring.
+    Bowl {
+        /// Centre of the spheres (the middle of the rim).
+        center: Vec3Desc,
+        /// Direction the bowl opens to.
+        #[serde(default = "default_axis")]
+        axis: Vec3Desc,
+        /// Outer radius.
+        radius: f32,
+        /// Wall thickness.
+        thickness: f32,
+    },
+    /// A cylindrical drinking glass, open at the top.
+    DrinkingGlass {
+        /// Centre of the bottom.
+        base: Vec3Desc,
+        /// Direction from bottom to rim.
+        #[serde(default = "default_axis")]
+        axis: Vec3Desc,
+        /// Outer radius.
+        radius: f32,
+        /// Outer height.
+        height: f32,
+        /// Wall thickness.
+        wall: f32,
+        /// Thickness of the solid base.
+        bottom: f32,
+    },
+}
+
+fn default_scale() -> f32 {
+    1.0
+}
+
+/// A light source, chosen by `type = "..."`.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
+pub enum LightDesc {
+    /// An isotropic point light.
+    Point {
+        /// Position.
+        position: Vec3Desc,
+        /// Radiant intensity in W/sr.
+        intensity: Rgb,
+    },
+    /// A one-sided parallelogram emitter `corner + a·u + b·v`, emitting along `u × v`.
+    Quad {
+        /// One corner.
+        corner: Vec3Desc,
+        /// First edge.
+        u: Vec3Desc,
+        /// Second edge.
+        v: Vec3Desc,
+        /// Emitted radiance in W/(m²·sr).
+        radiance: Rgb,
+    },
+}

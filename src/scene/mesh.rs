@@ -1,0 +1,41 @@
+//! Triangle meshes from Wavefront OBJ files.
+
+use crate::geometry::Triangle;
+use glam::Vec3;
+use std::path::Path;
+
+/// Triangles of an OBJ file after `scale` then `translate`, with the count of degenerate
+/// triangles that were skipped.
+pub fn load_obj(path: &Path, scale: f32, translate: Vec3) -> Result<(Vec<Triangle>, usize), String> {
+    let options = tobj::LoadOptions { triangulate: true, single_index: true, ..Default::default() };
+    let (models, _) = tobj::load_obj(path, &options)
+        .map_err(|e| format!("cannot load OBJ file {}: {e}", path.display()))?;
+    let mut triangles = Vec::new();
+    let mut degenerate = 0;
+    for model in &models {
+        let m = &model.mesh;
+        let vertex = |i: u32| -> Option<Vec3> {
+            let i = i as usize * 3;
+            let p = m.positions.get(i..i + 3)?;
+            Some(Vec3::new(p[0], p[1], p[2]) * scale + translate)
+        };
+        for tri in m.indices.chunks_exact(3) {
+            let (Some(a), Some(b), Some(c)) = (vertex(tri[0]), vertex(tri[1]), vertex(tri[2])) else {
+                return Err(format!("{}: a face refers to a vertex that does not exist", path.display()));
+            };
+            if !(a.is_finite() && b.is_finite() && c.is_finite()) {
+                return Err(format!("{}: a vertex is not a finite number", path.display()));
+            }
+            let t = Triangle::new(a, b, c);
+            if t.is_degenerate() {
+                degenerate += 1;
+            } else {
+                triangles.push(t);
+            }
+        }
+    }
+    if triangles.is_empty() {
+        return Err(format!("{}: the mesh has no (non-degenerate) triangles", path.display()));
+    }
+    Ok((triangles, degenerate))
+}

@@ -1,0 +1,173 @@
+//! The compiled, immutable scene every integrator renders: primitives in one obvhs CwBvh,
+//! materials, lights, camera and the effects the scene calls for.
+
+pub mod bodies;
+pub mod compile;
+pub mod desc;
+pub mod effects;
+pub mod mesh;
+pub mod source;
+
+pub use compile::{load, load_default, load_str};
+pub use effects::{Effect, EffectUse, Effects};
+pub use source::SceneError;
+
+use crate::camera::Camera;
+use crate::geometry::{Ray, Shape, SurfaceHit};
+use crate::light::Light;
+use crate::material::Material;
+use glam::{Vec3, Vec3A};
+use obvhs::cwbvh::CwBvh;
+use obvhs::ray::RayHit;
+
+/// The text of the embedded default scene (the thesis's Cornell box with glass bodies).
+pub const DEFAULT_SCENE: &str = include_str!("../../scenes/cornell-glass.toml");
+
+/// One BVH primitive: a shape with its material, the light it emits for (if any), and the
+/// object of the scene file it came from.
+#[derive(Clone, Debug)]
+pub struct Primitive {
+    /// The geometry.
+    pub shape: Shape,
+    /// Index into [`Scene::materials`].
+    pub material: u32,
+    /// Index into [`Scene::lights`] when the primitive is an emitter.
+    pub light: Option<u32>,
+    /// Index into [`Scene::objects`].
+    pub object: u32,
+}
+
+/// A ray's closest hit.
+#[derive(Clone, Copy, Debug)]
+pub struct Intersection {
+    /// Surface geometry at the hit.
+    pub hit: SurfaceHit,
+    /// Index into [`Scene::primitives`].
+    pub primitive: u32,
+}
+
+/// Render settings stored with the scene (command-line options override them).
+#[derive(Clone, Debug, PartialEq)]
+pub struct RenderSettings {
+    /// Integrator name.
+    pub integrator: String,
+    /// Samples per pixel.
+    pub spp: u32,
+    /// Maximum recursion depth.
+    pub max_depth: u32,
+    /// Seed of the random streams.
+    pub seed: u64,
+    /// Ambient radiance of the empirical Phong model.
+    pub ambient: Vec3,
+    /// Radiance of rays that leave the scene.
+    pub background: Vec3,
+    /// Constant dielectric reflectance instead of exact Fresnel.
+    pub reflectance: Option<f32>,
+    /// PNG preview exposure in stops.
+    pub exposure: f32,
+}
+
+/// What `vitrum info` shows about one object of the scene file.
+#[derive(Clone, Debug)]
+pub struct ObjectSummary {
+    /// The object's name (given, or made from its kind and index).
+    pub name: String,
+    /// Shape or body kind as written in the file.
+    pub kind: String,
+    /// Material name.
+    pub material: String,
+    /// How many BVH primitives it expanded into.
+    pub primitives: usize,
+}
+
+/// Where the scene came from: its display name and a hash of its text.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SceneOrigin {
+    /// File path, or `<embedded default scene>`.
+    pub name: String,
+    /// 64-bit FNV-1a hash of the scene text, in hex.
+    pub hash: String,
+}
+
+/// Statistics of the acceleration structure.
+#[derive(Clone, Debug)]
+pub struct BvhStats {
+    /// Number of CwBvh nodes.
+    pub nodes: usize,
+    /// Number of primitives.
+    pub primitives: usize,
+    /// Depth of the node tree (root = 1).
+    pub depth: usize,
+    /// Build time in seconds.
+    pub build_seconds: f64,
+    /// Scene bounds (min, max).
+    pub bounds: (Vec3, Vec3),
+    /// Power-of-two factor from world to BVH coordinates.
+    pub scale: f32,
+}
+
+/// The compiled scene: immutable and shared by all render threads.
+pub struct Scene {
+    /// Primitives in BVH order.
+    pub primitives: Vec<Primitive>,
+    /// Materials referenced by primitives.
+    pub materials: Vec<Material>,
+    /// Light sources.
+    pub lights: Vec<Light>,
+    /// The camera.
+    pub camera: Camera,
+    /// Render defaults from the file.
+    pub settings: RenderSettings,
+    /// Effects the scene calls for, with reasons.
+    pub effects: Effects,
+    /// The objects of the scene file.
+    pub objects: Vec<ObjectSummary>,
+    /// Where the scene came from.
+    pub origin: SceneOrigin,
+    /// BVH statistics.
+    pub bvh_stats: BvhStats,
+    /// Warnings found while compiling (degenerate triangles skipped, …).
+    pub warnings: Vec<String>,
+    bvh: CwBvh,
+    /// World = BVH coordinates × `bvh_scale` (a power of two, so the mapping is exact). The
+    /// CwBvh culls boxes closer than a fixed 1e-4 along the ray; normalising the scene to a size
+    /// of about 1000 makes that distance negligible at any scene scale.
+    bvh_scale: f32,
+}
+
+impl Scene {
+    /// The closest hit along `ray` with distance in (0, `tmax`).
+    pub fn intersect(&self, ray: &Ray, tmax: f32) -> Option<Intersection> {
+        let inv = 1.0 / self.bvh_scale;
+        let bray = obvhs::ray::Ray::new(
+            Vec3A::from(ray.origin * inv),
+            Vec3A::from(ray.dir) + Vec3A::ZERO,
+            0.0,
+            tmax * inv,
+        );
+        let scale = self.bvh_scale;
+        let prims = &self.primitives;
+        let mut hit = RayHit::none();
+        let found = self.bvh.ray_traverse(bray, &mut hit, |r, id| {
+            prims[id].shape.intersect(ray, 0.0, r.tmax * scale).map_or(f32::INFINITY, |t| t * inv)
+        });
+        if !found {
+            return None;
+        }
+        let t = hit.t * scale;
+        let primitive = hit.primitive_id;
+        Some(Intersection { hit: prims[primitive as usize].shape.surface(ray, t), primitive })
+    }
+
+    /// The material of a primitive.
+    #[inline]
+    pub fn material_of(&self, primitive: u32) -> &Material {
+        &self.materials[self.primitives[primitive as usize].material as usize]
+    }
+
+    /// The light a primitive emits for, if it is an emitter.
+    #[inline]
+    pub fn light_of(&self, primitive: u32) -> Option<u32> {
+        self.primitives[primitive as usize].light
+    }
+}

@@ -1,0 +1,78 @@
+//! Whitted against the closed form for a diffuse emitter seen through a flat glass slab.
+//!
+//! At normal incidence each face reflects R = ((n−1)/(n+1))²; summing the light that passes
+//! after 0, 2, 4, … internal reflections gives L·(1−R)²·Σ R^(2k) = L·(1−R)/(1+R).
+
+use glam::Vec2;
+use vitrum::integrators::{create, RenderParams};
+use vitrum::sampler::Sampler;
+use vitrum::scene::load_str;
+use vitrum::stats::RayCounts;
+
+const SLAB: &str = r#"
+[camera]
+position = [0.0, 0.0, 5.0]
+look_at = [0.0, 0.0, 0.0]
+fov = 10.0
+resolution = [9, 9]
+
+[render]
+max_depth = 40
+
+[materials.glass]
+type = "dielectric"
+ior = 1.5
+phong = { specular = 0.0 }
+
+# the slab: z in [-0.5, 0.5], faces far larger than the view, normals pointing out of the glass
+[[objects]]
+shape = "quad"
+corner = [-50.0, -50.0, 0.5]
+u = [100.0, 0.0, 0.0]
+v = [0.0, 100.0, 0.0]
+material = "glass"
+
+[[objects]]
+shape = "quad"
+corner = [-50.0, -50.0, -0.5]
+u = [0.0, 100.0, 0.0]
+v = [100.0, 0.0, 0.0]
+material = "glass"
+
+# the emitter behind it, facing the camera
+[[lights]]
+type = "quad"
+corner = [-50.0, -50.0, -3.0]
+u = [100.0, 0.0, 0.0]
+v = [0.0, 100.0, 0.0]
+radiance = [2.0, 1.0, 0.5]
+"#;
+
+#[test]
+fn emitter_through_a_glass_slab_matches_the_closed_form() {
+    let scene = load_str(SLAB, "slab", None).unwrap();
+    let whitted = create("whitted").unwrap();
+    let params = RenderParams { max_depth: 40, reflectance: None };
+    let ray = scene.camera.generate_ray(Vec2::new(4.5, 4.5));
+    let mut rays = RayCounts::default();
+    let l = whitted.radiance(&scene, &params, &ray, &mut Sampler::new(0, 0, 0), &mut rays);
+    let r = (0.5f32 / 2.5).powi(2);
+    assert!((r - 0.04).abs() < 1e-7);
+    let factor = (1.0 - r) / (1.0 + r);
+    for (got, emitted) in l.to_array().into_iter().zip([2.0f32, 1.0, 0.5]) {
+        let expected = emitted * factor;
+        assert!(((got - expected) / expected).abs() < 1e-3, "got {got}, expected {expected}");
+    }
+    assert!(rays.refracted >= 2 && rays.reflected >= 2, "{rays:?}");
+}
+
+#[test]
+fn constant_reflectance_option_reproduces_the_thesis_value() {
+    let scene = load_str(SLAB, "slab", None).unwrap();
+    let whitted = create("whitted").unwrap();
+    let params = RenderParams { max_depth: 40, reflectance: Some(0.06) };
+    let ray = scene.camera.generate_ray(Vec2::new(4.5, 4.5));
+    let l = whitted.radiance(&scene, &params, &ray, &mut Sampler::new(0, 0, 0), &mut RayCounts::default());
+    let expected = 2.0 * (1.0 - 0.06) / (1.0 + 0.06);
+    assert!(((l.x - expected) / expected).abs() < 1e-3, "got {}, expected {expected}", l.x);
+}
