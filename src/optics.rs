@@ -120,7 +120,9 @@ mod tests {
             assert!((0.0..=1.0).contains(&r));
             let wt = refract(dir_at(theta_i), Vec3::Y, eta).unwrap();
             let r_back = fresnel_dielectric(-wt.y, 1.0 / eta);
-            assert!((r - r_back).abs() < 1e-5, "theta {k}: {r} vs {r_back}");
+            // dR/dθ grows like 1/cos θ towards grazing, amplifying f32 roundoff of the direction.
+            let tolerance = 1e-5 / theta_i.cos().max(0.05);
+            assert!((r - r_back).abs() < tolerance, "theta {k}: {r} vs {r_back}");
             // Brewster: the parallel term vanishes at tan(theta) = eta
         }
         let brewster = eta.atan();

@@ -4,7 +4,7 @@ use std::f32::consts::{PI, TAU};
 
 use glam::{Vec2, Vec3};
 
-use super::{plane_hit, plane_point, planar_surface, seam_slack, Bounds, Ray, SurfaceHit};
+use super::{planar_surface, plane_hit, plane_point, seam_slack, Bounds, Ray, SurfaceHit};
 
 /// A disk of radius `radius` around `center`, with a hole of `inner_radius` (an annulus if > 0).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -30,7 +30,7 @@ impl Disk {
         let (t, f, q) = plane_hit(self.normal, self.center, ray, tmin, tmax)?;
         // The out-of-plane part of q is roundoff, negligible once squared.
         let dist2 = q.length_squared();
-        let slack = seam_slack(self.radius, f);
+        let slack = seam_slack(self.radius, self.center, f);
         let (outer, inner) = (self.radius + slack, (self.inner_radius - slack).max(0.0));
         (dist2 <= outer * outer && dist2 >= inner * inner).then_some(t)
     }
@@ -62,20 +62,9 @@ impl Disk {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::geometry::spawn_origin;
+    use crate::geometry::test_support::{random_point, random_unit, ray, spawned_rays};
     use rand::{RngExt, SeedableRng};
     use rand_pcg::Pcg32;
-
-    fn ray(o: [f32; 3], d: [f32; 3]) -> Ray {
-        Ray::new(Vec3::from(o), Vec3::from(d).normalize())
-    }
-
-    fn random_unit(rng: &mut Pcg32) -> Vec3 {
-        let z = 2.0 * rng.random::<f32>() - 1.0;
-        let phi = TAU * rng.random::<f32>();
-        let s = (1.0 - z * z).max(0.0).sqrt();
-        Vec3::new(s * phi.cos(), s * phi.sin(), z)
-    }
 
     #[test]
     fn head_on_hit() {
@@ -136,7 +125,7 @@ mod tests {
         let mut rng = Pcg32::seed_from_u64(19);
         let mut checked = 0;
         while checked < 2_000 {
-            let center = Vec3::new(rng.random(), rng.random(), rng.random()) * 200.0 - 100.0;
+            let center = random_point(&mut rng, 100.0);
             let normal = random_unit(&mut rng);
             let radius = 0.01 + rng.random::<f32>() * 10.0;
             let d = Disk::new(center, normal, radius, radius * 0.3);
@@ -148,14 +137,9 @@ mod tests {
             let r = Ray::new(o, (target - o).normalize());
             let Some(t) = d.intersect(&r, 0.0, f32::INFINITY) else { continue };
             let hit = d.surface(&r, t);
-            let reflected = r.dir - 2.0 * r.dir.dot(hit.n) * hit.n;
-            let mut other = random_unit(&mut rng);
-            if other.dot(hit.n).signum() == reflected.dot(hit.n).signum() {
-                other = -other;
-            }
-            for w in [reflected, other] {
-                let spawned = Ray::new(spawn_origin(&hit, w), w);
-                assert_eq!(d.intersect(&spawned, 0.0, 1e-3 * radius), None, "self-hit {hit:?}");
+            for spawned in spawned_rays(&hit, r.dir, &mut rng) {
+                // A plane is never hit again by a ray leaving it.
+                assert_eq!(d.intersect(&spawned, 0.0, f32::INFINITY), None, "self-hit {hit:?}");
             }
             checked += 1;
         }

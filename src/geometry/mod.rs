@@ -187,23 +187,28 @@ impl Shape {
 /// Roundoff scale (in units of γ) of the seam slack, see [`seam_slack`].
 const SEAM_ULPS: i32 = 8;
 
-/// Absolute slack by which bounded-range checks (cylinder height, disk radius, clipped-sphere
-/// height, quad/polygon edges) accept points beyond their exact edge, so that analytic pieces
-/// meeting at a seam overlap instead of leaving a crack. The hit coordinate being checked is
-/// computed from `origin_offset` (ray origin minus the shape's reference point) and a `t` of
-/// similar magnitude, so its roundoff is a few ulps of `size + |origin_offset|`; the slack is
-/// `γ(SEAM_ULPS)` of that, i.e. a relative 1e-6 for a ray starting next to the shape.
+/// Absolute slack by which bounded-range checks (cylinder height, disk radii, clipped-sphere
+/// height, quad and polygon edges) accept points beyond their exact edge, so that analytic
+/// pieces meeting at a seam overlap instead of leaving a crack.
+///
+/// Two roundoffs decide on which side of a seam a computed hit falls: the one of the hit
+/// coordinate itself, computed from `origin_offset` (ray origin minus the shape's `reference`
+/// point) and a `t` of similar magnitude, and the one in how the scene built the neighbouring
+/// piece (a cap centre `base + axis·height` is rounded at the magnitude of its world
+/// coordinates). Both are a few ulps of `size + |reference| + |origin_offset|`; the slack is
+/// `γ(SEAM_ULPS)` of that, i.e. about 1e-6 of the shape's size for a ray starting next to a shape
+/// near the world origin.
 #[inline]
-pub(crate) fn seam_slack(size: f32, origin_offset: Vec3) -> f32 {
-    gamma(SEAM_ULPS) * (size + origin_offset.abs().max_element())
+pub(crate) fn seam_slack(size: f32, reference: Vec3, origin_offset: Vec3) -> f32 {
+    gamma(SEAM_ULPS) * (size + reference.abs().max_element() + origin_offset.abs().max_element())
 }
 
 /// The smallest box holding all `points` (empty slice gives an inverted, empty box).
 pub(crate) fn bounds_of(points: &[Vec3]) -> Bounds {
-    points.iter().fold(
-        Bounds { min: Vec3::INFINITY, max: Vec3::NEG_INFINITY },
-        |b, &p| Bounds { min: b.min.min(p), max: b.max.max(p) },
-    )
+    points.iter().fold(Bounds { min: Vec3::INFINITY, max: Vec3::NEG_INFINITY }, |b, &p| Bounds {
+        min: b.min.min(p),
+        max: b.max.max(p),
+    })
 }
 
 /// Hit of `ray` with the plane through `reference` with unit normal `n`, if its distance lies in
@@ -211,7 +216,13 @@ pub(crate) fn bounds_of(points: &[Vec3]) -> Bounds {
 /// hit point relative to `reference` (all planar shapes work relative to their reference point
 /// so that roundoff scales with the shape, not with the world coordinates).
 #[inline]
-pub(crate) fn plane_hit(n: Vec3, reference: Vec3, ray: &Ray, tmin: f32, tmax: f32) -> Option<(f32, Vec3, Vec3)> {
+pub(crate) fn plane_hit(
+    n: Vec3,
+    reference: Vec3,
+    ray: &Ray,
+    tmin: f32,
+    tmax: f32,
+) -> Option<(f32, Vec3, Vec3)> {
     let denom = n.dot(ray.dir);
     if denom == 0.0 {
         return None;
@@ -245,5 +256,43 @@ pub(crate) fn planar_surface(n: Vec3, reference: Vec3, q: Vec3, t: f32, uv: Vec2
         // `q − (q·n)n`: γ(3)·|q|₂ from the dot product plus two roundings, γ(5)·|q|₂, and
         // |q|₂ ≤ √3·(|p|∞ + |reference|∞) makes it < γ(9)·(…); adding the reference: γ(10).
         p_error: point_error(p, reference, 10),
+    }
+}
+
+/// Helpers shared by the shape unit tests.
+#[cfg(test)]
+pub(crate) mod test_support {
+    use super::{spawn_origin, Ray, SurfaceHit};
+    use glam::Vec3;
+    use rand::RngExt;
+    use rand_pcg::Pcg32;
+
+    /// Ray from `o` along `d` (normalised).
+    pub fn ray(o: [f32; 3], d: [f32; 3]) -> Ray {
+        Ray::new(Vec3::from(o), Vec3::from(d).normalize())
+    }
+
+    /// Uniformly distributed unit vector.
+    pub fn random_unit(rng: &mut Pcg32) -> Vec3 {
+        let z = 2.0 * rng.random::<f32>() - 1.0;
+        let phi = std::f32::consts::TAU * rng.random::<f32>();
+        let s = (1.0 - z * z).max(0.0).sqrt();
+        Vec3::new(s * phi.cos(), s * phi.sin(), z)
+    }
+
+    /// Uniformly distributed point in the cube [−half, half]³.
+    pub fn random_point(rng: &mut Pcg32, half: f32) -> Vec3 {
+        (Vec3::new(rng.random(), rng.random(), rng.random()) * 2.0 - 1.0) * half
+    }
+
+    /// The rays leaving `hit` for a ray arriving along `incoming`: its mirror reflection and a
+    /// random direction on the other side of the surface, both spawned with [`spawn_origin`].
+    pub fn spawned_rays(hit: &SurfaceHit, incoming: Vec3, rng: &mut Pcg32) -> [Ray; 2] {
+        let reflected = incoming - 2.0 * incoming.dot(hit.n) * hit.n;
+        let mut other = random_unit(rng);
+        if (other.dot(hit.n) > 0.0) == (reflected.dot(hit.n) > 0.0) {
+            other = -other;
+        }
+        [reflected, other].map(|w| Ray::new(spawn_origin(hit, w), w))
     }
 }

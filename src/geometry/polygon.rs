@@ -2,7 +2,7 @@
 
 use glam::{Vec2, Vec3};
 
-use super::{bounds_of, plane_hit, plane_point, planar_surface, seam_slack, Bounds, Ray, SurfaceHit};
+use super::{bounds_of, planar_surface, plane_hit, plane_point, seam_slack, Bounds, Ray, SurfaceHit};
 
 /// Largest allowed distance of a vertex from the polygon's plane, relative to its diameter.
 /// Generous enough for hand-typed or rounded coordinates; the polygon is then treated as its
@@ -59,11 +59,10 @@ impl Polygon {
             }
         }
         // Newell's method, relative to the centroid: twice the area vector.
-        let newell: Vec3 = (0..count)
-            .map(|i| (vertices[i] - reference).cross(vertices[next(i)] - reference))
-            .sum();
+        let newell: Vec3 =
+            (0..count).map(|i| (vertices[i] - reference).cross(vertices[next(i)] - reference)).sum();
         let twice_area = newell.length();
-        if !(twice_area > DEGENERACY_TOLERANCE * size * size) {
+        if twice_area <= DEGENERACY_TOLERANCE * size * size || twice_area.is_nan() {
             return Err("degenerate polygon: the vertices are collinear (zero area)".to_string());
         }
         let normal = newell / twice_area;
@@ -115,7 +114,7 @@ impl Polygon {
     #[inline]
     pub fn intersect(&self, ray: &Ray, tmin: f32, tmax: f32) -> Option<f32> {
         let (t, f, q) = plane_hit(self.normal, self.reference, ray, tmin, tmax)?;
-        let slack = seam_slack(self.size, f);
+        let slack = seam_slack(self.size, self.reference, f);
         self.edges.iter().all(|e| e.inward.dot(q) - e.offset >= -slack).then_some(t)
     }
 
@@ -145,21 +144,10 @@ impl Polygon {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::geometry::spawn_origin;
+    use crate::geometry::test_support::{random_point, random_unit, ray, spawned_rays};
     use rand::{RngExt, SeedableRng};
     use rand_pcg::Pcg32;
     use std::f32::consts::TAU;
-
-    fn ray(o: [f32; 3], d: [f32; 3]) -> Ray {
-        Ray::new(Vec3::from(o), Vec3::from(d).normalize())
-    }
-
-    fn random_unit(rng: &mut Pcg32) -> Vec3 {
-        let z = 2.0 * rng.random::<f32>() - 1.0;
-        let phi = TAU * rng.random::<f32>();
-        let s = (1.0 - z * z).max(0.0).sqrt();
-        Vec3::new(s * phi.cos(), s * phi.sin(), z)
-    }
 
     /// Convex pentagon in the plane y = 2, counter-clockwise seen from +y.
     fn pentagon() -> Polygon {
@@ -222,10 +210,12 @@ mod tests {
         let e = err(vec![Vec3::ZERO, Vec3::X, Vec3::new(0.5, 1.0, 0.0), Vec3::new(0.5, 0.3, 0.0)]);
         assert!(e.contains("not convex"), "{e}");
         // A pentagram: every turn has the same sign, yet it is not convex.
-        let star: Vec<Vec3> = (0..5).map(|k| {
-            let a = TAU * (2 * k) as f32 / 5.0;
-            Vec3::new(a.cos(), a.sin(), 0.0)
-        }).collect();
+        let star: Vec<Vec3> = (0..5)
+            .map(|k| {
+                let a = TAU * (2 * k) as f32 / 5.0;
+                Vec3::new(a.cos(), a.sin(), 0.0)
+            })
+            .collect();
         assert!(err(star).contains("not convex"));
         assert!(err(vec![Vec3::ZERO, Vec3::X, Vec3::new(f32::NAN, 0.0, 0.0)]).contains("finite"));
         // Tiny non-planarity within tolerance and a vertex on an edge are fine.
@@ -247,7 +237,7 @@ mod tests {
         let mut rng = Pcg32::seed_from_u64(31);
         let mut checked = 0;
         while checked < 2_000 {
-            let center = Vec3::new(rng.random(), rng.random(), rng.random()) * 200.0 - 100.0;
+            let center = random_point(&mut rng, 100.0);
             let normal = random_unit(&mut rng);
             let (e0, e1) = normal.any_orthonormal_pair();
             let radius = 0.01 + rng.random::<f32>() * 10.0;
@@ -264,13 +254,7 @@ mod tests {
             let r = Ray::new(o, (target - o).normalize());
             let Some(t) = p.intersect(&r, 0.0, f32::INFINITY) else { continue };
             let hit = p.surface(&r, t);
-            let reflected = r.dir - 2.0 * r.dir.dot(hit.n) * hit.n;
-            let mut other = random_unit(&mut rng);
-            if other.dot(hit.n).signum() == reflected.dot(hit.n).signum() {
-                other = -other;
-            }
-            for w in [reflected, other] {
-                let spawned = Ray::new(spawn_origin(&hit, w), w);
+            for spawned in spawned_rays(&hit, r.dir, &mut rng) {
                 assert_eq!(p.intersect(&spawned, 0.0, f32::INFINITY), None, "self-hit {hit:?}");
             }
             checked += 1;

@@ -2,7 +2,7 @@
 
 use glam::{Vec2, Vec3};
 
-use super::{bounds_of, plane_hit, plane_point, planar_surface, seam_slack, Bounds, Ray, SurfaceHit};
+use super::{bounds_of, planar_surface, plane_hit, plane_point, seam_slack, Bounds, Ray, SurfaceHit};
 
 /// The parallelogram `corner + a·u + b·v`, `a, b ∈ [0, 1]`.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -44,7 +44,7 @@ impl Quad {
     pub fn intersect(&self, ray: &Ray, tmin: f32, tmax: f32) -> Option<f32> {
         let (t, f, q) = plane_hit(self.normal, self.corner, ray, tmin, tmax)?;
         let ab = self.coords(q);
-        let slack = seam_slack(self.size, f) * self.inv_width;
+        let slack = seam_slack(self.size, self.corner, f) * self.inv_width;
         (ab.cmpge(-slack).all() && ab.cmple(Vec2::ONE + slack).all()).then_some(t)
     }
 
@@ -70,21 +70,9 @@ impl Quad {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::geometry::spawn_origin;
+    use crate::geometry::test_support::{random_point, random_unit, ray, spawned_rays};
     use rand::{RngExt, SeedableRng};
     use rand_pcg::Pcg32;
-    use std::f32::consts::TAU;
-
-    fn ray(o: [f32; 3], d: [f32; 3]) -> Ray {
-        Ray::new(Vec3::from(o), Vec3::from(d).normalize())
-    }
-
-    fn random_unit(rng: &mut Pcg32) -> Vec3 {
-        let z = 2.0 * rng.random::<f32>() - 1.0;
-        let phi = TAU * rng.random::<f32>();
-        let s = (1.0 - z * z).max(0.0).sqrt();
-        Vec3::new(s * phi.cos(), s * phi.sin(), z)
-    }
 
     /// Unit square in z = 0 from the origin, normal +Z.
     fn square() -> Quad {
@@ -103,7 +91,8 @@ mod tests {
         assert_eq!(h.uv, Vec2::new(0.25, 0.75));
         // A skewed, scaled parallelogram: uv = (a, b) of the hit.
         let q = Quad::new(Vec3::new(1.0, 2.0, 3.0), Vec3::new(2.0, 0.0, 0.0), Vec3::new(1.0, 0.0, 3.0));
-        let target = Vec3::new(1.0, 2.0, 3.0) + 0.5 * Vec3::new(2.0, 0.0, 0.0) + 0.25 * Vec3::new(1.0, 0.0, 3.0);
+        let target =
+            Vec3::new(1.0, 2.0, 3.0) + 0.5 * Vec3::new(2.0, 0.0, 0.0) + 0.25 * Vec3::new(1.0, 0.0, 3.0);
         let r = Ray::new(target + Vec3::Y * 4.0, -Vec3::Y);
         let t = q.intersect(&r, 0.0, f32::INFINITY).unwrap();
         assert_eq!(t, 4.0);
@@ -143,8 +132,8 @@ mod tests {
     #[test]
     fn closed_box_of_quads_has_no_edge_gap() {
         let mut rng = Pcg32::seed_from_u64(23);
-        for case in 0..4_000 {
-            let lo = Vec3::new(rng.random(), rng.random(), rng.random()) * 20.0 - 10.0;
+        for case in 0..20_000 {
+            let lo = random_point(&mut rng, 10.0);
             let size = Vec3::new(rng.random(), rng.random(), rng.random()) * 3.0 + 0.1;
             let (x, y, z) = (Vec3::X * size.x, Vec3::Y * size.y, Vec3::Z * size.z);
             let hi = lo + size;
@@ -159,7 +148,13 @@ mod tests {
             // A point on a random edge of the box.
             let s = rng.random::<f32>();
             let axis = case % 3;
-            let mut target = lo + size * Vec3::new(rng.random::<bool>() as u8 as f32, rng.random::<bool>() as u8 as f32, rng.random::<bool>() as u8 as f32);
+            let mut target = lo
+                + size
+                    * Vec3::new(
+                        rng.random::<bool>() as u8 as f32,
+                        rng.random::<bool>() as u8 as f32,
+                        rng.random::<bool>() as u8 as f32,
+                    );
             target[axis] = lo[axis] + s * size[axis];
             let o = if case % 2 == 0 {
                 lo + size * Vec3::new(rng.random(), rng.random(), rng.random())
@@ -168,7 +163,10 @@ mod tests {
             };
             let r = Ray::new(o, (target - o).normalize());
             let expect = (target - o).length();
-            let hit = faces.iter().filter_map(|f| f.intersect(&r, 0.0, f32::INFINITY)).any(|t| (t - expect).abs() <= 1e-3 * expect);
+            let hit = faces
+                .iter()
+                .filter_map(|f| f.intersect(&r, 0.0, f32::INFINITY))
+                .any(|t| (t - expect).abs() <= 1e-3 * expect);
             assert!(hit, "case {case}: edge ray missed every face");
         }
     }
@@ -178,7 +176,7 @@ mod tests {
         let mut rng = Pcg32::seed_from_u64(29);
         let mut checked = 0;
         while checked < 2_000 {
-            let corner = Vec3::new(rng.random(), rng.random(), rng.random()) * 200.0 - 100.0;
+            let corner = random_point(&mut rng, 100.0);
             let u = random_unit(&mut rng) * (0.01 + 10.0 * rng.random::<f32>());
             let v = random_unit(&mut rng) * (0.01 + 10.0 * rng.random::<f32>());
             let q = Quad::new(corner, u, v);
@@ -187,13 +185,7 @@ mod tests {
             let r = Ray::new(o, (target - o).normalize());
             let Some(t) = q.intersect(&r, 0.0, f32::INFINITY) else { continue };
             let hit = q.surface(&r, t);
-            let reflected = r.dir - 2.0 * r.dir.dot(hit.n) * hit.n;
-            let mut other = random_unit(&mut rng);
-            if other.dot(hit.n).signum() == reflected.dot(hit.n).signum() {
-                other = -other;
-            }
-            for w in [reflected, other] {
-                let spawned = Ray::new(spawn_origin(&hit, w), w);
+            for spawned in spawned_rays(&hit, r.dir, &mut rng) {
                 assert_eq!(q.intersect(&spawned, 0.0, f32::INFINITY), None, "self-hit {hit:?}");
             }
             checked += 1;

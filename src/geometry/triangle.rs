@@ -22,12 +22,10 @@ impl Triangle {
     /// the longest edge squared (the roundoff level of the cross product itself), or not finite.
     pub fn is_degenerate(&self) -> bool {
         let [p0, p1, p2] = self.p;
-        let longest = (p1 - p0)
-            .length_squared()
-            .max((p2 - p0).length_squared())
-            .max((p2 - p1).length_squared());
+        let longest =
+            (p1 - p0).length_squared().max((p2 - p0).length_squared()).max((p2 - p1).length_squared());
         let twice_area = (p1 - p0).cross(p2 - p0).length();
-        !(twice_area > 8.0 * MACHINE_EPSILON * longest)
+        twice_area <= 8.0 * MACHINE_EPSILON * longest || twice_area.is_nan()
     }
 
     /// Woop–Benthin–Wald watertight test: the hit distance (in (0, `tmax`], conservatively
@@ -58,9 +56,8 @@ impl Triangle {
         let edge = |p: Vec3, q: Vec3| p.x * q.y - p.y * q.x;
         let mut e = [edge(b, c), edge(c, a), edge(a, b)];
         if e.contains(&0.0) {
-            let edge64 = |p: Vec3, q: Vec3| {
-                (f64::from(p.x) * f64::from(q.y) - f64::from(p.y) * f64::from(q.x)) as f32
-            };
+            let edge64 =
+                |p: Vec3, q: Vec3| (f64::from(p.x) * f64::from(q.y) - f64::from(p.y) * f64::from(q.x)) as f32;
             e = [edge64(b, c), edge64(c, a), edge64(a, b)];
         }
         let [e0, e1, e2] = e;
@@ -91,8 +88,7 @@ impl Triangle {
         let delta_y = gamma(5) * (max_yt + max_zt);
         let delta_e = 2.0 * (gamma(2) * max_xt * max_yt + delta_y * max_xt + delta_x * max_yt);
         let max_e = e0.abs().max(e1.abs()).max(e2.abs());
-        let delta_t =
-            3.0 * (gamma(3) * max_e * max_zt + delta_e * max_zt + delta_z * max_e) * inv_det.abs();
+        let delta_t = 3.0 * (gamma(3) * max_e * max_zt + delta_e * max_zt + delta_z * max_e) * inv_det.abs();
         if t <= delta_t {
             return None;
         }
@@ -142,21 +138,10 @@ impl Triangle {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::geometry::spawn_origin;
+    use crate::geometry::test_support::{random_point, random_unit, ray, spawned_rays};
     use rand::{RngExt, SeedableRng};
     use rand_pcg::Pcg32;
     use std::f64::consts::PI;
-
-    fn ray(o: [f32; 3], d: [f32; 3]) -> Ray {
-        Ray::new(Vec3::from(o), Vec3::from(d).normalize())
-    }
-
-    fn random_unit(rng: &mut Pcg32) -> Vec3 {
-        let z = 2.0 * rng.random::<f32>() - 1.0;
-        let phi = std::f32::consts::TAU * rng.random::<f32>();
-        let s = (1.0 - z * z).max(0.0).sqrt();
-        Vec3::new(s * phi.cos(), s * phi.sin(), z)
-    }
 
     /// Right triangle in z = 0: (0,0,0), (1,0,0), (0,1,0), normal +Z.
     fn unit() -> Triangle {
@@ -175,7 +160,8 @@ mod tests {
         assert_eq!(h.uv, Vec2::new(0.25, 0.5));
         assert!(h.p_error > 0.0 && h.p_error < 1e-6);
         // From behind: same normal (the geometric one), oblique direction.
-        let r = Ray::new(Vec3::new(0.25, 0.25, -2.0) - Vec3::new(1.0, 2.0, 0.0), Vec3::new(1.0, 2.0, 2.0) / 3.0);
+        let r =
+            Ray::new(Vec3::new(0.25, 0.25, -2.0) - Vec3::new(1.0, 2.0, 0.0), Vec3::new(1.0, 2.0, 2.0) / 3.0);
         let t = tri.intersect(&r, 0.0, f32::INFINITY).unwrap();
         assert!((t - 3.0).abs() < 1e-6, "t = {t}");
         assert_eq!(tri.surface(&r, t).n, Vec3::Z);
@@ -289,7 +275,9 @@ mod tests {
                 // The centre shoots at every target, other origins at a random subset; all
                 // shoot some random directions too.
                 if k == 0 {
-                    rays.extend(targets.iter().filter_map(|&p| (p - o).try_normalize()).map(|d| Ray::new(o, d)));
+                    rays.extend(
+                        targets.iter().filter_map(|&p| (p - o).try_normalize()).map(|d| Ray::new(o, d)),
+                    );
                 } else {
                     for _ in 0..150 {
                         let p = targets[rng.random_range(0..targets.len())];
@@ -312,9 +300,10 @@ mod tests {
         let mut rng = Pcg32::seed_from_u64(41);
         let mut checked = 0;
         while checked < 2_000 {
-            let p0 = Vec3::new(rng.random(), rng.random(), rng.random()) * 200.0 - 100.0;
+            let p0 = random_point(&mut rng, 100.0);
             let scale = 0.01 + 10.0 * rng.random::<f32>();
-            let tri = Triangle::new(p0, p0 + random_unit(&mut rng) * scale, p0 + random_unit(&mut rng) * scale);
+            let tri =
+                Triangle::new(p0, p0 + random_unit(&mut rng) * scale, p0 + random_unit(&mut rng) * scale);
             if tri.is_degenerate() {
                 continue;
             }
@@ -325,13 +314,7 @@ mod tests {
             let r = Ray::new(o, (target - o).normalize());
             let Some(t) = tri.intersect(&r, 0.0, f32::INFINITY) else { continue };
             let hit = tri.surface(&r, t);
-            let reflected = r.dir - 2.0 * r.dir.dot(hit.n) * hit.n;
-            let mut other = random_unit(&mut rng);
-            if other.dot(hit.n).signum() == reflected.dot(hit.n).signum() {
-                other = -other;
-            }
-            for w in [reflected, other] {
-                let spawned = Ray::new(spawn_origin(&hit, w), w);
+            for spawned in spawned_rays(&hit, r.dir, &mut rng) {
                 assert_eq!(tri.intersect(&spawned, 0.0, f32::INFINITY), None, "self-hit {hit:?}");
             }
             checked += 1;

@@ -62,20 +62,14 @@ fn metadata_attributes(
     meta: &ExrMetadata,
 ) -> Result<Vec<(&'static str, AttributeValue)>, OutputError> {
     let spp = i32::try_from(meta.spp).map_err(|_| {
-        OutputError::format(
-            path,
-            format!("spp {} does not fit the EXR int attribute", meta.spp),
-        )
+        OutputError::format(path, format!("spp {} does not fit the EXR int attribute", meta.spp))
     })?;
     Ok(vec![
         ("vitrum:version", text_value(&meta.version)),
         ("vitrum:integrator", text_value(&meta.integrator)),
         ("vitrum:spp", AttributeValue::I32(spp)),
         ("vitrum:seed", text_value(&meta.seed.to_string())),
-        (
-            "renderTimeSeconds",
-            AttributeValue::F32(meta.render_time_seconds as f32),
-        ),
+        ("renderTimeSeconds", AttributeValue::F32(meta.render_time_seconds as f32)),
         ("vitrum:rays", text_value(&rays_text(&meta.rays))),
         ("vitrum:scene", text_value(&meta.scene)),
         ("vitrum:effects", text_value(&meta.effects)),
@@ -86,10 +80,7 @@ fn metadata_attributes(
 fn exr_error(path: &Path, error: exr::error::Error) -> OutputError {
     match error {
         exr::error::Error::Io(source) => OutputError::io(path, source),
-        other => OutputError::Exr {
-            path: path.to_path_buf(),
-            message: other.to_string(),
-        },
+        other => OutputError::Exr { path: path.to_path_buf(), message: other.to_string() },
     }
 }
 
@@ -106,17 +97,10 @@ pub fn write_exr(path: &Path, image: &Image, meta: &ExrMetadata) -> Result<(), O
         let c = image.pixels[p.y() * width + p.x()];
         (c.x, c.y, c.z)
     });
-    let layer = Layer::new(
-        (image.width, image.height),
-        attributes,
-        Encoding::SMALL_LOSSLESS,
-        pixels,
-    );
+    let layer = Layer::new((image.width, image.height), attributes, Encoding::SMALL_LOSSLESS, pixels);
     let file = exr::image::Image::from_layer(layer);
     // Errors name the final path: the temporary name means nothing to the user.
-    write_atomically(path, |tmp| {
-        file.write().to_file(tmp).map_err(|e| exr_error(path, e))
-    })
+    write_atomically(path, |tmp| file.write().to_file(tmp).map_err(|e| exr_error(path, e)))
 }
 
 /// Read the first layer's R, G, B channels as f32 plus all header attributes (image- and layer-level) as strings.
@@ -131,8 +115,7 @@ pub fn read_exr(path: &Path) -> Result<(Image, BTreeMap<String, String>), Output
         .all_attributes()
         .from_buffered(Cursor::new(&bytes))
         .map_err(|e| exr_error(path, e))?;
-    let meta =
-        MetaData::read_from_buffered(Cursor::new(&bytes), false).map_err(|e| exr_error(path, e))?;
+    let meta = MetaData::read_from_buffered(Cursor::new(&bytes), false).map_err(|e| exr_error(path, e))?;
     let (Some(layer), Some(header)) = (file.layer_data.first(), meta.headers.first()) else {
         return Err(OutputError::format(path, "the EXR file has no layers"));
     };
@@ -152,24 +135,16 @@ pub fn read_exr(path: &Path) -> Result<(Image, BTreeMap<String, String>), Output
     };
     let rgb = [channel("R")?, channel("G")?, channel("B")?];
     let mut image = Image::new(layer.size.width(), layer.size.height());
-    if rgb
-        .iter()
-        .any(|c| c.sample_data.len() != image.pixels.len())
-    {
-        return Err(OutputError::format(
-            path,
-            "subsampled R, G, B channels are not supported",
-        ));
+    if rgb.iter().any(|c| c.sample_data.len() != image.pixels.len()) {
+        return Err(OutputError::format(path, "subsampled R, G, B channels are not supported"));
     }
     let [r, g, b] = rgb.map(|c| c.sample_data.values_as_f32());
     for (pixel, ((r, g), b)) in image.pixels.iter_mut().zip(r.zip(g).zip(b)) {
         *pixel = glam::Vec3::new(r, g, b);
     }
 
-    let attributes = header
-        .all_named_attributes()
-        .map(|(name, value)| (utf8(name), attribute_string(&value)))
-        .collect();
+    let attributes =
+        header.all_named_attributes().map(|(name, value)| (utf8(name), attribute_string(&value))).collect();
     Ok((image, attributes))
 }
 
@@ -183,11 +158,9 @@ fn utf8(bytes: &[u8]) -> String {
 fn attribute_string(value: &AttributeValue) -> String {
     match value {
         AttributeValue::Text(t) => utf8(t.as_slice()),
-        AttributeValue::TextVector(ts) => ts
-            .iter()
-            .map(|t| utf8(t.as_slice()))
-            .collect::<Vec<_>>()
-            .join(", "),
+        AttributeValue::TextVector(ts) => {
+            ts.iter().map(|t| utf8(t.as_slice())).collect::<Vec<_>>().join(", ")
+        }
         AttributeValue::I32(v) => v.to_string(),
         AttributeValue::F32(v) => v.to_string(),
         AttributeValue::F64(v) => v.to_string(),
@@ -236,23 +209,14 @@ mod tests {
             spp: 64,
             seed: u64::MAX - 6, // beyond i32 and f64 precision
             render_time_seconds: 12.5,
-            rays: RayCounts {
-                primary: 640_000,
-                reflected: 1234,
-                refracted: 2345,
-                shadow: 99_999,
-            },
+            rays: RayCounts { primary: 640_000, reflected: 1234, refracted: 2345, shadow: 99_999 },
             scene: "scenes/cornell ü.toml (blake3:0123abcd)".into(),
             effects: "dispersion, soft shadows".into(),
         }
     }
 
     fn bits(image: &Image) -> Vec<[u32; 3]> {
-        image
-            .pixels
-            .iter()
-            .map(|p| p.to_array().map(f32::to_bits))
-            .collect()
+        image.pixels.iter().map(|p| p.to_array().map(f32::to_bits)).collect()
     }
 
     #[test]
@@ -262,11 +226,7 @@ mod tests {
         let image = test_image();
         write_exr(&path, &image, &test_metadata()).unwrap();
         assert_eq!(dir_entries(dir.path()), ["render.exr"]);
-        assert_eq!(
-            &std::fs::read(&path).unwrap()[..4],
-            &[0x76, 0x2f, 0x31, 0x01],
-            "EXR magic number"
-        );
+        assert_eq!(&std::fs::read(&path).unwrap()[..4], &[0x76, 0x2f, 0x31, 0x01], "EXR magic number");
 
         let (back, attrs) = read_exr(&path).unwrap();
         assert_eq!((back.width, back.height), (7, 5));
@@ -279,10 +239,7 @@ mod tests {
             ("vitrum:spp", "64"),
             ("vitrum:seed", "18446744073709551609"),
             ("renderTimeSeconds", "12.5"),
-            (
-                "vitrum:rays",
-                "primary=640000 reflected=1234 refracted=2345 shadow=99999",
-            ),
+            ("vitrum:rays", "primary=640000 reflected=1234 refracted=2345 shadow=99999"),
             ("vitrum:scene", "scenes/cornell ü.toml (blake3:0123abcd)"),
             ("vitrum:effects", "dispersion, soft shadows"),
             ("software", "vitrum 0.1.0"),
@@ -295,11 +252,7 @@ mod tests {
             ("screenWindowCenter", "(0, 0)"),
         ];
         for (name, value) in expected {
-            assert_eq!(
-                attrs.get(name).map(String::as_str),
-                Some(value),
-                "attribute {name} in {attrs:?}"
-            );
+            assert_eq!(attrs.get(name).map(String::as_str), Some(value), "attribute {name} in {attrs:?}");
         }
     }
 
@@ -313,10 +266,7 @@ mod tests {
         let header = &meta.headers[0];
         assert_eq!(header.compression, exr::meta::attribute::Compression::ZIP16);
         assert_eq!(header.blocks, exr::meta::BlockDescription::ScanLines);
-        assert_eq!(
-            header.channels.uniform_sample_type,
-            Some(exr::meta::attribute::SampleType::F32)
-        );
+        assert_eq!(header.channels.uniform_sample_type, Some(exr::meta::attribute::SampleType::F32));
         assert_eq!(header.channels.list.len(), 3);
     }
 
@@ -334,10 +284,7 @@ mod tests {
     fn failed_write_leaves_nothing_behind() {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("render.exr");
-        let meta = ExrMetadata {
-            spp: u32::MAX,
-            ..ExrMetadata::default()
-        };
+        let meta = ExrMetadata { spp: u32::MAX, ..ExrMetadata::default() };
         let err = write_exr(&path, &test_image(), &meta).unwrap_err();
         assert!(err.to_string().contains("render.exr"), "{err}");
         let mut short = test_image();
@@ -381,27 +328,14 @@ mod tests {
         use exr::prelude::{AnyChannel, AnyChannels, FlatSamples, SmallVec};
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("depth.exr");
-        let channels = AnyChannels::sort(SmallVec::from_vec(vec![AnyChannel::new(
-            "Z",
-            FlatSamples::F32(vec![1.0; 6]),
-        )]));
-        let layer = Layer::new(
-            (3, 2),
-            LayerAttributes::default(),
-            Encoding::UNCOMPRESSED,
-            channels,
-        );
-        exr::image::Image::from_layer(layer)
-            .write()
-            .to_file(&path)
-            .unwrap();
+        let channels =
+            AnyChannels::sort(SmallVec::from_vec(vec![AnyChannel::new("Z", FlatSamples::F32(vec![1.0; 6]))]));
+        let layer = Layer::new((3, 2), LayerAttributes::default(), Encoding::UNCOMPRESSED, channels);
+        exr::image::Image::from_layer(layer).write().to_file(&path).unwrap();
 
         let err = read_exr(&path).unwrap_err();
         assert!(matches!(err, OutputError::Format { .. }), "{err:?}");
         let message = err.to_string();
-        assert!(
-            message.contains("depth.exr") && message.contains("not an RGB EXR"),
-            "{message}"
-        );
+        assert!(message.contains("depth.exr") && message.contains("not an RGB EXR"), "{message}");
     }
 }

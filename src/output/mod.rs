@@ -44,18 +44,12 @@ pub enum OutputError {
 impl OutputError {
     /// An [`OutputError::Io`] for `path`.
     pub fn io(path: &Path, source: io::Error) -> OutputError {
-        OutputError::Io {
-            path: path.to_path_buf(),
-            source,
-        }
+        OutputError::Io { path: path.to_path_buf(), source }
     }
 
     /// An [`OutputError::Format`] for `path`.
     pub fn format(path: &Path, message: impl Into<String>) -> OutputError {
-        OutputError::Format {
-            path: path.to_path_buf(),
-            message: message.into(),
-        }
+        OutputError::Format { path: path.to_path_buf(), message: message.into() }
     }
 }
 
@@ -84,31 +78,18 @@ pub fn write_atomically(
     write: impl FnOnce(&Path) -> Result<(), OutputError>,
 ) -> Result<(), OutputError> {
     let Some(file_name) = path.file_name() else {
-        let e = io::Error::new(
-            io::ErrorKind::InvalidInput,
-            "the output path has no file name",
-        );
+        let e = io::Error::new(io::ErrorKind::InvalidInput, "the output path has no file name");
         return Err(OutputError::io(path, e));
     };
     let counter = TEMP_COUNTER.fetch_add(1, Ordering::Relaxed);
-    let tmp_name = format!(
-        ".{}.tmp-{}-{counter}",
-        file_name.to_string_lossy(),
-        std::process::id()
-    );
+    let tmp_name = format!(".{}.tmp-{}-{counter}", file_name.to_string_lossy(), std::process::id());
     // The guard also cleans up if `write` panics.
-    let mut tmp = TempFile {
-        path: path.with_file_name(tmp_name),
-        keep: false,
-    };
+    let mut tmp = TempFile { path: path.with_file_name(tmp_name), keep: false };
 
     write(&tmp.path)?;
     // Make the contents durable before the rename publishes them, so a crash cannot leave an
     // empty or partial file under the final name.
-    let sync = fs::OpenOptions::new()
-        .write(true)
-        .open(&tmp.path)
-        .and_then(|f| f.sync_all());
+    let sync = fs::OpenOptions::new().write(true).open(&tmp.path).and_then(|f| f.sync_all());
     sync.map_err(|e| OutputError::io(&tmp.path, e))?;
     fs::rename(&tmp.path, path).map_err(|e| OutputError::io(path, e))?;
     tmp.keep = true;
@@ -121,12 +102,7 @@ fn check_pixel_count(path: &Path, image: &Image) -> Result<(), OutputError> {
     if expected != Some(image.pixels.len()) {
         return Err(OutputError::format(
             path,
-            format!(
-                "image is {}x{} but has {} pixels",
-                image.width,
-                image.height,
-                image.pixels.len()
-            ),
+            format!("image is {}x{} but has {} pixels", image.width, image.height, image.pixels.len()),
         ));
     }
     Ok(())
@@ -159,10 +135,7 @@ mod tests {
         let tmp = seen_tmp.unwrap();
         assert_eq!(tmp.parent(), Some(dir.path()));
         let tmp_name = tmp.file_name().unwrap().to_string_lossy().into_owned();
-        assert!(
-            tmp_name.starts_with(&format!(".out.txt.tmp-{}-", std::process::id())),
-            "{tmp_name}"
-        );
+        assert!(tmp_name.starts_with(&format!(".out.txt.tmp-{}-", std::process::id())), "{tmp_name}");
         assert_eq!(fs::read(&target).unwrap(), b"new");
         assert_eq!(dir_entries(dir.path()), ["out.txt"]);
     }
@@ -172,10 +145,7 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let target = dir.path().join("out.txt");
         fs::write(&target, b"old").unwrap();
-        write_atomically(&target, |tmp| {
-            fs::write(tmp, b"new").map_err(|e| OutputError::io(tmp, e))
-        })
-        .unwrap();
+        write_atomically(&target, |tmp| fs::write(tmp, b"new").map_err(|e| OutputError::io(tmp, e))).unwrap();
         assert_eq!(fs::read(&target).unwrap(), b"new");
         assert_eq!(dir_entries(dir.path()), ["out.txt"]);
     }
@@ -210,10 +180,8 @@ mod tests {
     fn atomic_write_into_missing_directory_is_io_error_with_path() {
         let dir = tempfile::tempdir().unwrap();
         let target = dir.path().join("no-such-dir").join("out.txt");
-        let err = write_atomically(&target, |tmp| {
-            fs::write(tmp, b"x").map_err(|e| OutputError::io(tmp, e))
-        })
-        .unwrap_err();
+        let err = write_atomically(&target, |tmp| fs::write(tmp, b"x").map_err(|e| OutputError::io(tmp, e)))
+            .unwrap_err();
         assert!(matches!(err, OutputError::Io { .. }));
         assert!(err.to_string().contains("no-such-dir"), "{err}");
     }

@@ -28,13 +28,7 @@ pub fn to_srgb8(image: &Image, exposure_ev: f32) -> Vec<u8> {
     image
         .pixels
         .iter()
-        .flat_map(|p| {
-            if p.is_nan() {
-                NAN_RGB8
-            } else {
-                (*p * scale).to_array().map(srgb8)
-            }
-        })
+        .flat_map(|p| if p.is_nan() { NAN_RGB8 } else { (*p * scale).to_array().map(srgb8) })
         .collect()
 }
 
@@ -69,11 +63,7 @@ mod tests {
     use glam::Vec3;
 
     fn grey(width: usize, height: usize, values: &[f32]) -> Image {
-        Image {
-            width,
-            height,
-            pixels: values.iter().map(|&v| Vec3::splat(v)).collect(),
-        }
+        Image { width, height, pixels: values.iter().map(|&v| Vec3::splat(v)).collect() }
     }
 
     #[test]
@@ -92,9 +82,7 @@ mod tests {
         let codes: Vec<u8> = to_srgb8(&image, 0.0).chunks(3).map(|c| c[0]).collect();
         // 18% grey encodes to 0.4614 = 117.6/255.
         assert_eq!(codes, [0, 255, 188, 118, 0, 255]);
-        assert!(to_srgb8(&image, 0.0)
-            .chunks(3)
-            .all(|c| c[0] == c[1] && c[1] == c[2]));
+        assert!(to_srgb8(&image, 0.0).chunks(3).all(|c| c[0] == c[1] && c[1] == c[2]));
     }
 
     #[test]

@@ -190,22 +190,61 @@ impl<'a> Source<'a> {
         best
     }
 
-    /// The path of the deepest node whose key or value contains `offset`.
+    /// The path of the deepest node whose key or value contains `offset`. Implicit tables (the
+    /// `materials` of `[materials.glass]`) have no span of their own and are searched through.
     pub fn path_at(&self, offset: usize) -> FieldPath {
-        let mut path = FieldPath::default();
-        let Some(doc) = self.doc.as_ref() else { return path };
-        let mut node = Node::Item(doc.as_item());
-        'descend: loop {
+        fn descend(node: Node<'_>, offset: usize, path: &mut FieldPath) -> bool {
+            let contains = |r: &Option<Range<usize>>| r.as_ref().is_some_and(|r| r.contains(&offset));
             for (seg, child, key_span) in node.children() {
-                let contains = |r: &Option<Range<usize>>| r.as_ref().is_some_and(|r| r.contains(&offset));
-                if contains(&key_span) || contains(&child.span()) {
+                let hit = contains(&key_span) || contains(&child.span());
+                if hit || child.span().is_none() {
                     path.0.push(seg);
-                    node = child;
-                    continue 'descend;
+                    if descend(child, offset, path) || hit {
+                        return true;
+                    }
+                    path.0.pop();
                 }
             }
-            return path;
+            false
         }
+        let mut path = FieldPath::default();
+        if let Some(doc) = self.doc.as_ref() {
+            descend(Node::Item(doc.as_item()), offset, &mut path);
+        }
+        path
+    }
+
+    /// Start offsets of the keys (or, for array elements, values) inside `range` whose key and
+    /// value satisfy `matches`; `value` is `None` for tables. In document order.
+    pub fn find_in(
+        &self,
+        range: Range<usize>,
+        matches: impl Fn(Option<&str>, Option<&Value>) -> bool,
+    ) -> Vec<usize> {
+        let Some(doc) = self.doc.as_ref() else { return Vec::new() };
+        let inside = |r: &Option<Range<usize>>| r.as_ref().is_some_and(|r| range.start <= r.start && r.end <= range.end);
+        let mut found = Vec::new();
+        let mut stack = vec![Node::Item(doc.as_item())];
+        while let Some(node) = stack.pop() {
+            for (seg, child, key_span) in node.children() {
+                let value = match child {
+                    Node::Item(Item::Value(v)) | Node::Value(v) => Some(v),
+                    _ => None,
+                };
+                let key = match &seg {
+                    Segment::Key(k) => Some(k.as_str()),
+                    Segment::Index(_) => None,
+                };
+                let at = if key_span.is_some() { key_span } else { child.span() };
+                if inside(&at) && matches(key, value) {
+                    found.extend(at.map(|r| r.start));
+                }
+                stack.push(child);
+            }
+        }
+        found.sort_unstable();
+        found.dedup();
+        found
     }
 
     /// An error about `path`, located at its line and column.
