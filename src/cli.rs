@@ -45,10 +45,10 @@ pub struct RenderArgs {
     #[arg(short, long)]
     pub integrator: Option<String>,
     /// Samples per pixel.
-    #[arg(long, conflicts_with = "time")]
+    #[arg(long, conflicts_with = "time", allow_negative_numbers = true)]
     pub spp: Option<u32>,
     /// Render whole passes until this many seconds have passed.
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub time: Option<f64>,
     /// Image size, e.g. 400x300.
     #[arg(long, value_parser = parse_resolution)]
@@ -57,13 +57,13 @@ pub struct RenderArgs {
     #[arg(long)]
     pub seed: Option<u64>,
     /// Worker threads (default: all cores).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub threads: Option<usize>,
     /// Maximum recursion depth.
     #[arg(long)]
     pub max_depth: Option<u32>,
     /// Constant dielectric reflectance instead of exact Fresnel (the thesis used 0.06).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub reflectance: Option<f32>,
     /// Output EXR file.
     #[arg(short, long, default_value = "render.exr")]

@@ -4,8 +4,9 @@ use std::f32::consts::TAU;
 
 use glam::{Vec2, Vec3};
 
+use super::disk::circle_extent;
 use super::sphere::radial_roots;
-use super::{point_error, seam_slack, Bounds, Ray, SurfaceHit};
+use super::{azimuth, point_error, seam_slack, Bounds, Ray, SurfaceHit};
 
 /// The wall of a cylinder between `base` and `base + axis·height`, without caps.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -55,14 +56,12 @@ impl Cylinder {
         let z = q.dot(self.w);
         let n = (q - z * self.w).normalize_or(self.u);
         let p = self.base + (z * self.w + self.radius * n);
-        let phi = n.dot(self.v).atan2(n.dot(self.u));
-        let u = if phi < 0.0 { phi + TAU } else { phi } / TAU;
         let v = if self.height > 0.0 { z / self.height } else { 0.0 };
         SurfaceHit {
             t,
             p,
             n,
-            uv: Vec2::new(u.clamp(0.0, 1.0), v.clamp(0.0, 1.0)),
+            uv: Vec2::new(azimuth((self.u, self.v), n), v.clamp(0.0, 1.0)),
             // Radially, as for the sphere, n·r is within γ(6)·r ≤ γ(11)·(|p|∞ + |base|∞) of the
             // wall (roundoff of `q − z·w` only tilts n, moving p tangentially); recomposing
             // base + (z·w + r·n) rounds four more times on terms bounded by
@@ -71,11 +70,10 @@ impl Cylinder {
         }
     }
 
-    /// Bounds of the two end circles: along world axis i a circle of normal w extends
-    /// `r·√(1 − w_i²)` either side of its centre.
+    /// Bounds of the two end circles.
     pub fn bounds(&self) -> Bounds {
         let top = self.base + self.w * self.height;
-        let extent = self.radius * (Vec3::ONE - self.w * self.w).max(Vec3::ZERO).powf(0.5);
+        let extent = circle_extent(self.w, self.radius);
         Bounds { min: self.base.min(top) - extent, max: self.base.max(top) + extent }
     }
 

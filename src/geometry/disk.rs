@@ -1,10 +1,17 @@
 //! Disks and annuli.
 
-use std::f32::consts::{PI, TAU};
+use std::f32::consts::PI;
 
 use glam::{Vec2, Vec3};
 
-use super::{planar_surface, plane_hit, plane_point, seam_slack, Bounds, Ray, SurfaceHit};
+use super::{azimuth, planar_surface, plane_hit, plane_point, seam_slack, Bounds, Ray, SurfaceHit};
+
+/// Half-extent along each world axis of a circle of `radius` around the unit `normal`:
+/// `r·√(1 − n_i²)` along axis i.
+#[inline]
+pub(crate) fn circle_extent(normal: Vec3, radius: f32) -> Vec3 {
+    radius * (Vec3::ONE - normal * normal).max(Vec3::ZERO).sqrt()
+}
 
 /// A disk of radius `radius` around `center`, with a hole of `inner_radius` (an annulus if > 0).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -39,17 +46,15 @@ impl Disk {
     pub fn surface(&self, ray: &Ray, t: f32) -> SurfaceHit {
         let q = plane_point(self.normal, self.center, ray, t);
         let dist = q.length();
-        let phi = q.dot(self.tangent.1).atan2(q.dot(self.tangent.0));
-        let u = if phi < 0.0 { phi + TAU } else { phi } / TAU;
         let width = self.radius - self.inner_radius;
         let v = if width > 0.0 { (self.radius - dist) / width } else { 0.0 };
-        let uv = Vec2::new(u.clamp(0.0, 1.0), v.clamp(0.0, 1.0));
+        let uv = Vec2::new(azimuth(self.tangent, q), v.clamp(0.0, 1.0));
         planar_surface(self.normal, self.center, q, t, uv)
     }
 
-    /// Bounds of the rim circle: along world axis i it extends `r·√(1 − n_i²)`.
+    /// Bounds of the rim circle.
     pub fn bounds(&self) -> Bounds {
-        let extent = self.radius * (Vec3::ONE - self.normal * self.normal).max(Vec3::ZERO).powf(0.5);
+        let extent = circle_extent(self.normal, self.radius);
         Bounds { min: self.center - extent, max: self.center + extent }
     }
 
@@ -65,6 +70,7 @@ mod tests {
     use crate::geometry::test_support::{random_point, random_unit, ray, spawned_rays};
     use rand::{RngExt, SeedableRng};
     use rand_pcg::Pcg32;
+    use std::f32::consts::TAU;
 
     #[test]
     fn head_on_hit() {

@@ -211,6 +211,14 @@ pub(crate) fn bounds_of(points: &[Vec3]) -> Bounds {
     })
 }
 
+/// Angle of `v` around a unit axis, measured in the plane of the orthonormal `frame` from
+/// `frame.0` towards `frame.1`, as a texture coordinate in [0, 1].
+#[inline]
+pub(crate) fn azimuth(frame: (Vec3, Vec3), v: Vec3) -> f32 {
+    let phi = v.dot(frame.1).atan2(v.dot(frame.0));
+    (if phi < 0.0 { phi + std::f32::consts::TAU } else { phi } / std::f32::consts::TAU).clamp(0.0, 1.0)
+}
+
 /// Hit of `ray` with the plane through `reference` with unit normal `n`, if its distance lies in
 /// the open interval (`tmin`, `tmax`): returns `t`, the origin relative to `reference` and the
 /// hit point relative to `reference` (all planar shapes work relative to their reference point

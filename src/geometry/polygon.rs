@@ -26,7 +26,6 @@ struct Edge {
 /// A planar convex polygon, counter-clockwise when seen from its normal side.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Polygon {
-    vertices: Vec<Vec3>,
     edges: Vec<Edge>,
     /// Vertex centroid: the point the plane passes through and all offsets are taken from.
     reference: Vec3,
@@ -38,6 +37,8 @@ pub struct Polygon {
     /// Diameter bound (twice the largest vertex distance from the centroid).
     size: f32,
     area: f32,
+    /// Bounds of the vertices and of their projections onto the plane (what is intersected).
+    bounds: Bounds,
 }
 
 impl Polygon {
@@ -97,8 +98,9 @@ impl Polygon {
         let planar = |v: Vec3| Vec2::new((v - reference).dot(uv_axes.0), (v - reference).dot(uv_axes.1));
         let lo = vertices.iter().map(|&v| planar(v)).fold(Vec2::INFINITY, Vec2::min);
         let hi = vertices.iter().map(|&v| planar(v)).fold(Vec2::NEG_INFINITY, Vec2::max);
+        let projected = vertices.iter().map(|&v| v - normal.dot(v - reference) * normal);
+        let bounds = bounds_of(&vertices.iter().copied().chain(projected).collect::<Vec<_>>());
         Ok(Polygon {
-            vertices,
             edges,
             reference,
             normal,
@@ -107,6 +109,7 @@ impl Polygon {
             uv_scale: (hi - lo).recip(),
             size,
             area: 0.5 * twice_area,
+            bounds,
         })
     }
 
@@ -129,10 +132,7 @@ impl Polygon {
 
     /// Bounds of the vertices and of their projections onto the plane (what is intersected).
     pub fn bounds(&self) -> Bounds {
-        let b = bounds_of(&self.vertices);
-        let projected = self.vertices.iter().map(|&v| v - self.normal.dot(v - self.reference) * self.normal);
-        let p = projected.fold(b, |b, p| Bounds { min: b.min.min(p), max: b.max.max(p) });
-        Bounds { min: b.min.min(p.min), max: b.max.max(p.max) }
+        self.bounds
     }
 
     /// Area (half the Newell vector's length).

@@ -12,8 +12,9 @@ pub struct Quad {
     v: Vec3,
     /// Unit normal `normalize(u × v)` (zero for a degenerate quad, which is never hit).
     normal: Vec3,
-    /// `(u × v) / |u × v|²`: `w·(q × v)` and `w·(u × q)` are the coordinates (a, b) of q.
-    w: Vec3,
+    /// Dual basis `(v × w, w × u)` with `w = (u × v) / |u × v|²`: for an in-plane offset q
+    /// from the corner, `q·dual.0` and `q·dual.1` are its coordinates (a, b).
+    dual: (Vec3, Vec3),
     /// Reciprocal distances between opposite edges (converts length slack to a and b).
     inv_width: Vec2,
     /// `|u| + |v|`, the size for the seam slack.
@@ -30,13 +31,14 @@ impl Quad {
         } else {
             (Vec3::ZERO, Vec3::ZERO, Vec2::ZERO)
         };
-        Quad { corner, u, v, normal, w, inv_width, size: u.length() + v.length() }
+        let dual = (v.cross(w), w.cross(u));
+        Quad { corner, u, v, normal, dual, inv_width, size: u.length() + v.length() }
     }
 
     /// Parallelogram coordinates (a, b) of the offset `q` from the corner.
     #[inline]
     fn coords(&self, q: Vec3) -> Vec2 {
-        Vec2::new(self.w.dot(q.cross(self.v)), self.w.dot(self.u.cross(q)))
+        Vec2::new(q.dot(self.dual.0), q.dot(self.dual.1))
     }
 
     /// Nearest hit distance in the open interval (`tmin`, `tmax`).

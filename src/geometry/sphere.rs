@@ -5,7 +5,7 @@ use std::f32::consts::{PI, TAU};
 
 use glam::{Vec2, Vec3};
 
-use super::{point_error, seam_slack, Bounds, Ray, SurfaceHit};
+use super::{azimuth, point_error, seam_slack, Bounds, Ray, SurfaceHit};
 
 /// Below this squared direction length a ray counts as parallel to a cylinder's axis (its wall
 /// hit would lie beyond 1e15 radii); it also keeps `b / 2a` and `q / a` finite.
@@ -99,13 +99,11 @@ impl Sphere {
         let n = ((ray.origin - self.center) + t * ray.dir).normalize_or(self.axis);
         let p = self.center + n * self.radius;
         let cos_theta = n.dot(self.axis).clamp(-1.0, 1.0);
-        let phi = n.dot(self.tangent.1).atan2(n.dot(self.tangent.0));
-        let u = if phi < 0.0 { phi + TAU } else { phi } / TAU;
         SurfaceHit {
             t,
             p,
             n,
-            uv: Vec2::new(u.clamp(0.0, 1.0), cos_theta.acos() / PI),
+            uv: Vec2::new(azimuth(self.tangent, n), cos_theta.acos() / PI),
             // Radially only the length of n matters: `normalize` (dot, sqrt, reciprocal,
             // product) leaves a relative error below γ(5) and scaling by r rounds once more,
             // γ(6)·r; r ≤ √3·(|p|∞ + |center|∞) makes it < γ(11)·(…); adding the centre: γ(12).

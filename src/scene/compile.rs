@@ -53,23 +53,59 @@ pub fn parse(source: &Source) -> Result<SceneDesc, SceneError> {
     source.check_numbers()?;
     toml::from_str::<SceneDesc>(source.text).map_err(|e| {
         let message = e.message().to_string();
-        // An unknown key inside a flattened table is reported at the table: find the key.
-        let offset = unknown_field(&message)
-            .and_then(|key| {
-                let range = e.span()?;
-                let within = source.text.get(range.clone())?;
-                within.find(&format!("{key} ")).or_else(|| within.find(&format!("{key}="))).map(|i| range.start + i)
-            })
-            .or_else(|| e.span().map(|s| s.start))
-            .unwrap_or(0);
+        let offset = e.span().map_or(0, |range| {
+            // Inside a flattened or internally tagged table (objects, materials, lights, textures)
+            // serde reports the error at the whole table: find the one key or value it is about.
+            let found = source.find_in(range.clone(), |key, value| names(&message, key, value));
+            if found.len() == 1 {
+                found[0]
+            } else {
+                range.start
+            }
+        });
         source.error_at_offset(offset, message)
     })
 }
 
-/// The key named in a serde "unknown field `x`" message.
-fn unknown_field(message: &str) -> Option<&str> {
-    let rest = message.strip_prefix("unknown field `")?;
-    rest.split('`').next()
+/// Whether a serde error `message` is about the entry `key = value` (`key` is `None` for array
+/// elements, `value` is `None` for tables).
+fn names(message: &str, key: Option<&str>, value: Option<&toml_edit::Value>) -> bool {
+    if let Some(rest) = message.strip_prefix("unknown field `") {
+        return key.is_some() && rest.split('`').next() == key;
+    }
+    let Some(value) = value else { return false };
+    if let Some(rest) = message.strip_prefix("unknown variant `") {
+        return value.as_str().is_some_and(|s| rest.split('`').next() == Some(s));
+    }
+    if let Some(rest) = message.strip_prefix("invalid length ") {
+        let len = rest.split(',').next().and_then(|n| n.parse::<usize>().ok());
+        return len.is_some() && value.as_array().map(|a| a.len()) == len;
+    }
+    let unexpected = ["invalid type: ", "invalid value: "]
+        .iter()
+        .find_map(|p| message.strip_prefix(p))
+        .and_then(|rest| rest.rsplit_once(", expected "))
+        .map(|(u, _)| u);
+    unexpected.is_some_and(|u| serde_unexpected(value).is_some_and(|d| d == u))
+}
+
+/// How serde describes a TOML value in "invalid type" messages (`serde::de::Unexpected`).
+fn serde_unexpected(value: &toml_edit::Value) -> Option<String> {
+    use toml_edit::Value;
+    Some(match value {
+        Value::String(s) => format!("string {:?}", s.value()),
+        Value::Integer(i) => format!("integer `{}`", i.value()),
+        Value::Float(f) => {
+            let x = *f.value();
+            let text = x.to_string();
+            let point = if x.is_finite() && !text.contains('.') { ".0" } else { "" };
+            format!("floating point `{text}{point}`")
+        }
+        Value::Boolean(b) => format!("boolean `{}`", b.value()),
+        Value::Array(_) => "sequence".to_string(),
+        Value::InlineTable(_) => "map".to_string(),
+        Value::Datetime(_) => return None,
+    })
 }
 
 /// 64-bit FNV-1a of a text, in hex.
@@ -348,7 +384,7 @@ impl Compiler<'_> {
             }
             ShapeDesc::Quad { corner, u, v: edge_v } => {
                 let (u, ev) = (v(*u), v(*edge_v));
-                if u.cross(ev).length() <= 1e-12 * u.length_squared().max(ev.length_squared()) || u.cross(ev).length() == 0.0 {
+                if !(u.cross(ev).length() > 1e-6 * u.length() * ev.length()) {
                     return Err(self.err(&path.key("u"), "u and v must be non-zero and not parallel (the quad has no area)"));
                 }
                 vec![(Shape::Quad(Quad::new(v(*corner), u, ev)), false)]
