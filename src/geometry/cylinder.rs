@@ -6,7 +6,7 @@ use glam::{Vec2, Vec3};
 
 use super::disk::circle_extent;
 use super::sphere::radial_roots;
-use super::{azimuth, point_error, seam_slack, Bounds, Ray, SurfaceHit};
+use super::{azimuth, point_error, seam_slack, unit_or, Bounds, Ray, SurfaceHit};
 
 /// The wall of a cylinder between `base` and `base + axis·height`, without caps.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -23,7 +23,7 @@ pub struct Cylinder {
 impl Cylinder {
     /// Wall of radius `radius` from `base` along `axis` (normalised) for `height`.
     pub fn new(base: Vec3, axis: Vec3, radius: f32, height: f32) -> Cylinder {
-        let w = axis.normalize_or(Vec3::Z);
+        let w = unit_or(axis, Vec3::Z);
         let (u, v) = w.any_orthonormal_pair();
         Cylinder { base, u, v, w, radius, height }
     }
@@ -54,7 +54,7 @@ impl Cylinder {
     pub fn surface(&self, ray: &Ray, t: f32) -> SurfaceHit {
         let q = (ray.origin - self.base) + t * ray.dir;
         let z = q.dot(self.w);
-        let n = (q - z * self.w).normalize_or(self.u);
+        let n = unit_or(q - z * self.w, self.u);
         let p = self.base + (z * self.w + self.radius * n);
         let v = if self.height > 0.0 { z / self.height } else { 0.0 };
         SurfaceHit {

@@ -4,7 +4,7 @@ use std::f32::consts::PI;
 
 use glam::{Vec2, Vec3};
 
-use super::{azimuth, planar_surface, plane_hit, plane_point, seam_slack, Bounds, Ray, SurfaceHit};
+use super::{azimuth, planar_surface, plane_hit, plane_point, seam_slack, unit_or, Bounds, Ray, SurfaceHit};
 
 /// Half-extent along each world axis of a circle of `radius` around the unit `normal`:
 /// `r·√(1 − n_i²)` along axis i.
@@ -27,7 +27,7 @@ pub struct Disk {
 impl Disk {
     /// Disk or annulus facing `normal` (normalised); `inner_radius` 0 gives a full disk.
     pub fn new(center: Vec3, normal: Vec3, radius: f32, inner_radius: f32) -> Disk {
-        let normal = normal.normalize_or(Vec3::Z);
+        let normal = unit_or(normal, Vec3::Z);
         Disk { center, normal, tangent: normal.any_orthonormal_pair(), radius, inner_radius }
     }
 

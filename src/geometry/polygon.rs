@@ -2,7 +2,9 @@
 
 use glam::{Vec2, Vec3};
 
-use super::{bounds_of, planar_surface, plane_hit, plane_point, seam_slack, Bounds, Ray, SurfaceHit};
+use super::{
+    bounds_of, planar_surface, plane_hit, plane_point, seam_slack, unit_or, Bounds, Ray, SurfaceHit,
+};
 
 /// Largest allowed distance of a vertex from the polygon's plane, relative to its diameter.
 /// Generous enough for hand-typed or rounded coordinates; the polygon is then treated as its
@@ -66,7 +68,7 @@ impl Polygon {
         if twice_area <= DEGENERACY_TOLERANCE * size * size || twice_area.is_nan() {
             return Err("degenerate polygon: the vertices are collinear (zero area)".to_string());
         }
-        let normal = newell / twice_area;
+        let normal = unit_or(newell, Vec3::ZERO);
         for (i, &v) in vertices.iter().enumerate() {
             let off = normal.dot(v - reference).abs();
             if off > PLANAR_TOLERANCE * size {
@@ -79,7 +81,7 @@ impl Polygon {
         }
         let mut edges = Vec::with_capacity(count);
         for i in 0..count {
-            let inward = normal.cross(vertices[next(i)] - vertices[i]).normalize();
+            let inward = unit_or(normal.cross(vertices[next(i)] - vertices[i]), Vec3::ZERO);
             // Every vertex must lie on the inner side of every edge's line; this also rejects
             // self-intersecting stars, whose turns all have the same sign.
             for (k, &v) in vertices.iter().enumerate() {
@@ -93,7 +95,7 @@ impl Polygon {
             }
             edges.push(Edge { inward, offset: inward.dot(vertices[i] - reference) });
         }
-        let tu = (vertices[1] - vertices[0]).normalize();
+        let tu = unit_or(vertices[1] - vertices[0], Vec3::ZERO);
         let uv_axes = (tu, normal.cross(tu));
         let planar = |v: Vec3| Vec2::new((v - reference).dot(uv_axes.0), (v - reference).dot(uv_axes.1));
         let lo = vertices.iter().map(|&v| planar(v)).fold(Vec2::INFINITY, Vec2::min);

@@ -2,7 +2,9 @@
 
 use glam::{Vec2, Vec3};
 
-use super::{bounds_of, planar_surface, plane_hit, plane_point, seam_slack, Bounds, Ray, SurfaceHit};
+use super::{
+    bounds_of, planar_surface, plane_hit, plane_point, seam_slack, unit_or, Bounds, Ray, SurfaceHit,
+};
 
 /// The parallelogram `corner + a·u + b·v`, `a, b ∈ [0, 1]`.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -25,11 +27,12 @@ impl Quad {
     /// Parallelogram spanned by `u` and `v` from `corner`.
     pub fn new(corner: Vec3, u: Vec3, v: Vec3) -> Quad {
         let cross = u.cross(v);
-        let area = cross.length();
-        let (normal, w, inv_width) = if area > 0.0 {
-            (cross / area, cross / (area * area), Vec2::new(v.length(), u.length()) / area)
+        let normal = unit_or(cross, Vec3::ZERO);
+        let area = cross.dot(normal);
+        let (w, inv_width) = if area > 0.0 {
+            (normal / area, Vec2::new(v.length(), u.length()) / area)
         } else {
-            (Vec3::ZERO, Vec3::ZERO, Vec2::ZERO)
+            (Vec3::ZERO, Vec2::ZERO)
         };
         let dual = (v.cross(w), w.cross(u));
         Quad { corner, u, v, normal, dual, inv_width, size: u.length() + v.length() }

@@ -5,7 +5,7 @@ use std::f32::consts::{PI, TAU};
 
 use glam::{Vec2, Vec3};
 
-use super::{azimuth, point_error, seam_slack, Bounds, Ray, SurfaceHit};
+use super::{azimuth, point_error, seam_slack, unit_or, Bounds, Ray, SurfaceHit};
 
 /// Below this squared direction length a ray counts as parallel to a cylinder's axis (its wall
 /// hit would lie beyond 1e15 radii); it also keeps `b / 2a` and `q / a` finite.
@@ -64,7 +64,7 @@ impl Sphere {
 
     /// Sphere keeping only points with `(p − center)·axis <= max_height` (axis is normalised).
     pub fn clipped(center: Vec3, radius: f32, axis: Vec3, max_height: f32) -> Sphere {
-        let axis = axis.normalize_or(Vec3::Y);
+        let axis = unit_or(axis, Vec3::Y);
         Sphere {
             center,
             radius,
@@ -96,7 +96,7 @@ impl Sphere {
 
     /// Full hit record for a hit at `t`, with the point reprojected onto the sphere.
     pub fn surface(&self, ray: &Ray, t: f32) -> SurfaceHit {
-        let n = ((ray.origin - self.center) + t * ray.dir).normalize_or(self.axis);
+        let n = unit_or((ray.origin - self.center) + t * ray.dir, self.axis);
         let p = self.center + n * self.radius;
         let cos_theta = n.dot(self.axis).clamp(-1.0, 1.0);
         SurfaceHit {

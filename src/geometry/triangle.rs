@@ -2,7 +2,7 @@
 
 use glam::{Vec2, Vec3};
 
-use super::{bounds_of, gamma, point_error, Bounds, Ray, SurfaceHit, MACHINE_EPSILON};
+use super::{bounds_of, gamma, point_error, unit_or, Bounds, Ray, SurfaceHit, MACHINE_EPSILON};
 
 /// A triangle counter-clockwise around its normal `normalize((p1 − p0) × (p2 − p0))`.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -15,7 +15,7 @@ pub struct Triangle {
 impl Triangle {
     /// Triangle through the three vertices.
     pub fn new(p0: Vec3, p1: Vec3, p2: Vec3) -> Triangle {
-        Triangle { p: [p0, p1, p2], normal: (p1 - p0).cross(p2 - p0).normalize_or_zero() }
+        Triangle { p: [p0, p1, p2], normal: unit_or((p1 - p0).cross(p2 - p0), Vec3::ZERO) }
     }
 
     /// True when the area is zero or indistinguishable from zero: `|e0 × e1|` at most 8 ulps of

@@ -22,6 +22,9 @@ pub const MAX_PIXELS: u64 = 1 << 26;
 /// Largest image side in pixels.
 pub const MAX_SIDE: u32 = 65536;
 
+/// Relative padding of primitive boxes in the BVH (a few times the shapes' seam slack).
+const BOX_PADDING: f32 = 4e-6;
+
 /// Display name of the embedded default scene.
 pub const DEFAULT_SCENE_NAME: &str = "<embedded default scene>";
 
@@ -384,7 +387,8 @@ impl Compiler<'_> {
             }
             ShapeDesc::Quad { corner, u, v: edge_v } => {
                 let (u, ev) = (v(*u), v(*edge_v));
-                if !(u.cross(ev).length() > 1e-6 * u.length() * ev.length()) {
+                let area = u.cross(ev).length();
+                if area.is_nan() || area <= 1e-6 * u.length() * ev.length() {
                     return Err(self.err(&path.key("u"), "u and v must be non-zero and not parallel (the quad has no area)"));
                 }
                 vec![(Shape::Quad(Quad::new(v(*corner), u, ev)), false)]
@@ -492,8 +496,15 @@ fn build_bvh(primitives: Vec<Primitive>) -> (Vec<Primitive>, obvhs::cwbvh::CwBvh
     }
     let scale = scale_for_extent((hi - lo).max_element());
     let inv = 1.0 / scale;
-    let aabbs: Vec<Aabb> =
-        bounds.iter().map(|b| Aabb::new(Vec3A::from(b.min * inv), Vec3A::from(b.max * inv))).collect();
+    // Pad every box a little: shapes accept hits a few ulps beyond their exact edges (so seams
+    // overlap) and the CwBvh's f32 slab test is not conservative by itself.
+    let aabbs: Vec<Aabb> = bounds
+        .iter()
+        .map(|b| {
+            let pad = BOX_PADDING * ((b.max - b.min).max_element() + b.min.abs().max(b.max.abs()).max_element());
+            Aabb::new(Vec3A::from((b.min - pad) * inv), Vec3A::from((b.max + pad) * inv))
+        })
+        .collect();
     let mut core = Duration::ZERO;
     let bvh = build_cwbvh(&aabbs, BvhBuildParams::medium_build(), &mut core);
     let ordered: Vec<Primitive> =

@@ -222,7 +222,9 @@ impl<'a> Source<'a> {
         matches: impl Fn(Option<&str>, Option<&Value>) -> bool,
     ) -> Vec<usize> {
         let Some(doc) = self.doc.as_ref() else { return Vec::new() };
-        let inside = |r: &Option<Range<usize>>| r.as_ref().is_some_and(|r| range.start <= r.start && r.end <= range.end);
+        let inside = |r: &Option<Range<usize>>| {
+            r.as_ref().is_some_and(|r| range.start <= r.start && r.end <= range.end)
+        };
         let mut found = Vec::new();
         let mut stack = vec![Node::Item(doc.as_item())];
         while let Some(node) = stack.pop() {
