@@ -31,7 +31,14 @@ impl Integrator for RayCast {
         }
     }
 
-    fn radiance(&self, scene: &Scene, _: &RenderParams, ray: &Ray, _: &mut Sampler, rays: &mut RayCounts) -> Vec3 {
+    fn radiance(
+        &self,
+        scene: &Scene,
+        _: &RenderParams,
+        ray: &Ray,
+        _: &mut Sampler,
+        rays: &mut RayCounts,
+    ) -> Vec3 {
         let Some(isect) = scene.intersect(ray, f32::INFINITY) else {
             return scene.settings.background;
         };

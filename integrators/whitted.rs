@@ -36,7 +36,14 @@ impl Integrator for Whitted {
         }
     }
 
-    fn radiance(&self, scene: &Scene, params: &RenderParams, ray: &Ray, _: &mut Sampler, rays: &mut RayCounts) -> Vec3 {
+    fn radiance(
+        &self,
+        scene: &Scene,
+        params: &RenderParams,
+        ray: &Ray,
+        _: &mut Sampler,
+        rays: &mut RayCounts,
+    ) -> Vec3 {
         trace(scene, params, ray, 0, rays)
     }
 }
@@ -50,7 +57,8 @@ fn trace(scene: &Scene, params: &RenderParams, ray: &Ray, depth: u32, rays: &mut
     let wo = -ray.dir;
     let material = scene.material_of(isect.primitive);
     let shadows = ShadowMode::FresnelThroughGlass { reflectance: params.reflectance };
-    let mut l = emitted(scene, isect.primitive, hit, wo) + phong_local(scene, material, hit, wo, shadows, rays);
+    let mut l =
+        emitted(scene, isect.primitive, hit, wo) + phong_local(scene, material, hit, wo, shadows, rays);
     if depth >= params.max_depth {
         return l;
     }
@@ -68,7 +76,8 @@ fn trace(scene: &Scene, params: &RenderParams, ray: &Ray, depth: u32, rays: &mut
             }
         }
         Bsdf::Dielectric { .. } => {
-            let (n_i, n_t) = interface_indices(&material.bsdf, ray.dir, hit.n).expect("a dielectric has indices");
+            let (n_i, n_t) =
+                interface_indices(&material.bsdf, ray.dir, hit.n).expect("a dielectric has indices");
             let transmitted = refract(wo, n, n_t / n_i);
             let r = match transmitted {
                 Some(_) => dielectric_reflectance(wo.dot(n), n_i, n_t, params.reflectance),

@@ -74,10 +74,7 @@ impl Camera {
         let aspect = self.width as f32 / self.height as f32;
         let ndc_x = d.dot(self.right) / (z * self.tan_half_fov * aspect);
         let ndc_y = d.dot(self.up) / (z * self.tan_half_fov);
-        Some(Vec2::new(
-            (ndc_x + 1.0) * 0.5 * self.width as f32,
-            (1.0 - ndc_y) * 0.5 * self.height as f32,
-        ))
+        Some(Vec2::new((ndc_x + 1.0) * 0.5 * self.width as f32, (1.0 - ndc_y) * 0.5 * self.height as f32))
     }
 }
 
@@ -86,8 +83,7 @@ mod tests {
     use super::*;
 
     fn cam() -> Camera {
-        Camera::new(Vec3::new(0.0, 1.0, 4.0), Vec3::new(0.0, 1.0, 0.0), Vec3::Y, 40.0, 64, 32)
-            .unwrap()
+        Camera::new(Vec3::new(0.0, 1.0, 4.0), Vec3::new(0.0, 1.0, 0.0), Vec3::Y, 40.0, 64, 32).unwrap()
     }
 
     #[test]

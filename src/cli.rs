@@ -115,8 +115,10 @@ impl CliError {
 }
 
 fn parse_resolution(s: &str) -> Result<(u32, u32), String> {
-    let (w, h) = s.split_once(['x', 'X']).ok_or_else(|| format!("`{s}` is not WIDTHxHEIGHT, e.g. 800x800"))?;
-    let parse = |v: &str| v.trim().parse::<u32>().map_err(|_| format!("`{v}` is not a whole number of pixels"));
+    let (w, h) =
+        s.split_once(['x', 'X']).ok_or_else(|| format!("`{s}` is not WIDTHxHEIGHT, e.g. 800x800"))?;
+    let parse =
+        |v: &str| v.trim().parse::<u32>().map_err(|_| format!("`{v}` is not a whole number of pixels"));
     let (w, h) = (parse(w)?, parse(h)?);
     if w == 0 || h == 0 {
         return Err(format!("{w}x{h}: width and height must be at least 1"));
@@ -174,11 +176,18 @@ fn integrator_named(name: &str) -> Result<Box<dyn Integrator>, CliError> {
 fn check_output_path(path: &Path, extension: &str) -> Result<(), CliError> {
     let ext_ok = path.extension().and_then(|e| e.to_str()).is_some_and(|e| e.eq_ignore_ascii_case(extension));
     if !ext_ok {
-        return Err(CliError::BadInput(format!("{}: the output file must end in .{extension}", path.display())));
+        return Err(CliError::BadInput(format!(
+            "{}: the output file must end in .{extension}",
+            path.display()
+        )));
     }
     let parent = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
     if !parent.is_dir() {
-        return Err(CliError::BadInput(format!("{}: the folder {} does not exist", path.display(), parent.display())));
+        return Err(CliError::BadInput(format!(
+            "{}: the folder {} does not exist",
+            path.display(),
+            parent.display()
+        )));
     }
     Ok(())
 }
@@ -351,8 +360,10 @@ fn run_info(args: &InfoArgs) -> Result<(), CliError> {
             .0
             .iter()
             .map(|u| {
-                let support: serde_json::Map<String, serde_json::Value> =
-                    all.iter().map(|i| (i.name().to_string(), json!(support_text(i.support(u.effect))))).collect();
+                let support: serde_json::Map<String, serde_json::Value> = all
+                    .iter()
+                    .map(|i| (i.name().to_string(), json!(support_text(i.support(u.effect)))))
+                    .collect();
                 json!({"effect": u.effect.name(), "reason": u.reason, "integrators": support})
             })
             .collect();

@@ -80,7 +80,8 @@ fn render_row(
     samples: std::ops::Range<u32>,
     total: u32,
 ) -> RowSums {
-    let mut row = RowSums { sums: vec![Vec3::ZERO; camera.width as usize], rays: RayCounts::default(), non_finite: 0 };
+    let mut row =
+        RowSums { sums: vec![Vec3::ZERO; camera.width as usize], rays: RayCounts::default(), non_finite: 0 };
     for x in 0..camera.width {
         let pixel = y as u64 * camera.width as u64 + x as u64;
         let mut sum = Vec3::ZERO;

@@ -21,7 +21,9 @@ fn mix64(mut z: u64) -> u64 {
 impl Sampler {
     /// The stream of sample `sample` of pixel `pixel` (row-major index) under `seed`.
     pub fn new(seed: u64, pixel: u64, sample: u64) -> Sampler {
-        let key = mix64(mix64(mix64(seed ^ 0x5eed_5eed_5eed_5eed) ^ pixel) ^ sample.wrapping_mul(0x9e37_79b9_7f4a_7c15));
+        let key = mix64(
+            mix64(mix64(seed ^ 0x5eed_5eed_5eed_5eed) ^ pixel) ^ sample.wrapping_mul(0x9e37_79b9_7f4a_7c15),
+        );
         Sampler { key, dimension: 0 }
     }
 

@@ -112,8 +112,8 @@ fn assert_refused(sandbox: &Sandbox, out: &Output, needles: &[&str]) {
 }
 
 /// Render the scene `text` and expect a refusal whose message names `scene.toml:LINE:`, `field`
-/// and every `needles`. Returns the message.
-fn assert_scene_error_at(text: &str, line: usize, field: &str, needles: &[&str]) -> String {
+/// and every `needles`.
+fn assert_scene_error_at(text: &str, line: usize, field: &str, needles: &[&str]) {
     let sandbox = Sandbox::new();
     let scene = sandbox.scene(text);
     let out = render(&sandbox, Some(&scene), &[]);
@@ -122,14 +122,13 @@ fn assert_scene_error_at(text: &str, line: usize, field: &str, needles: &[&str])
     let mut all = vec![location.as_str(), field.as_str()];
     all.extend_from_slice(needles);
     assert_refused(&sandbox, &out, &all);
-    stderr(&out)
 }
 
 /// Replace the line of the Cornell scene starting with `prefix` by `replacement` and expect a
-/// refusal that names that line, `field` and every `needles`. Returns the message.
-fn assert_scene_error(prefix: &str, replacement: &str, field: &str, needles: &[&str]) -> String {
+/// refusal that names that line, `field` and every `needles`.
+fn assert_scene_error(prefix: &str, replacement: &str, field: &str, needles: &[&str]) {
     let (text, line) = with_line(prefix, replacement);
-    assert_scene_error_at(&text, line, field, needles)
+    assert_scene_error_at(&text, line, field, needles);
 }
 
 // ---- scene files -------------------------------------------------------------------------

@@ -41,7 +41,8 @@ fn every_scene_renders_finite_with_every_integrator() {
 
 #[test]
 fn the_embedded_default_is_cornell_glass() {
-    let on_disk = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell-glass.toml")).unwrap();
+    let on_disk =
+        std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell-glass.toml")).unwrap();
     assert_eq!(on_disk, scene::DEFAULT_SCENE);
     let s = scene::load_default();
     assert_eq!((s.camera.width, s.camera.height), (800, 800));

@@ -93,7 +93,10 @@ fn capped_cylinder() {
 
 #[test]
 fn disk_and_annulus() {
-    let s = scene_with("shape = \"disk\"\ncenter = [0.1, 0.0, 0.0]\nnormal = [0.2, 1.0, 0.4]\nradius = 1.0", None);
+    let s = scene_with(
+        "shape = \"disk\"\ncenter = [0.1, 0.0, 0.0]\nnormal = [0.2, 1.0, 0.4]\nradius = 1.0",
+        None,
+    );
     check(&s, 1.0, 1e-3);
     let s = scene_with(
         "shape = \"disk\"\ncenter = [0.0, 0.0, 0.0]\nnormal = [0.0, 0.0, 1.0]\nradius = 1.0\ninner_radius = 0.3",
@@ -104,7 +107,10 @@ fn disk_and_annulus() {
 
 #[test]
 fn quad_and_polygon() {
-    let s = scene_with("shape = \"quad\"\ncorner = [-1.0, -1.0, 0.2]\nu = [2.0, 0.3, 0.0]\nv = [0.0, 2.0, 0.5]", None);
+    let s = scene_with(
+        "shape = \"quad\"\ncorner = [-1.0, -1.0, 0.2]\nu = [2.0, 0.3, 0.0]\nv = [0.0, 2.0, 0.5]",
+        None,
+    );
     check(&s, 1.0, 1e-3);
     let s = scene_with(
         "shape = \"polygon\"\nvertices = [[1.0, 0.0, 0.0], [0.31, 0.95, 0.0], [-0.81, 0.59, 0.0], [-0.81, -0.59, 0.0], [0.31, -0.95, 0.0]]",
@@ -126,7 +132,10 @@ fn triangle_mesh() {
 
 #[test]
 fn thin_hollow_sphere_wall_of_1e_4_radius() {
-    let s = scene_with("shape = \"hollow_sphere\"\ncenter = [0.0, 0.0, 0.0]\nradius = 1.0\ninner_radius = 0.9999", None);
+    let s = scene_with(
+        "shape = \"hollow_sphere\"\ncenter = [0.0, 0.0, 0.0]\nradius = 1.0\ninner_radius = 0.9999",
+        None,
+    );
     // The wall is 1e-4 thick: a spawned ray must find the other face of the wall, not itself.
     check(&s, 1.0, 5e-5);
 }

@@ -5,7 +5,7 @@
 //! swapped (`true`: the normal points *into* the material, as on the inner wall of a hollow
 //! sphere, where the outside of the surface is glass and the inside is air).
 
-use crate::geometry::{Cylinder, Disk, Sphere, Shape};
+use crate::geometry::{Cylinder, Disk, Shape, Sphere};
 use glam::Vec3;
 
 /// A surface of an expanded body and whether its interface is swapped.

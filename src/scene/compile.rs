@@ -6,7 +6,7 @@ use super::effects::{Effect, Effects};
 use super::source::{FieldPath, SceneError, Source};
 use super::{BvhStats, ObjectSummary, Primitive, RenderSettings, Scene, SceneOrigin, DEFAULT_SCENE};
 use crate::camera::Camera;
-use crate::geometry::{Polygon, Quad, Shape, Sphere, Disk};
+use crate::geometry::{Disk, Polygon, Quad, Shape, Sphere};
 use crate::light::Light;
 use crate::material::{Bsdf, Material, Phong, Texture};
 use glam::{Vec3, Vec3A};
@@ -157,9 +157,7 @@ impl Compiler<'_> {
     }
 
     fn direction(&self, path: &FieldPath, v: [f32; 3]) -> Result<Vec3, SceneError> {
-        Vec3::from_array(v)
-            .try_normalize()
-            .ok_or_else(|| self.err(path, "must be a non-zero vector"))
+        Vec3::from_array(v).try_normalize().ok_or_else(|| self.err(path, "must be a non-zero vector"))
     }
 
     fn compile(&self, desc: &SceneDesc, text: &str) -> Result<Scene, SceneError> {
@@ -270,7 +268,8 @@ impl Compiler<'_> {
         let path = FieldPath::from("camera");
         let [w, h] = c.resolution;
         if w == 0 || h == 0 {
-            return Err(self.err(&path.key("resolution"), format!("width and height must be at least 1 (got {w}×{h})")));
+            return Err(self
+                .err(&path.key("resolution"), format!("width and height must be at least 1 (got {w}×{h})")));
         }
         if w > MAX_SIDE || h > MAX_SIDE || w as u64 * h as u64 > MAX_PIXELS {
             return Err(self.err(
@@ -279,7 +278,10 @@ impl Compiler<'_> {
             ));
         }
         if !(c.fov > 0.0 && c.fov < 180.0) {
-            return Err(self.err(&path.key("fov"), format!("must be between 0 and 180 degrees, exclusive (got {})", c.fov)));
+            return Err(self.err(
+                &path.key("fov"),
+                format!("must be between 0 and 180 degrees, exclusive (got {})", c.fov),
+            ));
         }
         let position = Vec3::from_array(c.position);
         let look_at = Vec3::from_array(c.look_at);
@@ -301,7 +303,11 @@ impl Compiler<'_> {
         if crate::integrators::create(&r.integrator).is_none() {
             return Err(self.err(
                 &path.key("integrator"),
-                format!("unknown integrator `{}`; known: {}", r.integrator, crate::integrators::names().join(", ")),
+                format!(
+                    "unknown integrator `{}`; known: {}",
+                    r.integrator,
+                    crate::integrators::names().join(", ")
+                ),
             ));
         }
         if let Some(rho) = r.reflectance {
@@ -352,7 +358,9 @@ impl Compiler<'_> {
                 };
                 (Bsdf::Diffuse(texture), phong)
             }
-            MaterialDesc::Mirror { color, phong } => (Bsdf::Mirror(self.color(&path.key("color"), *color)?), phong),
+            MaterialDesc::Mirror { color, phong } => {
+                (Bsdf::Mirror(self.color(&path.key("color"), *color)?), phong)
+            }
             MaterialDesc::Dielectric { ior, ior_outside, phong } => {
                 let ior_inside = self.positive(&path.key("ior"), *ior)?;
                 let ior_outside = self.positive(&path.key("ior_outside"), *ior_outside)?;
@@ -363,7 +371,12 @@ impl Compiler<'_> {
         Ok(Material { name: name.to_string(), bsdf, phong })
     }
 
-    fn shape(&self, path: &FieldPath, shape: &ShapeDesc, warnings: &mut Vec<String>) -> Result<Vec<BodySurface>, SceneError> {
+    fn shape(
+        &self,
+        path: &FieldPath,
+        shape: &ShapeDesc,
+        warnings: &mut Vec<String>,
+    ) -> Result<Vec<BodySurface>, SceneError> {
         let v = Vec3::from_array;
         Ok(match shape {
             ShapeDesc::Sphere { center, radius } => {
@@ -381,7 +394,10 @@ impl Compiler<'_> {
                 let r = self.positive(&path.key("radius"), *radius)?;
                 let ri = self.non_negative(&path.key("inner_radius"), *inner_radius)?;
                 if ri >= r {
-                    return Err(self.err(&path.key("inner_radius"), format!("must be smaller than radius {r} (got {ri})")));
+                    return Err(self.err(
+                        &path.key("inner_radius"),
+                        format!("must be smaller than radius {r} (got {ri})"),
+                    ));
                 }
                 vec![(Shape::Disk(Disk::new(v(*center), n, r, ri)), false)]
             }
@@ -389,7 +405,10 @@ impl Compiler<'_> {
                 let (u, ev) = (v(*u), v(*edge_v));
                 let area = u.cross(ev).length();
                 if area.is_nan() || area <= 1e-6 * u.length() * ev.length() {
-                    return Err(self.err(&path.key("u"), "u and v must be non-zero and not parallel (the quad has no area)"));
+                    return Err(self.err(
+                        &path.key("u"),
+                        "u and v must be non-zero and not parallel (the quad has no area)",
+                    ));
                 }
                 vec![(Shape::Quad(Quad::new(v(*corner), u, ev)), false)]
             }
@@ -404,10 +423,13 @@ impl Compiler<'_> {
                     Some(d) => d.join(file),
                     None => PathBuf::from(file),
                 };
-                let (triangles, degenerate) =
-                    super::mesh::load_obj(&full, scale, v(*translate)).map_err(|e| self.err(&path.key("file"), e))?;
+                let (triangles, degenerate) = super::mesh::load_obj(&full, scale, v(*translate))
+                    .map_err(|e| self.err(&path.key("file"), e))?;
                 if degenerate > 0 {
-                    warnings.push(format!("{path}: skipped {degenerate} degenerate triangle(s) in {}", full.display()));
+                    warnings.push(format!(
+                        "{path}: skipped {degenerate} degenerate triangle(s) in {}",
+                        full.display()
+                    ));
                 }
                 triangles.into_iter().map(|t| (Shape::Triangle(t), false)).collect()
             }
@@ -415,7 +437,10 @@ impl Compiler<'_> {
                 let r = self.positive(&path.key("radius"), *radius)?;
                 let ri = self.positive(&path.key("inner_radius"), *inner_radius)?;
                 if ri >= r {
-                    return Err(self.err(&path.key("inner_radius"), format!("must be smaller than radius {r} (got {ri})")));
+                    return Err(self.err(
+                        &path.key("inner_radius"),
+                        format!("must be smaller than radius {r} (got {ri})"),
+                    ));
                 }
                 bodies::hollow_sphere(v(*center), r, ri)
             }
@@ -424,7 +449,8 @@ impl Compiler<'_> {
                 let r = self.positive(&path.key("radius"), *radius)?;
                 let t = self.positive(&path.key("thickness"), *thickness)?;
                 if t >= r {
-                    return Err(self.err(&path.key("thickness"), format!("must be smaller than radius {r} (got {t})")));
+                    return Err(self
+                        .err(&path.key("thickness"), format!("must be smaller than radius {r} (got {t})")));
                 }
                 bodies::bowl(v(*center), axis, r, t)
             }
@@ -435,10 +461,14 @@ impl Compiler<'_> {
                 let w = self.positive(&path.key("wall"), *wall)?;
                 let b = self.positive(&path.key("bottom"), *bottom)?;
                 if w >= r {
-                    return Err(self.err(&path.key("wall"), format!("must be smaller than radius {r} (got {w})")));
+                    return Err(
+                        self.err(&path.key("wall"), format!("must be smaller than radius {r} (got {w})"))
+                    );
                 }
                 if b >= h {
-                    return Err(self.err(&path.key("bottom"), format!("must be smaller than height {h} (got {b})")));
+                    return Err(
+                        self.err(&path.key("bottom"), format!("must be smaller than height {h} (got {b})"))
+                    );
                 }
                 bodies::drinking_glass(v(*base), axis, r, h, w, b)
             }
@@ -448,15 +478,25 @@ impl Compiler<'_> {
     fn light(&self, path: &FieldPath, l: &LightDesc) -> Result<Light, SceneError> {
         let v = Vec3::from_array;
         Ok(match l {
-            LightDesc::Point { position, intensity } => {
-                Light::Point { position: v(*position), intensity: self.color(&path.key("intensity"), *intensity)? }
-            }
+            LightDesc::Point { position, intensity } => Light::Point {
+                position: v(*position),
+                intensity: self.color(&path.key("intensity"), *intensity)?,
+            },
             LightDesc::Quad { corner, u, v: ev, radiance } => {
                 let (u, ev) = (v(*u), v(*ev));
                 let normal = u.cross(ev).try_normalize().ok_or_else(|| {
-                    self.err(&path.key("u"), "u and v must be non-zero and not parallel (a light needs an area > 0)")
+                    self.err(
+                        &path.key("u"),
+                        "u and v must be non-zero and not parallel (a light needs an area > 0)",
+                    )
                 })?;
-                Light::Quad { corner: v(*corner), u, v: ev, normal, radiance: self.color(&path.key("radiance"), *radiance)? }
+                Light::Quad {
+                    corner: v(*corner),
+                    u,
+                    v: ev,
+                    normal,
+                    radiance: self.color(&path.key("radiance"), *radiance)?,
+                }
             }
         })
     }
@@ -501,7 +541,8 @@ fn build_bvh(primitives: Vec<Primitive>) -> (Vec<Primitive>, obvhs::cwbvh::CwBvh
     let aabbs: Vec<Aabb> = bounds
         .iter()
         .map(|b| {
-            let pad = BOX_PADDING * ((b.max - b.min).max_element() + b.min.abs().max(b.max.abs()).max_element());
+            let pad =
+                BOX_PADDING * ((b.max - b.min).max_element() + b.min.abs().max(b.max.abs()).max_element());
             Aabb::new(Vec3A::from((b.min - pad) * inv), Vec3A::from((b.max + pad) * inv))
         })
         .collect();

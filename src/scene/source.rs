@@ -148,11 +148,9 @@ impl<'a> Node<'a> {
         };
         match self {
             Node::Item(Item::Table(t)) | Node::Table(t) => table_children(t),
-            Node::Item(Item::ArrayOfTables(a)) => a
-                .iter()
-                .enumerate()
-                .map(|(i, t)| (Segment::Index(i), Node::Table(t), None))
-                .collect(),
+            Node::Item(Item::ArrayOfTables(a)) => {
+                a.iter().enumerate().map(|(i, t)| (Segment::Index(i), Node::Table(t), None)).collect()
+            }
             Node::Item(Item::Value(v)) | Node::Value(v) => from_value(v),
             Node::Item(Item::None) => Vec::new(),
         }
@@ -180,8 +178,7 @@ impl<'a> Source<'a> {
         let mut node = Node::Item(doc.as_item());
         let mut best = None;
         for seg in &path.0 {
-            let Some((_, child, key_span)) = node.children().into_iter().find(|(s, _, _)| s == seg)
-            else {
+            let Some((_, child, key_span)) = node.children().into_iter().find(|(s, _, _)| s == seg) else {
                 break;
             };
             best = key_span.or_else(|| child.span()).or(best);
@@ -286,10 +283,14 @@ impl<'a> Source<'a> {
                 Some(Value::Float(f)) => {
                     let x = *f.value();
                     if !x.is_finite() {
-                        return Err(self.error_at(&path, format!("{x} is not allowed: numbers must be finite")));
+                        return Err(
+                            self.error_at(&path, format!("{x} is not allowed: numbers must be finite"))
+                        );
                     }
                     if x.abs() > f32::MAX as f64 {
-                        return Err(self.error_at(&path, format!("{x} is too large: the limit is {:e}", f32::MAX)));
+                        return Err(
+                            self.error_at(&path, format!("{x} is too large: the limit is {:e}", f32::MAX))
+                        );
                     }
                 }
                 Some(Value::Integer(i)) if (*i.value() as f64).abs() > f32::MAX as f64 => {
