@@ -143,8 +143,11 @@ fn missing_scene_file_names_the_path() {
 #[test]
 fn toml_syntax_error() {
     let (text, line) = with_line("ior = 1.52", "ior = 1.52 ]");
-    let column = format!("scene.toml:{line}:12:");
-    assert_scene_error_at(&text, line, "(document)", &["TOML syntax error", &column]);
+    let sandbox = Sandbox::new();
+    let out = render(&sandbox, Some(&sandbox.scene(&text)), &[]);
+    // A syntax error belongs to no field: the message goes straight after the position.
+    let location = format!("scene.toml:{line}:12: TOML syntax error");
+    assert_refused(&sandbox, &out, &[&location]);
 }
 
 #[test]
@@ -184,6 +187,21 @@ fn wrong_type_of_sphere_radius() {
         r#"radius = "big""#,
         "objects[5].radius",
         &["invalid type", "\"big\""],
+    );
+}
+
+#[test]
+fn array_given_for_sphere_radius_is_told_apart_from_the_centre_array() {
+    assert_scene_error("radius = 0.4", "radius = [0.4]", "objects[5].radius", &["invalid type: sequence"]);
+}
+
+#[test]
+fn wrong_type_of_light_intensity_explains_colours() {
+    assert_scene_error(
+        "intensity = 5.0",
+        r#"intensity = "bright""#,
+        "lights[0].intensity",
+        &["a colour: one number (grey) or [r, g, b]"],
     );
 }
 

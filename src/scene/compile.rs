@@ -60,14 +60,28 @@ pub fn parse(source: &Source) -> Result<SceneDesc, SceneError> {
             // Inside a flattened or internally tagged table (objects, materials, lights, textures)
             // serde reports the error at the whole table: find the one key or value it is about.
             let found = source.find_in(range.clone(), |key, value| names(&message, key, value));
-            if found.len() == 1 {
-                found[0]
-            } else {
-                range.start
+            match found[..] {
+                [one] => one,
+                [] => range.start,
+                _ => culprit(source, &found, &message).unwrap_or(range.start),
             }
         });
         source.error_at_offset(offset, message)
     })
+}
+
+/// Of several candidate keys (byte offsets) for a serde error, the one whose removal makes the
+/// error go away (serde then complains about something else, such as the missing key), if
+/// exactly one does.
+fn culprit(source: &Source, candidates: &[usize], message: &str) -> Option<usize> {
+    let mut hits = candidates.iter().copied().filter(|&offset| {
+        source.without(&source.path_at(offset)).is_some_and(|text| match toml::from_str::<SceneDesc>(&text) {
+            Ok(_) => true,
+            Err(e) => e.message() != message,
+        })
+    });
+    let first = hits.next()?;
+    hits.next().is_none().then_some(first)
 }
 
 /// Whether a serde error `message` is about the entry `key = value` (`key` is `None` for array

@@ -11,13 +11,45 @@ use std::collections::BTreeMap;
 pub type Vec3Desc = [f32; 3];
 
 /// A linear RGB colour, written either as `[r, g, b]` or as one grey value.
-#[derive(Clone, Copy, Debug, Deserialize, PartialEq)]
-#[serde(untagged)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Rgb {
     /// One value for all three channels.
     Grey(f32),
     /// Red, green, blue.
     Rgb([f32; 3]),
+}
+
+impl<'de> Deserialize<'de> for Rgb {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Rgb, D::Error> {
+        struct Visitor;
+        impl<'de> serde::de::Visitor<'de> for Visitor {
+            type Value = Rgb;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str("a colour: one number (grey) or [r, g, b]")
+            }
+            fn visit_f64<E: serde::de::Error>(self, v: f64) -> Result<Rgb, E> {
+                Ok(Rgb::Grey(v as f32))
+            }
+            fn visit_i64<E: serde::de::Error>(self, v: i64) -> Result<Rgb, E> {
+                Ok(Rgb::Grey(v as f32))
+            }
+            fn visit_u64<E: serde::de::Error>(self, v: u64) -> Result<Rgb, E> {
+                Ok(Rgb::Grey(v as f32))
+            }
+            fn visit_seq<A: serde::de::SeqAccess<'de>>(self, mut seq: A) -> Result<Rgb, A::Error> {
+                let mut c = [0.0f32; 3];
+                for (i, channel) in c.iter_mut().enumerate() {
+                    *channel =
+                        seq.next_element()?.ok_or_else(|| serde::de::Error::invalid_length(i, &self))?;
+                }
+                if seq.next_element::<f32>()?.is_some() {
+                    return Err(serde::de::Error::invalid_length(4, &self));
+                }
+                Ok(Rgb::Rgb(c))
+            }
+        }
+        d.deserialize_any(Visitor)
+    }
 }
 
 impl Rgb {

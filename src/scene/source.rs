@@ -47,9 +47,6 @@ impl From<&str> for FieldPath {
 
 impl fmt::Display for FieldPath {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        if self.0.is_empty() {
-            return write!(f, "(document)");
-        }
         for (i, s) in self.0.iter().enumerate() {
             match s {
                 Segment::Key(k) if i == 0 => write!(f, "{k}")?,
@@ -73,7 +70,7 @@ pub enum SceneError {
         source: std::io::Error,
     },
     /// The file is not a valid scene.
-    #[error("{file}:{line}:{column}: field `{field}`: {message}")]
+    #[error("{file}:{line}:{column}: {}{message}", field_prefix(field))]
     Invalid {
         /// The scene file (or `<embedded default scene>`).
         file: String,
@@ -81,11 +78,20 @@ pub enum SceneError {
         line: usize,
         /// 1-based column.
         column: usize,
-        /// Which field.
+        /// Which field (empty for errors that belong to no field, such as TOML syntax).
         field: String,
         /// What is wrong and what is allowed.
         message: String,
     },
+}
+
+/// "field `x`: " for a named field, nothing otherwise.
+fn field_prefix(field: &str) -> String {
+    if field.is_empty() {
+        String::new()
+    } else {
+        format!("field `{field}`: ")
+    }
 }
 
 /// A scene file's text with its parsed spans, for error reporting.
@@ -244,6 +250,22 @@ impl<'a> Source<'a> {
         found.sort_unstable();
         found.dedup();
         found
+    }
+
+    /// The text with the key at `path` removed (`None` if `path` does not end in a key of a
+    /// table that exists).
+    pub fn without(&self, path: &FieldPath) -> Option<String> {
+        let (Segment::Key(last), parents) = path.0.split_last()? else { return None };
+        let mut doc: toml_edit::DocumentMut = self.text.parse().ok()?;
+        let mut item = doc.as_item_mut();
+        for seg in parents {
+            item = match seg {
+                Segment::Key(k) => item.get_mut(k.as_str())?,
+                Segment::Index(i) => item.get_mut(*i)?,
+            };
+        }
+        item.as_table_like_mut()?.remove(last)?;
+        Some(doc.to_string())
     }
 
     /// An error about `path`, located at its line and column.
