@@ -257,7 +257,7 @@ fn run_render(args: &RenderArgs) -> Result<(), CliError> {
         .map_err(|e| CliError::Failure(format!("cannot start worker threads: {e}")))?;
 
     let bar = (!args.quiet && std::io::stderr().is_terminal()).then(|| {
-        let bar = indicatif::ProgressBar::new(0);
+        let bar = indicatif::ProgressBar::new(render::camera_for(&scene, opts.resolution).height as u64);
         bar.set_style(
             indicatif::ProgressStyle::with_template("{spinner} {msg} [{bar:40}] {pos}/{len} rows, ETA {eta}")
                 .expect("valid template")
