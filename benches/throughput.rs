@@ -4,8 +4,8 @@
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use glam::Vec2;
 use std::hint::black_box;
-use vitrum::integrators::{create, RenderParams};
-use vitrum::render::{render, Budget, RenderOptions};
+use vitrum::integrators::create;
+use vitrum::render::{render, RenderOptions};
 use vitrum::scene::load_default;
 
 const SIDE: u32 = 200;
@@ -30,12 +30,7 @@ fn whitted_render(c: &mut Criterion) {
     group.sample_size(10);
     for name in ["raycast", "whitted"] {
         let integrator = create(name).unwrap();
-        let opts = RenderOptions {
-            budget: Budget::Samples(1),
-            resolution: Some((SIDE, SIDE)),
-            seed: 0,
-            params: RenderParams { max_depth: 5, reflectance: None },
-        };
+        let opts = RenderOptions { resolution: Some((SIDE, SIDE)), ..RenderOptions::from_scene(&scene, 1) };
         // Throughput in rays of every kind, measured once (the count is deterministic).
         let rays = render(&scene, integrator.as_ref(), &opts, &|_, _| {}).rays.total();
         group.throughput(Throughput::Elements(rays));

@@ -1,12 +1,17 @@
 //! The rendering methods, one per file, behind one trait, and the registry of their names.
 
+mod distributed;
 mod raycast;
+mod ssaa;
 mod whitted;
 
+pub use distributed::Distributed;
 pub use raycast::RayCast;
+pub use ssaa::{Ssaa, SsaaParams};
 pub use whitted::Whitted;
 
 use crate::geometry::Ray;
+use crate::render::{RenderOptions, RenderOutput};
 use crate::sampler::Sampler;
 use crate::scene::effects::Support;
 use crate::scene::{Effect, Scene};
@@ -20,9 +25,36 @@ pub struct RenderParams {
     pub max_depth: u32,
     /// Constant dielectric reflectance instead of exact Fresnel.
     pub reflectance: Option<f32>,
+    /// Settings of `ssaa`.
+    pub ssaa: SsaaParams,
 }
 
-/// A rendering method that estimates the radiance arriving along camera rays.
+impl RenderParams {
+    /// Parameters with the given depth and the defaults otherwise (exact Fresnel, default ssaa).
+    pub fn with_depth(max_depth: u32) -> RenderParams {
+        RenderParams { max_depth, reflectance: None, ssaa: SsaaParams::default() }
+    }
+}
+
+/// The state of one camera sample while its path is traced.
+#[derive(Clone, Debug)]
+pub struct PathContext {
+    /// The sample's random stream.
+    pub sampler: Sampler,
+    /// Rays traced so far, by kind.
+    pub rays: RayCounts,
+    /// The sample's wavelength in nm when rendering spectrally.
+    pub lambda: Option<f32>,
+}
+
+impl PathContext {
+    /// A context for the given stream, in RGB mode.
+    pub fn new(sampler: Sampler) -> PathContext {
+        PathContext { sampler, rays: RayCounts::default(), lambda: None }
+    }
+}
+
+/// A rendering method.
 pub trait Integrator: Send + Sync {
     /// Registry name (`raycast`, `whitted`, …).
     fn name(&self) -> &'static str;
@@ -31,19 +63,22 @@ pub trait Integrator: Send + Sync {
     /// What the method does with an effect the scene calls for.
     fn support(&self, effect: Effect) -> Support;
     /// Radiance arriving at the camera along `ray`.
-    fn radiance(
+    fn radiance(&self, scene: &Scene, params: &RenderParams, ray: &Ray, ctx: &mut PathContext) -> Vec3;
+    /// Methods with their own image loop (adaptive supersampling, light tracing) render here;
+    /// `None` means the shared camera pass estimates every pixel with [`Integrator::radiance`].
+    fn render_image(
         &self,
-        scene: &Scene,
-        params: &RenderParams,
-        ray: &Ray,
-        sampler: &mut Sampler,
-        rays: &mut RayCounts,
-    ) -> Vec3;
+        _scene: &Scene,
+        _opts: &RenderOptions,
+        _progress: &(dyn Fn(u64, u64) + Sync),
+    ) -> Option<RenderOutput> {
+        None
+    }
 }
 
 /// Every integrator, in the order `vitrum integrators` lists them.
 pub fn all() -> Vec<Box<dyn Integrator>> {
-    vec![Box::new(RayCast), Box::new(Whitted)]
+    vec![Box::new(RayCast), Box::new(Whitted), Box::new(Ssaa), Box::new(Distributed)]
 }
 
 /// The integrator registered under `name`.

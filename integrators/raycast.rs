@@ -3,13 +3,11 @@
 //! Glass and mirrors show only their own surface shading (the thesis's Fig. 12): nothing is
 //! reflected or refracted, and every object, glass included, casts a full shadow.
 
-use super::{Integrator, RenderParams};
+use super::{Integrator, PathContext, RenderParams};
 use crate::geometry::Ray;
-use crate::lighting::{emitted, phong_local, ShadowMode};
-use crate::sampler::Sampler;
+use crate::lighting::{emitted, phong_local, ShadowMode, ShadowRays};
 use crate::scene::effects::Support;
 use crate::scene::{Effect, Scene};
-use crate::stats::RayCounts;
 use glam::Vec3;
 
 /// First-hit Phong shading with hard shadows.
@@ -27,24 +25,25 @@ impl Integrator for RayCast {
     fn support(&self, effect: Effect) -> Support {
         match effect {
             Effect::SoftShadows => Support::Approximates("an area light acts as a point light at its centre"),
-            Effect::Textures | Effect::Meshes => Support::Simulates,
+            Effect::Textures | Effect::Meshes | Effect::MotionBlur | Effect::DepthOfField => {
+                Support::Simulates
+            }
+            Effect::Dispersion | Effect::Absorption | Effect::Glossy => {
+                Support::Ignores("glass shows only its surface shading")
+            }
         }
     }
 
-    fn radiance(
-        &self,
-        scene: &Scene,
-        _: &RenderParams,
-        ray: &Ray,
-        _: &mut Sampler,
-        rays: &mut RayCounts,
-    ) -> Vec3 {
+    fn radiance(&self, scene: &Scene, _: &RenderParams, ray: &Ray, ctx: &mut PathContext) -> Vec3 {
         let Some(isect) = scene.intersect(ray, f32::INFINITY) else {
             return scene.settings.background;
         };
         let wo = -ray.dir;
         let material = scene.material_of(isect.primitive);
+        let shadow = ShadowRays { mode: ShadowMode::Opaque, lambda: ctx.lambda, time: ray.time };
         emitted(scene, isect.primitive, &isect.hit, wo)
-            + phong_local(scene, material, &isect.hit, wo, ShadowMode::Opaque, rays)
+            + phong_local(scene, material, material.phong, &isect.hit, wo, shadow, &mut ctx.rays, |l, p| {
+                l.as_point_from(p)
+            })
     }
 }

@@ -2,19 +2,27 @@
 //!
 //! At a dielectric the reflected and refracted rays are weighted by the exact Fresnel
 //! reflectance (or a constant, as in the thesis), with total internal reflection sending all
-//! light back. Shadow rays pass straight through glass, attenuated by its Fresnel
-//! transmittance. Light is never bent *towards* a light source, so there are no caustics:
-//! that is the method's design, not a bug.
+//! light back; light travelling inside an absorbing medium is attenuated by Beer–Lambert's law.
+//! Shadow rays pass straight through glass, attenuated by its Fresnel transmittance. Light is
+//! never bent *towards* a light source, so there are no caustics: that is the method's design,
+//! not a bug.
+//!
+//! The recursion here is shared with distributed ray tracing (Cook et al. 1984), which is
+//! Whitted's algorithm with the rays *distributed*: light points, glossy directions, lens
+//! positions and times are sampled instead of fixed ([`Sampling::Distributed`]).
 
-use super::{Integrator, RenderParams};
-use crate::geometry::{spawn_origin, Ray};
-use crate::lighting::{dielectric_reflectance, emitted, interface_indices, phong_local, ShadowMode};
-use crate::material::Bsdf;
+use super::{Integrator, PathContext, RenderParams};
+use crate::bsdf::microfacet::TrowbridgeReitz;
+use crate::bsdf::rough_conductor::RoughConductor;
+use crate::bsdf::rough_dielectric::{RoughDielectric, TransportMode};
+use crate::bsdf::Frame;
+use crate::geometry::{spawn_origin, Ray, SurfaceHit};
+use crate::lighting::{crossing, dielectric_reflectance, emitted, phong_local, ShadowMode, ShadowRays};
+use crate::material::{Bsdf, Material, Phong};
 use crate::optics::{reflect, refract};
-use crate::sampler::Sampler;
+use crate::sampler::Dim;
 use crate::scene::effects::Support;
 use crate::scene::{Effect, Scene};
-use crate::stats::RayCounts;
 use glam::Vec3;
 
 /// Recursive reflection and refraction with Fresnel weights.
@@ -30,68 +38,238 @@ impl Integrator for Whitted {
     }
 
     fn support(&self, effect: Effect) -> Support {
-        match effect {
-            Effect::SoftShadows => Support::Approximates("an area light acts as a point light at its centre"),
-            Effect::Textures | Effect::Meshes => Support::Simulates,
-        }
+        deterministic_support(effect)
     }
 
-    fn radiance(
-        &self,
-        scene: &Scene,
-        params: &RenderParams,
-        ray: &Ray,
-        _: &mut Sampler,
-        rays: &mut RayCounts,
-    ) -> Vec3 {
-        trace(scene, params, ray, 0, rays)
+    fn radiance(&self, scene: &Scene, params: &RenderParams, ray: &Ray, ctx: &mut PathContext) -> Vec3 {
+        trace(scene, params, ray, Segment::camera(), Sampling::Fixed, ctx)
     }
 }
 
-/// Radiance along `ray`, which is the `depth`-th bounce from the camera.
-fn trace(scene: &Scene, params: &RenderParams, ray: &Ray, depth: u32, rays: &mut RayCounts) -> Vec3 {
+/// What the deterministic recursive methods (`whitted`, `ssaa`) do with each effect.
+pub(super) fn deterministic_support(effect: Effect) -> Support {
+    match effect {
+        Effect::Absorption | Effect::Textures | Effect::Meshes => Support::Simulates,
+        Effect::SoftShadows => Support::Approximates("an area light acts as a point light at its centre"),
+        Effect::Glossy => Support::Approximates("rough surfaces are traced as smooth ones"),
+        Effect::Dispersion => Support::Approximates("refracts at the nominal index n_d (one wavelength)"),
+        Effect::DepthOfField => Support::Ignores("renders through a pinhole"),
+        Effect::MotionBlur => Support::Ignores("renders the scene at the shutter's opening time"),
+    }
+}
+
+/// How the recursion chooses its rays.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum Sampling {
+    /// Whitted: lights at their centres, rough surfaces traced as smooth.
+    Fixed,
+    /// Cook: random points on area lights, glossy directions sampled from the GGX lobe.
+    Distributed,
+}
+
+/// The segment a ray travels: its depth and the medium around it.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Segment {
+    /// Bounces since the camera.
+    depth: u32,
+    /// Absorption coefficient of the medium the ray travels through.
+    absorption: Vec3,
+    /// Whether emission seen by this ray counts (false after a glossy bounce, whose direct
+    /// light was already gathered by light sampling).
+    count_emission: bool,
+}
+
+impl Segment {
+    /// A camera ray (in a clear medium).
+    pub(super) fn camera() -> Segment {
+        Segment { depth: 0, absorption: Vec3::ZERO, count_emission: true }
+    }
+
+    fn next(self, absorption: Vec3, count_emission: bool) -> Segment {
+        Segment { depth: self.depth + 1, absorption, count_emission }
+    }
+}
+
+/// Radiance along `ray`.
+pub(super) fn trace(
+    scene: &Scene,
+    params: &RenderParams,
+    ray: &Ray,
+    seg: Segment,
+    sampling: Sampling,
+    ctx: &mut PathContext,
+) -> Vec3 {
     let Some(isect) = scene.intersect(ray, f32::INFINITY) else {
-        return scene.settings.background;
+        let survives = seg.absorption == Vec3::ZERO;
+        return if survives { scene.settings.background } else { Vec3::ZERO };
     };
     let hit = &isect.hit;
+    let attenuation = if seg.absorption == Vec3::ZERO { Vec3::ONE } else { (-seg.absorption * hit.t).exp() };
     let wo = -ray.dir;
     let material = scene.material_of(isect.primitive);
-    let shadows = ShadowMode::FresnelThroughGlass { reflectance: params.reflectance };
-    let mut l =
-        emitted(scene, isect.primitive, hit, wo) + phong_local(scene, material, hit, wo, shadows, rays);
-    if depth >= params.max_depth {
-        return l;
+    let shadow = ShadowRays {
+        mode: ShadowMode::ThroughGlass { reflectance: params.reflectance },
+        lambda: ctx.lambda,
+        time: ray.time,
+    };
+    let glossy = sampling == Sampling::Distributed && material.bsdf.roughness() > 0.0;
+
+    let mut l = if seg.count_emission { emitted(scene, isect.primitive, hit, wo) } else { Vec3::ZERO };
+    l += local(scene, material, hit, wo, shadow, sampling, glossy, ctx);
+    if seg.depth >= params.max_depth {
+        return attenuation * l;
     }
     // The normal on the side the ray came from.
     let n = if hit.n.dot(wo) >= 0.0 { hit.n } else { -hit.n };
-    let spawn = |dir: Vec3, rays: &mut RayCounts| {
-        trace(scene, params, &Ray::new(spawn_origin(hit, dir), dir), depth + 1, rays)
+    let follow = |dir: Vec3, absorption: Vec3, count_emission: bool, ctx: &mut PathContext| {
+        let next = ray.spawn(spawn_origin(hit, dir), dir);
+        trace(scene, params, &next, seg.next(absorption, count_emission), sampling, ctx)
     };
     match &material.bsdf {
         Bsdf::Diffuse(_) => {}
-        Bsdf::Mirror(color) => {
-            if *color != Vec3::ZERO {
-                rays.reflected += 1;
-                l += *color * spawn(reflect(wo, n), rays);
-            }
-        }
-        Bsdf::Dielectric { .. } => {
-            let (n_i, n_t) =
-                interface_indices(&material.bsdf, ray.dir, hit.n).expect("a dielectric has indices");
-            let transmitted = refract(wo, n, n_t / n_i);
-            let r = match transmitted {
-                Some(_) => dielectric_reflectance(wo.dot(n), n_i, n_t, params.reflectance),
-                None => 1.0,
+        Bsdf::Mirror { color, roughness } if glossy => {
+            let frame = Frame::from_normal(n);
+            let lobe = RoughConductor {
+                reflectance: *color,
+                distribution: TrowbridgeReitz::from_roughness(*roughness),
             };
-            if r > 0.0 {
-                rays.reflected += 1;
-                l += r * spawn(reflect(wo, n), rays);
-            }
-            if let Some(wt) = transmitted.filter(|_| r < 1.0) {
-                rays.refracted += 1;
-                l += (1.0 - r) * spawn(wt, rays);
+            let u = ctx.sampler.get_2d(Dim::Bsdf);
+            if let Some(s) = lobe.sample(frame.to_local(wo), u).filter(|s| s.pdf > 0.0) {
+                let wi = frame.to_world(s.wi);
+                ctx.rays.reflected += 1;
+                l += s.f * (s.wi.z.abs() / s.pdf) * follow(wi, seg.absorption, s.is_specular, ctx);
             }
         }
+        Bsdf::Mirror { color, .. } => {
+            if *color != Vec3::ZERO {
+                ctx.rays.reflected += 1;
+                l += *color * follow(reflect(wo, n), seg.absorption, true, ctx);
+            }
+        }
+        Bsdf::Dielectric { roughness, .. } => {
+            let c = crossing(&material.bsdf, ray.dir, hit.n, ctx.lambda).expect("a dielectric has two sides");
+            if glossy {
+                // Local frame on the outward normal: eta = n_inside / n_outside.
+                let frame = Frame::from_normal(hit.n);
+                let (n_in, n_out) = if ray.dir.dot(hit.n) < 0.0 { (c.n_t, c.n_i) } else { (c.n_i, c.n_t) };
+                let lobe = RoughDielectric {
+                    eta: n_in / n_out,
+                    distribution: TrowbridgeReitz::from_roughness(*roughness),
+                };
+                let (uc, u) = (ctx.sampler.get_1d(Dim::Bsdf), ctx.sampler.get_2d(Dim::Bsdf));
+                if let Some(s) =
+                    lobe.sample(frame.to_local(wo), uc, u, TransportMode::Radiance).filter(|s| s.pdf > 0.0)
+                {
+                    let wi = frame.to_world(s.wi);
+                    let medium = if s.is_transmission { c.transmitted } else { c.incident };
+                    if s.is_transmission {
+                        ctx.rays.refracted += 1;
+                    } else {
+                        ctx.rays.reflected += 1;
+                    }
+                    let weight = s.f * (s.wi.z.abs() / s.pdf);
+                    l += weight * follow(wi, medium.absorption, s.is_specular, ctx);
+                }
+            } else {
+                let transmitted = refract(wo, n, c.n_t / c.n_i);
+                let r = match transmitted {
+                    Some(_) => dielectric_reflectance(wo.dot(n), c.n_i, c.n_t, params.reflectance),
+                    None => 1.0,
+                };
+                if r > 0.0 {
+                    ctx.rays.reflected += 1;
+                    l += r * follow(reflect(wo, n), c.incident.absorption, true, ctx);
+                }
+                if let Some(wt) = transmitted.filter(|_| r < 1.0) {
+                    ctx.rays.refracted += 1;
+                    l += (1.0 - r) * follow(wt, c.transmitted.absorption, true, ctx);
+                }
+            }
+        }
+    }
+    attenuation * l
+}
+
+/// Local shading at a hit: the Phong model with every light as a point (its centre, or a
+/// random point on it when distributed); on a glossy surface under distributed sampling the
+/// Phong highlight is replaced by the GGX lobe evaluated towards each light.
+#[allow(clippy::too_many_arguments)]
+fn local(
+    scene: &Scene,
+    material: &Material,
+    hit: &SurfaceHit,
+    wo: Vec3,
+    shadow: ShadowRays,
+    sampling: Sampling,
+    glossy: bool,
+    ctx: &mut PathContext,
+) -> Vec3 {
+    let PathContext { sampler, rays, .. } = ctx;
+    match sampling {
+        Sampling::Fixed => {
+            phong_local(scene, material, material.phong, hit, wo, shadow, rays, |l, p| l.as_point_from(p))
+        }
+        Sampling::Distributed if !glossy => {
+            phong_local(scene, material, material.phong, hit, wo, shadow, rays, |l, p| {
+                l.sample_point(p, sampler.get_2d(Dim::Light))
+            })
+        }
+        Sampling::Distributed => {
+            let without_highlight = Phong { specular: 0.0, ..material.phong };
+            phong_local(scene, material, without_highlight, hit, wo, shadow, rays, |l, p| {
+                l.sample_point(p, sampler.get_2d(Dim::Light))
+            }) + glossy_direct(scene, material, hit, wo, shadow, ctx)
+        }
+    }
+}
+
+/// Direct light reflected or transmitted by a rough surface: Σ f(wo, wi)·|cos θi|·E·V with
+/// one random point on every light.
+fn glossy_direct(
+    scene: &Scene,
+    material: &Material,
+    hit: &SurfaceHit,
+    wo: Vec3,
+    shadow: ShadowRays,
+    ctx: &mut PathContext,
+) -> Vec3 {
+    let frame = Frame::from_normal(hit.n);
+    let wo_local = frame.to_local(wo);
+    let mut l = Vec3::ZERO;
+    for (index, light) in scene.lights.iter().enumerate() {
+        let source = light.sample_point(hit.p, ctx.sampler.get_2d(Dim::Light));
+        let to_light = source.position - hit.p;
+        let dist2 = to_light.length_squared();
+        let wi = to_light / dist2.sqrt();
+        if source.intensity == Vec3::ZERO {
+            continue;
+        }
+        let wi_local = frame.to_local(wi);
+        let f = match &material.bsdf {
+            Bsdf::Mirror { color, roughness } => RoughConductor {
+                reflectance: *color,
+                distribution: TrowbridgeReitz::from_roughness(*roughness),
+            }
+            .eval(wo_local, wi_local),
+            Bsdf::Dielectric { inside, outside, roughness } => RoughDielectric {
+                eta: inside.ior_at(ctx.lambda) / outside.ior_at(ctx.lambda),
+                distribution: TrowbridgeReitz::from_roughness(*roughness),
+            }
+            .eval(wo_local, wi_local, TransportMode::Radiance),
+            Bsdf::Diffuse(_) => Vec3::ZERO,
+        };
+        if f == Vec3::ZERO {
+            continue;
+        }
+        let vis = crate::lighting::transmittance(
+            scene,
+            hit,
+            source.position,
+            Some(index as u32),
+            shadow,
+            &mut ctx.rays,
+        );
+        l += f * vis * source.intensity * (wi_local.z.abs() / dist2);
     }
     l
 }

@@ -20,6 +20,12 @@ pub struct Camera {
     pub width: u32,
     /// Image height in pixels.
     pub height: u32,
+    /// Thin-lens radius in scene units (0: pinhole).
+    pub aperture: f32,
+    /// Distance from the lens to the plane in focus.
+    pub focus_distance: f32,
+    /// Shutter interval (open, close).
+    pub shutter: (f32, f32),
     /// Half the image plane's height at distance 1.
     tan_half_fov: f32,
 }
@@ -49,8 +55,53 @@ impl Camera {
             fov_degrees,
             width,
             height,
+            aperture: 0.0,
+            focus_distance: (look_at - position).length(),
+            shutter: (0.0, 0.0),
             tan_half_fov: (0.5 * fov_degrees.to_radians()).tan(),
         })
+    }
+
+    /// The same camera with a thin lens of radius `aperture` focused at `focus_distance`.
+    pub fn with_lens(mut self, aperture: f32, focus_distance: f32) -> Camera {
+        self.aperture = aperture;
+        self.focus_distance = focus_distance;
+        self
+    }
+
+    /// The same camera with the shutter open over `[open, close]`.
+    pub fn with_shutter(mut self, open: f32, close: f32) -> Camera {
+        self.shutter = (open, close);
+        self
+    }
+
+    /// The same camera at another resolution.
+    pub fn with_resolution(mut self, width: u32, height: u32) -> Camera {
+        self.width = width;
+        self.height = height;
+        self
+    }
+
+    /// Whether the camera has a lens with an aperture (depth of field).
+    pub fn has_lens(&self) -> bool {
+        self.aperture > 0.0
+    }
+
+    /// The ray through film position `film` (pixel units) from lens sample `lens` in [0,1)²
+    /// (ignored for a pinhole) at time `time`. Thin lens: the ray leaves a point of the lens disk
+    /// (concentric mapping) towards the point of the focal plane the pinhole ray would reach.
+    pub fn generate_ray_lens(&self, film: Vec2, lens: Vec2, time: f32) -> Ray {
+        let pinhole = self.generate_ray(film);
+        let mut ray = if self.has_lens() {
+            let focus = pinhole.dir * (self.focus_distance / pinhole.dir.dot(self.forward));
+            let disk = concentric_disk(lens) * self.aperture;
+            let offset = self.right * disk.x + self.up * disk.y;
+            Ray::new(self.position + offset, (focus - offset).normalize())
+        } else {
+            pinhole
+        };
+        ray.time = time;
+        ray
     }
 
     /// The ray through film position `film` in pixel units (x right, y down; (0.5, 0.5) is the
@@ -76,6 +127,20 @@ impl Camera {
         let ndc_y = d.dot(self.up) / (z * self.tan_half_fov);
         Some(Vec2::new((ndc_x + 1.0) * 0.5 * self.width as f32, (1.0 - ndc_y) * 0.5 * self.height as f32))
     }
+}
+
+/// Shirley–Chiu concentric map from the unit square to the unit disk (area preserving).
+pub fn concentric_disk(u: Vec2) -> Vec2 {
+    let o = 2.0 * u - Vec2::ONE;
+    if o == Vec2::ZERO {
+        return Vec2::ZERO;
+    }
+    let (r, theta) = if o.x.abs() > o.y.abs() {
+        (o.x, std::f32::consts::FRAC_PI_4 * (o.y / o.x))
+    } else {
+        (o.y, std::f32::consts::FRAC_PI_2 - std::f32::consts::FRAC_PI_4 * (o.x / o.y))
+    };
+    r * Vec2::new(theta.cos(), theta.sin())
 }
 
 #[cfg(test)]
@@ -108,6 +173,34 @@ mod tests {
         let r = c.generate_ray(film);
         let back = c.project(r.at(3.7)).unwrap();
         assert!((back - film).length() < 1e-3);
+    }
+
+    #[test]
+    fn thin_lens_rays_converge_on_the_focal_plane() {
+        let c = cam().with_lens(0.2, 3.0);
+        let film = Vec2::new(20.0, 9.0);
+        let target = c.generate_ray(film);
+        let focus = target.at(3.0 / target.dir.dot(c.forward));
+        for (i, j) in [(0.1f32, 0.2f32), (0.9, 0.5), (0.5, 0.99), (0.0, 0.0)] {
+            let r = c.generate_ray_lens(film, Vec2::new(i, j), 0.25);
+            assert_eq!(r.time, 0.25);
+            let t = (focus - r.origin).dot(r.dir);
+            assert!((r.at(t) - focus).length() < 1e-5, "lens ({i}, {j})");
+            assert!((r.origin - c.position).length() <= 0.2 + 1e-6);
+        }
+    }
+
+    #[test]
+    fn concentric_mapping_stays_in_the_disk_and_covers_it() {
+        let mut max_r = 0.0f32;
+        for i in 0..64 {
+            for j in 0..64 {
+                let p = concentric_disk(Vec2::new(i as f32 / 63.0, j as f32 / 63.0));
+                assert!(p.length() <= 1.0 + 1e-6);
+                max_r = max_r.max(p.length());
+            }
+        }
+        assert!(max_r > 0.999);
     }
 
     #[test]

@@ -7,9 +7,10 @@ use crate::integrators::{self, Integrator, RenderParams};
 use crate::output::exr::{write_exr, ExrMetadata};
 use crate::output::png::write_png;
 use crate::render::{self, Budget, RenderOptions, RenderOutput};
+use crate::sampler::SamplerKind;
 use crate::scene::compile::{MAX_PIXELS, MAX_SIDE};
 use crate::scene::effects::Support;
-use crate::scene::{self, Scene};
+use crate::scene::{self, Scene, SpectralMode};
 use clap::{Parser, Subcommand};
 use serde_json::json;
 use std::io::IsTerminal;
@@ -29,7 +30,7 @@ pub struct Cli {
 #[derive(Subcommand, Debug)]
 pub enum Command {
     /// Render a scene (the embedded default scene when none is given) to an EXR file.
-    Render(RenderArgs),
+    Render(Box<RenderArgs>),
     /// Describe a scene: objects, materials, lights, BVH statistics and effects.
     Info(InfoArgs),
     /// List the integrators.
@@ -83,6 +84,27 @@ pub struct RenderArgs {
     /// Refuse to render when the integrator cannot simulate an effect the scene calls for.
     #[arg(long)]
     pub strict: bool,
+    /// Trace wavelengths: auto (when the scene disperses and the method simulates it), on, off.
+    #[arg(long, value_parser = ["auto", "on", "off"])]
+    pub spectral: Option<String>,
+    /// Sample distribution: stratified or independent.
+    #[arg(long, value_parser = ["stratified", "independent"])]
+    pub sampler: Option<String>,
+    /// ssaa: adaptive corner subdivision or a regular grid.
+    #[arg(long, value_parser = ["adaptive", "grid"])]
+    pub ssaa_mode: Option<String>,
+    /// ssaa: samples per side of the regular grid.
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=64))]
+    pub ssaa_grid: Option<u32>,
+    /// ssaa: maximum subdivision level of the adaptive mode (each level splits 3×3).
+    #[arg(long, value_parser = clap::value_parser!(u32).range(0..=6))]
+    pub ssaa_levels: Option<u32>,
+    /// ssaa: contrast threshold that triggers subdivision.
+    #[arg(long)]
+    pub ssaa_threshold: Option<f32>,
+    /// Write the number of camera samples per pixel as a grey-scale PNG (white = the most).
+    #[arg(long)]
+    pub density_map: Option<PathBuf>,
 }
 
 /// Options of `vitrum info`.
@@ -228,11 +250,25 @@ pub fn render_options(scene: &Scene, args: &RenderArgs) -> Result<RenderOptions,
         Some(r) => Some(r),
         None => s.reflectance,
     };
+    let mut ssaa = s.ssaa;
+    if let Some(mode) = &args.ssaa_mode {
+        ssaa.adaptive = mode == "adaptive";
+    }
+    ssaa.grid = args.ssaa_grid.unwrap_or(ssaa.grid);
+    ssaa.levels = args.ssaa_levels.unwrap_or(ssaa.levels);
+    if let Some(t) = args.ssaa_threshold {
+        if !(t.is_finite() && t >= 0.0) {
+            return Err(CliError::BadInput(format!("--ssaa-threshold {t}: must be 0 or greater")));
+        }
+        ssaa.threshold = t;
+    }
     Ok(RenderOptions {
         budget,
         resolution: args.resolution,
         seed: args.seed.unwrap_or(s.seed),
-        params: RenderParams { max_depth: args.max_depth.unwrap_or(s.max_depth), reflectance },
+        params: RenderParams { max_depth: args.max_depth.unwrap_or(s.max_depth), reflectance, ssaa },
+        spectral: args.spectral.as_deref().and_then(SpectralMode::from_name).unwrap_or(s.spectral),
+        sampler: args.sampler.as_deref().and_then(SamplerKind::from_name).unwrap_or(s.sampler),
     })
 }
 
@@ -244,7 +280,7 @@ fn run_render(args: &RenderArgs) -> Result<(), CliError> {
     let integrator = integrator_named(args.integrator.as_deref().unwrap_or(&scene.settings.integrator))?;
     let opts = render_options(&scene, args)?;
     check_output_path(&args.output, "exr")?;
-    if let Some(png) = &args.png {
+    for png in [&args.png, &args.density_map].into_iter().flatten() {
         check_output_path(png, "png")?;
     }
     check_effects(&scene, integrator.as_ref(), args.strict)?;
@@ -292,11 +328,23 @@ fn run_render(args: &RenderArgs) -> Result<(), CliError> {
         let exposure = args.exposure.unwrap_or(scene.settings.exposure);
         write_png(png, &out.image, exposure).map_err(|e| CliError::Failure(e.to_string()))?;
     }
+    if let Some(path) = &args.density_map {
+        write_density_map(path, &out).map_err(|e| CliError::Failure(e.to_string()))?;
+    }
     if out.non_finite_samples > 0 {
         eprintln!("vitrum: warning: {} sample(s) were NaN or infinite", out.non_finite_samples);
     }
     report(args, &scene, integrator.name(), &opts, &out);
     Ok(())
+}
+
+/// The camera samples per pixel as grey levels, white for the most-sampled pixel.
+fn write_density_map(path: &Path, out: &RenderOutput) -> Result<(), crate::output::OutputError> {
+    let (w, h) = (out.image.width, out.image.height);
+    let counts = out.samples_per_pixel.clone().unwrap_or_else(|| vec![out.spp as f32; w * h]);
+    let max = counts.iter().copied().fold(0.0f32, f32::max).max(1e-9);
+    let levels: Vec<f32> = counts.iter().map(|&c| c / max).collect();
+    crate::output::png::write_grey_png(path, w, h, &levels)
 }
 
 /// Print the one-line summary (or the JSON object).
@@ -322,6 +370,12 @@ fn report(args: &RenderArgs, scene: &Scene, integrator: &str, opts: &RenderOptio
             },
             "mrays_per_second": mrays,
             "non_finite_samples": out.non_finite_samples,
+            "spectral": out.spectral,
+            "samples_per_pixel": out.samples_per_pixel.as_ref().map(|c| {
+                let n = c.len().max(1) as f32;
+                json!({"mean": c.iter().sum::<f32>() / n, "min": c.iter().copied().fold(f32::INFINITY, f32::min),
+                       "max": c.iter().copied().fold(0.0f32, f32::max)})
+            }),
             "effects": scene.effects.names(),
             "output": args.output,
             "png": args.png,

@@ -4,8 +4,10 @@
 //! methods that follow. Data flow: `scene::desc` (TOML) → `scene::compile` → [`scene::Scene`] →
 //! an [`integrators::Integrator`] driven by [`render`] → [`output`] (EXR, PNG, JSON).
 
+pub mod bsdf;
 pub mod camera;
 pub mod cli;
+pub mod dispersion;
 pub mod geometry;
 pub mod image;
 pub mod light;
@@ -16,6 +18,7 @@ pub mod output;
 pub mod render;
 pub mod sampler;
 pub mod scene;
+pub mod spectrum;
 pub mod stats;
 
 // The integrators live in the top-level `integrators/` folder, one file per method (DESIGN.md).

@@ -1,8 +1,9 @@
-//! Direct lighting shared by the deterministic methods: shadow rays (optionally through glass)
-//! and the empirical Phong model.
+//! Direct lighting shared by the deterministic and distributed methods: dielectric interfaces,
+//! shadow rays (optionally through glass) and the empirical Phong model.
 
 use crate::geometry::{spawn_origin, Ray, SurfaceHit};
-use crate::material::{Bsdf, Material};
+use crate::light::PointIllumination;
+use crate::material::{Bsdf, Material, Medium, Phong};
 use crate::optics::fresnel_dielectric;
 use crate::scene::Scene;
 use crate::stats::RayCounts;
@@ -17,25 +18,53 @@ pub const MAX_SHADOW_CROSSINGS: u32 = 64;
 pub enum ShadowMode {
     /// Every surface blocks light (classic ray casting).
     Opaque,
-    /// Dielectrics pass light attenuated by their Fresnel transmittance at each crossing (no
-    /// refraction of the shadow ray: Whitted cannot bend light towards lights; no caustics).
-    FresnelThroughGlass {
+    /// Dielectrics pass light attenuated by their Fresnel transmittance at each crossing and by
+    /// absorption between crossings (no refraction of the shadow ray: these methods cannot bend
+    /// light towards lights; no caustics).
+    ThroughGlass {
         /// Constant reflectance instead of exact Fresnel (the thesis's 0.06).
         reflectance: Option<f32>,
     },
 }
 
-/// Refractive indices on the incident and transmitted sides when a ray travelling along `dir`
-/// crosses a dielectric with outward normal `n`.
+/// Everything a shadow ray needs besides its end points.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ShadowRays {
+    /// How dielectrics are treated.
+    pub mode: ShadowMode,
+    /// Wavelength (nm) in spectral mode, for the refractive indices.
+    pub lambda: Option<f32>,
+    /// Time of the path (moving objects).
+    pub time: f32,
+}
+
+/// A ray crossing a dielectric interface: the media and indices on its two sides.
+#[derive(Clone, Copy, Debug)]
+pub struct Crossing<'a> {
+    /// Index on the side the ray comes from.
+    pub n_i: f32,
+    /// Index on the side it goes to.
+    pub n_t: f32,
+    /// Medium the ray comes from (where a reflected ray stays).
+    pub incident: &'a Medium,
+    /// Medium the ray goes into if it is transmitted.
+    pub transmitted: &'a Medium,
+}
+
+/// The crossing of a ray travelling along `dir` through a dielectric with outward normal `n`,
+/// with indices at `lambda` (nm) or nominal in RGB mode; `None` for other materials.
 #[inline]
-pub fn interface_indices(bsdf: &Bsdf, dir: Vec3, n: Vec3) -> Option<(f32, f32)> {
-    match *bsdf {
-        Bsdf::Dielectric { ior_inside, ior_outside } => {
-            if dir.dot(n) < 0.0 {
-                Some((ior_outside, ior_inside))
-            } else {
-                Some((ior_inside, ior_outside))
-            }
+pub fn crossing(bsdf: &Bsdf, dir: Vec3, n: Vec3, lambda: Option<f32>) -> Option<Crossing<'_>> {
+    match bsdf {
+        Bsdf::Dielectric { inside, outside, .. } => {
+            let (incident, transmitted) =
+                if dir.dot(n) < 0.0 { (outside, inside) } else { (inside, outside) };
+            Some(Crossing {
+                n_i: incident.ior_at(lambda),
+                n_t: transmitted.ior_at(lambda),
+                incident,
+                transmitted,
+            })
         }
         _ => None,
     }
@@ -53,60 +82,73 @@ pub fn dielectric_reflectance(cos_i: f32, n_i: f32, n_t: f32, constant: Option<f
 }
 
 /// Fraction of the light at `target` that reaches the surface point `from` (0 if blocked).
-/// `light` is the emitter primitive's light index, which does not block its own light.
+/// `light` is the emitter's light index, which does not block its own light.
 pub fn transmittance(
     scene: &Scene,
     from: &SurfaceHit,
     target: Vec3,
     light: Option<u32>,
-    mode: ShadowMode,
+    shadow: ShadowRays,
     rays: &mut RayCounts,
-) -> f32 {
-    let to_light = target - from.p;
-    let dir = to_light.normalize();
+) -> Vec3 {
+    let dir = (target - from.p).normalize();
     let mut origin = spawn_origin(from, dir);
-    let mut t = 1.0f32;
+    let mut t = Vec3::ONE;
+    // The medium around the starting point is unknown unless we entered it through glass.
+    let mut medium: Option<&Medium> = None;
     for _ in 0..MAX_SHADOW_CROSSINGS {
         rays.shadow += 1;
         let remaining = (target - origin).dot(dir);
         if remaining <= 0.0 {
             return t;
         }
-        let ray = Ray::new(origin, dir);
-        let Some(hit) = scene.intersect(&ray, remaining * (1.0 - 1e-5)) else {
+        let mut ray = Ray::new(origin, dir);
+        ray.time = shadow.time;
+        let hit = scene.intersect(&ray, remaining * (1.0 - 1e-5));
+        let travelled = hit.as_ref().map_or(remaining, |h| h.hit.t);
+        if let Some(m) = medium {
+            t *= m.transmittance(travelled);
+        }
+        let Some(hit) = hit else {
             return t;
         };
         if light.is_some() && scene.light_of(hit.primitive) == light {
             return t;
         }
-        let ShadowMode::FresnelThroughGlass { reflectance } = mode else {
-            return 0.0;
+        let ShadowMode::ThroughGlass { reflectance } = shadow.mode else {
+            return Vec3::ZERO;
         };
         let bsdf = &scene.material_of(hit.primitive).bsdf;
-        let Some((n_i, n_t)) = interface_indices(bsdf, dir, hit.hit.n) else {
-            return 0.0;
+        let Some(c) = crossing(bsdf, dir, hit.hit.n, shadow.lambda) else {
+            return Vec3::ZERO;
         };
-        t *= 1.0 - dielectric_reflectance(dir.dot(hit.hit.n).abs(), n_i, n_t, reflectance);
-        if t == 0.0 {
-            return 0.0;
+        t *= 1.0 - dielectric_reflectance(dir.dot(hit.hit.n).abs(), c.n_i, c.n_t, reflectance);
+        if t == Vec3::ZERO {
+            return t;
         }
+        medium = Some(c.transmitted);
         origin = spawn_origin(&hit.hit, dir);
     }
-    0.0
+    Vec3::ZERO
 }
 
-/// Phong local illumination at `hit` seen from direction `wo` (pointing away from the surface):
-/// ambient plus, for every light, diffuse and normalised specular terms weighted by the light's
-/// irradiance and shadow transmittance (see [`crate::material::Phong`]).
+/// Phong local illumination at `hit` seen from direction `wo` (pointing away from the surface)
+/// with every light taken as the point source `illumination(light)` gives for it (its centre
+/// for the deterministic methods, a random point for distributed ray tracing): ambient plus,
+/// per light, diffuse and normalised specular terms weighted by irradiance and shadow
+/// transmittance (see [`crate::material::Phong`]), with the coefficients `ph` (normally the
+/// material's own).
+#[allow(clippy::too_many_arguments)]
 pub fn phong_local(
     scene: &Scene,
     material: &Material,
+    ph: Phong,
     hit: &SurfaceHit,
     wo: Vec3,
-    mode: ShadowMode,
+    shadow: ShadowRays,
     rays: &mut RayCounts,
+    mut illumination: impl FnMut(&crate::light::Light, Vec3) -> PointIllumination,
 ) -> Vec3 {
-    let ph = material.phong;
     let color = material.phong_color(hit.p);
     let mut l = ph.ambient * color * scene.settings.ambient;
     if ph.diffuse == 0.0 && ph.specular == 0.0 {
@@ -115,7 +157,7 @@ pub fn phong_local(
     // Two-sided shading: the normal facing the viewer.
     let n = if hit.n.dot(wo) >= 0.0 { hit.n } else { -hit.n };
     for (index, light) in scene.lights.iter().enumerate() {
-        let source = light.as_point_from(hit.p);
+        let source = illumination(light, hit.p);
         let to_light = source.position - hit.p;
         let dist2 = to_light.length_squared();
         let wi = to_light / dist2.sqrt();
@@ -123,11 +165,11 @@ pub fn phong_local(
         if cos <= 0.0 || source.intensity == Vec3::ZERO {
             continue;
         }
-        let vis = transmittance(scene, hit, source.position, Some(index as u32), mode, rays);
-        if vis == 0.0 {
+        let vis = transmittance(scene, hit, source.position, Some(index as u32), shadow, rays);
+        if vis == Vec3::ZERO {
             continue;
         }
-        let irradiance = source.intensity * (vis * cos / dist2);
+        let irradiance = source.intensity * vis * (cos / dist2);
         let mut f = ph.diffuse * color / PI;
         if ph.specular > 0.0 {
             let r = crate::optics::reflect(wi, n);
@@ -141,8 +183,8 @@ pub fn phong_local(
 
 /// Radiance emitted by the primitive of `hit` towards `wo`, if it is a light's emitting side.
 pub fn emitted(scene: &Scene, primitive: u32, hit: &SurfaceHit, wo: Vec3) -> Vec3 {
-    match scene.light_of(primitive).map(|i| &scene.lights[i as usize]) {
-        Some(crate::light::Light::Quad { radiance, .. }) if hit.n.dot(wo) > 0.0 => *radiance,
-        _ => Vec3::ZERO,
+    match scene.light_of(primitive) {
+        Some(i) => scene.lights[i as usize].emitted(hit.n, wo),
+        None => Vec3::ZERO,
     }
 }

@@ -1,5 +1,6 @@
 //! Materials: the physical description and the empirical Phong terms of ray casting and Whitted.
 
+use crate::dispersion::Ior;
 use glam::Vec3;
 
 /// How a diffuse albedo varies over a surface.
@@ -55,20 +56,72 @@ pub struct Phong {
     pub shininess: f32,
 }
 
+/// A homogeneous medium on one side of a dielectric interface.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Medium {
+    /// Refractive index, possibly wavelength dependent.
+    pub ior: Ior,
+    /// Beer–Lambert absorption coefficient per scene unit (RGB).
+    pub absorption: Vec3,
+}
+
+impl Medium {
+    /// A clear medium with a constant index.
+    pub fn clear(ior: f32) -> Medium {
+        Medium { ior: Ior::Constant(ior), absorption: Vec3::ZERO }
+    }
+
+    /// The index at wavelength `lambda` (nm), or the nominal index n_d in RGB mode.
+    #[inline]
+    pub fn ior_at(&self, lambda: Option<f32>) -> f32 {
+        match lambda {
+            Some(l) => self.ior.at(l),
+            None => self.ior.nominal(),
+        }
+    }
+
+    /// Fraction of light surviving `distance` through the medium.
+    #[inline]
+    pub fn transmittance(&self, distance: f32) -> Vec3 {
+        if self.absorption == Vec3::ZERO {
+            Vec3::ONE
+        } else {
+            (-self.absorption * distance).exp()
+        }
+    }
+}
+
 /// The physical behaviour of a surface.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Bsdf {
     /// Lambertian reflector with the given albedo.
     Diffuse(Texture),
-    /// Perfect specular reflector with reflectance per channel.
-    Mirror(Vec3),
-    /// Smooth dielectric interface.
-    Dielectric {
-        /// Refractive index on the side opposite the normal (inside).
-        ior_inside: f32,
-        /// Refractive index on the side the normal points to (outside).
-        ior_outside: f32,
+    /// Mirror, smooth or (GGX) rough.
+    Mirror {
+        /// Reflectance per channel.
+        color: Vec3,
+        /// GGX roughness (α = roughness²); 0 is a perfect mirror.
+        roughness: f32,
     },
+    /// Dielectric interface between two media, smooth or (GGX) rough.
+    Dielectric {
+        /// Medium on the side opposite the normal.
+        inside: Medium,
+        /// Medium on the side the normal points to.
+        outside: Medium,
+        /// GGX roughness (α = roughness²); 0 is smooth.
+        roughness: f32,
+    },
+}
+
+impl Bsdf {
+    /// The surface's roughness (0 for diffuse and smooth surfaces).
+    pub fn roughness(&self) -> f32 {
+        match self {
+            Bsdf::Diffuse(_) => 0.0,
+            Bsdf::Mirror { roughness, .. } | Bsdf::Dielectric { roughness, .. } => *roughness,
+        }
+    }
 }
 
 /// A material: physical behaviour plus its empirical Phong terms.
@@ -91,9 +144,10 @@ impl Material {
         let highlight = |ks: f32| Phong { ambient: 0.0, diffuse: 0.0, specular: ks, shininess: 200.0 };
         match bsdf {
             Bsdf::Diffuse(_) => Phong { ambient: 1.0, diffuse: 1.0, specular: 0.0, shininess: 1.0 },
-            Bsdf::Mirror(c) => highlight(c.max_element()),
-            Bsdf::Dielectric { ior_inside, ior_outside } => {
-                highlight(((ior_inside - ior_outside) / (ior_inside + ior_outside)).powi(2))
+            Bsdf::Mirror { color, .. } => highlight(color.max_element()),
+            Bsdf::Dielectric { inside, outside, .. } => {
+                let (n1, n2) = (inside.ior.nominal(), outside.ior.nominal());
+                highlight(((n1 - n2) / (n1 + n2)).powi(2))
             }
         }
     }
@@ -102,7 +156,7 @@ impl Material {
     pub fn phong_color(&self, p: Vec3) -> Vec3 {
         match &self.bsdf {
             Bsdf::Diffuse(t) => t.eval(p),
-            Bsdf::Mirror(c) => *c,
+            Bsdf::Mirror { color, .. } => *color,
             Bsdf::Dielectric { .. } => Vec3::ONE,
         }
     }
@@ -116,8 +170,8 @@ impl Material {
     /// for the inner surfaces of hollow bodies.
     pub fn swapped_interface(&self) -> Material {
         let bsdf = match self.bsdf {
-            Bsdf::Dielectric { ior_inside, ior_outside } => {
-                Bsdf::Dielectric { ior_inside: ior_outside, ior_outside: ior_inside }
+            Bsdf::Dielectric { inside, outside, roughness } => {
+                Bsdf::Dielectric { inside: outside, outside: inside, roughness }
             }
             ref other => other.clone(),
         };
@@ -141,13 +195,24 @@ mod tests {
 
     #[test]
     fn swapping_an_interface_twice_is_the_identity() {
-        let glass = Material {
-            name: "glass".into(),
-            bsdf: Bsdf::Dielectric { ior_inside: 1.5, ior_outside: 1.0 },
-            phong: Material::default_phong(&Bsdf::Dielectric { ior_inside: 1.5, ior_outside: 1.0 }),
+        let bsdf = Bsdf::Dielectric {
+            inside: Medium { ior: Ior::Constant(1.5), absorption: Vec3::new(0.1, 0.2, 0.3) },
+            outside: Medium::clear(1.0),
+            roughness: 0.2,
         };
+        let glass = Material { name: "glass".into(), phong: Material::default_phong(&bsdf), bsdf };
         let inner = glass.swapped_interface();
-        assert_eq!(inner.bsdf, Bsdf::Dielectric { ior_inside: 1.0, ior_outside: 1.5 });
+        let Bsdf::Dielectric { inside, outside, roughness } = inner.bsdf else { panic!() };
+        assert_eq!((inside, outside.ior, roughness), (Medium::clear(1.0), Ior::Constant(1.5), 0.2));
+        assert_eq!(outside.absorption, Vec3::new(0.1, 0.2, 0.3));
         assert_eq!(inner.swapped_interface().bsdf, glass.bsdf);
+    }
+
+    #[test]
+    fn beer_lambert_transmittance() {
+        let m = Medium { ior: Ior::Constant(1.5), absorption: Vec3::new(0.0, 1.0, 2.0) };
+        let t = m.transmittance(0.5);
+        assert_eq!(t.x, 1.0);
+        assert!((t.y - (-0.5f32).exp()).abs() < 1e-7 && (t.z - (-1.0f32).exp()).abs() < 1e-7);
     }
 }

@@ -1,13 +1,80 @@
 //! Deterministic random streams: every number is a pure function of
-//! (seed, pixel, sample index, dimension), so images do not depend on thread count or order.
+//! (seed, pixel, sample index, dimension), so images do not depend on thread count or order,
+//! any sample range can be rendered separately, and one sample can be re-run for debugging.
+//!
+//! Two kinds: `independent` (uniform random numbers) and `stratified` (jittered): for each
+//! dimension of a pixel, the pixel's samples fall in distinct strata, assigned to sample indices
+//! by a pseudo-random permutation per (pixel, dimension) (Kensler 2013), so no table is stored
+//! and the value of sample *s* is still a pure function of its key. Two-dimensional requests use
+//! an m×m grid when the sample count is a perfect square and Latin-hypercube strata otherwise.
+//!
+//! Every request names its purpose ([`Dim`]); the sampler counts requests per purpose so tests
+//! can prove that a scene without depth of field, motion or dispersion never draws lens, time or
+//! wavelength numbers.
 
 use glam::Vec2;
+
+/// What a random number is for (the order of consumption is the stream's dimension order).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Dim {
+    /// Position inside the pixel.
+    Pixel = 0,
+    /// Point on the thin lens.
+    Lens = 1,
+    /// Time within the shutter interval.
+    Time = 2,
+    /// Wavelength for spectral rendering.
+    Wavelength = 3,
+    /// Choice of a light and a point on it.
+    Light = 4,
+    /// Choice of a scattering direction.
+    Bsdf = 5,
+    /// Anything else (Russian roulette, lobe selection, …).
+    Other = 6,
+}
+
+/// Number of [`Dim`] purposes.
+pub const DIM_PURPOSES: usize = 7;
+
+/// How sample values are distributed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum SamplerKind {
+    /// Uniform independent random numbers.
+    Independent,
+    /// Jittered strata per pixel and dimension.
+    #[default]
+    Stratified,
+}
+
+impl SamplerKind {
+    /// The name used on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            SamplerKind::Independent => "independent",
+            SamplerKind::Stratified => "stratified",
+        }
+    }
+
+    /// Parse a command-line name.
+    pub fn from_name(name: &str) -> Option<SamplerKind> {
+        match name {
+            "independent" => Some(SamplerKind::Independent),
+            "stratified" => Some(SamplerKind::Stratified),
+            _ => None,
+        }
+    }
+}
 
 /// A random stream for one sample of one pixel; successive calls consume successive dimensions.
 #[derive(Clone, Debug)]
 pub struct Sampler {
-    key: u64,
+    pixel_key: u64,
+    sample_key: u64,
+    sample: u32,
+    samples_per_pixel: u32,
+    kind: SamplerKind,
     dimension: u32,
+    requests: [u32; DIM_PURPOSES],
 }
 
 /// SplitMix64 finaliser: a fast, well-mixed 64-bit hash.
@@ -18,34 +85,130 @@ fn mix64(mut z: u64) -> u64 {
     z ^ (z >> 31)
 }
 
-impl Sampler {
-    /// The stream of sample `sample` of pixel `pixel` (row-major index) under `seed`.
-    pub fn new(seed: u64, pixel: u64, sample: u64) -> Sampler {
-        let key = mix64(
-            mix64(mix64(seed ^ 0x5eed_5eed_5eed_5eed) ^ pixel) ^ sample.wrapping_mul(0x9e37_79b9_7f4a_7c15),
-        );
-        Sampler { key, dimension: 0 }
-    }
+/// A uniform number in [0, 1) from the high 24 bits of a hash.
+#[inline]
+fn unit(bits: u64) -> f32 {
+    (bits >> 40) as f32 * (1.0 / (1u64 << 24) as f32)
+}
 
-    /// The value of dimension `dimension` of this stream, in [0, 1).
-    pub fn value_at(&self, dimension: u32) -> f32 {
-        let bits = mix64(self.key ^ (dimension as u64 + 1).wrapping_mul(0xd6e8_feb8_6659_fd93));
-        // 24 high bits give every representable multiple of 2^-24 below 1.
-        (bits >> 40) as f32 * (1.0 / (1u64 << 24) as f32)
-    }
-
-    /// The next dimension, in [0, 1).
-    pub fn next_1d(&mut self) -> f32 {
-        let v = self.value_at(self.dimension);
-        self.dimension += 1;
-        v
-    }
-
-    /// The next two dimensions, in [0, 1)².
-    pub fn next_2d(&mut self) -> Vec2 {
-        Vec2::new(self.next_1d(), self.next_1d())
+/// Kensler's hash-based permutation of [0, n): element `i` of permutation `seed`.
+#[inline]
+fn permute(mut i: u32, n: u32, seed: u32) -> u32 {
+    let mut w = n - 1;
+    w |= w >> 1;
+    w |= w >> 2;
+    w |= w >> 4;
+    w |= w >> 8;
+    w |= w >> 16;
+    loop {
+        i ^= seed;
+        i = i.wrapping_mul(0xe170893d);
+        i ^= seed >> 16;
+        i ^= (i & w) >> 4;
+        i ^= seed >> 8;
+        i = i.wrapping_mul(0x0929eb3f);
+        i ^= seed >> 23;
+        i ^= (i & w) >> 1;
+        i = i.wrapping_mul(1 | seed >> 27);
+        i = i.wrapping_mul(0x6935fa69);
+        i ^= (i & w) >> 11;
+        i = i.wrapping_mul(0x74dcb303);
+        i ^= (i & w) >> 2;
+        i = i.wrapping_mul(0x9e501cc3);
+        i ^= (i & w) >> 2;
+        i = i.wrapping_mul(0xc860a3df);
+        i &= w;
+        i ^= i >> 5;
+        if i < n {
+            return (i.wrapping_add(seed)) % n;
+        }
     }
 }
+
+impl Sampler {
+    /// The stream of sample `sample` (of `samples_per_pixel`) of pixel `pixel` (row-major
+    /// index) under `seed`. Stratification needs the sample count; with 0 (unknown, as in
+    /// time-budget renders) or 1 the stream is independent.
+    pub fn new(kind: SamplerKind, seed: u64, pixel: u64, sample: u32, samples_per_pixel: u32) -> Sampler {
+        let pixel_key = mix64(mix64(seed ^ 0x5eed_5eed_5eed_5eed) ^ pixel);
+        let sample_key = mix64(pixel_key ^ (sample as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15));
+        Sampler {
+            pixel_key,
+            sample_key,
+            sample,
+            samples_per_pixel,
+            kind,
+            dimension: 0,
+            requests: [0; DIM_PURPOSES],
+        }
+    }
+
+    /// An independent stream (used where no stratification applies, e.g. tests).
+    pub fn independent(seed: u64, pixel: u64, sample: u32) -> Sampler {
+        Sampler::new(SamplerKind::Independent, seed, pixel, sample, 0)
+    }
+
+    /// The jitter value of dimension `d` for this sample, in [0, 1).
+    #[inline]
+    fn jitter(&self, d: u32) -> f32 {
+        unit(mix64(self.sample_key ^ (d as u64 + 1).wrapping_mul(0xd6e8_feb8_6659_fd93)))
+    }
+
+    /// This sample's stratum among `n` in dimension `d`.
+    #[inline]
+    fn stratum(&self, d: u32, n: u32) -> u32 {
+        let seed = mix64(self.pixel_key ^ (d as u64 + 1).wrapping_mul(0xa076_1d64_78bd_642f)) as u32;
+        permute(self.sample % n, n, seed)
+    }
+
+    fn stratified(&self) -> bool {
+        self.kind == SamplerKind::Stratified && self.samples_per_pixel > 1
+    }
+
+    /// The next dimension, in [0, 1), for `purpose`.
+    pub fn get_1d(&mut self, purpose: Dim) -> f32 {
+        self.requests[purpose as usize] += 1;
+        let d = self.dimension;
+        self.dimension += 1;
+        let j = self.jitter(d);
+        if !self.stratified() {
+            return j;
+        }
+        let n = self.samples_per_pixel;
+        ((self.stratum(d, n) as f32 + j) / n as f32).min(ONE_MINUS_EPSILON)
+    }
+
+    /// The next two dimensions, in [0, 1)², for `purpose`.
+    pub fn get_2d(&mut self, purpose: Dim) -> Vec2 {
+        self.requests[purpose as usize] += 1;
+        let d = self.dimension;
+        self.dimension += 2;
+        let (jx, jy) = (self.jitter(d), self.jitter(d + 1));
+        if !self.stratified() {
+            return Vec2::new(jx, jy);
+        }
+        let n = self.samples_per_pixel;
+        let m = (n as f64).sqrt() as u32;
+        let (sx, sy, nx, ny) = if m * m == n {
+            let s = self.stratum(d, n);
+            (s % m, s / m, m, m)
+        } else {
+            (self.stratum(d, n), self.stratum(d + 1, n), n, n)
+        };
+        Vec2::new(
+            ((sx as f32 + jx) / nx as f32).min(ONE_MINUS_EPSILON),
+            ((sy as f32 + jy) / ny as f32).min(ONE_MINUS_EPSILON),
+        )
+    }
+
+    /// How many requests were made for `purpose` so far.
+    pub fn requests(&self, purpose: Dim) -> u32 {
+        self.requests[purpose as usize]
+    }
+}
+
+/// The largest f32 below 1.
+pub const ONE_MINUS_EPSILON: f32 = 1.0 - f32::EPSILON / 2.0;
 
 #[cfg(test)]
 mod tests {
@@ -53,30 +216,114 @@ mod tests {
 
     #[test]
     fn streams_are_pure_functions_of_their_key() {
-        let mut a = Sampler::new(7, 123, 4);
-        let mut b = Sampler::new(7, 123, 4);
-        for _ in 0..16 {
-            assert_eq!(a.next_1d(), b.next_1d());
+        for kind in [SamplerKind::Independent, SamplerKind::Stratified] {
+            let mut a = Sampler::new(kind, 7, 123, 4, 16);
+            let mut b = Sampler::new(kind, 7, 123, 4, 16);
+            for _ in 0..16 {
+                assert_eq!(a.get_1d(Dim::Other), b.get_1d(Dim::Other));
+                assert_eq!(a.get_2d(Dim::Bsdf), b.get_2d(Dim::Bsdf));
+            }
+            let first = |seed, pixel, sample| Sampler::new(kind, seed, pixel, sample, 16).get_1d(Dim::Other);
+            assert_ne!(first(7, 123, 4), first(7, 124, 4));
+            assert_ne!(first(7, 123, 4), first(8, 123, 4));
+            assert_ne!(first(7, 123, 4), first(7, 123, 5));
         }
-        assert_ne!(Sampler::new(7, 123, 4).next_1d(), Sampler::new(7, 124, 4).next_1d());
-        assert_ne!(Sampler::new(7, 123, 4).next_1d(), Sampler::new(8, 123, 4).next_1d());
-        assert_ne!(Sampler::new(7, 123, 4).next_1d(), Sampler::new(7, 123, 5).next_1d());
+    }
+
+    /// χ² statistic of counts against a uniform expectation.
+    fn chi2(counts: &[u32]) -> f64 {
+        let expected = counts.iter().sum::<u32>() as f64 / counts.len() as f64;
+        counts.iter().map(|&c| (c as f64 - expected).powi(2) / expected).sum()
     }
 
     #[test]
-    fn values_are_uniform_in_the_unit_interval() {
-        // Chi-square over 16 equal bins, 16,000 values; the 99.9% quantile of χ²(15) is 37.7.
+    fn independent_values_are_uniform() {
+        // 16 bins, 64,000 values; the 99.9% quantile of χ²(15) is 37.7.
         let mut bins = [0u32; 16];
-        for p in 0..1000u64 {
-            let mut s = Sampler::new(1, p, 0);
+        for p in 0..4000u64 {
+            let mut s = Sampler::independent(1, p, 0);
             for _ in 0..16 {
-                let v = s.next_1d();
+                let v = s.get_1d(Dim::Other);
                 assert!((0.0..1.0).contains(&v));
                 bins[(v * 16.0) as usize] += 1;
             }
         }
-        let expected = 1000.0;
-        let chi2: f64 = bins.iter().map(|&c| (c as f64 - expected).powi(2) / expected).sum();
-        assert!(chi2 < 37.7, "chi2 = {chi2}");
+        assert!(chi2(&bins) < 37.7, "chi2 = {}", chi2(&bins));
+    }
+
+    #[test]
+    fn stratified_samples_fill_every_stratum_exactly_once() {
+        for n in [4u32, 9, 16, 7, 12] {
+            for pixel in 0..20u64 {
+                let mut cells_1d = vec![0u32; n as usize];
+                let m = (n as f64).sqrt() as u32;
+                let mut cells_2d = vec![0u32; n as usize];
+                let mut rows = vec![0u32; n as usize];
+                for s in 0..n {
+                    let mut smp = Sampler::new(SamplerKind::Stratified, 3, pixel, s, n);
+                    let v = smp.get_1d(Dim::Other);
+                    cells_1d[(v * n as f32) as usize] += 1;
+                    let p = smp.get_2d(Dim::Pixel);
+                    if m * m == n {
+                        cells_2d[(p.y * m as f32) as usize * m as usize + (p.x * m as f32) as usize] += 1;
+                    } else {
+                        cells_2d[(p.x * n as f32) as usize] += 1;
+                        rows[(p.y * n as f32) as usize] += 1;
+                    }
+                }
+                assert!(cells_1d.iter().all(|&c| c == 1), "n {n}: {cells_1d:?}");
+                assert!(cells_2d.iter().all(|&c| c == 1), "n {n}: {cells_2d:?}");
+                if m * m != n {
+                    assert!(rows.iter().all(|&c| c == 1), "n {n}: {rows:?}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn stratified_values_are_uniform_over_many_pixels() {
+        let mut bins = [0u32; 16];
+        for p in 0..1000u64 {
+            for s in 0..16 {
+                let mut smp = Sampler::new(SamplerKind::Stratified, 5, p, s, 16);
+                smp.get_1d(Dim::Other);
+                let v = smp.get_2d(Dim::Light);
+                bins[(v.x * 4.0) as usize * 4 + (v.y * 4.0) as usize] += 1;
+            }
+        }
+        // every pixel puts exactly one sample in each 4×4 cell
+        assert!(bins.iter().all(|&c| c == 1000), "{bins:?}");
+    }
+
+    #[test]
+    fn stratification_reduces_the_error_of_a_smooth_integral() {
+        // ∫∫ x·y = 1/4 with 16 samples per pixel: stratified error far below independent.
+        let mean_sq_err = |kind| {
+            let mut total = 0.0f64;
+            for p in 0..500u64 {
+                let mut est = 0.0f64;
+                for s in 0..16 {
+                    let v = Sampler::new(kind, 9, p, s, 16).get_2d(Dim::Pixel);
+                    est += (v.x * v.y) as f64 / 16.0;
+                }
+                total += (est - 0.25).powi(2);
+            }
+            total / 500.0
+        };
+        let (ind, strat) = (mean_sq_err(SamplerKind::Independent), mean_sq_err(SamplerKind::Stratified));
+        assert!(strat < ind / 4.0, "independent {ind}, stratified {strat}");
+    }
+
+    #[test]
+    fn requests_are_counted_by_purpose() {
+        let mut s = Sampler::new(SamplerKind::Stratified, 0, 0, 0, 4);
+        s.get_2d(Dim::Pixel);
+        s.get_1d(Dim::Light);
+        s.get_2d(Dim::Light);
+        assert_eq!(s.requests(Dim::Pixel), 1);
+        assert_eq!(s.requests(Dim::Light), 2);
+        assert_eq!(s.requests(Dim::Lens), 0);
+        assert_eq!(s.requests(Dim::Time), 0);
+        assert_eq!(s.requests(Dim::Wavelength), 0);
     }
 }

@@ -212,7 +212,22 @@ fn wrong_type_of_cylinder_flag() {
 
 #[test]
 fn wrong_type_of_material_ior() {
-    assert_scene_error("ior = 1.52", r#"ior = "high""#, "materials.glass.ior", &["invalid type"]);
+    assert_scene_error(
+        "ior = 1.52",
+        "ior = true",
+        "materials.glass.ior",
+        &["invalid type", "refractive index"],
+    );
+}
+
+#[test]
+fn unknown_glass_name_lists_the_known_glasses() {
+    assert_scene_error(
+        "ior = 1.52",
+        r#"ior = "high""#,
+        "materials.glass.ior",
+        &["unknown glass `high`", "bk7"],
+    );
 }
 
 #[test]

@@ -4,10 +4,9 @@
 //! after 0, 2, 4, … internal reflections gives L·(1−R)²·Σ R^(2k) = L·(1−R)/(1+R).
 
 use glam::Vec2;
-use vitrum::integrators::{create, RenderParams};
+use vitrum::integrators::{create, PathContext, RenderParams};
 use vitrum::sampler::Sampler;
 use vitrum::scene::load_str;
-use vitrum::stats::RayCounts;
 
 const SLAB: &str = r#"
 [camera]
@@ -52,10 +51,11 @@ radiance = [2.0, 1.0, 0.5]
 fn emitter_through_a_glass_slab_matches_the_closed_form() {
     let scene = load_str(SLAB, "slab", None).unwrap();
     let whitted = create("whitted").unwrap();
-    let params = RenderParams { max_depth: 40, reflectance: None };
+    let params = RenderParams::with_depth(40);
     let ray = scene.camera.generate_ray(Vec2::new(4.5, 4.5));
-    let mut rays = RayCounts::default();
-    let l = whitted.radiance(&scene, &params, &ray, &mut Sampler::new(0, 0, 0), &mut rays);
+    let mut ctx = PathContext::new(Sampler::independent(0, 0, 0));
+    let l = whitted.radiance(&scene, &params, &ray, &mut ctx);
+    let rays = ctx.rays;
     let r = (0.5f32 / 2.5).powi(2);
     assert!((r - 0.04).abs() < 1e-7);
     let factor = (1.0 - r) / (1.0 + r);
@@ -70,9 +70,9 @@ fn emitter_through_a_glass_slab_matches_the_closed_form() {
 fn constant_reflectance_option_reproduces_the_thesis_value() {
     let scene = load_str(SLAB, "slab", None).unwrap();
     let whitted = create("whitted").unwrap();
-    let params = RenderParams { max_depth: 40, reflectance: Some(0.06) };
+    let params = RenderParams { reflectance: Some(0.06), ..RenderParams::with_depth(40) };
     let ray = scene.camera.generate_ray(Vec2::new(4.5, 4.5));
-    let l = whitted.radiance(&scene, &params, &ray, &mut Sampler::new(0, 0, 0), &mut RayCounts::default());
+    let l = whitted.radiance(&scene, &params, &ray, &mut PathContext::new(Sampler::independent(0, 0, 0)));
     let expected = 2.0 * (1.0 - 0.06) / (1.0 + 0.06);
     assert!(((l.x - expected) / expected).abs() < 1e-3, "got {}, expected {expected}", l.x);
 }

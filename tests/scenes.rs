@@ -1,8 +1,8 @@
 //! Every shipped scene parses, compiles and renders at 64×64 with every integrator, every pixel
 //! finite; and the embedded default scene is `scenes/cornell-glass.toml`.
 
-use vitrum::integrators::{self, RenderParams};
-use vitrum::render::{render, Budget, RenderOptions};
+use vitrum::integrators;
+use vitrum::render::{render, RenderOptions};
 use vitrum::scene;
 
 fn scene_files() -> Vec<std::path::PathBuf> {
@@ -23,12 +23,7 @@ fn every_scene_renders_finite_with_every_integrator() {
         let scene = scene::load(&file).unwrap_or_else(|e| panic!("{e}"));
         assert!(!scene.lights.is_empty(), "{}: no lights", file.display());
         for integrator in integrators::all() {
-            let opts = RenderOptions {
-                budget: Budget::Samples(1),
-                resolution: Some((64, 64)),
-                seed: 1,
-                params: RenderParams { max_depth: scene.settings.max_depth, reflectance: None },
-            };
+            let opts = RenderOptions { resolution: Some((64, 64)), ..RenderOptions::from_scene(&scene, 1) };
             let out = render(&scene, integrator.as_ref(), &opts, &|_, _| {});
             assert_eq!(out.image.pixels.len(), 64 * 64);
             assert_eq!(out.non_finite_samples, 0, "{} with {}", file.display(), integrator.name());

@@ -5,7 +5,7 @@ use glam::Vec3;
 use rand::{RngExt, SeedableRng};
 use rand_pcg::Pcg32;
 use vitrum::geometry::{spawn_origin, Ray};
-use vitrum::lighting::interface_indices;
+use vitrum::lighting::crossing;
 use vitrum::optics::{reflect, refract};
 use vitrum::scene::{load_str, Scene};
 
@@ -55,7 +55,8 @@ fn check(scene: &Scene, size: f32, min_gap: f32) -> usize {
         let hit = first.hit;
         let wo = -ray.dir;
         let n = if hit.n.dot(wo) >= 0.0 { hit.n } else { -hit.n };
-        let (n_i, n_t) = interface_indices(&scene.material_of(first.primitive).bsdf, ray.dir, hit.n).unwrap();
+        let c = crossing(&scene.material_of(first.primitive).bsdf, ray.dir, hit.n, None).unwrap();
+        let (n_i, n_t) = (c.n_i, c.n_t);
         let mut spawned = vec![reflect(wo, n)];
         spawned.extend(refract(wo, n, n_t / n_i));
         for dir in spawned {

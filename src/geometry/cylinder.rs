@@ -151,7 +151,7 @@ mod tests {
         assert_eq!(c.intersect(&r, 0.0, f32::INFINITY), None);
         let r = Ray::new(Vec3::new(0.5, -1.0, 0.0), Vec3::new(1e-7, 1.0, 0.0).normalize());
         assert_eq!(c.intersect(&r, 0.0, f32::INFINITY), None);
-        let zero = Ray { origin: Vec3::ZERO, dir: Vec3::ZERO };
+        let zero = Ray { origin: Vec3::ZERO, dir: Vec3::ZERO, time: 0.0 };
         assert_eq!(c.intersect(&zero, 0.0, f32::INFINITY), None);
     }
 

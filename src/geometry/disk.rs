@@ -105,7 +105,7 @@ mod tests {
         // Ray in the plane of the disk, and behind it.
         assert_eq!(d.intersect(&ray([-5.0, 0.0, 0.0], [1.0, 0.0, 0.0]), 0.0, f32::INFINITY), None);
         assert_eq!(d.intersect(&ray([0.0, 0.0, 2.0], [0.0, 0.0, 1.0]), 0.0, f32::INFINITY), None);
-        let zero = Ray { origin: Vec3::ZERO, dir: Vec3::ZERO };
+        let zero = Ray { origin: Vec3::ZERO, dir: Vec3::ZERO, time: 0.0 };
         assert_eq!(d.intersect(&zero, 0.0, f32::INFINITY), None);
     }
 

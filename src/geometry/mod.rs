@@ -28,13 +28,21 @@ pub struct Ray {
     pub origin: Vec3,
     /// Unit direction; `-0.0` components are canonicalised to `+0.0` by [`Ray::new`].
     pub dir: Vec3,
+    /// Time within the shutter interval (moving objects are intersected where they are then).
+    pub time: f32,
 }
 
 impl Ray {
     /// A ray from `origin` along the unit vector `dir` (negative zeros become positive zeros).
     #[inline]
     pub fn new(origin: Vec3, dir: Vec3) -> Ray {
-        Ray { origin, dir: dir + Vec3::ZERO }
+        Ray { origin, dir: dir + Vec3::ZERO, time: 0.0 }
+    }
+
+    /// A ray leaving `origin` along `dir` at the same time as this one.
+    #[inline]
+    pub fn spawn(&self, origin: Vec3, dir: Vec3) -> Ray {
+        Ray { origin, dir: dir + Vec3::ZERO, time: self.time }
     }
 
     /// The point at parametric distance `t`.

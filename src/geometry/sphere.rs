@@ -340,7 +340,7 @@ mod tests {
     #[test]
     fn degenerate_inputs_are_finite() {
         let s = Sphere::new(Vec3::ZERO, 1.0);
-        let zero = Ray { origin: Vec3::new(0.0, 0.0, -3.0), dir: Vec3::ZERO };
+        let zero = Ray { origin: Vec3::new(0.0, 0.0, -3.0), dir: Vec3::ZERO, time: 0.0 };
         assert_eq!(s.intersect(&zero, 0.0, f32::INFINITY), None);
         // Origin exactly on the surface, tangent direction: double root at 0, not in (0, ∞).
         let r = ray([0.0, 1.0, 0.0], [1.0, 0.0, 0.0]);

@@ -181,7 +181,7 @@ mod tests {
         assert_eq!(tri.intersect(&r, 0.0, 1.0), None);
         assert_eq!(tri.intersect(&r, 1.0, 2.0), None);
         assert_eq!(tri.intersect(&r, 0.5, 1.5), Some(1.0));
-        let zero = Ray { origin: Vec3::Z, dir: Vec3::ZERO };
+        let zero = Ray { origin: Vec3::Z, dir: Vec3::ZERO, time: 0.0 };
         assert_eq!(tri.intersect(&zero, 0.0, 10.0), None);
     }
 

@@ -1,14 +1,19 @@
 //! Scene compilation: text → [`SceneDesc`] → validated, expanded, BVH-accelerated [`Scene`].
 
 use super::bodies::{self, BodySurface};
-use super::desc::{LightDesc, MaterialDesc, PhongDesc, Rgb, SceneDesc, ShapeDesc, TextureDesc};
+use super::desc::{IorDesc, LightDesc, MaterialDesc, PhongDesc, Rgb, SceneDesc, ShapeDesc, TextureDesc};
 use super::effects::{Effect, Effects};
 use super::source::{FieldPath, SceneError, Source};
-use super::{BvhStats, ObjectSummary, Primitive, RenderSettings, Scene, SceneOrigin, DEFAULT_SCENE};
+use super::{
+    BvhStats, ObjectSummary, Primitive, RenderSettings, Scene, SceneOrigin, SpectralMode, DEFAULT_SCENE,
+};
 use crate::camera::Camera;
+use crate::dispersion::Ior;
 use crate::geometry::{Disk, Polygon, Quad, Shape, Sphere};
+use crate::integrators::SsaaParams;
 use crate::light::Light;
-use crate::material::{Bsdf, Material, Phong, Texture};
+use crate::material::{Bsdf, Material, Medium, Phong, Texture};
+use crate::sampler::SamplerKind;
 use glam::{Vec3, Vec3A};
 use obvhs::aabb::Aabb;
 use obvhs::cwbvh::builder::build_cwbvh;
@@ -184,9 +189,6 @@ impl Compiler<'_> {
         for (name, m) in &desc.materials {
             let path = FieldPath::from("materials").key(name);
             let material = self.material(&path, name, m)?;
-            if let Bsdf::Diffuse(Texture::Checker { .. }) = material.bsdf {
-                effects.add(Effect::Textures, format!("material `{name}` has a checker texture"));
-            }
             material_index.insert(name.clone(), materials.len() as u32);
             materials.push(material);
         }
@@ -214,6 +216,17 @@ impl Compiler<'_> {
             if matches!(object.shape, ShapeDesc::Mesh { .. }) {
                 effects.add(Effect::Meshes, format!("objects[{i}] is a triangle mesh"));
             }
+            material_effects(&mut effects, &materials[material as usize], i);
+            let velocity = match object.velocity {
+                Some(v) => Some(self.finite_vector(&path.key("velocity"), v)?).filter(|v| *v != Vec3::ZERO),
+                None => None,
+            };
+            if velocity.is_some() && camera.shutter.1 > camera.shutter.0 {
+                effects.add(
+                    Effect::MotionBlur,
+                    format!("objects[{i}] moves (velocity) while the shutter is open"),
+                );
+            }
             let object_id = objects.len() as u32;
             objects.push(ObjectSummary {
                 name: object.name.clone().unwrap_or_else(|| format!("{kind} #{i}")),
@@ -230,7 +243,7 @@ impl Compiler<'_> {
                 } else {
                     material
                 };
-                primitives.push(Primitive { shape, material, light: None, object: object_id });
+                primitives.push(Primitive { shape, material, light: None, object: object_id, velocity });
             }
         }
 
@@ -238,21 +251,31 @@ impl Compiler<'_> {
         for (i, l) in desc.lights.iter().enumerate() {
             let path = FieldPath::from("lights").index(i);
             let light = self.light(&path, l)?;
-            if let Light::Quad { corner, u, v, .. } = light {
-                effects.add(Effect::SoftShadows, format!("lights[{i}] is an area light"));
+            let emitter = match light {
+                Light::Point { .. } => None,
+                Light::Quad { corner, u, v, .. } => {
+                    Some((Shape::Quad(Quad::new(corner, u, v)), "quad light"))
+                }
+                Light::Sphere { center, radius, .. } => {
+                    Some((Shape::Sphere(Sphere::new(center, radius)), "sphere light"))
+                }
+            };
+            if let Some((shape, kind)) = emitter {
+                effects.add(Effect::SoftShadows, format!("lights[{i}] is an area light ({kind})"));
                 let emitter_material = materials.len() as u32;
                 let bsdf = Bsdf::Diffuse(Texture::Constant(Vec3::ZERO));
                 let phong = Phong { ambient: 0.0, diffuse: 0.0, specular: 0.0, shininess: 1.0 };
                 materials.push(Material { name: format!("light #{i}"), bsdf, phong });
                 primitives.push(Primitive {
-                    shape: Shape::Quad(Quad::new(corner, u, v)),
+                    shape,
                     material: emitter_material,
                     light: Some(lights.len() as u32),
                     object: objects.len() as u32,
+                    velocity: None,
                 });
                 objects.push(ObjectSummary {
                     name: format!("area light #{i}"),
-                    kind: "quad light".into(),
+                    kind: kind.into(),
                     material: format!("light #{i}"),
                     primitives: 1,
                 });
@@ -260,7 +283,13 @@ impl Compiler<'_> {
             lights.push(light);
         }
 
-        let (primitives, bvh, bvh_stats) = build_bvh(primitives);
+        if camera.has_lens() {
+            effects.add(
+                Effect::DepthOfField,
+                format!("camera.aperture = {} (focus at {})", camera.aperture, camera.focus_distance),
+            );
+        }
+        let (primitives, bvh, bvh_stats) = build_bvh(primitives, camera.shutter);
         Ok(Scene {
             primitives,
             materials,
@@ -303,9 +332,20 @@ impl Compiler<'_> {
             return Err(self.err(&path.key("look_at"), "must differ from camera.position"));
         }
         let up = self.direction(&path.key("up"), c.up)?;
-        Camera::new(position, look_at, up, c.fov, w, h).ok_or_else(|| {
+        let camera = Camera::new(position, look_at, up, c.fov, w, h).ok_or_else(|| {
             self.err(&path.key("up"), "must not be parallel to the view direction (look_at − position)")
-        })
+        })?;
+        let aperture = self.non_negative(&path.key("aperture"), c.aperture)?;
+        let focus = match c.focus_distance {
+            Some(f) => self.positive(&path.key("focus_distance"), f)?,
+            None => camera.focus_distance,
+        };
+        let [open, close] = c.shutter;
+        if open > close {
+            return Err(self
+                .err(&path.key("shutter"), format!("open must not be after close (got [{open}, {close}])")));
+        }
+        Ok(camera.with_lens(aperture, focus).with_shutter(open, close))
     }
 
     fn settings(&self, desc: &SceneDesc) -> Result<RenderSettings, SceneError> {
@@ -329,7 +369,29 @@ impl Compiler<'_> {
                 return Err(self.err(&path.key("reflectance"), format!("must be in [0, 1] (got {rho})")));
             }
         }
+        let spectral = SpectralMode::from_name(&r.spectral).ok_or_else(|| {
+            self.err(&path.key("spectral"), format!("`{}` is not one of auto, on, off", r.spectral))
+        })?;
+        let sampler = SamplerKind::from_name(&r.sampler).ok_or_else(|| {
+            self.err(&path.key("sampler"), format!("`{}` is not one of stratified, independent", r.sampler))
+        })?;
+        let q = path.key("ssaa");
+        let adaptive = match r.ssaa.mode.as_str() {
+            "adaptive" => true,
+            "grid" => false,
+            other => return Err(self.err(&q.key("mode"), format!("`{other}` is not one of adaptive, grid"))),
+        };
+        if !(1..=64).contains(&r.ssaa.grid) {
+            return Err(self.err(&q.key("grid"), format!("must be in 1..=64 (got {})", r.ssaa.grid)));
+        }
+        if r.ssaa.levels > 6 {
+            return Err(self.err(&q.key("levels"), format!("must be in 0..=6 (got {})", r.ssaa.levels)));
+        }
+        let threshold = self.non_negative(&q.key("threshold"), r.ssaa.threshold)?;
         Ok(RenderSettings {
+            spectral,
+            sampler,
+            ssaa: SsaaParams { adaptive, grid: r.ssaa.grid, levels: r.ssaa.levels, threshold },
             integrator: r.integrator.clone(),
             spp: r.spp,
             max_depth: r.max_depth,
@@ -339,6 +401,49 @@ impl Compiler<'_> {
             reflectance: r.reflectance,
             exposure: r.exposure,
         })
+    }
+
+    fn roughness(&self, path: &FieldPath, r: f32) -> Result<f32, SceneError> {
+        if (0.0..=1.0).contains(&r) {
+            Ok(r)
+        } else {
+            Err(self.err(path, format!("must be in [0, 1] (got {r})")))
+        }
+    }
+
+    fn finite_vector(&self, path: &FieldPath, v: [f32; 3]) -> Result<Vec3, SceneError> {
+        let v = Vec3::from_array(v);
+        if v.is_finite() {
+            Ok(v)
+        } else {
+            Err(self.err(path, "must be finite"))
+        }
+    }
+
+    fn ior(&self, path: &FieldPath, ior: &IorDesc) -> Result<Ior, SceneError> {
+        let ior = match ior {
+            IorDesc::Constant(n) => Ior::Constant(self.positive(path, *n)?),
+            IorDesc::Named(name) => Ior::named(name).ok_or_else(|| {
+                self.err(path, format!("unknown glass `{name}`; known: {}", Ior::names().join(", ")))
+            })?,
+            IorDesc::Cauchy([a, b]) => Ior::Cauchy { a: *a, b: *b },
+            IorDesc::Abbe([n_d, v_d]) => {
+                if !(*n_d > 1.0 && *v_d > 0.0) {
+                    return Err(self.err(
+                        path,
+                        format!("abbe = [n_d, V_d] needs n_d > 1 and V_d > 0 (got [{n_d}, {v_d}])"),
+                    ));
+                }
+                Ior::from_abbe(*n_d, *v_d)
+            }
+        };
+        let (lo, hi) = (ior.at(crate::spectrum::LAMBDA_MIN), ior.at(crate::spectrum::LAMBDA_MAX));
+        if !(lo > 0.0 && hi > 0.0 && lo.is_finite() && hi.is_finite()) {
+            return Err(
+                self.err(path, format!("the index must be positive over 380–780 nm (got {lo} .. {hi})"))
+            );
+        }
+        Ok(ior)
     }
 
     fn phong(&self, path: &FieldPath, p: &PhongDesc, bsdf: &Bsdf) -> Result<Phong, SceneError> {
@@ -372,13 +477,31 @@ impl Compiler<'_> {
                 };
                 (Bsdf::Diffuse(texture), phong)
             }
-            MaterialDesc::Mirror { color, phong } => {
-                (Bsdf::Mirror(self.color(&path.key("color"), *color)?), phong)
+            MaterialDesc::Mirror { color, roughness, phong } => {
+                let color = self.color(&path.key("color"), *color)?;
+                (
+                    Bsdf::Mirror { color, roughness: self.roughness(&path.key("roughness"), *roughness)? },
+                    phong,
+                )
             }
-            MaterialDesc::Dielectric { ior, ior_outside, phong } => {
-                let ior_inside = self.positive(&path.key("ior"), *ior)?;
-                let ior_outside = self.positive(&path.key("ior_outside"), *ior_outside)?;
-                (Bsdf::Dielectric { ior_inside, ior_outside }, phong)
+            MaterialDesc::Dielectric {
+                ior,
+                ior_outside,
+                absorption,
+                absorption_outside,
+                roughness,
+                phong,
+            } => {
+                let inside = Medium {
+                    ior: self.ior(&path.key("ior"), ior)?,
+                    absorption: self.color(&path.key("absorption"), *absorption)?,
+                };
+                let outside = Medium {
+                    ior: self.ior(&path.key("ior_outside"), ior_outside)?,
+                    absorption: self.color(&path.key("absorption_outside"), *absorption_outside)?,
+                };
+                let roughness = self.roughness(&path.key("roughness"), *roughness)?;
+                (Bsdf::Dielectric { inside, outside, roughness }, phong)
             }
         };
         let phong = self.phong(path, phong, &bsdf)?;
@@ -512,7 +635,39 @@ impl Compiler<'_> {
                     radiance: self.color(&path.key("radiance"), *radiance)?,
                 }
             }
+            LightDesc::Sphere { center, radius, radiance } => Light::Sphere {
+                center: v(*center),
+                radius: self.positive(&path.key("radius"), *radius)?,
+                radiance: self.color(&path.key("radiance"), *radiance)?,
+            },
         })
+    }
+}
+
+/// Record the effects a material asks for, on behalf of object `object`.
+fn material_effects(effects: &mut Effects, m: &Material, object: usize) {
+    let who = format!("objects[{object}] uses material `{}`", m.name);
+    match &m.bsdf {
+        Bsdf::Diffuse(Texture::Checker { .. }) => {
+            effects.add(Effect::Textures, format!("{who}, a checker texture"))
+        }
+        Bsdf::Diffuse(_) => {}
+        Bsdf::Mirror { roughness, .. } => {
+            if *roughness > 0.0 {
+                effects.add(Effect::Glossy, format!("{who}, a rough mirror (roughness {roughness})"));
+            }
+        }
+        Bsdf::Dielectric { inside, outside, roughness } => {
+            if *roughness > 0.0 {
+                effects.add(Effect::Glossy, format!("{who}, rough glass (roughness {roughness})"));
+            }
+            if inside.ior.is_dispersive() || outside.ior.is_dispersive() {
+                effects.add(Effect::Dispersion, format!("{who}, whose index varies with wavelength"));
+            }
+            if inside.absorption != Vec3::ZERO || outside.absorption != Vec3::ZERO {
+                effects.add(Effect::Absorption, format!("{who}, an absorbing medium"));
+            }
+        }
     }
 }
 
@@ -540,9 +695,12 @@ fn scale_for_extent(extent: f32) -> f32 {
 }
 
 /// Build the CwBvh over all primitives (in BVH units) and reorder them to BVH order.
-fn build_bvh(primitives: Vec<Primitive>) -> (Vec<Primitive>, obvhs::cwbvh::CwBvh, BvhStats) {
+fn build_bvh(
+    primitives: Vec<Primitive>,
+    shutter: (f32, f32),
+) -> (Vec<Primitive>, obvhs::cwbvh::CwBvh, BvhStats) {
     let start = Instant::now();
-    let bounds: Vec<_> = primitives.iter().map(|p| p.shape.bounds()).collect();
+    let bounds: Vec<_> = primitives.iter().map(|p| p.bounds_over(shutter)).collect();
     let (mut lo, mut hi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
     for b in &bounds {
         lo = lo.min(b.min);

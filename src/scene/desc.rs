@@ -99,6 +99,19 @@ pub struct CameraDesc {
     /// Image size `[width, height]` in pixels.
     #[serde(default = "default_resolution")]
     pub resolution: [u32; 2],
+    /// Radius of the thin lens in scene units; 0 is a pinhole (no depth of field).
+    #[serde(default)]
+    pub aperture: f32,
+    /// Distance to the plane in focus; default: the distance to `look_at`.
+    #[serde(default)]
+    pub focus_distance: Option<f32>,
+    /// Shutter interval `[open, close]` in the time unit of object velocities.
+    #[serde(default = "default_shutter")]
+    pub shutter: [f32; 2],
+}
+
+fn default_shutter() -> [f32; 2] {
+    [0.0, 1.0]
 }
 
 fn default_up() -> Vec3Desc {
@@ -139,6 +152,65 @@ pub struct RenderDesc {
     /// Exposure of the PNG preview, in stops.
     #[serde(default)]
     pub exposure: f32,
+    /// Spectral rendering: `auto` (when the scene disperses), `on` or `off`.
+    #[serde(default = "default_auto")]
+    pub spectral: String,
+    /// Sample distribution: `stratified` or `independent`.
+    #[serde(default = "default_sampler")]
+    pub sampler: String,
+    /// Settings of the supersampling integrator.
+    #[serde(default)]
+    pub ssaa: SsaaDesc,
+}
+
+fn default_auto() -> String {
+    "auto".into()
+}
+fn default_sampler() -> String {
+    "stratified".into()
+}
+
+/// Settings of `ssaa` (supersampled antialiasing over Whitted radiance).
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SsaaDesc {
+    /// `adaptive` (thesis: corners, subdivide on contrast) or `grid` (regular n×n).
+    #[serde(default = "default_ssaa_mode")]
+    pub mode: String,
+    /// Samples per side of the regular grid.
+    #[serde(default = "default_ssaa_grid")]
+    pub grid: u32,
+    /// Maximum subdivision level of the adaptive mode (level L spaces samples 2^-L pixels apart).
+    #[serde(default = "default_ssaa_levels")]
+    pub levels: u32,
+    /// Contrast that triggers subdivision: the largest channel difference between corners
+    /// relative to their sum, |a − b| / (a + b).
+    #[serde(default = "default_ssaa_threshold")]
+    pub threshold: f32,
+}
+
+impl Default for SsaaDesc {
+    fn default() -> Self {
+        SsaaDesc {
+            mode: default_ssaa_mode(),
+            grid: default_ssaa_grid(),
+            levels: default_ssaa_levels(),
+            threshold: default_ssaa_threshold(),
+        }
+    }
+}
+
+fn default_ssaa_mode() -> String {
+    "adaptive".into()
+}
+fn default_ssaa_grid() -> u32 {
+    4
+}
+fn default_ssaa_levels() -> u32 {
+    2
+}
+fn default_ssaa_threshold() -> f32 {
+    0.1
 }
 
 impl Default for RenderDesc {
@@ -152,6 +224,9 @@ impl Default for RenderDesc {
             background: default_zero_rgb(),
             reflectance: None,
             exposure: 0.0,
+            spectral: default_auto(),
+            sampler: default_sampler(),
+            ssaa: SsaaDesc::default(),
         }
     }
 }
@@ -214,22 +289,34 @@ pub enum MaterialDesc {
         #[serde(default)]
         phong: PhongDesc,
     },
-    /// Perfect mirror.
+    /// Mirror, perfect or (with roughness) glossy.
     Mirror {
         /// Reflectance per channel.
         #[serde(default = "default_one_rgb")]
         color: Rgb,
+        /// GGX roughness in [0, 1] (α = roughness²); 0 is a perfect mirror.
+        #[serde(default)]
+        roughness: f32,
         /// Empirical Phong terms.
         #[serde(default)]
         phong: PhongDesc,
     },
-    /// Smooth dielectric interface: refractive index on the inside and the outside.
+    /// Dielectric interface: the media on the inside and the outside, smooth or rough.
     Dielectric {
         /// Index on the side opposite the surface normal (inside a closed body).
-        ior: f32,
+        ior: IorDesc,
         /// Index on the side the normal points to.
         #[serde(default = "default_ior_outside")]
-        ior_outside: f32,
+        ior_outside: IorDesc,
+        /// Beer–Lambert absorption coefficient of the inside medium, per scene unit.
+        #[serde(default = "default_zero_rgb")]
+        absorption: Rgb,
+        /// Absorption coefficient of the outside medium, per scene unit.
+        #[serde(default = "default_zero_rgb")]
+        absorption_outside: Rgb,
+        /// GGX roughness in [0, 1] (α = roughness²); 0 is smooth glass, more is frosted.
+        #[serde(default)]
+        roughness: f32,
         /// Empirical Phong terms.
         #[serde(default)]
         phong: PhongDesc,
@@ -242,8 +329,63 @@ fn default_albedo() -> Rgb {
 fn default_one_rgb() -> Rgb {
     Rgb::Grey(1.0)
 }
-fn default_ior_outside() -> f32 {
-    1.0
+fn default_ior_outside() -> IorDesc {
+    IorDesc::Constant(1.0)
+}
+
+/// A refractive index: a number, a named glass (`"bk7"`), `{ cauchy = [A, B_nm²] }` or
+/// `{ abbe = [n_d, V_d] }`.
+#[derive(Clone, Debug, PartialEq)]
+pub enum IorDesc {
+    /// The same index at every wavelength.
+    Constant(f32),
+    /// A glass from the built-in list.
+    Named(String),
+    /// Cauchy's n(λ) = A + B/λ², λ in nm.
+    Cauchy([f32; 2]),
+    /// Index n_d at 587.6 nm and Abbe number V_d.
+    Abbe([f32; 2]),
+}
+
+impl<'de> Deserialize<'de> for IorDesc {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<IorDesc, D::Error> {
+        #[derive(Deserialize)]
+        #[serde(deny_unknown_fields)]
+        struct Table {
+            cauchy: Option<[f32; 2]>,
+            abbe: Option<[f32; 2]>,
+        }
+        struct Visitor;
+        impl<'de> serde::de::Visitor<'de> for Visitor {
+            type Value = IorDesc;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str("a refractive index: a number, a glass name, { cauchy = [A, B] } or { abbe = [n_d, V_d] }")
+            }
+            fn visit_f64<E: serde::de::Error>(self, v: f64) -> Result<IorDesc, E> {
+                Ok(IorDesc::Constant(v as f32))
+            }
+            fn visit_i64<E: serde::de::Error>(self, v: i64) -> Result<IorDesc, E> {
+                Ok(IorDesc::Constant(v as f32))
+            }
+            fn visit_u64<E: serde::de::Error>(self, v: u64) -> Result<IorDesc, E> {
+                Ok(IorDesc::Constant(v as f32))
+            }
+            fn visit_str<E: serde::de::Error>(self, v: &str) -> Result<IorDesc, E> {
+                Ok(IorDesc::Named(v.to_string()))
+            }
+            fn visit_map<A: serde::de::MapAccess<'de>>(self, map: A) -> Result<IorDesc, A::Error> {
+                let t = Table::deserialize(serde::de::value::MapAccessDeserializer::new(map))?;
+                match (t.cauchy, t.abbe) {
+                    (Some(c), None) => Ok(IorDesc::Cauchy(c)),
+                    (None, Some(a)) => Ok(IorDesc::Abbe(a)),
+                    _ => Err(serde::de::Error::custom(
+                        "give exactly one of `cauchy = [A, B]` or `abbe = [n_d, V_d]`",
+                    )),
+                }
+            }
+        }
+        d.deserialize_any(Visitor)
+    }
 }
 fn default_axis() -> Vec3Desc {
     [0.0, 1.0, 0.0]
@@ -260,6 +402,9 @@ pub struct ObjectDesc {
     pub name: Option<String>,
     /// Material name (a key of `[materials]`).
     pub material: String,
+    /// Linear motion in scene units per unit of shutter time (motion blur).
+    #[serde(default)]
+    pub velocity: Option<Vec3Desc>,
     /// The geometry.
     #[serde(flatten)]
     pub shape: ShapeDesc,
@@ -390,6 +535,15 @@ pub enum LightDesc {
         u: Vec3Desc,
         /// Second edge.
         v: Vec3Desc,
+        /// Emitted radiance in W/(m²·sr).
+        radiance: Rgb,
+    },
+    /// A spherical emitter, radiating outwards from its whole surface.
+    Sphere {
+        /// Centre.
+        center: Vec3Desc,
+        /// Radius.
+        radius: f32,
         /// Emitted radiance in W/(m²·sr).
         radiance: Rgb,
     },

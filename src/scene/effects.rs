@@ -8,8 +8,18 @@ use std::fmt;
 /// A rendering effect that costs something to simulate.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
 pub enum Effect {
+    /// A refractive index that varies with wavelength: spectral rendering.
+    Dispersion,
+    /// Absorbing media (coloured glass): Beer–Lambert attenuation.
+    Absorption,
+    /// Objects moving while the shutter is open: a time sample per camera ray.
+    MotionBlur,
+    /// A thin lens with an aperture: a lens sample per camera ray.
+    DepthOfField,
     /// Area lights: penumbrae need samples over the light.
     SoftShadows,
+    /// Rough (GGX) mirrors or dielectrics: glossy reflection and refraction.
+    Glossy,
     /// Spatially varying colour.
     Textures,
     /// Triangle meshes.
@@ -17,10 +27,27 @@ pub enum Effect {
 }
 
 impl Effect {
+    /// Every effect, in the order `vitrum info` lists them.
+    pub const ALL: [Effect; 8] = [
+        Effect::Dispersion,
+        Effect::Absorption,
+        Effect::MotionBlur,
+        Effect::DepthOfField,
+        Effect::SoftShadows,
+        Effect::Glossy,
+        Effect::Textures,
+        Effect::Meshes,
+    ];
+
     /// Name used in output and metadata.
     pub fn name(self) -> &'static str {
         match self {
+            Effect::Dispersion => "dispersion",
+            Effect::Absorption => "absorption",
+            Effect::MotionBlur => "motion-blur",
+            Effect::DepthOfField => "depth-of-field",
             Effect::SoftShadows => "soft-shadows",
+            Effect::Glossy => "glossy",
             Effect::Textures => "textures",
             Effect::Meshes => "meshes",
         }
@@ -71,11 +98,13 @@ impl Effects {
         self.0.iter().any(|u| u.effect == effect)
     }
 
-    /// Comma-separated effect names (`none` when empty), as stored in output metadata.
+    /// Comma-separated effect names in canonical order (`none` when empty), as stored in
+    /// output metadata.
     pub fn names(&self) -> String {
-        if self.0.is_empty() {
+        let names: Vec<&str> = Effect::ALL.iter().filter(|e| self.has(**e)).map(|e| e.name()).collect();
+        if names.is_empty() {
             return "none".into();
         }
-        self.0.iter().map(|u| u.effect.name()).collect::<Vec<_>>().join(",")
+        names.join(",")
     }
 }

@@ -14,8 +14,10 @@ pub use source::SceneError;
 
 use crate::camera::Camera;
 use crate::geometry::{Ray, Shape, SurfaceHit};
+use crate::integrators::SsaaParams;
 use crate::light::Light;
 use crate::material::Material;
+use crate::sampler::SamplerKind;
 use glam::{Vec3, Vec3A};
 use obvhs::cwbvh::CwBvh;
 use obvhs::ray::RayHit;
@@ -35,6 +37,23 @@ pub struct Primitive {
     pub light: Option<u32>,
     /// Index into [`Scene::objects`].
     pub object: u32,
+    /// Linear velocity (scene units per unit of time) when the object moves; the shape is
+    /// where it is at time 0.
+    pub velocity: Option<Vec3>,
+}
+
+impl Primitive {
+    /// Conservative bounds over the shutter interval `(open, close)`.
+    pub fn bounds_over(&self, shutter: (f32, f32)) -> crate::geometry::Bounds {
+        let b = self.shape.bounds();
+        match self.velocity {
+            None => b,
+            Some(v) => {
+                let (a, c) = (v * shutter.0, v * shutter.1);
+                crate::geometry::Bounds { min: (b.min + a).min(b.min + c), max: (b.max + a).max(b.max + c) }
+            }
+        }
+    }
 }
 
 /// A ray's closest hit.
@@ -65,6 +84,50 @@ pub struct RenderSettings {
     pub reflectance: Option<f32>,
     /// PNG preview exposure in stops.
     pub exposure: f32,
+    /// Whether to render spectrally.
+    pub spectral: SpectralMode,
+    /// Sample distribution.
+    pub sampler: SamplerKind,
+    /// Settings of the supersampling integrator.
+    pub ssaa: SsaaParams,
+}
+
+/// When to trace wavelengths instead of RGB.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SpectralMode {
+    /// Spectral exactly when the scene calls for dispersion.
+    Auto,
+    /// Always (a non-dispersive scene then renders the same image within noise).
+    On,
+    /// Never (dispersive media use their nominal index n_d).
+    Off,
+}
+
+impl SpectralMode {
+    /// Parse `auto`, `on` or `off`.
+    pub fn from_name(name: &str) -> Option<SpectralMode> {
+        match name {
+            "auto" => Some(SpectralMode::Auto),
+            "on" => Some(SpectralMode::On),
+            "off" => Some(SpectralMode::Off),
+            _ => None,
+        }
+    }
+
+    /// Whether a scene with these effects is rendered spectrally.
+    pub fn resolve(self, effects: &Effects) -> bool {
+        match self {
+            SpectralMode::Auto => effects.has(Effect::Dispersion),
+            SpectralMode::On => true,
+            SpectralMode::Off => false,
+        }
+    }
+}
+
+/// `ray` in the frame of an object moving with velocity `v` (the object at rest at time 0).
+#[inline]
+fn moved(ray: &Ray, v: Vec3) -> Ray {
+    Ray { origin: ray.origin - v * ray.time, ..*ray }
 }
 
 /// What `vitrum info` shows about one object of the scene file.
@@ -136,7 +199,8 @@ pub struct Scene {
 }
 
 impl Scene {
-    /// The closest hit along `ray` with distance in (0, `tmax`).
+    /// The closest hit along `ray` with distance in (0, `tmax`), with moving primitives where
+    /// they are at `ray.time`.
     pub fn intersect(&self, ray: &Ray, tmax: f32) -> Option<Intersection> {
         let inv = 1.0 / self.bvh_scale;
         let bray = obvhs::ray::Ray::new(
@@ -149,14 +213,30 @@ impl Scene {
         let prims = &self.primitives;
         let mut hit = RayHit::none();
         let found = self.bvh.ray_traverse(bray, &mut hit, |r, id| {
-            prims[id].shape.intersect(ray, 0.0, r.tmax * scale).map_or(f32::INFINITY, |t| t * inv)
+            let prim = &prims[id];
+            let t = match prim.velocity {
+                None => prim.shape.intersect(ray, 0.0, r.tmax * scale),
+                Some(v) => prim.shape.intersect(&moved(ray, v), 0.0, r.tmax * scale),
+            };
+            t.map_or(f32::INFINITY, |t| t * inv)
         });
         if !found {
             return None;
         }
         let t = hit.t * scale;
         let primitive = hit.primitive_id;
-        Some(Intersection { hit: prims[primitive as usize].shape.surface(ray, t), primitive })
+        let prim = &prims[primitive as usize];
+        let hit = match prim.velocity {
+            None => prim.shape.surface(ray, t),
+            Some(v) => {
+                let mut h = prim.shape.surface(&moved(ray, v), t);
+                let shift = v * ray.time;
+                h.p += shift;
+                h.p_error += crate::geometry::point_error(h.p, shift, 2);
+                h
+            }
+        };
+        Some(Intersection { hit, primitive })
     }
 
     /// The material of a primitive.

@@ -1,0 +1,119 @@
+//! Physically based scattering functions (BSDFs) evaluated in a local shading frame.
+//!
+//! Conventions shared by every BSDF here:
+//! - Directions are unit vectors in the local frame of [`Frame`], where the shading normal is +Z.
+//! - `wo` and `wi` both point *away* from the surface: `wo` towards the viewer (or the previous
+//!   path vertex), `wi` towards the light (or the next vertex).
+//! - `eta` is n_inside / n_outside, where "outside" is the +Z hemisphere. A direction below the
+//!   surface (z < 0) is inside, so seen from there the relative index is 1 / `eta`.
+//! - Colours are linear RGB in `glam::Vec3`; random numbers arrive as uniforms in [0, 1) from the
+//!   caller's sampler.
+//! - `eval` returns the BSDF value f (not multiplied by the cosine); `pdf` is the solid-angle
+//!   density of `sample`. Both are 0 for delta (perfectly smooth) lobes, which only `sample`
+//!   produces.
+
+pub mod microfacet;
+pub mod rough_conductor;
+pub mod rough_dielectric;
+
+#[cfg(test)]
+mod chi2;
+
+pub use microfacet::TrowbridgeReitz;
+pub use rough_conductor::RoughConductor;
+pub use rough_dielectric::{RoughDielectric, TransportMode};
+
+use glam::Vec3;
+
+/// An orthonormal, right-handed shading frame: `s` and `t` span the tangent plane, `n` is +Z.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Frame {
+    /// First tangent (local +X).
+    pub s: Vec3,
+    /// Second tangent (local +Y), `n × s`.
+    pub t: Vec3,
+    /// Normal (local +Z).
+    pub n: Vec3,
+}
+
+impl Frame {
+    /// A frame around the unit normal `n`; the tangents are arbitrary but deterministic.
+    pub fn from_normal(n: Vec3) -> Frame {
+        // Duff et al. 2017, "Building an orthonormal basis, revisited", as glam implements it:
+        // branch-free and accurate for every n; the tangents jump where n.z changes sign.
+        let (s, t) = n.any_orthonormal_pair();
+        Frame { s, t, n }
+    }
+
+    /// World-space `v` expressed in this frame (normal along +Z).
+    #[inline]
+    pub fn to_local(&self, v: Vec3) -> Vec3 {
+        Vec3::new(v.dot(self.s), v.dot(self.t), v.dot(self.n))
+    }
+
+    /// Local-frame `v` expressed in world space.
+    #[inline]
+    pub fn to_world(&self, v: Vec3) -> Vec3 {
+        self.s * v.x + self.t * v.y + self.n * v.z
+    }
+}
+
+/// One sampled scattering direction.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BsdfSample {
+    /// The sampled direction, away from the surface, in the local frame.
+    pub wi: Vec3,
+    /// The BSDF value f(wo, wi) (not divided by the pdf, not multiplied by the cosine).
+    pub f: Vec3,
+    /// Solid-angle density of `wi`, or for a specular sample the discrete probability of its lobe.
+    pub pdf: f32,
+    /// True for a delta lobe (perfect mirror or perfect refraction): `eval`/`pdf` cannot reproduce it.
+    pub is_specular: bool,
+    /// True when `wi` lies on the other side of the surface from `wo`.
+    pub is_transmission: bool,
+    /// Relative index crossed, n(side of `wi`) / n(side of `wo`); 1 for reflection.
+    pub eta: f32,
+}
+
+impl BsdfSample {
+    /// The Monte Carlo weight f·|cos θi| / pdf that multiplies the path throughput.
+    #[inline]
+    pub fn weight(&self) -> Vec3 {
+        self.f * (self.wi.z.abs() / self.pdf)
+    }
+}
+
+/// Whether two local directions lie strictly on the same side of the surface.
+#[inline]
+pub(crate) fn same_hemisphere(a: Vec3, b: Vec3) -> bool {
+    a.z * b.z > 0.0
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{RngExt, SeedableRng};
+    use rand_pcg::Pcg32;
+
+    #[test]
+    fn frame_is_orthonormal_right_handed_and_invertible() {
+        let mut rng = Pcg32::seed_from_u64(7);
+        let mut normals = vec![Vec3::Z, -Vec3::Z, Vec3::X, -Vec3::Y, Vec3::new(1e-8, 0.0, -1.0).normalize()];
+        for _ in 0..1000 {
+            let v = Vec3::new(rng.random(), rng.random(), rng.random()) * 2.0 - 1.0;
+            if v.length_squared() > 1e-4 {
+                normals.push(v.normalize());
+            }
+        }
+        for n in normals {
+            let f = Frame::from_normal(n);
+            assert!((f.s.length() - 1.0).abs() < 1e-5 && (f.t.length() - 1.0).abs() < 1e-5, "{n}");
+            assert!(f.s.dot(f.t).abs() < 1e-5 && f.s.dot(n).abs() < 1e-5 && f.t.dot(n).abs() < 1e-5);
+            assert!(f.s.cross(f.t).abs_diff_eq(n, 1e-5), "left-handed frame for {n}");
+            assert!(f.to_local(n).abs_diff_eq(Vec3::Z, 1e-5));
+            let v = Vec3::new(0.3, -0.5, 0.8);
+            assert!(f.to_local(f.to_world(v)).abs_diff_eq(v, 1e-5));
+            assert!(f.to_world(f.to_local(v)).abs_diff_eq(v, 1e-5));
+        }
+    }
+}

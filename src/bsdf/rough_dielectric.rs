@@ -1,0 +1,536 @@
+//! A rough dielectric interface (frosted glass): microfacet reflection and refraction after
+//! Walter et al. 2007, "Microfacet models for refraction through rough surfaces", with GGX
+//! normals, the height-correlated Smith term, the exact dielectric Fresnel term and sampling of
+//! visible normals (Heitz 2018).
+//!
+//! With wm the (generalised) half vector, facing +Z, and η' = n(side of wi) / n(side of wo):
+//! - reflection:   f = F D G / (4 |cos θo| |cos θi|), wm ∝ wo + wi;
+//! - transmission: f = (1 − F) D G |wi·wm| |wo·wm| / (|cos θo| |cos θi| (wi·wm + wo·wm/η')²) · s,
+//!   wm ∝ wo + η' wi, with s = 1/η'² for radiance and 1 for importance ([`TransportMode`]).
+//!
+//! F is the Fresnel reflectance of the facet, the same seen from either side of a refracting pair
+//! (Stokes). Hence the two modes are adjoint, f_importance(wo, wi) = f_radiance(wi, wo), and the
+//! radiance BTDF obeys the generalised reciprocity
+//! f_radiance(wo, wi) / n(wo side)² = f_radiance(wi, wo) / n(wi side)².
+//! For a refracting pair F is computed from the direction in the optically thinner medium, where it
+//! is well conditioned (see `refraction_fresnel`).
+//!
+//! An index-matched interface (`eta` = 1) is invisible whatever its roughness: `sample` passes
+//! straight through as a specular event.
+//!
+//! `sample` draws a normal visible from `wo`, then reflects with probability F and refracts
+//! otherwise; under total internal reflection F = 1. Microfacet configurations that would send
+//! light back to the side it came from by refraction, or through the surface by reflection, are
+//! discarded (`sample` returns `None`, `eval` and `pdf` return 0), so single scattering loses some
+//! energy at high roughness and grazing angles; the albedo never exceeds 1.
+
+use super::{BsdfSample, TrowbridgeReitz};
+use crate::optics::{fresnel_dielectric, reflect, refract};
+use glam::{Vec2, Vec3};
+
+/// Whether light or importance is being transported; matters only for refraction.
+///
+/// Along a refracted ray L/n² is conserved, so radiance is multiplied by (n_t / n_i)² on crossing
+/// into the medium of index n_t. The BTDF used with radiance (paths traced from the camera) carries
+/// that factor, 1/η'² with η' = n(side of wi) / n(side of wo), and the BTDF used with importance
+/// (paths traced from lights) does not, so the BTDF is not symmetric (Veach 1997, §5.2).
+/// Reflection is the same in both modes.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum TransportMode {
+    /// Camera paths: `wo` leads towards the camera and `wi` towards the light.
+    #[default]
+    Radiance,
+    /// Light paths: `wo` leads towards the light and `wi` towards the camera.
+    Importance,
+}
+
+/// A rough dielectric interface with relative index `eta` = n_inside / n_outside.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RoughDielectric {
+    /// n_inside / n_outside, "inside" being the −Z side.
+    pub eta: f32,
+    /// Distribution of microfacet normals; effectively smooth means a perfect specular interface.
+    pub distribution: TrowbridgeReitz,
+}
+
+/// Fresnel reflectance for the signed cosine between a direction and a normal facing +Z: a
+/// negative cosine means the direction is inside, where the relative index is 1/`eta`.
+#[inline]
+fn fresnel(cos: f32, eta: f32) -> f32 {
+    if cos >= 0.0 {
+        fresnel_dielectric(cos, eta)
+    } else {
+        fresnel_dielectric(-cos, 1.0 / eta)
+    }
+}
+
+/// Everything eval and pdf share for one pair of directions.
+struct Pair {
+    /// Generalised half vector, facing +Z.
+    wm: Vec3,
+    /// η' = n(side of wi) / n(side of wo); 1 for reflection.
+    etap: f32,
+    reflect: bool,
+}
+
+impl RoughDielectric {
+    /// A rough dielectric with the given relative index and distribution.
+    pub fn new(eta: f32, distribution: TrowbridgeReitz) -> Self {
+        RoughDielectric { eta, distribution }
+    }
+
+    /// True when the interface scatters only into delta lobes (smooth, or index-matched).
+    fn is_specular(&self) -> bool {
+        self.eta == 1.0 || self.distribution.effectively_smooth()
+    }
+
+    /// The microfacet normal that takes `wo` to `wi`, or `None` when no visible facet does.
+    fn pair(&self, wo: Vec3, wi: Vec3) -> Option<Pair> {
+        let (cos_o, cos_i) = (wo.z, wi.z);
+        if cos_o == 0.0 || cos_i == 0.0 {
+            return None;
+        }
+        let reflect = cos_o * cos_i > 0.0;
+        let etap = match (reflect, cos_o > 0.0) {
+            (true, _) => 1.0,
+            (false, true) => self.eta,
+            (false, false) => 1.0 / self.eta,
+        };
+        let wm = (wi * etap + wo).try_normalize()?;
+        let wm = if wm.z < 0.0 { -wm } else { wm };
+        // Both directions must see the facet from their own side of the macrosurface.
+        if wm.dot(wo) * cos_o <= 0.0 || wm.dot(wi) * cos_i <= 0.0 {
+            return None;
+        }
+        Some(Pair { wm, etap, reflect })
+    }
+
+    /// Fresnel reflectance of the facet `wm` for a refracting pair, evaluated from whichever of
+    /// `wo`, `wi` lies in the optically thinner medium. Both sides give the same value in exact
+    /// arithmetic (Stokes), but from the denser side F has an infinite slope at the critical angle
+    /// and f32 rounding of the cosine there costs percent-level errors in 1 − F; the thinner side
+    /// is well conditioned, and using one side makes `eval` reciprocal to rounding.
+    fn refraction_fresnel(&self, wo: Vec3, wi: Vec3, wm: Vec3) -> f32 {
+        let outside_is_thinner = self.eta > 1.0;
+        let w = if (wo.z > 0.0) == outside_is_thinner { wo } else { wi };
+        fresnel(w.dot(wm), self.eta)
+    }
+
+    /// BSDF value f(wo, wi) for light arriving from `wi` and leaving towards `wo` (or the reverse
+    /// flow of importance); zero when the interface is effectively smooth.
+    pub fn eval(&self, wo: Vec3, wi: Vec3, mode: TransportMode) -> Vec3 {
+        if self.is_specular() {
+            return Vec3::ZERO;
+        }
+        let Some(Pair { wm, etap, reflect }) = self.pair(wo, wi) else { return Vec3::ZERO };
+        let dist = &self.distribution;
+        let (cos_om, cos_im) = (wo.dot(wm), wi.dot(wm));
+        let dg = dist.d(wm) * dist.g(wo, wi);
+        let value = if reflect {
+            fresnel(cos_om, self.eta) * dg / (4.0 * (wo.z * wi.z).abs())
+        } else {
+            let t = 1.0 - self.refraction_fresnel(wo, wi, wm);
+            transmission_value(t, dg, wo, wi, cos_om, cos_im, etap, mode)
+        };
+        Vec3::splat(value)
+    }
+
+    /// Solid-angle density with which [`sample`](Self::sample) returns `wi`.
+    pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        if self.is_specular() {
+            return 0.0;
+        }
+        let Some(Pair { wm, etap, reflect }) = self.pair(wo, wi) else { return 0.0 };
+        let (cos_om, cos_im) = (wo.dot(wm), wi.dot(wm));
+        let visible = self.distribution.d_visible(wo, wm);
+        if reflect {
+            visible / (4.0 * cos_om.abs()) * fresnel(cos_om, self.eta)
+        } else {
+            let t = 1.0 - self.refraction_fresnel(wo, wi, wm);
+            visible * refraction_jacobian(cos_om, cos_im, etap) * t
+        }
+    }
+
+    /// Samples reflection or refraction about a visible microfacet normal; `uc` chooses between
+    /// them (reflection with probability F), `u` draws the normal. `None` when the scattered
+    /// direction ends up on the wrong side of the macrosurface.
+    pub fn sample(&self, wo: Vec3, uc: f32, u: Vec2, mode: TransportMode) -> Option<BsdfSample> {
+        if wo.z == 0.0 {
+            return None;
+        }
+        if self.is_specular() {
+            return self.sample_specular(wo, uc, mode);
+        }
+        let dist = &self.distribution;
+        let wm = dist.sample_visible(wo, u);
+        let cos_om = wo.dot(wm);
+        if cos_om == 0.0 {
+            return None;
+        }
+        let r = fresnel(cos_om, self.eta);
+        let visible = dist.d_visible(wo, wm);
+        if uc < r {
+            let wi = reflect(wo, wm);
+            if wi.z * wo.z <= 0.0 {
+                return None;
+            }
+            let pdf = visible / (4.0 * cos_om.abs()) * r;
+            let f = r * dist.d(wm) * dist.g(wo, wi) / (4.0 * (wo.z * wi.z).abs());
+            (pdf > 0.0).then(|| BsdfSample {
+                wi,
+                f: Vec3::splat(f),
+                pdf,
+                is_specular: false,
+                is_transmission: false,
+                eta: 1.0,
+            })
+        } else {
+            // Refract about the facet normal on wo's side, with η' = n_t / n_i across the facet.
+            let (n, etap) = if cos_om > 0.0 { (wm, self.eta) } else { (-wm, 1.0 / self.eta) };
+            let wi = refract(wo, n, etap)?;
+            if wi.z * wo.z >= 0.0 {
+                return None;
+            }
+            let cos_im = wi.dot(wm);
+            // The same (better conditioned) 1 − F as `pdf` and `eval`; it differs from the 1 − r
+            // that chose this branch only by rounding.
+            let t = 1.0 - self.refraction_fresnel(wo, wi, wm);
+            let pdf = visible * refraction_jacobian(cos_om, cos_im, etap) * t;
+            let dg = dist.d(wm) * dist.g(wo, wi);
+            let f = transmission_value(t, dg, wo, wi, cos_om, cos_im, etap, mode);
+            (pdf > 0.0).then(|| BsdfSample {
+                wi,
+                f: Vec3::splat(f),
+                pdf,
+                is_specular: false,
+                is_transmission: true,
+                eta: etap,
+            })
+        }
+    }
+
+    /// The smooth interface: mirror reflection with probability R, refraction otherwise.
+    fn sample_specular(&self, wo: Vec3, uc: f32, mode: TransportMode) -> Option<BsdfSample> {
+        let etap = if wo.z > 0.0 { self.eta } else { 1.0 / self.eta };
+        let r = fresnel_dielectric(wo.z.abs(), etap);
+        if uc < r {
+            let wi = Vec3::new(-wo.x, -wo.y, wo.z);
+            return Some(BsdfSample {
+                wi,
+                f: Vec3::splat(r / wi.z.abs()),
+                pdf: r,
+                is_specular: true,
+                is_transmission: false,
+                eta: 1.0,
+            });
+        }
+        let wi = refract(wo, Vec3::Z * wo.z.signum(), etap)?;
+        let t = 1.0 - r;
+        let scale = match mode {
+            TransportMode::Radiance => 1.0 / (etap * etap),
+            TransportMode::Importance => 1.0,
+        };
+        Some(BsdfSample {
+            wi,
+            f: Vec3::splat(t * scale / wi.z.abs()),
+            pdf: t,
+            is_specular: true,
+            is_transmission: true,
+            eta: etap,
+        })
+    }
+}
+
+/// |dωm / dωi| for refraction with η' = n(wi side) / n(wo side).
+#[inline]
+fn refraction_jacobian(cos_om: f32, cos_im: f32, etap: f32) -> f32 {
+    let denom = cos_im + cos_om / etap;
+    cos_im.abs() / (denom * denom)
+}
+
+/// The microfacet BTDF given the transmittance `t` = 1 − F and `dg` = D·G.
+#[allow(clippy::too_many_arguments)]
+#[inline]
+fn transmission_value(
+    t: f32,
+    dg: f32,
+    wo: Vec3,
+    wi: Vec3,
+    cos_om: f32,
+    cos_im: f32,
+    etap: f32,
+    mode: TransportMode,
+) -> f32 {
+    let denom = cos_im + cos_om / etap;
+    let value = t * dg * (cos_im * cos_om / (wi.z * wo.z * denom * denom)).abs();
+    match mode {
+        TransportMode::Radiance => value / (etap * etap),
+        TransportMode::Importance => value,
+    }
+}
+
+#[cfg(test)]
+pub(crate) mod tests {
+    use super::*;
+    use crate::bsdf::chi2::{self, direction};
+    use crate::bsdf::rough_conductor::tests::albedo;
+    use rand::{RngExt, SeedableRng};
+    use rand_pcg::Pcg32;
+
+    const ETAS: [f32; 2] = [1.5, 1.0 / 1.5];
+    const ALPHAS: [f32; 3] = [0.1, 0.3, 0.7];
+    /// Polar angles of `wo` in degrees, each used from above (θ) and from below (180° − θ).
+    const THETAS: [f32; 3] = [0.0, 45.0, 89.0];
+    /// Number of chi-square cases run here (counted in the Šidák correction).
+    pub(crate) const CHI2_CASES: usize = ETAS.len() * ALPHAS.len() * THETAS.len() * 2;
+
+    /// Every (eta, alpha, wo) combination of the chi-square grid, with a label.
+    fn grid() -> Vec<(String, RoughDielectric, Vec3)> {
+        let mut cases = Vec::new();
+        for eta in ETAS {
+            for alpha in ALPHAS {
+                for theta in THETAS {
+                    for below in [false, true] {
+                        let theta_o = if below { 180.0 - theta } else { theta };
+                        let label = format!("dielectric η={eta:.3} α={alpha} θo={theta_o}°");
+                        cases.push((
+                            label,
+                            RoughDielectric::new(eta, TrowbridgeReitz::new(alpha)),
+                            direction(theta_o, 2.2),
+                        ));
+                    }
+                }
+            }
+        }
+        cases
+    }
+
+    /// A direction uniformly distributed on the sphere.
+    fn random_direction(rng: &mut Pcg32) -> Vec3 {
+        let z: f32 = rng.random_range(-1.0..1.0);
+        let phi: f32 = rng.random_range(0.0..std::f32::consts::TAU);
+        let r = (1.0 - z * z).max(0.0).sqrt();
+        Vec3::new(r * phi.cos(), r * phi.sin(), z)
+    }
+
+    fn chi2_for_eta(eta: f32, seed: u64) {
+        let mut results = Vec::new();
+        for (k, (label, d, wo)) in grid().into_iter().filter(|(_, d, _)| d.eta == eta).enumerate() {
+            let test = chi2::ChiSquare::default().seed(seed + k as u64);
+            let outcome = test
+                .run(|uc, u| d.sample(wo, uc, u, TransportMode::Radiance).map(|s| s.wi), |wi| d.pdf(wo, wi));
+            results.push((label, outcome));
+        }
+        assert_eq!(results.len(), CHI2_CASES / ETAS.len());
+        chi2::assert_all_pass(&results);
+    }
+
+    #[test]
+    fn chi2_sampling_matches_pdf_glass_outside() {
+        chi2_for_eta(ETAS[0], 1000);
+    }
+
+    #[test]
+    fn chi2_sampling_matches_pdf_glass_inside() {
+        chi2_for_eta(ETAS[1], 2000);
+    }
+
+    #[test]
+    fn sampled_values_agree_with_eval_and_pdf() {
+        let mut rng = Pcg32::seed_from_u64(17);
+        let mut worst = 0.0f32;
+        for (label, d, wo) in grid() {
+            for mode in [TransportMode::Radiance, TransportMode::Importance] {
+                for _ in 0..5_000 {
+                    let uc: f32 = rng.random();
+                    let u = Vec2::new(rng.random(), rng.random());
+                    let Some(s) = d.sample(wo, uc, u, mode) else { continue };
+                    assert!(!s.is_specular && s.f.is_finite() && s.pdf.is_finite());
+                    assert_eq!(s.is_transmission, s.wi.z * wo.z < 0.0);
+                    let (f, pdf) = (d.eval(wo, s.wi, mode).x, d.pdf(wo, s.wi));
+                    let (ef, ep) = ((f - s.f.x).abs() / s.f.x, (pdf - s.pdf).abs() / s.pdf);
+                    worst = worst.max(ef).max(ep);
+                    assert!(
+                        ef <= 1e-3 && ep <= 1e-3,
+                        "{label} {mode:?} wi {}: f {f} vs {}, pdf {pdf} vs {}",
+                        s.wi,
+                        s.f.x,
+                        s.pdf
+                    );
+                }
+            }
+        }
+        println!("largest relative eval/pdf mismatch {worst:.2e}");
+    }
+
+    #[test]
+    fn btdf_obeys_generalised_reciprocity() {
+        // f_rad(wo, wi) / n_o² = f_rad(wi, wo) / n_i² with n_o, n_i the indices on the sides of
+        // wo and wi (1 outside, eta inside), and f_imp(wo, wi) = f_rad(wi, wo) (adjointness).
+        let mut rng = Pcg32::seed_from_u64(23);
+        let mut worst = 0.0f32;
+        for eta in ETAS {
+            for alpha in [0.05f32, 0.3, 0.7] {
+                let d = RoughDielectric::new(eta, TrowbridgeReitz::new(alpha));
+                let index = |w: Vec3| if w.z > 0.0 { 1.0 } else { eta };
+                for _ in 0..20_000 {
+                    let (wo, wi) = (random_direction(&mut rng), random_direction(&mut rng));
+                    let forward = d.eval(wo, wi, TransportMode::Radiance).x / index(wo).powi(2);
+                    let backward = d.eval(wi, wo, TransportMode::Radiance).x / index(wi).powi(2);
+                    let adjoint = d.eval(wo, wi, TransportMode::Importance).x;
+                    let reverse = d.eval(wi, wo, TransportMode::Radiance).x;
+                    let scale = forward.max(backward).max(1e-6);
+                    let err = ((forward - backward).abs() / scale)
+                        .max((adjoint - reverse).abs() / reverse.max(1e-6));
+                    worst = worst.max(err);
+                    assert!(
+                        err <= 1e-3,
+                        "η {eta} α {alpha} {wo} {wi}: {forward} vs {backward}, {adjoint} vs {reverse}"
+                    );
+                }
+            }
+        }
+        println!("largest relative reciprocity error {worst:.2e}");
+    }
+
+    #[test]
+    fn albedo_never_exceeds_one() {
+        // Energy conservation bounds the importance-mode albedo ∫ f_imp(wo, wi) |cos θi| dωi, which
+        // equals the fraction of the power arriving from wo that the interface scatters. The
+        // radiance-mode albedo differs by 1/η'² on the transmitted part: it is below the
+        // importance one when wo is in the optically thinner medium and may exceed 1 otherwise
+        // (radiance is concentrated on entering a denser medium), so it is bounded only there.
+        let mut max_albedo = 0.0f64;
+        for eta in ETAS {
+            for alpha in [0.01f32, 0.1, 0.3, 0.7, 1.0] {
+                let d = RoughDielectric::new(eta, TrowbridgeReitz::new(alpha));
+                for theta in [0.0, 30.0, 60.0, 75.0, 85.0, 89.0, 91.0, 95.0, 105.0, 120.0, 150.0, 180.0] {
+                    let wo = direction(theta, 0.9);
+                    for mode in [TransportMode::Importance, TransportMode::Radiance] {
+                        let weight = |uc, u| d.sample(wo, uc, u, mode).map_or(0.0, |s| s.weight().x);
+                        let (mean, se) = albedo(weight, 100_000, 29);
+                        let thinner_side = (wo.z > 0.0) == (eta > 1.0);
+                        if mode == TransportMode::Importance || thinner_side {
+                            assert!(
+                                mean <= 1.0 + 3.0 * se,
+                                "η {eta} α {alpha} θ {theta} {mode:?}: {mean} ± {se}"
+                            );
+                            max_albedo = max_albedo.max(mean);
+                        }
+                        if mode == TransportMode::Importance {
+                            println!(
+                                "dielectric η={eta:.3} α={alpha} θo={theta}°: albedo {mean:.4} ± {se:.4}"
+                            );
+                        }
+                    }
+                }
+            }
+        }
+        println!("largest bounded dielectric albedo {max_albedo:.5}");
+    }
+
+    #[test]
+    fn sampled_albedo_matches_quadrature_of_eval() {
+        // The importance-sampled albedo (mean of f·|cos θi|/pdf) against ∫ f |cos θi| dωi by
+        // quadrature of `eval`: ties the sampling weights, including lost samples, to `eval`.
+        for (eta, alpha, theta) in
+            [(1.5f32, 0.3f32, 30.0f32), (1.5, 0.7, 120.0), (1.0 / 1.5, 0.1, 89.0), (1.5, 1.0, 160.0)]
+        {
+            let d = RoughDielectric::new(eta, TrowbridgeReitz::new(alpha));
+            let wo = direction(theta, 0.5);
+            for mode in [TransportMode::Radiance, TransportMode::Importance] {
+                let weight = |uc, u| d.sample(wo, uc, u, mode).map_or(0.0, |s| s.weight().x);
+                let (mean, se) = albedo(weight, 100_000, 41);
+                let quadrature = chi2::integrate_sphere(|wi| d.eval(wo, wi, mode).x * wi.z.abs());
+                assert!(
+                    (mean - quadrature).abs() <= 4.0 * se + 1e-3,
+                    "η {eta} α {alpha} θ {theta} {mode:?}: {mean} ± {se} vs {quadrature}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn smooth_limit_weights_are_exact_fresnel() {
+        for eta in [1.5f32, 1.0 / 1.5, 1.33] {
+            let d = RoughDielectric::new(eta, TrowbridgeReitz::from_roughness(0.0));
+            for theta in (0..180).step_by(7).filter(|&t| t != 90) {
+                let wo = direction(theta as f32, 0.3);
+                let etap = if wo.z > 0.0 { eta } else { 1.0 / eta };
+                let r = fresnel_dielectric(wo.z.abs(), etap);
+                let refl = d.sample(wo, r * 0.5, Vec2::splat(0.5), TransportMode::Importance).unwrap();
+                assert!(refl.is_specular && !refl.is_transmission && refl.eta == 1.0);
+                assert!((refl.pdf - r).abs() < 1e-6 && (refl.f.x * refl.wi.z.abs() - r).abs() < 1e-6);
+                assert!((refl.weight().x - 1.0).abs() < 1e-5);
+                assert!(refl.wi.abs_diff_eq(Vec3::new(-wo.x, -wo.y, wo.z), 1e-6));
+                assert_eq!(
+                    (d.eval(wo, refl.wi, TransportMode::Radiance), d.pdf(wo, refl.wi)),
+                    (Vec3::ZERO, 0.0)
+                );
+                if r >= 1.0 {
+                    // Total internal reflection: every sample reflects.
+                    assert!(d.sample(wo, 0.999_999, Vec2::ZERO, TransportMode::Radiance).unwrap().pdf == 1.0);
+                    continue;
+                }
+                let uc = r + 0.5 * (1.0 - r);
+                for mode in [TransportMode::Importance, TransportMode::Radiance] {
+                    let s = d.sample(wo, uc, Vec2::splat(0.5), mode).unwrap();
+                    assert!(s.is_specular && s.is_transmission && s.eta == etap);
+                    assert!(s.wi.z * wo.z < 0.0 && (s.wi.length() - 1.0).abs() < 1e-5);
+                    let scale = if mode == TransportMode::Radiance { etap * etap } else { 1.0 };
+                    assert!((s.pdf - (1.0 - r)).abs() < 1e-6);
+                    assert!((s.f.x * s.wi.z.abs() * scale - (1.0 - r)).abs() < 1e-5, "η {eta} θ {theta}");
+                    // Reflected plus transmitted energy is exactly one (importance weights).
+                    assert!((s.weight().x * scale - 1.0).abs() < 1e-5);
+                }
+            }
+        }
+        // Index-matched: the interface is invisible.
+        let d = RoughDielectric::new(1.0, TrowbridgeReitz::new(0.5));
+        let wo = direction(40.0, 1.0);
+        let s = d.sample(wo, 0.0, Vec2::splat(0.5), TransportMode::Radiance).unwrap();
+        assert!(s.is_specular && s.wi.abs_diff_eq(-wo, 1e-6) && (s.weight().x - 1.0).abs() < 1e-6);
+    }
+
+    #[test]
+    fn reflection_frequency_matches_fresnel_when_smooth() {
+        let d = RoughDielectric::new(1.5, TrowbridgeReitz::new(0.0));
+        let wo = direction(70.0, 0.0);
+        let r = fresnel_dielectric(wo.z, 1.5) as f64;
+        let n = 200_000;
+        let mut rng = Pcg32::seed_from_u64(31);
+        let reflected = (0..n)
+            .filter(|_| {
+                !d.sample(wo, rng.random(), Vec2::ZERO, TransportMode::Radiance).unwrap().is_transmission
+            })
+            .count() as f64;
+        let se = (r * (1.0 - r) / n as f64).sqrt();
+        assert!((reflected / n as f64 - r).abs() < 4.0 * se, "{} vs {r}", reflected / n as f64);
+    }
+
+    #[test]
+    fn no_nan_anywhere_including_total_internal_reflection() {
+        let mut rng = Pcg32::seed_from_u64(37);
+        let specials = [Vec3::Z, -Vec3::Z, Vec3::X, direction(89.999, 0.1), direction(90.001, 0.1)];
+        for eta in [1.5f32, 1.0 / 1.5, 2.4] {
+            for alpha in [1e-4f32, 2e-3, 0.1, 1.0] {
+                let d = RoughDielectric::new(eta, TrowbridgeReitz::new(alpha));
+                for k in 0..20_000 {
+                    let wo = if k < specials.len() { specials[k] } else { random_direction(&mut rng) };
+                    let wi =
+                        if k % 7 < specials.len() { specials[k % 7] } else { random_direction(&mut rng) };
+                    for mode in [TransportMode::Radiance, TransportMode::Importance] {
+                        let f = d.eval(wo, wi, mode);
+                        let pdf = d.pdf(wo, wi);
+                        assert!(f.is_finite() && f.min_element() >= 0.0 && pdf.is_finite() && pdf >= 0.0);
+                        let u = Vec2::new(rng.random(), rng.random());
+                        if let Some(s) = d.sample(wo, rng.random(), u, mode) {
+                            assert!(s.wi.is_finite() && s.f.is_finite() && s.pdf > 0.0 && s.pdf.is_finite());
+                            assert!(s.weight().is_finite(), "η {eta} α {alpha} {wo}: {s:?}");
+                        }
+                    }
+                }
+            }
+        }
+    }
+}
