@@ -207,7 +207,7 @@ fn default_ssaa_grid() -> u32 {
     4
 }
 fn default_ssaa_levels() -> u32 {
-    2
+    1
 }
 fn default_ssaa_threshold() -> f32 {
     0.1
