@@ -77,16 +77,25 @@ pub(super) struct Segment {
     /// Whether emission seen by this ray counts (false after a glossy bounce, whose direct
     /// light was already gathered by light sampling).
     count_emission: bool,
+    /// Largest channel of the product of the weights since the camera.
+    weight: f32,
 }
+
+/// Rays whose weight since the camera falls below this are not traced (adaptive depth control,
+/// Hall and Greenberg 1983): they could change a pixel by at most this fraction of the radiance
+/// they would see, and the binary tree of a Whitted ray otherwise grows as 2^depth.
+pub(super) const MIN_PATH_WEIGHT: f32 = 1e-4;
 
 impl Segment {
     /// A camera ray (in a clear medium).
     pub(super) fn camera() -> Segment {
-        Segment { depth: 0, absorption: Vec3::ZERO, count_emission: true }
+        Segment { depth: 0, absorption: Vec3::ZERO, count_emission: true, weight: 1.0 }
     }
 
-    fn next(self, absorption: Vec3, count_emission: bool) -> Segment {
-        Segment { depth: self.depth + 1, absorption, count_emission }
+    /// The segment after a bounce with weight `weight`, or `None` if it is not worth tracing.
+    fn next(self, weight: Vec3, absorption: Vec3, count_emission: bool) -> Option<Segment> {
+        let weight = self.weight * weight.max_element();
+        (weight >= MIN_PATH_WEIGHT).then_some(Segment { depth: self.depth + 1, absorption, count_emission, weight })
     }
 }
 
@@ -121,9 +130,16 @@ pub(super) fn trace(
     }
     // The normal on the side the ray came from.
     let n = if hit.n.dot(wo) >= 0.0 { hit.n } else { -hit.n };
-    let follow = |dir: Vec3, absorption: Vec3, count_emission: bool, ctx: &mut PathContext| {
+    // Weighted radiance along a secondary ray (nothing when its weight is negligible).
+    let follow = |dir: Vec3, weight: Vec3, absorption: Vec3, count_emission: bool, ctx: &mut PathContext| {
+        let Some(next_seg) = seg.next(weight, absorption, count_emission) else { return Vec3::ZERO };
+        if dir.dot(hit.n) * wo.dot(hit.n) > 0.0 {
+            ctx.rays.reflected += 1;
+        } else {
+            ctx.rays.refracted += 1;
+        }
         let next = ray.spawn(spawn_origin(hit, dir), dir);
-        trace(scene, params, &next, seg.next(absorption, count_emission), sampling, ctx)
+        weight * trace(scene, params, &next, next_seg, sampling, ctx)
     };
     match &material.bsdf {
         Bsdf::Diffuse(_) => {}
@@ -136,15 +152,11 @@ pub(super) fn trace(
             let u = ctx.sampler.get_2d(Dim::Bsdf);
             if let Some(s) = lobe.sample(frame.to_local(wo), u).filter(|s| s.pdf > 0.0) {
                 let wi = frame.to_world(s.wi);
-                ctx.rays.reflected += 1;
-                l += s.f * (s.wi.z.abs() / s.pdf) * follow(wi, seg.absorption, s.is_specular, ctx);
+                l += follow(wi, s.f * (s.wi.z.abs() / s.pdf), seg.absorption, s.is_specular, ctx);
             }
         }
         Bsdf::Mirror { color, .. } => {
-            if *color != Vec3::ZERO {
-                ctx.rays.reflected += 1;
-                l += *color * follow(reflect(wo, n), seg.absorption, true, ctx);
-            }
+            l += follow(reflect(wo, n), *color, seg.absorption, true, ctx);
         }
         Bsdf::Dielectric { roughness, .. } => {
             let c = crossing(&material.bsdf, ray.dir, hit.n, ctx.lambda).expect("a dielectric has two sides");
@@ -162,13 +174,7 @@ pub(super) fn trace(
                 {
                     let wi = frame.to_world(s.wi);
                     let medium = if s.is_transmission { c.transmitted } else { c.incident };
-                    if s.is_transmission {
-                        ctx.rays.refracted += 1;
-                    } else {
-                        ctx.rays.reflected += 1;
-                    }
-                    let weight = s.f * (s.wi.z.abs() / s.pdf);
-                    l += weight * follow(wi, medium.absorption, s.is_specular, ctx);
+                    l += follow(wi, s.f * (s.wi.z.abs() / s.pdf), medium.absorption, s.is_specular, ctx);
                 }
             } else {
                 let transmitted = refract(wo, n, c.n_t / c.n_i);
@@ -176,13 +182,9 @@ pub(super) fn trace(
                     Some(_) => dielectric_reflectance(wo.dot(n), c.n_i, c.n_t, params.reflectance),
                     None => 1.0,
                 };
-                if r > 0.0 {
-                    ctx.rays.reflected += 1;
-                    l += r * follow(reflect(wo, n), c.incident.absorption, true, ctx);
-                }
-                if let Some(wt) = transmitted.filter(|_| r < 1.0) {
-                    ctx.rays.refracted += 1;
-                    l += (1.0 - r) * follow(wt, c.transmitted.absorption, true, ctx);
+                l += follow(reflect(wo, n), Vec3::splat(r), c.incident.absorption, true, ctx);
+                if let Some(wt) = transmitted {
+                    l += follow(wt, Vec3::splat(1.0 - r), c.transmitted.absorption, true, ctx);
                 }
             }
         }

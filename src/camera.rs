@@ -1,6 +1,6 @@
 //! The pinhole camera.
 
-use crate::geometry::Ray;
+use crate::geometry::{try_unit, Ray};
 use glam::{Vec2, Vec3};
 
 /// A pinhole camera with a vertical field of view; pixel (0,0) is the top-left one.
@@ -41,11 +41,12 @@ impl Camera {
         width: u32,
         height: u32,
     ) -> Option<Camera> {
-        let forward = (look_at - position).try_normalize()?;
-        let right = forward.cross(up).try_normalize()?;
-        if forward.cross(up).length() < 1e-6 * up.length() {
+        let forward = try_unit(look_at - position)?;
+        let up = try_unit(up)?;
+        if forward.cross(up).length() < 1e-6 {
             return None;
         }
+        let right = forward.cross(up).normalize();
         let up = right.cross(forward);
         Some(Camera {
             position,

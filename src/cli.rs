@@ -4,11 +4,12 @@
 //! the problem; 1 any other failure.
 
 use crate::integrators::{self, Integrator, RenderParams};
-use crate::output::exr::{write_exr, ExrMetadata};
-use crate::output::png::write_png;
+use crate::output::exr::{stage_exr, ExrMetadata};
+use crate::output::png::stage_png;
+use crate::output::Staged;
 use crate::render::{self, Budget, RenderOptions, RenderOutput};
 use crate::sampler::SamplerKind;
-use crate::scene::compile::{MAX_PIXELS, MAX_SIDE};
+use crate::scene::compile::{MAX_DEPTH, MAX_PIXELS, MAX_SIDE};
 use crate::scene::effects::Support;
 use crate::scene::{self, Scene, SpectralMode};
 use clap::{Parser, Subcommand};
@@ -61,7 +62,7 @@ pub struct RenderArgs {
     #[arg(long, allow_negative_numbers = true)]
     pub threads: Option<usize>,
     /// Maximum recursion depth.
-    #[arg(long)]
+    #[arg(long, value_parser = clap::value_parser!(u32).range(0..=MAX_DEPTH as i64))]
     pub max_depth: Option<u32>,
     /// Constant dielectric reflectance instead of exact Fresnel (the thesis used 0.06).
     #[arg(long, allow_negative_numbers = true)]
@@ -194,8 +195,14 @@ fn integrator_named(name: &str) -> Result<Box<dyn Integrator>, CliError> {
     })
 }
 
+/// Most worker threads a render may ask for.
+const MAX_THREADS: usize = 1024;
+
 /// Check that an output file can be created before spending time on a render.
 fn check_output_path(path: &Path, extension: &str) -> Result<(), CliError> {
+    if path.is_dir() {
+        return Err(CliError::BadInput(format!("{}: is a folder, not a file", path.display())));
+    }
     let ext_ok = path.extension().and_then(|e| e.to_str()).is_some_and(|e| e.eq_ignore_ascii_case(extension));
     if !ext_ok {
         return Err(CliError::BadInput(format!(
@@ -238,7 +245,10 @@ pub fn render_options(scene: &Scene, args: &RenderArgs) -> Result<RenderOptions,
         (_, Some(t)) if !(t.is_finite() && t > 0.0) => {
             return Err(CliError::BadInput(format!("--time {t}: must be a positive number of seconds")))
         }
-        (_, Some(t)) => Budget::Time(Duration::from_secs_f64(t)),
+        (_, Some(t)) => Budget::Time(
+            Duration::try_from_secs_f64(t)
+                .map_err(|_| CliError::BadInput(format!("--time {t}: too long to represent")))?,
+        ),
         (Some(0), _) => return Err(CliError::BadInput("--spp 0: at least one sample per pixel".into())),
         (Some(n), _) => Budget::Samples(n),
         (None, None) => Budget::Samples(s.spp),
@@ -284,8 +294,12 @@ fn run_render(args: &RenderArgs) -> Result<(), CliError> {
         check_output_path(png, "png")?;
     }
     check_effects(&scene, integrator.as_ref(), args.strict)?;
-    if args.threads == Some(0) {
-        return Err(CliError::BadInput("--threads 0: at least one thread".into()));
+    match args.threads {
+        Some(0) => return Err(CliError::BadInput("--threads 0: at least one thread".into())),
+        Some(n) if n > MAX_THREADS => {
+            return Err(CliError::BadInput(format!("--threads {n}: at most {MAX_THREADS}")));
+        }
+        _ => {}
     }
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(args.threads.unwrap_or(0))
@@ -323,13 +337,18 @@ fn run_render(args: &RenderArgs) -> Result<(), CliError> {
         scene: format!("{} ({})", scene.origin.name, scene.origin.hash),
         effects: scene.effects.names(),
     };
-    write_exr(&args.output, &out.image, &meta).map_err(|e| CliError::Failure(e.to_string()))?;
+    // Encode every output first and publish them together: a failure leaves none behind.
+    let failure = |e: crate::output::OutputError| CliError::Failure(e.to_string());
+    let mut staged = vec![stage_exr(&args.output, &out.image, &meta).map_err(failure)?];
     if let Some(png) = &args.png {
         let exposure = args.exposure.unwrap_or(scene.settings.exposure);
-        write_png(png, &out.image, exposure).map_err(|e| CliError::Failure(e.to_string()))?;
+        staged.push(stage_png(png, &out.image, exposure).map_err(failure)?);
     }
     if let Some(path) = &args.density_map {
-        write_density_map(path, &out).map_err(|e| CliError::Failure(e.to_string()))?;
+        staged.push(stage_density_map(path, &out).map_err(failure)?);
+    }
+    for file in staged {
+        file.commit().map_err(failure)?;
     }
     if out.non_finite_samples > 0 {
         eprintln!("vitrum: warning: {} sample(s) were NaN or infinite", out.non_finite_samples);
@@ -339,12 +358,12 @@ fn run_render(args: &RenderArgs) -> Result<(), CliError> {
 }
 
 /// The camera samples per pixel as grey levels, white for the most-sampled pixel.
-fn write_density_map(path: &Path, out: &RenderOutput) -> Result<(), crate::output::OutputError> {
+fn stage_density_map(path: &Path, out: &RenderOutput) -> Result<Staged, crate::output::OutputError> {
     let (w, h) = (out.image.width, out.image.height);
     let counts = out.samples_per_pixel.clone().unwrap_or_else(|| vec![out.spp as f32; w * h]);
     let max = counts.iter().copied().fold(0.0f32, f32::max).max(1e-9);
     let levels: Vec<f32> = counts.iter().map(|&c| c / max).collect();
-    crate::output::png::write_grey_png(path, w, h, &levels)
+    crate::output::png::stage_grey_png(path, w, h, &levels)
 }
 
 /// Print the one-line summary (or the JSON object).

@@ -81,6 +81,17 @@ pub fn dielectric_reflectance(cos_i: f32, n_i: f32, n_t: f32, constant: Option<f
     }
 }
 
+/// Reflectance charged to a shadow ray that crosses an interface in a straight line at incidence
+/// cosine `cos`. The real light path is bent, so the crossing is evaluated from the optically
+/// thinner side, where the angle is the one the straight ray makes: by reciprocity (Stokes) a
+/// transmitted path has the same Fresnel factor at both ends, so a solid convex body transmits
+/// T(θ)² as the refracted path does, and no spurious total internal reflection blackens the
+/// rim of a glass body's shadow.
+#[inline]
+fn straight_crossing_reflectance(cos: f32, n_i: f32, n_t: f32, constant: Option<f32>) -> f32 {
+    dielectric_reflectance(cos, n_i.min(n_t), n_i.max(n_t), constant)
+}
+
 /// Fraction of the light at `target` that reaches the surface point `from` (0 if blocked).
 /// `light` is the emitter's light index, which does not block its own light.
 pub fn transmittance(
@@ -122,7 +133,7 @@ pub fn transmittance(
         let Some(c) = crossing(bsdf, dir, hit.hit.n, shadow.lambda) else {
             return Vec3::ZERO;
         };
-        t *= 1.0 - dielectric_reflectance(dir.dot(hit.hit.n).abs(), c.n_i, c.n_t, reflectance);
+        t *= 1.0 - straight_crossing_reflectance(dir.dot(hit.hit.n).abs(), c.n_i, c.n_t, reflectance);
         if t == Vec3::ZERO {
             return t;
         }
@@ -151,6 +162,9 @@ pub fn phong_local(
 ) -> Vec3 {
     let color = material.phong_color(hit.p);
     let mut l = ph.ambient * color * scene.settings.ambient;
+    // A mirror or glass already sees an area light's surface through its reflected ray: its
+    // highlight stands in only for point lights, which have no surface to be seen.
+    let specular_surface = !matches!(material.bsdf, Bsdf::Diffuse(_));
     if ph.diffuse == 0.0 && ph.specular == 0.0 {
         return l;
     }
@@ -171,7 +185,7 @@ pub fn phong_local(
         }
         let irradiance = source.intensity * vis * (cos / dist2);
         let mut f = ph.diffuse * color / PI;
-        if ph.specular > 0.0 {
+        if ph.specular > 0.0 && !(specular_surface && light.is_area()) {
             let r = crate::optics::reflect(wi, n);
             let rv = r.dot(wo).max(0.0);
             f += Vec3::splat(ph.specular * (ph.shininess + 2.0) / (2.0 * PI) * rv.powf(ph.shininess));

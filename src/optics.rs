@@ -133,6 +133,29 @@ mod tests {
     }
 
     #[test]
+    fn reflectance_plus_transmittance_from_the_amplitudes_is_one() {
+        // T computed independently of R: from the Fresnel transmission amplitudes and the
+        // ratio of beam cross-sections, T = (n_t cos θt)/(n_i cos θi) · t².
+        for (n_i, n_t) in [(1.0f32, 1.5f32), (1.5, 1.0), (1.0, 2.4), (1.33, 1.52)] {
+            for k in 0..90 {
+                let cos_i = (k as f32).to_radians().cos();
+                let sin_t = (n_i / n_t) * (1.0 - cos_i * cos_i).sqrt();
+                if sin_t >= 1.0 {
+                    assert_eq!(fresnel_dielectric(cos_i, n_t / n_i), 1.0);
+                    continue;
+                }
+                let cos_t = (1.0 - sin_t * sin_t).sqrt();
+                let t_s = 2.0 * n_i * cos_i / (n_i * cos_i + n_t * cos_t);
+                let t_p = 2.0 * n_i * cos_i / (n_t * cos_i + n_i * cos_t);
+                let beam = (n_t * cos_t) / (n_i * cos_i);
+                let t = 0.5 * beam * (t_s * t_s + t_p * t_p);
+                let r = fresnel_dielectric(cos_i, n_t / n_i);
+                assert!((r + t - 1.0).abs() < 1e-5, "{n_i}->{n_t} at {k}°: R {r} + T {t}");
+            }
+        }
+    }
+
+    #[test]
     fn grazing_and_out_of_range_cosines_stay_finite() {
         for cos in [-0.5f32, 0.0, 1e-30, 1.0, 1.0000001] {
             for eta in [1.5f32, 1.0 / 1.5, 1.0] {

@@ -76,3 +76,20 @@ fn constant_reflectance_option_reproduces_the_thesis_value() {
     let expected = 2.0 * (1.0 - 0.06) / (1.0 + 0.06);
     assert!(((l.x - expected) / expected).abs() < 1e-3, "got {}, expected {expected}", l.x);
 }
+
+#[test]
+fn oblique_incidence_through_the_slab_matches_the_closed_form() {
+    // At 45° the ray is displaced and each face reflects the unpolarised R(45°) (the same from
+    // both sides of the interface, by Stokes), so the slab still passes L·(1−R)/(1+R). Unlike
+    // normal incidence this would notice swapped indices or a flipped normal.
+    let scene = load_str(SLAB, "slab", None).unwrap();
+    let whitted = create("whitted").unwrap();
+    let dir = glam::Vec3::new(0.0, -1.0, -1.0).normalize();
+    let ray = vitrum::geometry::Ray::new(glam::Vec3::new(0.0, 2.0, 2.5), dir);
+    let mut ctx = PathContext::new(Sampler::independent(0, 0, 0));
+    let l = whitted.radiance(&scene, &RenderParams::with_depth(40), &ray, &mut ctx);
+    let r = vitrum::optics::fresnel_dielectric(std::f32::consts::FRAC_1_SQRT_2, 1.5);
+    assert!((r - 0.0502).abs() < 1e-3, "R(45°) = {r}");
+    let expected = 2.0 * (1.0 - r) / (1.0 + r);
+    assert!(((l.x - expected) / expected).abs() < 1e-3, "got {}, expected {expected}", l.x);
+}

@@ -140,3 +140,66 @@ fn thin_hollow_sphere_wall_of_1e_4_radius() {
     // The wall is 1e-4 thick: a spawned ray must find the other face of the wall, not itself.
     check(&s, 1.0, 5e-5);
 }
+
+/// Distance along `dir` from `origin` to the sphere (`center`, `radius`), the far root when
+/// `origin` is inside, in f64.
+fn sphere_distance(origin: Vec3, dir: Vec3, center: Vec3, radius: f32, far: bool) -> Option<f64> {
+    let f = (origin - center).as_dvec3();
+    let d = dir.as_dvec3();
+    let b = f.dot(d);
+    let c = f.length_squared() - (radius as f64).powi(2);
+    let disc = b * b - c;
+    (disc >= 0.0).then(|| if far { -b + disc.sqrt() } else { -b - disc.sqrt() })
+}
+
+#[test]
+fn thin_hollow_sphere_holds_its_light_far_from_the_origin() {
+    // A wall of 1e-4 radius, even 170 units from the origin (about 13 ulps thick there): every
+    // refracted ray meets the other face of the wall at the analytic distance, and rays inside
+    // the wall or the cavity meet the surface they should.
+    for center in [Vec3::ZERO, Vec3::splat(30.0), Vec3::splat(100.0)] {
+        let (r_out, r_in) = (1.0f32, 0.9999f32);
+        let s = scene_with(
+            &format!(
+                "shape = \"hollow_sphere\"\ncenter = [{}, {}, {}]\nradius = {r_out}\ninner_radius = {r_in}",
+                center.x, center.y, center.z
+            ),
+            None,
+        );
+        let is_inner = |prim: u32| s.material_of(prim).name.ends_with("(inner)");
+        let mut rng = Pcg32::seed_from_u64(11);
+        for _ in 0..2000 {
+            // Aim close to the centre so the refracted ray must cross the cavity.
+            let origin = center + random_unit(&mut rng) * 4.0;
+            let target = center + random_unit(&mut rng) * 0.4 * rng.random::<f32>();
+            let ray = Ray::new(origin, (target - origin).normalize());
+            let outer = s.intersect(&ray, f32::INFINITY).expect("aimed at the sphere");
+            assert!(!is_inner(outer.primitive));
+            let wo = -ray.dir;
+            let c = crossing(&s.material_of(outer.primitive).bsdf, ray.dir, outer.hit.n, None).unwrap();
+            let into_wall = refract(wo, outer.hit.n, c.n_t / c.n_i).unwrap();
+            let start = spawn_origin(&outer.hit, into_wall);
+            let wall = s.intersect(&Ray::new(start, into_wall), f32::INFINITY).unwrap();
+            let expected = sphere_distance(start, into_wall, center, r_in, false).unwrap();
+            assert!(is_inner(wall.primitive), "centre {center}: the refracted ray tunnelled through the wall");
+            assert!((wall.hit.t as f64 - expected).abs() < 1e-2 * expected + 1e-5, "centre {center}");
+            // From inside the wall into the cavity: the next hit is the cavity's far side.
+            let wo = -into_wall;
+            let c = crossing(&s.material_of(wall.primitive).bsdf, into_wall, wall.hit.n, None).unwrap();
+            let n = if wall.hit.n.dot(wo) > 0.0 { wall.hit.n } else { -wall.hit.n };
+            if let Some(into_cavity) = refract(wo, n, c.n_t / c.n_i) {
+                let start = spawn_origin(&wall.hit, into_cavity);
+                let far = s.intersect(&Ray::new(start, into_cavity), f32::INFINITY).unwrap();
+                let expected = sphere_distance(start, into_cavity, center, r_in, true).unwrap();
+                assert!(is_inner(far.primitive) && (far.hit.t as f64 - expected).abs() < 1e-3 * expected);
+            }
+            // Reflected back into the wall: the next hit is the outer face, inside the wall.
+            let back = reflect(wo, n);
+            let start = spawn_origin(&wall.hit, back);
+            let out = s.intersect(&Ray::new(start, back), f32::INFINITY).unwrap();
+            assert!(!is_inner(out.primitive), "centre {center}: reflection inside the wall escaped");
+            let expected = sphere_distance(start, back, center, r_out, true).unwrap();
+            assert!((out.hit.t as f64 - expected).abs() < 1e-2 * expected + 1e-5, "centre {center}");
+        }
+    }
+}

@@ -62,11 +62,11 @@ impl Cylinder {
             p,
             n,
             uv: Vec2::new(azimuth((self.u, self.v), n), v.clamp(0.0, 1.0)),
-            // Radially, as for the sphere, n·r is within γ(6)·r ≤ γ(11)·(|p|∞ + |base|∞) of the
-            // wall (roundoff of `q − z·w` only tilts n, moving p tangentially); recomposing
-            // base + (z·w + r·n) rounds four more times on terms bounded by
-            // √3·(|p|∞ + |base|∞), since |z| can be ≫ r on a tall cylinder: γ(11 + 7) = γ(18).
-            p_error: point_error(p, self.base, 18),
+            // Radially, as for the sphere, n·r is within γ(6)·r of the wall (roundoff of
+            // `q − z·w` only tilts n, moving p along the wall); z·w carries the roundoff of the
+            // dot product, γ(4)·|z|, along the axis; summing the two rounds twice more: γ(8)
+            // on r + |z|. Adding the base point: γ(2)·|p|.
+            p_error: point_error(p, self.radius + z.abs(), 8),
         }
     }
 

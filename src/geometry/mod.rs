@@ -85,18 +85,40 @@ pub const fn gamma(n: i32) -> f32 {
     (n as f32 * MACHINE_EPSILON) / (1.0 - n as f32 * MACHINE_EPSILON)
 }
 
-/// Error bound for a hit point computed to within `ulps` units of roundoff of its own magnitude
-/// and of the magnitude of the shape's reference point `reference`.
+/// Error bound for a hit point `p` computed as a shape's reference point plus an offset of
+/// magnitude `local` that is exact to within `ulps` roundings, as in pbrt-v4: `γ(ulps)·local` for
+/// the offset and `γ(2)·|p|` for adding the reference point. It scales with the shape's own size,
+/// not with its distance from the world origin (a thin shell far from the origin stays sound).
 #[inline]
-pub fn point_error(p: Vec3, reference: Vec3, ulps: i32) -> f32 {
-    gamma(ulps) * (p.abs().max_element() + reference.abs().max_element())
+pub fn point_error(p: Vec3, local: f32, ulps: i32) -> f32 {
+    gamma(ulps) * local + gamma(2) * p.abs().max_element()
+}
+
+/// `v` scaled to unit length, rescaled by its largest component first so that tiny and huge
+/// vectors normalise too; `None` for zero or non-finite vectors.
+pub fn try_unit(v: Vec3) -> Option<Vec3> {
+    let largest = v.abs().max_element();
+    if largest > 0.0 && largest.is_finite() {
+        (v / largest).try_normalize()
+    } else {
+        None
+    }
+}
+
+/// Unit normal `u × v` of the parallelogram spanned by `u` and `v`, or `None` when the edges are
+/// zero or (to within 1e-6 radians) parallel, at any scale.
+pub fn parallelogram_normal(u: Vec3, v: Vec3) -> Option<Vec3> {
+    let (a, b) = (try_unit(u)?, try_unit(v)?);
+    let n = a.cross(b);
+    (n.length() > 1e-6).then(|| n.normalize())
 }
 
 /// Origin for a ray leaving a surface point in direction `w`: `p` pushed along the geometric
 /// normal `n` to the side `w` points to, by the point's error bound, then rounded away from it.
 #[inline]
 pub fn spawn_origin(hit: &SurfaceHit, w: Vec3) -> Vec3 {
-    let mut offset = hit.n * (hit.p_error * 4.0 + f32::MIN_POSITIVE);
+    // pbrt-v4's dot(|n|, pError) for an error bound that is the same on every axis.
+    let mut offset = hit.n * (hit.p_error * hit.n.abs().element_sum() + f32::MIN_POSITIVE);
     if w.dot(hit.n) < 0.0 {
         offset = -offset;
     }
@@ -283,9 +305,9 @@ pub(crate) fn planar_surface(n: Vec3, reference: Vec3, q: Vec3, t: f32, uv: Vec2
         n,
         uv,
         // After the projection the residual off-plane component of q is the roundoff of
-        // `q − (q·n)n`: γ(3)·|q|₂ from the dot product plus two roundings, γ(5)·|q|₂, and
-        // |q|₂ ≤ √3·(|p|∞ + |reference|∞) makes it < γ(9)·(…); adding the reference: γ(10).
-        p_error: point_error(p, reference, 10),
+        // `q − (q·n)n`: γ(3)·|q|₂ from the dot product plus two roundings, γ(5)·|q|₂; one more
+        // for |q|₂ against the largest component: γ(6). Adding the reference: γ(2)·|p|.
+        p_error: point_error(p, q.length(), 6),
     }
 }
 

@@ -106,8 +106,9 @@ impl Sphere {
             uv: Vec2::new(azimuth(self.tangent, n), cos_theta.acos() / PI),
             // Radially only the length of n matters: `normalize` (dot, sqrt, reciprocal,
             // product) leaves a relative error below γ(5) and scaling by r rounds once more,
-            // γ(6)·r; r ≤ √3·(|p|∞ + |center|∞) makes it < γ(11)·(…); adding the centre: γ(12).
-            p_error: point_error(p, self.center, 12),
+            // γ(6)·r; the roundoff of q only tilts n, moving p along the surface. Adding the
+            // centre: γ(2)·|p|.
+            p_error: point_error(p, self.radius, 6),
         }
     }
 

@@ -117,7 +117,7 @@ impl Triangle {
             // the roundoff of o + t·d on magnitudes up to the largest vertex coordinate.
             None => {
                 let p = ray.at(t);
-                let largest = p0.abs().max(p1.abs()).max(p2.abs());
+                let largest = p0.abs().max(p1.abs()).max(p2.abs()).max_element();
                 SurfaceHit { t, p, n, uv: Vec2::ZERO, p_error: point_error(p, largest, 8) }
             }
         }

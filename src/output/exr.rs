@@ -1,6 +1,6 @@
 //! OpenEXR output: float32 linear RGB in one scanline layer, with the render's metadata in the header.
 
-use super::{check_pixel_count, write_atomically, OutputError};
+use super::{check_pixel_count, stage, OutputError, Staged};
 use crate::image::Image;
 use crate::stats::RayCounts;
 use exr::image::{Encoding, Layer, SpecificChannels};
@@ -86,6 +86,11 @@ fn exr_error(path: &Path, error: exr::error::Error) -> OutputError {
 
 /// Write `image` as float32 RGB with ZIP-compressed scanlines (`SMALL_LOSSLESS`) in one layer, atomically.
 pub fn write_exr(path: &Path, image: &Image, meta: &ExrMetadata) -> Result<(), OutputError> {
+    stage_exr(path, image, meta)?.commit()
+}
+
+/// Encode the EXR into a temporary file beside `path`, to be published with [`Staged::commit`].
+pub fn stage_exr(path: &Path, image: &Image, meta: &ExrMetadata) -> Result<Staged, OutputError> {
     check_pixel_count(path, image)?;
     let mut attributes = LayerAttributes::named(BEAUTY_LAYER);
     attributes.software_name = Some(text(&format!("vitrum {}", meta.version)));
@@ -100,7 +105,7 @@ pub fn write_exr(path: &Path, image: &Image, meta: &ExrMetadata) -> Result<(), O
     let layer = Layer::new((image.width, image.height), attributes, Encoding::SMALL_LOSSLESS, pixels);
     let file = exr::image::Image::from_layer(layer);
     // Errors name the final path: the temporary name means nothing to the user.
-    write_atomically(path, |tmp| file.write().to_file(tmp).map_err(|e| exr_error(path, e)))
+    stage(path, |tmp| file.write().to_file(tmp).map_err(|e| exr_error(path, e)))
 }
 
 /// Read the first layer's R, G, B channels as f32 plus all header attributes (image- and layer-level) as strings.

@@ -77,6 +77,28 @@ pub fn write_atomically(
     path: &Path,
     write: impl FnOnce(&Path) -> Result<(), OutputError>,
 ) -> Result<(), OutputError> {
+    stage(path, write)?.commit()
+}
+
+/// A complete output written to a temporary file beside its target, not yet published: commit
+/// several staged files together so that a failure in one leaves none of them behind.
+pub struct Staged {
+    tmp: TempFile,
+    target: PathBuf,
+}
+
+impl Staged {
+    /// Publish the file under its final name (an atomic rename).
+    pub fn commit(mut self) -> Result<(), OutputError> {
+        fs::rename(&self.tmp.path, &self.target).map_err(|e| OutputError::io(&self.target, e))?;
+        self.tmp.keep = true;
+        Ok(())
+    }
+}
+
+/// Write `path`'s contents to a temporary file with `write(tmp_path)` and make them durable,
+/// without publishing them yet; dropping the result removes the temporary file.
+pub fn stage(path: &Path, write: impl FnOnce(&Path) -> Result<(), OutputError>) -> Result<Staged, OutputError> {
     let Some(file_name) = path.file_name() else {
         let e = io::Error::new(io::ErrorKind::InvalidInput, "the output path has no file name");
         return Err(OutputError::io(path, e));
@@ -84,16 +106,13 @@ pub fn write_atomically(
     let counter = TEMP_COUNTER.fetch_add(1, Ordering::Relaxed);
     let tmp_name = format!(".{}.tmp-{}-{counter}", file_name.to_string_lossy(), std::process::id());
     // The guard also cleans up if `write` panics.
-    let mut tmp = TempFile { path: path.with_file_name(tmp_name), keep: false };
-
+    let tmp = TempFile { path: path.with_file_name(tmp_name), keep: false };
     write(&tmp.path)?;
-    // Make the contents durable before the rename publishes them, so a crash cannot leave an
+    // Make the contents durable before a rename publishes them, so a crash cannot leave an
     // empty or partial file under the final name.
     let sync = fs::OpenOptions::new().write(true).open(&tmp.path).and_then(|f| f.sync_all());
     sync.map_err(|e| OutputError::io(&tmp.path, e))?;
-    fs::rename(&tmp.path, path).map_err(|e| OutputError::io(path, e))?;
-    tmp.keep = true;
-    Ok(())
+    Ok(Staged { tmp, target: path.to_path_buf() })
 }
 
 /// Check that `image.pixels` holds exactly `width * height` pixels before encoding it to `path`.

@@ -1,6 +1,6 @@
 //! 8-bit sRGB PNG previews of linear HDR images.
 
-use super::{check_pixel_count, write_atomically, OutputError};
+use super::{check_pixel_count, stage, OutputError, Staged};
 use crate::image::Image;
 use std::path::Path;
 
@@ -34,27 +34,33 @@ pub fn to_srgb8(image: &Image, exposure_ev: f32) -> Vec<u8> {
 
 /// sRGB 8-bit preview: pixel * 2^exposure_ev, then clamp to [0,1], then the sRGB OETF, rounded. NaN pixels become magenta (255,0,255) so they are visible.
 pub fn write_png(path: &Path, image: &Image, exposure_ev: f32) -> Result<(), OutputError> {
-    check_pixel_count(path, image)?;
-    write_rgb8(path, image.width, image.height, &to_srgb8(image, exposure_ev))
+    stage_png(path, image, exposure_ev)?.commit()
 }
 
-/// Grey levels `values` in [0, 1] (clamped), written linearly as 8-bit RGB: for data such as
+/// Encode the preview into a temporary file beside `path`, to be published with
+/// [`Staged::commit`].
+pub fn stage_png(path: &Path, image: &Image, exposure_ev: f32) -> Result<Staged, OutputError> {
+    check_pixel_count(path, image)?;
+    stage_rgb8(path, image.width, image.height, &to_srgb8(image, exposure_ev))
+}
+
+/// Grey levels `values` in [0, 1] (clamped), staged linearly as 8-bit RGB: for data such as
 /// sample-density maps, not for radiance.
-pub fn write_grey_png(path: &Path, width: usize, height: usize, values: &[f32]) -> Result<(), OutputError> {
+pub fn stage_grey_png(path: &Path, width: usize, height: usize, values: &[f32]) -> Result<Staged, OutputError> {
     if values.len() != width * height {
         return Err(OutputError::format(path, "value count does not match the image size"));
     }
     let bytes: Vec<u8> = values.iter().flat_map(|v| [(v.clamp(0.0, 1.0) * 255.0).round() as u8; 3]).collect();
-    write_rgb8(path, width, height, &bytes)
+    stage_rgb8(path, width, height, &bytes)
 }
 
-/// Write packed RGB8 bytes as a PNG, atomically.
-fn write_rgb8(path: &Path, width: usize, height: usize, bytes: &[u8]) -> Result<(), OutputError> {
+/// Stage packed RGB8 bytes as a PNG file.
+fn stage_rgb8(path: &Path, width: usize, height: usize, bytes: &[u8]) -> Result<Staged, OutputError> {
     let too_big = || OutputError::format(path, "image too large for PNG");
     let width = u32::try_from(width).map_err(|_| too_big())?;
     let height = u32::try_from(height).map_err(|_| too_big())?;
     // The temporary name does not end in .png, so the format is given explicitly.
-    write_atomically(path, |tmp| {
+    stage(path, |tmp| {
         ::image::save_buffer_with_format(
             tmp,
             bytes,

@@ -9,7 +9,7 @@ use super::{
 };
 use crate::camera::Camera;
 use crate::dispersion::Ior;
-use crate::geometry::{Disk, Polygon, Quad, Shape, Sphere};
+use crate::geometry::{parallelogram_normal, try_unit, Disk, Polygon, Quad, Shape, Sphere};
 use crate::integrators::SsaaParams;
 use crate::light::Light;
 use crate::material::{Bsdf, Material, Medium, Phong, Texture};
@@ -24,6 +24,8 @@ use std::time::{Duration, Instant};
 
 /// Largest image the renderer accepts, in pixels (checked before any allocation).
 pub const MAX_PIXELS: u64 = 1 << 26;
+/// Deepest recursion the renderer accepts (bounded stack; deeper paths carry no visible light).
+pub const MAX_DEPTH: u32 = 256;
 /// Largest image side in pixels.
 pub const MAX_SIDE: u32 = 65536;
 
@@ -176,7 +178,7 @@ impl Compiler<'_> {
     }
 
     fn direction(&self, path: &FieldPath, v: [f32; 3]) -> Result<Vec3, SceneError> {
-        Vec3::from_array(v).try_normalize().ok_or_else(|| self.err(path, "must be a non-zero vector"))
+        try_unit(Vec3::from_array(v)).ok_or_else(|| self.err(path, "must be a non-zero vector"))
     }
 
     fn compile(&self, desc: &SceneDesc, text: &str) -> Result<Scene, SceneError> {
@@ -213,6 +215,9 @@ impl Compiler<'_> {
             };
             let kind = shape_kind(&object.shape);
             let surfaces = self.shape(&path, &object.shape, &mut warnings)?;
+            if surfaces.iter().any(|(s, _)| !(s.bounds().min.is_finite() && s.bounds().max.is_finite())) {
+                return Err(self.err(&path, "the object is too large: its extent overflows single precision"));
+            }
             if matches!(object.shape, ShapeDesc::Mesh { .. }) {
                 effects.add(Effect::Meshes, format!("objects[{i}] is a triangle mesh"));
             }
@@ -328,7 +333,7 @@ impl Compiler<'_> {
         }
         let position = Vec3::from_array(c.position);
         let look_at = Vec3::from_array(c.look_at);
-        if (look_at - position).length() == 0.0 {
+        if look_at == position {
             return Err(self.err(&path.key("look_at"), "must differ from camera.position"));
         }
         let up = self.direction(&path.key("up"), c.up)?;
@@ -353,6 +358,9 @@ impl Compiler<'_> {
         let path = FieldPath::from("render");
         if r.spp == 0 {
             return Err(self.err(&path.key("spp"), "must be at least 1"));
+        }
+        if r.max_depth > MAX_DEPTH {
+            return Err(self.err(&path.key("max_depth"), format!("must be at most {MAX_DEPTH} (got {})", r.max_depth)));
         }
         if crate::integrators::create(&r.integrator).is_none() {
             return Err(self.err(
@@ -540,8 +548,7 @@ impl Compiler<'_> {
             }
             ShapeDesc::Quad { corner, u, v: edge_v } => {
                 let (u, ev) = (v(*u), v(*edge_v));
-                let area = u.cross(ev).length();
-                if area.is_nan() || area <= 1e-6 * u.length() * ev.length() {
+                if parallelogram_normal(u, ev).is_none() {
                     return Err(self.err(
                         &path.key("u"),
                         "u and v must be non-zero and not parallel (the quad has no area)",
@@ -585,9 +592,11 @@ impl Compiler<'_> {
                 let axis = self.direction(&path.key("axis"), *axis)?;
                 let r = self.positive(&path.key("radius"), *radius)?;
                 let t = self.positive(&path.key("thickness"), *thickness)?;
-                if t >= r {
-                    return Err(self
-                        .err(&path.key("thickness"), format!("must be smaller than radius {r} (got {t})")));
+                if t >= r || r - t >= r {
+                    return Err(self.err(
+                        &path.key("thickness"),
+                        format!("must be smaller than radius {r} and large enough to change it (got {t})"),
+                    ));
                 }
                 bodies::bowl(v(*center), axis, r, t)
             }
@@ -597,12 +606,12 @@ impl Compiler<'_> {
                 let h = self.positive(&path.key("height"), *height)?;
                 let w = self.positive(&path.key("wall"), *wall)?;
                 let b = self.positive(&path.key("bottom"), *bottom)?;
-                if w >= r {
+                if w >= r || r - w >= r {
                     return Err(
                         self.err(&path.key("wall"), format!("must be smaller than radius {r} (got {w})"))
                     );
                 }
-                if b >= h {
+                if b >= h || h - b >= h {
                     return Err(
                         self.err(&path.key("bottom"), format!("must be smaller than height {h} (got {b})"))
                     );
@@ -621,7 +630,7 @@ impl Compiler<'_> {
             },
             LightDesc::Quad { corner, u, v: ev, radiance } => {
                 let (u, ev) = (v(*u), v(*ev));
-                let normal = u.cross(ev).try_normalize().ok_or_else(|| {
+                let normal = parallelogram_normal(u, ev).ok_or_else(|| {
                     self.err(
                         &path.key("u"),
                         "u and v must be non-zero and not parallel (a light needs an area > 0)",

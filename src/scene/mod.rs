@@ -232,7 +232,7 @@ impl Scene {
                 let mut h = prim.shape.surface(&moved(ray, v), t);
                 let shift = v * ray.time;
                 h.p += shift;
-                h.p_error += crate::geometry::point_error(h.p, shift, 2);
+                h.p_error += crate::geometry::gamma(2) * h.p.abs().max_element();
                 h
             }
         };
