@@ -95,7 +95,12 @@ impl Segment {
     /// The segment after a bounce with weight `weight`, or `None` if it is not worth tracing.
     fn next(self, weight: Vec3, absorption: Vec3, count_emission: bool) -> Option<Segment> {
         let weight = self.weight * weight.max_element();
-        (weight >= MIN_PATH_WEIGHT).then_some(Segment { depth: self.depth + 1, absorption, count_emission, weight })
+        (weight >= MIN_PATH_WEIGHT).then_some(Segment {
+            depth: self.depth + 1,
+            absorption,
+            count_emission,
+            weight,
+        })
     }
 }
 

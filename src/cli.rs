@@ -446,7 +446,7 @@ fn run_info(args: &InfoArgs) -> Result<(), CliError> {
             "resolution": [scene.camera.width, scene.camera.height],
             "objects": scene.objects.iter().map(|o| json!({"name": o.name, "kind": o.kind, "material": o.material, "primitives": o.primitives})).collect::<Vec<_>>(),
             "materials": scene.materials.iter().map(|m| json!({"name": m.name, "type": format!("{:?}", m.bsdf)})).collect::<Vec<_>>(),
-            "lights": scene.lights.len(),
+            "lights": scene.lights.iter().map(|l| json!({"light": format!("{l:?}"), "power_watts": l.power().to_array()})).collect::<Vec<_>>(),
             "bvh": {"nodes": b.nodes, "primitives": b.primitives, "depth": b.depth, "build_seconds": b.build_seconds,
                     "bounds_min": b.bounds.0.to_array(), "bounds_max": b.bounds.1.to_array()},
             "effects": effects,
@@ -467,7 +467,7 @@ fn run_info(args: &InfoArgs) -> Result<(), CliError> {
     }
     println!("lights     {}", scene.lights.len());
     for l in &scene.lights {
-        println!("  {l:?}");
+        println!("  {l:?}, power {} W", l.power());
     }
     println!(
         "bvh        CwBvh, {} nodes, {} primitives, depth {}, built in {:.3} ms, bounds {} .. {}",

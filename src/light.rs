@@ -47,7 +47,7 @@ pub struct PointIllumination {
 }
 
 impl Light {
-    /// Total emitted power (W), used for statistics and light selection.
+    /// Total emitted power (W), as `vitrum info` reports it.
     pub fn power(&self) -> Vec3 {
         match self {
             Light::Point { intensity, .. } => 4.0 * std::f32::consts::PI * *intensity,

@@ -161,11 +161,6 @@ impl Material {
         }
     }
 
-    /// Whether light passes through this material.
-    pub fn is_transmissive(&self) -> bool {
-        matches!(self.bsdf, Bsdf::Dielectric { .. })
-    }
-
     /// The same interface seen from the other side (inside and outside indices swapped), used
     /// for the inner surfaces of hollow bodies.
     pub fn swapped_interface(&self) -> Material {

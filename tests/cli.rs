@@ -505,7 +505,9 @@ fn info_json_describes_the_bvh_and_effects() {
     assert_eq!(info["scene"], scene.display().to_string());
     assert_eq!(info["resolution"], serde_json::json!([800, 800]));
     assert_eq!(info["objects"].as_array().unwrap().len(), 7);
-    assert_eq!(info["lights"], 1);
+    let lights = info["lights"].as_array().unwrap();
+    assert_eq!(lights.len(), 1);
+    assert!(lights[0]["power_watts"][0].as_f64().unwrap() > 0.0);
     let bvh = &info["bvh"];
     assert!(bvh["nodes"].as_u64().unwrap() >= 1, "{bvh}");
     assert_eq!(bvh["primitives"], 9, "5 quads, 1 sphere, a capped cylinder (3): {bvh}");

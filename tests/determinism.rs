@@ -66,8 +66,14 @@ fn random_pixel_positions_are_independent_of_the_thread_count() {
 
 #[test]
 fn area_light_sampling_is_independent_of_the_thread_count() {
+    // `distributed` samples points on the area light, lens, time and glossy lobes.
     let scene = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/drinking-glass.toml"));
-    assert_thread_count_invariant(Some(scene), &["-i", "whitted", "--spp", "2", "--seed", "5"]);
+    assert_thread_count_invariant(Some(scene), &["-i", "distributed", "--spp", "3", "--seed", "5"]);
+}
+
+#[test]
+fn adaptive_supersampling_is_independent_of_the_thread_count() {
+    assert_thread_count_invariant(None, &["-i", "ssaa"]);
 }
 
 #[test]

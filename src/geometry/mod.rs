@@ -189,7 +189,7 @@ impl Shape {
         }
     }
 
-    /// Surface area (used for light sampling and statistics).
+    /// Surface area.
     pub fn area(&self) -> f32 {
         match self {
             Shape::Sphere(s) => s.area(),

@@ -98,7 +98,10 @@ impl Staged {
 
 /// Write `path`'s contents to a temporary file with `write(tmp_path)` and make them durable,
 /// without publishing them yet; dropping the result removes the temporary file.
-pub fn stage(path: &Path, write: impl FnOnce(&Path) -> Result<(), OutputError>) -> Result<Staged, OutputError> {
+pub fn stage(
+    path: &Path,
+    write: impl FnOnce(&Path) -> Result<(), OutputError>,
+) -> Result<Staged, OutputError> {
     let Some(file_name) = path.file_name() else {
         let e = io::Error::new(io::ErrorKind::InvalidInput, "the output path has no file name");
         return Err(OutputError::io(path, e));

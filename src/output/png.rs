@@ -46,7 +46,12 @@ pub fn stage_png(path: &Path, image: &Image, exposure_ev: f32) -> Result<Staged,
 
 /// Grey levels `values` in [0, 1] (clamped), staged linearly as 8-bit RGB: for data such as
 /// sample-density maps, not for radiance.
-pub fn stage_grey_png(path: &Path, width: usize, height: usize, values: &[f32]) -> Result<Staged, OutputError> {
+pub fn stage_grey_png(
+    path: &Path,
+    width: usize,
+    height: usize,
+    values: &[f32],
+) -> Result<Staged, OutputError> {
     if values.len() != width * height {
         return Err(OutputError::format(path, "value count does not match the image size"));
     }

@@ -288,6 +288,10 @@ impl Compiler<'_> {
             lights.push(light);
         }
 
+        if lights.is_empty() && settings.ambient == Vec3::ZERO {
+            warnings
+                .push("the scene has no lights and no ambient term: every method renders it black".into());
+        }
         if camera.has_lens() {
             effects.add(
                 Effect::DepthOfField,
@@ -360,7 +364,8 @@ impl Compiler<'_> {
             return Err(self.err(&path.key("spp"), "must be at least 1"));
         }
         if r.max_depth > MAX_DEPTH {
-            return Err(self.err(&path.key("max_depth"), format!("must be at most {MAX_DEPTH} (got {})", r.max_depth)));
+            return Err(self
+                .err(&path.key("max_depth"), format!("must be at most {MAX_DEPTH} (got {})", r.max_depth)));
         }
         if crate::integrators::create(&r.integrator).is_none() {
             return Err(self.err(
@@ -472,8 +477,13 @@ impl Compiler<'_> {
     fn material(&self, path: &FieldPath, name: &str, m: &MaterialDesc) -> Result<Material, SceneError> {
         let (bsdf, phong) = match m {
             MaterialDesc::Diffuse { color, texture, phong } => {
+                if color.is_some() && texture.is_some() {
+                    return Err(self.err(&path.key("texture"), "give either `color` or `texture`, not both"));
+                }
                 let texture = match texture {
-                    None => Texture::Constant(self.color(&path.key("color"), *color)?),
+                    None => {
+                        Texture::Constant(self.color(&path.key("color"), color.unwrap_or(Rgb::Grey(0.8)))?)
+                    }
                     Some(TextureDesc::Checker { color1, color2, size }) => {
                         let t = path.key("texture");
                         Texture::Checker {

@@ -280,9 +280,8 @@ pub enum TextureDesc {
 pub enum MaterialDesc {
     /// Lambertian reflector.
     Diffuse {
-        /// Albedo (ignored when a texture is given).
-        #[serde(default = "default_albedo")]
-        color: Rgb,
+        /// Albedo (default 0.8 grey); give either this or a texture.
+        color: Option<Rgb>,
         /// Optional texture for the albedo.
         texture: Option<TextureDesc>,
         /// Empirical Phong terms.
@@ -323,9 +322,6 @@ pub enum MaterialDesc {
     },
 }
 
-fn default_albedo() -> Rgb {
-    Rgb::Grey(0.8)
-}
 fn default_one_rgb() -> Rgb {
     Rgb::Grey(1.0)
 }

@@ -85,8 +85,7 @@ pub enum Support {
 pub struct Effects(pub Vec<EffectUse>);
 
 impl Effects {
-    /// Record that `effect` is needed because of `reason` (first reason per effect kept, others
-    /// counted).
+    /// Record that `effect` is needed because of `reason` (the first reason per effect is kept).
     pub fn add(&mut self, effect: Effect, reason: impl Into<String>) {
         if !self.has(effect) {
             self.0.push(EffectUse { effect, reason: reason.into() });
