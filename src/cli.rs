@@ -388,6 +388,7 @@ fn report(args: &RenderArgs, scene: &Scene, integrator: &str, opts: &RenderOptio
                 "total": out.rays.total(),
             },
             "mrays_per_second": mrays,
+            "rays_per_pixel": out.rays.total() as f64 / (out.image.width * out.image.height).max(1) as f64,
             "non_finite_samples": out.non_finite_samples,
             "spectral": out.spectral,
             "samples_per_pixel": out.samples_per_pixel.as_ref().map(|c| {
@@ -402,12 +403,14 @@ fn report(args: &RenderArgs, scene: &Scene, integrator: &str, opts: &RenderOptio
         println!("{summary}");
     } else if !args.quiet {
         eprintln!(
-            "{integrator}: {}x{} at {} spp in {:.3} s, {} rays (primary {}, reflected {}, refracted {}, shadow {}), {:.2} Mrays/s -> {}",
+            "{integrator}: {}x{} at {} spp{} in {:.3} s, {} rays ({:.1} per pixel: primary {}, reflected {}, refracted {}, shadow {}), {:.2} Mrays/s -> {}",
             out.image.width,
             out.image.height,
             out.spp,
+            if out.spectral { " (spectral)" } else { "" },
             out.seconds,
             out.rays.total(),
+            out.rays.total() as f64 / (out.image.width * out.image.height).max(1) as f64,
             out.rays.primary,
             out.rays.reflected,
             out.rays.refracted,
