@@ -33,8 +33,14 @@ fn bench(c: &mut Criterion) {
         ("zero aperture + zero velocity declared", &inert, SpectralMode::Auto),
     ];
     for (name, scene, spectral) in variants {
-        let opts = RenderOptions { resolution: Some((SIDE, SIDE)), spectral, ..RenderOptions::from_scene(scene, SPP) };
-        group.bench_function(name, |b| b.iter(|| render(scene, distributed.as_ref(), black_box(&opts), &|_, _| {})));
+        let opts = RenderOptions {
+            resolution: Some((SIDE, SIDE)),
+            spectral,
+            ..RenderOptions::from_scene(scene, SPP)
+        };
+        group.bench_function(name, |b| {
+            b.iter(|| render(scene, distributed.as_ref(), black_box(&opts), &|_, _| {}))
+        });
     }
     group.finish();
 }

@@ -52,7 +52,9 @@ pub(super) fn deterministic_support(effect: Effect) -> Support {
         Effect::Absorption | Effect::Textures | Effect::Meshes => Support::Simulates,
         Effect::SoftShadows => Support::Approximates("an area light acts as a point light at its centre"),
         Effect::Glossy => Support::Approximates("rough surfaces are traced as smooth ones"),
-        Effect::Dispersion => Support::Approximates("refracts at the nominal index n_d (one wavelength)"),
+        Effect::Dispersion => Support::Approximates(
+            "refracts at the nominal index n_d unless --spectral on (one wavelength per sample)",
+        ),
         Effect::DepthOfField => Support::Ignores("renders through a pinhole"),
         Effect::MotionBlur => Support::Ignores("renders the scene at the shutter's opening time"),
     }

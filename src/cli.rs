@@ -221,9 +221,19 @@ fn check_output_path(path: &Path, extension: &str) -> Result<(), CliError> {
     Ok(())
 }
 
-/// Warn about (or, when `strict`, refuse) effects the integrator does not simulate.
-fn check_effects(scene: &Scene, integrator: &dyn Integrator, strict: bool) -> Result<(), CliError> {
+/// Warn about (or, when `strict`, refuse) effects the integrator does not simulate; dispersion
+/// counts as simulated whenever the render traces wavelengths.
+fn check_effects(
+    scene: &Scene,
+    integrator: &dyn Integrator,
+    opts: &RenderOptions,
+    strict: bool,
+) -> Result<(), CliError> {
+    let spectral = render::CameraDims::resolve(scene, integrator, opts.spectral).wavelength;
     for u in &scene.effects.0 {
+        if u.effect == crate::scene::Effect::Dispersion && spectral {
+            continue;
+        }
         let (verb, how) = match integrator.support(u.effect) {
             Support::Simulates => continue,
             Support::Approximates(how) => ("approximates", how),
@@ -293,7 +303,7 @@ fn run_render(args: &RenderArgs) -> Result<(), CliError> {
     for png in [&args.png, &args.density_map].into_iter().flatten() {
         check_output_path(png, "png")?;
     }
-    check_effects(&scene, integrator.as_ref(), args.strict)?;
+    check_effects(&scene, integrator.as_ref(), &opts, args.strict)?;
     match args.threads {
         Some(0) => return Err(CliError::BadInput("--threads 0: at least one thread".into())),
         Some(n) if n > MAX_THREADS => {

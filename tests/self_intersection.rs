@@ -181,7 +181,10 @@ fn thin_hollow_sphere_holds_its_light_far_from_the_origin() {
             let start = spawn_origin(&outer.hit, into_wall);
             let wall = s.intersect(&Ray::new(start, into_wall), f32::INFINITY).unwrap();
             let expected = sphere_distance(start, into_wall, center, r_in, false).unwrap();
-            assert!(is_inner(wall.primitive), "centre {center}: the refracted ray tunnelled through the wall");
+            assert!(
+                is_inner(wall.primitive),
+                "centre {center}: the refracted ray tunnelled through the wall"
+            );
             assert!((wall.hit.t as f64 - expected).abs() < 1e-2 * expected + 1e-5, "centre {center}");
             // From inside the wall into the cavity: the next hit is the cavity's far side.
             let wo = -into_wall;

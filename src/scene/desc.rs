@@ -180,7 +180,7 @@ pub struct SsaaDesc {
     /// Samples per side of the regular grid.
     #[serde(default = "default_ssaa_grid")]
     pub grid: u32,
-    /// Maximum subdivision level of the adaptive mode (level L spaces samples 2^-L pixels apart).
+    /// Maximum subdivision level of the adaptive mode (level L spaces samples 3^-L pixels apart).
     #[serde(default = "default_ssaa_levels")]
     pub levels: u32,
     /// Contrast that triggers subdivision: the largest channel difference between corners

@@ -89,6 +89,7 @@ impl Effects {
     pub fn add(&mut self, effect: Effect, reason: impl Into<String>) {
         if !self.has(effect) {
             self.0.push(EffectUse { effect, reason: reason.into() });
+            self.0.sort_by_key(|u| u.effect);
         }
     }
 
