@@ -145,7 +145,7 @@ pub enum Shape {
     /// Parallelogram.
     Quad(Quad),
     /// Planar convex polygon.
-    Polygon(Polygon),
+    Polygon(Box<Polygon>),
     /// Triangle (from a mesh).
     Triangle(Triangle),
 }

@@ -299,6 +299,7 @@ impl Compiler<'_> {
             );
         }
         let (primitives, bvh, bvh_stats) = build_bvh(primitives, camera.shutter);
+        let has_motion = primitives.iter().any(|p| p.velocity.is_some());
         Ok(Scene {
             primitives,
             materials,
@@ -309,6 +310,7 @@ impl Compiler<'_> {
             objects,
             origin: SceneOrigin { name: self.source.name.clone(), hash: content_hash(text) },
             bvh_scale: bvh_stats.scale,
+            has_motion,
             bvh_stats,
             warnings,
             bvh,
@@ -569,7 +571,7 @@ impl Compiler<'_> {
             ShapeDesc::Polygon { vertices } => {
                 let verts = vertices.iter().map(|p| v(*p)).collect();
                 let polygon = Polygon::new(verts).map_err(|e| self.err(&path.key("vertices"), e))?;
-                vec![(Shape::Polygon(polygon), false)]
+                vec![(Shape::Polygon(Box::new(polygon)), false)]
             }
             ShapeDesc::Mesh { file, scale, translate } => {
                 let scale = self.positive(&path.key("scale"), *scale)?;

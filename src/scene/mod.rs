@@ -192,6 +192,8 @@ pub struct Scene {
     /// Warnings found while compiling (degenerate triangles skipped, …).
     pub warnings: Vec<String>,
     bvh: CwBvh,
+    /// Whether any primitive moves (only then does traversal look at velocities).
+    has_motion: bool,
     /// World = BVH coordinates × `bvh_scale` (a power of two, so the mapping is exact). The
     /// CwBvh culls boxes closer than a fixed 1e-4 along the ray; normalising the scene to a size
     /// of about 1000 makes that distance negligible at any scene scale.
@@ -212,14 +214,21 @@ impl Scene {
         let scale = self.bvh_scale;
         let prims = &self.primitives;
         let mut hit = RayHit::none();
-        let found = self.bvh.ray_traverse(bray, &mut hit, |r, id| {
-            let prim = &prims[id];
-            let t = match prim.velocity {
-                None => prim.shape.intersect(ray, 0.0, r.tmax * scale),
-                Some(v) => prim.shape.intersect(&moved(ray, v), 0.0, r.tmax * scale),
-            };
-            t.map_or(f32::INFINITY, |t| t * inv)
-        });
+        // A static scene pays nothing for motion blur: its traversal never looks at velocities.
+        let found = if self.has_motion {
+            self.bvh.ray_traverse(bray, &mut hit, |r, id| {
+                let prim = &prims[id];
+                let t = match prim.velocity {
+                    None => prim.shape.intersect(ray, 0.0, r.tmax * scale),
+                    Some(v) => prim.shape.intersect(&moved(ray, v), 0.0, r.tmax * scale),
+                };
+                t.map_or(f32::INFINITY, |t| t * inv)
+            })
+        } else {
+            self.bvh.ray_traverse(bray, &mut hit, |r, id| {
+                prims[id].shape.intersect(ray, 0.0, r.tmax * scale).map_or(f32::INFINITY, |t| t * inv)
+            })
+        };
         if !found {
             return None;
         }
