@@ -12,14 +12,18 @@
 //!   density of `sample`. Both are 0 for delta (perfectly smooth) lobes, which only `sample`
 //!   produces.
 
+pub mod lambert;
 pub mod microfacet;
+pub mod model;
 pub mod rough_conductor;
 pub mod rough_dielectric;
 
 #[cfg(test)]
 mod chi2;
 
+pub use lambert::Lambert;
 pub use microfacet::TrowbridgeReitz;
+pub use model::Scattering;
 pub use rough_conductor::RoughConductor;
 pub use rough_dielectric::{RoughDielectric, TransportMode};
 

@@ -80,7 +80,7 @@ impl RoughDielectric {
     }
 
     /// True when the interface scatters only into delta lobes (smooth, or index-matched).
-    fn is_specular(&self) -> bool {
+    pub fn is_specular(&self) -> bool {
         self.eta == 1.0 || self.distribution.effectively_smooth()
     }
 

@@ -1,0 +1,71 @@
+//! The scattering model of a material at a hit point, for the physically based methods (`path`,
+//! `light`): Lambert, smooth or rough mirror, smooth or rough dielectric, behind one interface.
+
+use super::{BsdfSample, Lambert, RoughConductor, RoughDielectric, TransportMode, TrowbridgeReitz};
+use crate::material::{Bsdf, Material};
+use glam::{Vec2, Vec3};
+
+/// A material's BSDF at one point, in the local frame of the surface's geometric normal (the
+/// `outside` side is +Z).
+#[derive(Clone, Copy, Debug)]
+pub enum Scattering {
+    /// Ideal diffuse reflection.
+    Diffuse(Lambert),
+    /// Mirror (a delta lobe when smooth).
+    Conductor(RoughConductor),
+    /// Dielectric interface (a pair of delta lobes when smooth).
+    Dielectric(RoughDielectric),
+}
+
+impl Scattering {
+    /// The scattering of `material` at world point `p`, with indices at wavelength `lambda`
+    /// (nominal indices in RGB mode).
+    pub fn at(material: &Material, p: Vec3, lambda: Option<f32>) -> Scattering {
+        match &material.bsdf {
+            Bsdf::Diffuse(t) => Scattering::Diffuse(Lambert { albedo: t.eval(p) }),
+            Bsdf::Mirror { color, roughness } => {
+                Scattering::Conductor(RoughConductor::new(*color, TrowbridgeReitz::from_roughness(*roughness)))
+            }
+            Bsdf::Dielectric { inside, outside, roughness } => Scattering::Dielectric(RoughDielectric::new(
+                inside.ior_at(lambda) / outside.ior_at(lambda),
+                TrowbridgeReitz::from_roughness(*roughness),
+            )),
+        }
+    }
+
+    /// Whether the model only scatters into delta directions (eval and pdf are always 0).
+    pub fn is_delta(&self) -> bool {
+        match self {
+            Scattering::Diffuse(_) => false,
+            Scattering::Conductor(c) => c.distribution.effectively_smooth(),
+            Scattering::Dielectric(d) => d.is_specular(),
+        }
+    }
+
+    /// The BSDF value for the local directions `wo`, `wi`.
+    pub fn eval(&self, wo: Vec3, wi: Vec3, mode: TransportMode) -> Vec3 {
+        match self {
+            Scattering::Diffuse(m) => m.eval(wo, wi),
+            Scattering::Conductor(m) => m.eval(wo, wi),
+            Scattering::Dielectric(m) => m.eval(wo, wi, mode),
+        }
+    }
+
+    /// The solid-angle density with which `sample` produces `wi`.
+    pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        match self {
+            Scattering::Diffuse(m) => m.pdf(wo, wi),
+            Scattering::Conductor(m) => m.pdf(wo, wi),
+            Scattering::Dielectric(m) => m.pdf(wo, wi),
+        }
+    }
+
+    /// A scattered direction for `wo` from the uniforms `uc`, `u`.
+    pub fn sample(&self, wo: Vec3, uc: f32, u: Vec2, mode: TransportMode) -> Option<BsdfSample> {
+        match self {
+            Scattering::Diffuse(m) => m.sample(wo, u),
+            Scattering::Conductor(m) => m.sample(wo, u),
+            Scattering::Dielectric(m) => m.sample(wo, uc, u, mode),
+        }
+    }
+}
