@@ -1,11 +1,13 @@
 //! The rendering methods, one per file, behind one trait, and the registry of their names.
 
 mod distributed;
+mod path;
 mod raycast;
 mod ssaa;
 mod whitted;
 
 pub use distributed::Distributed;
+pub use path::{Path, DEFAULT_PATH_DEPTH};
 pub use raycast::RayCast;
 pub use ssaa::{Ssaa, SsaaParams};
 pub use whitted::Whitted;
@@ -62,6 +64,10 @@ pub trait Integrator: Send + Sync {
     fn description(&self) -> &'static str;
     /// What the method does with an effect the scene calls for.
     fn support(&self, effect: Effect) -> Support;
+    /// The maximum depth when neither the scene nor the command line sets one.
+    fn default_max_depth(&self) -> u32 {
+        5
+    }
     /// Radiance arriving at the camera along `ray`.
     fn radiance(&self, scene: &Scene, params: &RenderParams, ray: &Ray, ctx: &mut PathContext) -> Vec3;
     /// Methods with their own image loop (adaptive supersampling, light tracing) render here;
@@ -78,7 +84,7 @@ pub trait Integrator: Send + Sync {
 
 /// Every integrator, in the order `vitrum integrators` lists them.
 pub fn all() -> Vec<Box<dyn Integrator>> {
-    vec![Box::new(RayCast), Box::new(Whitted), Box::new(Ssaa), Box::new(Distributed)]
+    vec![Box::new(RayCast), Box::new(Whitted), Box::new(Ssaa), Box::new(Distributed), Box::new(Path)]
 }
 
 /// The integrator registered under `name`.

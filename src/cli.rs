@@ -249,7 +249,11 @@ fn check_effects(
 }
 
 /// Options of a render after applying command-line overrides to the scene's defaults.
-pub fn render_options(scene: &Scene, args: &RenderArgs) -> Result<RenderOptions, CliError> {
+pub fn render_options(
+    scene: &Scene,
+    integrator: &dyn Integrator,
+    args: &RenderArgs,
+) -> Result<RenderOptions, CliError> {
     let s = &scene.settings;
     let budget = match (args.spp, args.time) {
         (_, Some(t)) if !(t.is_finite() && t > 0.0) => {
@@ -286,7 +290,11 @@ pub fn render_options(scene: &Scene, args: &RenderArgs) -> Result<RenderOptions,
         budget,
         resolution: args.resolution,
         seed: args.seed.unwrap_or(s.seed),
-        params: RenderParams { max_depth: args.max_depth.unwrap_or(s.max_depth), reflectance, ssaa },
+        params: RenderParams {
+            max_depth: args.max_depth.or(s.max_depth).unwrap_or(integrator.default_max_depth()),
+            reflectance,
+            ssaa,
+        },
         spectral: args.spectral.as_deref().and_then(SpectralMode::from_name).unwrap_or(s.spectral),
         sampler: args.sampler.as_deref().and_then(SamplerKind::from_name).unwrap_or(s.sampler),
     })
@@ -298,7 +306,7 @@ fn run_render(args: &RenderArgs) -> Result<(), CliError> {
         eprintln!("vitrum: warning: {w}");
     }
     let integrator = integrator_named(args.integrator.as_deref().unwrap_or(&scene.settings.integrator))?;
-    let opts = render_options(&scene, args)?;
+    let opts = render_options(&scene, integrator.as_ref(), args)?;
     check_output_path(&args.output, "exr")?;
     for png in [&args.png, &args.density_map].into_iter().flatten() {
         check_output_path(png, "png")?;

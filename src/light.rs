@@ -1,4 +1,5 @@
-//! Light sources: isotropic point lights and one-sided area quads.
+//! Light sources: point lights, one-sided area quads and spheres, emissive surfaces (two-sided
+//! diffuse emitters) and a constant environment.
 
 use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
@@ -35,6 +36,116 @@ pub enum Light {
         /// Emitted radiance (W/(m²·sr)).
         radiance: Vec3,
     },
+    /// An object whose diffuse material emits: Lambertian on both sides of its surface.
+    Surface {
+        /// The emitting geometry.
+        shape: EmitterShape,
+        /// Emitted radiance (W/(m²·sr)).
+        radiance: Vec3,
+    },
+    /// Constant radiance arriving from every direction that leaves the scene.
+    Environment {
+        /// Radiance (W/(m²·sr)).
+        radiance: Vec3,
+    },
+}
+
+/// The geometry of an emissive object, sampled uniformly by area.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum EmitterShape {
+    /// A sphere.
+    Sphere {
+        /// Centre.
+        center: Vec3,
+        /// Radius.
+        radius: f32,
+    },
+    /// A parallelogram `corner + a·u + b·v`.
+    Quad {
+        /// One corner.
+        corner: Vec3,
+        /// First edge.
+        u: Vec3,
+        /// Second edge.
+        v: Vec3,
+    },
+    /// A disk or annulus.
+    Disk {
+        /// Centre.
+        center: Vec3,
+        /// Unit normal.
+        normal: Vec3,
+        /// Outer radius.
+        radius: f32,
+        /// Radius of the hole.
+        inner_radius: f32,
+    },
+}
+
+impl EmitterShape {
+    /// Surface area.
+    pub fn area(&self) -> f32 {
+        match *self {
+            EmitterShape::Sphere { radius, .. } => 4.0 * PI * radius * radius,
+            EmitterShape::Quad { u, v, .. } => u.cross(v).length(),
+            EmitterShape::Disk { radius, inner_radius, .. } => {
+                PI * (radius * radius - inner_radius * inner_radius)
+            }
+        }
+    }
+
+    /// A point uniformly distributed over the surface, with its unit normal.
+    pub fn sample(&self, u: Vec2) -> (Vec3, Vec3) {
+        match *self {
+            EmitterShape::Sphere { center, radius } => {
+                let n = uniform_sphere(u);
+                (center + radius * n, n)
+            }
+            EmitterShape::Quad { corner, u: eu, v: ev } => {
+                (corner + u.x * eu + u.y * ev, eu.cross(ev).normalize())
+            }
+            EmitterShape::Disk { center, normal, radius, inner_radius } => {
+                let r = (inner_radius * inner_radius + u.x * (radius * radius - inner_radius * inner_radius))
+                    .sqrt();
+                let phi = 2.0 * PI * u.y;
+                let (t, b) = normal.any_orthonormal_pair();
+                (center + r * (phi.cos() * t + phi.sin() * b), normal)
+            }
+        }
+    }
+
+    /// A representative point (for the deterministic methods, which see an emitter as a point).
+    pub fn centre(&self) -> Vec3 {
+        match *self {
+            EmitterShape::Sphere { center, .. } | EmitterShape::Disk { center, .. } => center,
+            EmitterShape::Quad { corner, u, v } => corner + 0.5 * (u + v),
+        }
+    }
+}
+
+/// A uniformly distributed unit vector.
+pub fn uniform_sphere(u: Vec2) -> Vec3 {
+    let z = 1.0 - 2.0 * u.x;
+    let r = (1.0 - z * z).max(0.0).sqrt();
+    let phi = 2.0 * PI * u.y;
+    Vec3::new(r * phi.cos(), r * phi.sin(), z)
+}
+
+/// A sampled direction towards a light, for next-event estimation.
+#[derive(Clone, Copy, Debug)]
+pub struct LightSample {
+    /// The sampled point on the light (far along `wi` for the environment).
+    pub position: Vec3,
+    /// Unit direction from the shading point to the light.
+    pub wi: Vec3,
+    /// Distance to `position` (infinite for the environment).
+    pub distance: f32,
+    /// Radiance arriving along `wi` (for a point light: intensity / distance²).
+    pub radiance: Vec3,
+    /// Solid-angle density of the sample (1 for a point light).
+    pub pdf: f32,
+    /// Whether the light is a delta (point) light that only next-event estimation can reach.
+    pub delta: bool,
 }
 
 /// What one light contributes at a shading point, seen as a point source.
@@ -53,7 +164,87 @@ impl Light {
             Light::Point { intensity, .. } => 4.0 * std::f32::consts::PI * *intensity,
             Light::Quad { u, v, radiance, .. } => PI * u.cross(*v).length() * *radiance,
             Light::Sphere { radius, radiance, .. } => 4.0 * PI * PI * radius * radius * *radiance,
+            Light::Surface { shape, radiance } => 2.0 * PI * shape.area() * *radiance,
+            // Power is not finite for an infinitely distant light; report the radiance.
+            Light::Environment { radiance } => *radiance,
         }
+    }
+
+    /// A direction towards the light from `p` for next-event estimation, with its solid-angle
+    /// density; `None` when the sample carries no light.
+    pub fn sample_li(&self, p: Vec3, u: Vec2) -> Option<LightSample> {
+        if let Light::Point { position, intensity } = self {
+            let d = *position - p;
+            let distance = d.length();
+            return (distance > 0.0).then(|| LightSample {
+                position: *position,
+                wi: d / distance,
+                distance,
+                radiance: *intensity / (distance * distance),
+                pdf: 1.0,
+                delta: true,
+            });
+        }
+        if let Light::Environment { radiance } = self {
+            let wi = uniform_sphere(u);
+            return Some(LightSample {
+                position: p + wi,
+                wi,
+                distance: f32::INFINITY,
+                radiance: *radiance,
+                pdf: 1.0 / (4.0 * PI),
+                delta: false,
+            });
+        }
+        let (y, n) = match self {
+            Light::Quad { corner, u: eu, v: ev, normal, .. } => (*corner + u.x * *eu + u.y * *ev, *normal),
+            Light::Sphere { center, radius, .. } => {
+                let s = self.sample_point(p, u);
+                (s.position, (s.position - *center) / *radius)
+            }
+            Light::Surface { shape, .. } => shape.sample(u),
+            Light::Point { .. } | Light::Environment { .. } => unreachable!("handled above"),
+        };
+        let d = y - p;
+        let distance = d.length();
+        if distance <= 0.0 {
+            return None;
+        }
+        let wi = d / distance;
+        let radiance = self.emitted(n, -wi);
+        let pdf = self.pdf_li(p, y, n);
+        (radiance != Vec3::ZERO && pdf > 0.0 && pdf.is_finite()).then_some(LightSample {
+            position: y,
+            wi,
+            distance,
+            radiance,
+            pdf,
+            delta: false,
+        })
+    }
+
+    /// Solid-angle density with which [`Light::sample_li`] from `p` picks the point `y` (normal
+    /// `n_y`) of this area light; for the environment, the density of any direction.
+    pub fn pdf_li(&self, p: Vec3, y: Vec3, n_y: Vec3) -> f32 {
+        let area_pdf = match self {
+            Light::Point { .. } => return 0.0,
+            Light::Environment { .. } => return 1.0 / (4.0 * PI),
+            Light::Quad { u, v, .. } => 1.0 / u.cross(*v).length(),
+            Light::Sphere { center, radius, .. } => {
+                // hemisphere facing p
+                if (y - *center).dot(p - *center) <= 0.0 {
+                    return 0.0;
+                }
+                1.0 / (2.0 * PI * radius * radius)
+            }
+            Light::Surface { shape, .. } => 1.0 / shape.area(),
+        };
+        let d = y - p;
+        let cos = (d.normalize_or_zero()).dot(n_y).abs();
+        if cos == 0.0 {
+            return 0.0;
+        }
+        area_pdf * d.length_squared() / cos
     }
 
     /// Whether the light has an area (and so casts soft shadows).
@@ -64,7 +255,8 @@ impl Light {
     /// Radiance leaving the emitter's surface at a point with outward normal `n` towards `wo`.
     pub fn emitted(&self, n: Vec3, wo: Vec3) -> Vec3 {
         match self {
-            Light::Point { .. } => Vec3::ZERO,
+            Light::Point { .. } | Light::Environment { .. } => Vec3::ZERO,
+            Light::Surface { radiance, .. } => *radiance,
             Light::Quad { radiance, .. } | Light::Sphere { radiance, .. } => {
                 if n.dot(wo) > 0.0 {
                     *radiance
@@ -81,7 +273,12 @@ impl Light {
     /// sample the hemisphere facing `p`). Point lights return themselves.
     pub fn sample_point(&self, p: Vec3, u: Vec2) -> PointIllumination {
         match self {
-            Light::Point { .. } => self.as_point_from(p),
+            Light::Point { .. } | Light::Environment { .. } => self.as_point_from(p),
+            Light::Surface { shape, radiance } => {
+                let (y, n) = shape.sample(u);
+                let cos = (p - y).normalize_or_zero().dot(n).abs();
+                PointIllumination { position: y, intensity: *radiance * shape.area() * cos }
+            }
             Light::Quad { corner, u: eu, v: ev, normal, radiance } => {
                 let y = *corner + u.x * *eu + u.y * *ev;
                 let area = eu.cross(*ev).length();
@@ -122,6 +319,18 @@ impl Light {
             Light::Sphere { center, radius, radiance } => {
                 PointIllumination { position: *center, intensity: *radiance * PI * radius * radius }
             }
+            Light::Surface { shape, radiance } => {
+                let centre = shape.centre();
+                let (_, n) = shape.sample(Vec2::splat(0.5));
+                let cos = match shape {
+                    // a sphere shows the same projected area πr² from everywhere
+                    EmitterShape::Sphere { .. } => 0.25,
+                    _ => (p - centre).normalize_or_zero().dot(n).abs(),
+                };
+                PointIllumination { position: centre, intensity: *radiance * shape.area() * cos }
+            }
+            // The deterministic methods see the environment only where rays leave the scene.
+            Light::Environment { .. } => PointIllumination { position: p + Vec3::Y, intensity: Vec3::ZERO },
         }
     }
 }

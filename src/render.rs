@@ -47,11 +47,16 @@ impl RenderOptions {
     /// Options for `spp` samples with the scene's own settings.
     pub fn from_scene(scene: &Scene, spp: u32) -> RenderOptions {
         let s = &scene.settings;
+        let integrator = crate::integrators::create(&s.integrator).expect("compile checked the name");
         RenderOptions {
             budget: Budget::Samples(spp),
             resolution: None,
             seed: s.seed,
-            params: RenderParams { max_depth: s.max_depth, reflectance: s.reflectance, ssaa: s.ssaa },
+            params: RenderParams {
+                max_depth: s.max_depth.unwrap_or(integrator.default_max_depth()),
+                reflectance: s.reflectance,
+                ssaa: s.ssaa,
+            },
             spectral: s.spectral,
             sampler: s.sampler,
         }

@@ -70,6 +70,26 @@ impl Cylinder {
         }
     }
 
+    /// Centre of the bottom circle.
+    pub fn base(&self) -> Vec3 {
+        self.base
+    }
+
+    /// Unit axis from the bottom circle to the top one.
+    pub fn axis(&self) -> Vec3 {
+        self.w
+    }
+
+    /// Radius.
+    pub fn radius(&self) -> f32 {
+        self.radius
+    }
+
+    /// Length along the axis.
+    pub fn height(&self) -> f32 {
+        self.height
+    }
+
     /// Bounds of the two end circles.
     pub fn bounds(&self) -> Bounds {
         let top = self.base + self.w * self.height;

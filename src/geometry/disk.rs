@@ -52,6 +52,26 @@ impl Disk {
         planar_surface(self.normal, self.center, q, t, uv)
     }
 
+    /// Centre.
+    pub fn center(&self) -> Vec3 {
+        self.center
+    }
+
+    /// Unit normal (the side the interface calls outside).
+    pub fn normal(&self) -> Vec3 {
+        self.normal
+    }
+
+    /// Outer radius.
+    pub fn radius(&self) -> f32 {
+        self.radius
+    }
+
+    /// Radius of the hole (0 for a full disk).
+    pub fn inner_radius(&self) -> f32 {
+        self.inner_radius
+    }
+
     /// Bounds of the rim circle.
     pub fn bounds(&self) -> Bounds {
         let extent = circle_extent(self.normal, self.radius);

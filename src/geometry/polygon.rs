@@ -44,6 +44,34 @@ pub struct Polygon {
 }
 
 impl Polygon {
+    /// Unit normal (the polygon is counter-clockwise around it).
+    pub fn normal(&self) -> Vec3 {
+        self.normal
+    }
+
+    /// The corners of the polygon that is intersected (the given vertices projected onto the
+    /// plane), counter-clockwise around the normal, recovered from the edge lines; a vertex
+    /// between two collinear edges (a 180° corner) is left out, which keeps the same shape.
+    pub fn vertices(&self) -> Vec<Vec3> {
+        let count = self.edges.len();
+        (0..count)
+            .filter_map(|i| {
+                // Vertex i is where the line of edge i − 1 meets the line of edge i:
+                // q = x·a + y·b with q·a = offset_a and q·b = offset_b.
+                let (ea, eb) = (self.edges[(i + count - 1) % count], self.edges[i]);
+                let c = ea.inward.dot(eb.inward);
+                let det = 1.0 - c * c;
+                (det > 1e-6).then(|| {
+                    let x = (ea.offset - c * eb.offset) / det;
+                    let y = (eb.offset - c * ea.offset) / det;
+                    self.reference + x * ea.inward + y * eb.inward
+                })
+            })
+            .collect()
+    }
+}
+
+impl Polygon {
     /// Validates and builds a convex polygon; the error says which requirement failed.
     pub fn new(vertices: Vec<Vec3>) -> Result<Polygon, String> {
         let count = vertices.len();

@@ -60,6 +60,26 @@ impl Quad {
         planar_surface(self.normal, self.corner, q, t, uv)
     }
 
+    /// The corner at (a, b) = (0, 0).
+    pub fn corner(&self) -> Vec3 {
+        self.corner
+    }
+
+    /// First edge.
+    pub fn u(&self) -> Vec3 {
+        self.u
+    }
+
+    /// Second edge.
+    pub fn v(&self) -> Vec3 {
+        self.v
+    }
+
+    /// Unit normal `normalize(u × v)`.
+    pub fn normal(&self) -> Vec3 {
+        self.normal
+    }
+
     /// Bounds of the four corners.
     pub fn bounds(&self) -> Bounds {
         let c = self.corner;

@@ -112,6 +112,31 @@ impl Sphere {
         }
     }
 
+    /// Centre.
+    pub fn center(&self) -> Vec3 {
+        self.center
+    }
+
+    /// Radius.
+    pub fn radius(&self) -> f32 {
+        self.radius
+    }
+
+    /// Unit normal of the clipping plane (the uv pole of a full sphere).
+    pub fn axis(&self) -> Vec3 {
+        self.axis
+    }
+
+    /// The kept part is `(p − center)·axis <= max_height` (infinite for a full sphere).
+    pub fn max_height(&self) -> f32 {
+        self.max_height
+    }
+
+    /// Whether the clipping plane cuts the sphere (a bowl's hemisphere).
+    pub fn is_clipped(&self) -> bool {
+        self.clipped
+    }
+
     /// Bounds of the whole sphere (conservative for a clipped one).
     pub fn bounds(&self) -> Bounds {
         Bounds { min: self.center - self.radius, max: self.center + self.radius }

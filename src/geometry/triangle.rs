@@ -123,6 +123,11 @@ impl Triangle {
         }
     }
 
+    /// The three vertices, counter-clockwise around the normal.
+    pub fn vertices(&self) -> [Vec3; 3] {
+        self.p
+    }
+
     /// Bounds of the three vertices.
     pub fn bounds(&self) -> Bounds {
         bounds_of(&self.p)

@@ -11,7 +11,7 @@ use crate::camera::Camera;
 use crate::dispersion::Ior;
 use crate::geometry::{parallelogram_normal, try_unit, Disk, Polygon, Quad, Shape, Sphere};
 use crate::integrators::SsaaParams;
-use crate::light::Light;
+use crate::light::{EmitterShape, Light};
 use crate::material::{Bsdf, Material, Medium, Phong, Texture};
 use crate::sampler::SamplerKind;
 use glam::{Vec3, Vec3A};
@@ -183,7 +183,7 @@ impl Compiler<'_> {
 
     fn compile(&self, desc: &SceneDesc, text: &str) -> Result<Scene, SceneError> {
         let camera = self.camera(desc)?;
-        let settings = self.settings(desc)?;
+        let mut settings = self.settings(desc)?;
         let mut effects = Effects::default();
 
         let mut materials = Vec::new();
@@ -200,6 +200,7 @@ impl Compiler<'_> {
         let mut primitives = Vec::new();
         let mut objects = Vec::new();
         let mut warnings = Vec::new();
+        let mut lights = Vec::new();
         for (i, object) in desc.objects.iter().enumerate() {
             let path = FieldPath::from("objects").index(i);
             let Some(&material) = material_index.get(&object.material) else {
@@ -232,6 +233,25 @@ impl Compiler<'_> {
                     format!("objects[{i}] moves (velocity) while the shutter is open"),
                 );
             }
+            let emitter = match &desc.materials[&object.material] {
+                MaterialDesc::Diffuse { emission: Some(e), .. } => {
+                    let m = FieldPath::from("materials").key(&object.material).key("emission");
+                    let radiance = self.color(&m, *e)?;
+                    if velocity.is_some() {
+                        return Err(self.err(&path.key("velocity"), "an emitting object cannot move"));
+                    }
+                    let shape = emitter_shape(&object.shape).ok_or_else(|| {
+                        self.err(&path.key("material"), "emission is supported on spheres, quads and disks")
+                    })?;
+                    effects.add(
+                        Effect::SoftShadows,
+                        format!("objects[{i}] emits light (material `{}`)", object.material),
+                    );
+                    lights.push(Light::Surface { shape, radiance });
+                    Some(lights.len() as u32 - 1)
+                }
+                _ => None,
+            };
             let object_id = objects.len() as u32;
             objects.push(ObjectSummary {
                 name: object.name.clone().unwrap_or_else(|| format!("{kind} #{i}")),
@@ -248,16 +268,26 @@ impl Compiler<'_> {
                 } else {
                     material
                 };
-                primitives.push(Primitive { shape, material, light: None, object: object_id, velocity });
+                primitives.push(Primitive { shape, material, light: emitter, object: object_id, velocity });
             }
         }
 
-        let mut lights = Vec::new();
         for (i, l) in desc.lights.iter().enumerate() {
             let path = FieldPath::from("lights").index(i);
             let light = self.light(&path, l)?;
             let emitter = match light {
-                Light::Point { .. } => None,
+                Light::Point { .. } | Light::Surface { .. } => None,
+                Light::Environment { radiance } => {
+                    effects.add(Effect::SoftShadows, format!("lights[{i}] is an environment light"));
+                    if settings.background != Vec3::ZERO {
+                        return Err(self.err(
+                            &path,
+                            "an environment light is the background: remove `render.background`",
+                        ));
+                    }
+                    settings.background = radiance;
+                    None
+                }
                 Light::Quad { corner, u, v, .. } => {
                     Some((Shape::Quad(Quad::new(corner, u, v)), "quad light"))
                 }
@@ -365,9 +395,10 @@ impl Compiler<'_> {
         if r.spp == 0 {
             return Err(self.err(&path.key("spp"), "must be at least 1"));
         }
-        if r.max_depth > MAX_DEPTH {
-            return Err(self
-                .err(&path.key("max_depth"), format!("must be at most {MAX_DEPTH} (got {})", r.max_depth)));
+        if let Some(depth) = r.max_depth.filter(|d| *d > MAX_DEPTH) {
+            return Err(
+                self.err(&path.key("max_depth"), format!("must be at most {MAX_DEPTH} (got {depth})"))
+            );
         }
         if crate::integrators::create(&r.integrator).is_none() {
             return Err(self.err(
@@ -478,7 +509,7 @@ impl Compiler<'_> {
 
     fn material(&self, path: &FieldPath, name: &str, m: &MaterialDesc) -> Result<Material, SceneError> {
         let (bsdf, phong) = match m {
-            MaterialDesc::Diffuse { color, texture, phong } => {
+            MaterialDesc::Diffuse { color, texture, phong, .. } => {
                 if color.is_some() && texture.is_some() {
                     return Err(self.err(&path.key("texture"), "give either `color` or `texture`, not both"));
                 }
@@ -656,6 +687,9 @@ impl Compiler<'_> {
                     radiance: self.color(&path.key("radiance"), *radiance)?,
                 }
             }
+            LightDesc::Environment { radiance } => {
+                Light::Environment { radiance: self.color(&path.key("radiance"), *radiance)? }
+            }
             LightDesc::Sphere { center, radius, radiance } => Light::Sphere {
                 center: v(*center),
                 radius: self.positive(&path.key("radius"), *radius)?,
@@ -689,6 +723,26 @@ fn material_effects(effects: &mut Effects, m: &Material, object: usize) {
                 effects.add(Effect::Absorption, format!("{who}, an absorbing medium"));
             }
         }
+    }
+}
+
+/// The geometry of an emissive object, for the shapes that can emit.
+fn emitter_shape(s: &ShapeDesc) -> Option<EmitterShape> {
+    let v = Vec3::from_array;
+    match s {
+        ShapeDesc::Sphere { center, radius } => {
+            Some(EmitterShape::Sphere { center: v(*center), radius: *radius })
+        }
+        ShapeDesc::Quad { corner, u, v: ev } => {
+            Some(EmitterShape::Quad { corner: v(*corner), u: v(*u), v: v(*ev) })
+        }
+        ShapeDesc::Disk { center, normal, radius, inner_radius } => Some(EmitterShape::Disk {
+            center: v(*center),
+            normal: try_unit(v(*normal))?,
+            radius: *radius,
+            inner_radius: *inner_radius,
+        }),
+        _ => None,
     }
 }
 

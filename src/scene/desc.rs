@@ -134,9 +134,9 @@ pub struct RenderDesc {
     /// Samples per pixel.
     #[serde(default = "default_spp")]
     pub spp: u32,
-    /// Maximum recursion depth (reflection/refraction bounces).
-    #[serde(default = "default_max_depth")]
-    pub max_depth: u32,
+    /// Maximum recursion depth (bounces); default per integrator (5, or 64 for `path`).
+    #[serde(default)]
+    pub max_depth: Option<u32>,
     /// Seed of every random stream.
     #[serde(default)]
     pub seed: u64,
@@ -218,7 +218,7 @@ impl Default for RenderDesc {
         RenderDesc {
             integrator: default_integrator(),
             spp: default_spp(),
-            max_depth: default_max_depth(),
+            max_depth: None,
             seed: 0,
             ambient: default_zero_rgb(),
             background: default_zero_rgb(),
@@ -236,9 +236,6 @@ fn default_integrator() -> String {
 }
 fn default_spp() -> u32 {
     1
-}
-fn default_max_depth() -> u32 {
-    5
 }
 fn default_zero_rgb() -> Rgb {
     Rgb::Grey(0.0)
@@ -284,6 +281,8 @@ pub enum MaterialDesc {
         color: Option<Rgb>,
         /// Optional texture for the albedo.
         texture: Option<TextureDesc>,
+        /// Radiance emitted from both sides of the surface, W/(m²·sr) (spheres, quads, disks).
+        emission: Option<Rgb>,
         /// Empirical Phong terms.
         #[serde(default)]
         phong: PhongDesc,
@@ -532,6 +531,11 @@ pub enum LightDesc {
         /// Second edge.
         v: Vec3Desc,
         /// Emitted radiance in W/(m²·sr).
+        radiance: Rgb,
+    },
+    /// Constant radiance from every direction that leaves the scene (also the background).
+    Environment {
+        /// Radiance in W/(m²·sr).
         radiance: Rgb,
     },
     /// A spherical emitter, radiating outwards from its whole surface.

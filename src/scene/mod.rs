@@ -72,8 +72,8 @@ pub struct RenderSettings {
     pub integrator: String,
     /// Samples per pixel.
     pub spp: u32,
-    /// Maximum recursion depth.
-    pub max_depth: u32,
+    /// Maximum recursion depth, if the scene sets one.
+    pub max_depth: Option<u32>,
     /// Seed of the random streams.
     pub seed: u64,
     /// Ambient radiance of the empirical Phong model.
