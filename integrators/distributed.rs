@@ -24,8 +24,13 @@ impl Integrator for Distributed {
         "distributed ray tracing (Cook 1984): soft shadows, glossy/frosted, depth of field, motion blur, dispersion"
     }
 
-    fn support(&self, _: Effect) -> Support {
-        Support::Simulates
+    fn support(&self, effect: Effect) -> Support {
+        match effect {
+            Effect::Environment => {
+                Support::Approximates("the environment is seen only where rays leave the scene: it casts no light")
+            }
+            _ => Support::Simulates,
+        }
     }
 
     fn radiance(&self, scene: &Scene, params: &RenderParams, ray: &Ray, ctx: &mut PathContext) -> Vec3 {

@@ -1,12 +1,14 @@
 //! The rendering methods, one per file, behind one trait, and the registry of their names.
 
 mod distributed;
+mod light;
 mod path;
 mod raycast;
 mod ssaa;
 mod whitted;
 
 pub use distributed::Distributed;
+pub use light::LightTracer;
 pub use path::{Path, DEFAULT_PATH_DEPTH};
 pub use raycast::RayCast;
 pub use ssaa::{Ssaa, SsaaParams};
@@ -84,7 +86,14 @@ pub trait Integrator: Send + Sync {
 
 /// Every integrator, in the order `vitrum integrators` lists them.
 pub fn all() -> Vec<Box<dyn Integrator>> {
-    vec![Box::new(RayCast), Box::new(Whitted), Box::new(Ssaa), Box::new(Distributed), Box::new(Path)]
+    vec![
+        Box::new(RayCast),
+        Box::new(Whitted),
+        Box::new(Ssaa),
+        Box::new(Distributed),
+        Box::new(Path),
+        Box::new(LightTracer),
+    ]
 }
 
 /// The integrator registered under `name`.

@@ -182,7 +182,8 @@ fn glass_sphere_focuses_a_caustic_in_path_but_not_in_whitted() {
         sum / 9.0
     };
     let (path, path_lit) = (render_with(&with_sphere, "path", 256, 1), render_with(&without, "path", 256, 1));
-    let (whitted, whitted_lit) = (render_with(&with_sphere, "whitted", 1, 1), render_with(&without, "whitted", 1, 1));
+    let (whitted, whitted_lit) =
+        (render_with(&with_sphere, "whitted", 1, 1), render_with(&without, "whitted", 1, 1));
     // The unshadowed floor is the same in both methods (direct light only: nothing else is lit).
     assert!((centre(&path_lit) / centre(&whitted_lit) - 1.0).abs() < 0.05);
     // Path tracing focuses the light under the sphere above the unshadowed level; Whitted's

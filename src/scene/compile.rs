@@ -278,7 +278,7 @@ impl Compiler<'_> {
             let emitter = match light {
                 Light::Point { .. } | Light::Surface { .. } => None,
                 Light::Environment { radiance } => {
-                    effects.add(Effect::SoftShadows, format!("lights[{i}] is an environment light"));
+                    effects.add(Effect::Environment, format!("lights[{i}] is an environment light"));
                     if settings.background != Vec3::ZERO {
                         return Err(self.err(
                             &path,

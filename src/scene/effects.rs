@@ -18,6 +18,8 @@ pub enum Effect {
     DepthOfField,
     /// Area lights: penumbrae need samples over the light.
     SoftShadows,
+    /// A constant environment light: light from every direction that leaves the scene.
+    Environment,
     /// Rough (GGX) mirrors or dielectrics: glossy reflection and refraction.
     Glossy,
     /// Spatially varying colour.
@@ -28,12 +30,13 @@ pub enum Effect {
 
 impl Effect {
     /// Every effect, in the order `vitrum info` lists them.
-    pub const ALL: [Effect; 8] = [
+    pub const ALL: [Effect; 9] = [
         Effect::Dispersion,
         Effect::Absorption,
         Effect::MotionBlur,
         Effect::DepthOfField,
         Effect::SoftShadows,
+        Effect::Environment,
         Effect::Glossy,
         Effect::Textures,
         Effect::Meshes,
@@ -47,6 +50,7 @@ impl Effect {
             Effect::MotionBlur => "motion-blur",
             Effect::DepthOfField => "depth-of-field",
             Effect::SoftShadows => "soft-shadows",
+            Effect::Environment => "environment",
             Effect::Glossy => "glossy",
             Effect::Textures => "textures",
             Effect::Meshes => "meshes",

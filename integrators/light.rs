@@ -1,0 +1,554 @@
+//! Light tracing (particle tracing; Veach 1997 §10.2, pbrt's light path integrator): paths start
+//! on the lights and every vertex that can be seen from the camera is splatted into the film.
+//!
+//! # The method
+//! A path starts on a light chosen uniformly among the scene's finite lights (probability
+//! 1/N): a point light emits uniformly over the sphere, an area light (quad, sphere, emissive
+//! surface) from a point uniform over its area in a cosine-distributed direction about the
+//! emitting normal (a two-sided emissive surface picks its side with probability ½). The path
+//! then scatters by sampling the BSDF in [`TransportMode::Importance`], absorbs by Beer–Lambert
+//! inside media, and ends by Russian roulette after three bounces or at `--max-depth` scattering
+//! vertices (the same bound as `path`: both include paths with up to `max_depth` scattering
+//! vertices between the light and the camera).
+//!
+//! The emission point of an area light (that is how lights are seen directly) and every
+//! non-specular surface vertex are connected to the camera by a straight, opaque visibility ray
+//! and splat into the pixel they project to. Emission is never counted where a light path hits an
+//! emitter; only camera connections make the image.
+//!
+//! # Importance and pixel-area normalisation
+//! The camera pass estimates, for pixel j, the mean radiance over the pixel's area on the image
+//! plane at distance 1 (a box filter): `I_j = (1/A_pix) ∫_pixel L(x_film) dA_film`, with
+//! `A = (2·tan(fov/2))²·aspect` the area of that plane and `A_pix = A/(w·h)`. A film point whose
+//! ray makes the angle θ with the view axis is at distance 1/cos θ and the plane is tilted by θ
+//! against the ray, so `dA_film = dω / cos³θ`; and the solid angle of a surface element at
+//! distance d seen at cosine `cos_v` from its normal is `dω = |cos_v| dA / d²`. Hence
+//!
+//! `I_j = (1/A_pix) ∫_{x ↦ j} L(x → camera) · |cos_v| / (d² · cos³θ) dA(x)`.
+//!
+//! This is the pinhole importance `W_e = 1/(A·cos⁴θ)` (pbrt) times the cosine `cos θ` the
+//! camera's geometry term contributes. With β the weight of a light path arriving at vertex x
+//! (the particle-tracing identity `E[Σ β h(x, ω_in)] = ∫∫ L_in(x, ω_in) |cos_in| h dω dA`), one
+//! vertex contributes `β · f(ω_in → ω_cam) · |cos_v| / (d² cos³θ)` and the emission point of an
+//! area light `L_e(x → camera) · |cos_v| / (p_light · p_area · d² cos³θ)`. Averaged over the
+//! `N = spp·w·h` light paths and divided by `A_pix`, every splat is scaled by
+//! `w·h / (N·A) = 1 / (spp·A)`: "spp" means the same number of paths (rays from the camera or
+//! from the lights) as for the camera methods, and the pixel value estimates the same quantity
+//! as the camera pass's box-filtered mean. `tests/light_tracing.rs` checks this against `path`.
+//!
+//! A thin lens is the same measurement averaged over the lens: a point on the lens disk is
+//! sampled uniformly, the vertex is connected to it, and the splat lands where the camera pass's
+//! ray from that lens point through the focal plane comes from. With θ the angle between the
+//! connection and the view axis, `dω = cos³θ dA_film` still holds for rays from one lens point
+//! (the focal plane is parallel to the film), the lens area cancels against the density of the
+//! lens sample, and the contribution has the pinhole's form.
+//!
+//! # Russian roulette
+//! The roulette uses the path's throughput since emission (the product of `f·|cos|/pdf`, without
+//! the emitted power). In importance mode the BTDF of refraction carries no `1/η'²` (the flux of a
+//! beam is conserved across an interface, only its radiance changes), so the throughput through
+//! lossless glass stays 1 and light inside glass is not killed early: no `η²` correction is
+//! needed, unlike the radiance throughput of `path`.
+//!
+//! # What light tracing cannot see
+//! - **Specular surfaces seen directly.** A smooth mirror or smooth glass scatters only into delta
+//!   directions, so a vertex on it can never be connected to the camera (the chance that a
+//!   sampled direction hits the pinhole, or a given lens point, is zero), and the straight
+//!   visibility ray of a diffuse vertex behind it is blocked by it. Smooth mirrors and smooth
+//!   glass seen directly from the camera, with everything seen in or through them (reflections,
+//!   the view through a window), render **black**: an L(S)*S-E path has no vertex to splat. What
+//!   specular surfaces do to light elsewhere (caustics on diffuse surfaces, including those of
+//!   point lights, which `path` cannot find) is rendered, because the diffuse receiver connects.
+//!   Rough mirrors and rough glass do connect, but the nearly specular ones are very noisy.
+//! - **The environment and the background.** A constant environment light is not traced (paths
+//!   from an infinitely distant emitter need a disk bounding the scene; not implemented) and the
+//!   background colour of rays leaving the scene is never seen: both render black.
+//!   Paths start only on finite lights; a scene lit only by an environment renders black.
+//! - **Point lights** are not visible either (as for every method).
+//!
+//! # Determinism
+//! The random stream of a path is a pure function of (seed, path index): path `k` uses the
+//! sampler of "pixel" `k` (independent sampler) or of group `k / 16`, sample `k mod 16` (the
+//! stratified sampler: every group of 16 consecutive paths is stratified in each dimension).
+//! Paths are traced in fixed chunks of [`CHUNK_PATHS`]; each chunk appends its splats to its own
+//! buffer, and the buffers are merged into an f64 film in chunk order, so the image is
+//! bit-identical at any thread count. Chunks are traced in batches of a few per thread and each
+//! batch is merged while the next one is traced, so memory stays bounded.
+
+use super::{Integrator, PathContext, RenderParams, DEFAULT_PATH_DEPTH};
+use crate::bsdf::lambert::cosine_hemisphere;
+use crate::bsdf::{Frame, Scattering, TransportMode};
+use crate::camera::{concentric_disk, Camera};
+use crate::geometry::{point_error, spawn_origin, Ray, SurfaceHit};
+use crate::image::Image;
+use crate::light::{uniform_sphere, EmitterShape, Light};
+use crate::lighting::{crossing, transmittance, ShadowMode, ShadowRays};
+use crate::render::{camera_for, Budget, CameraDims, RenderOptions, RenderOutput};
+use crate::sampler::{Dim, Sampler, SamplerKind};
+use crate::scene::effects::Support;
+use crate::scene::{Effect, Scene};
+use crate::spectrum::sample_wavelength;
+use crate::stats::RayCounts;
+use glam::{DVec3, Vec2, Vec3};
+use rayon::prelude::*;
+use std::f32::consts::PI;
+use std::ops::Range;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::time::Instant;
+
+/// Light paths per chunk of work (the unit of determinism: splats are merged chunk by chunk).
+pub const CHUNK_PATHS: u64 = 1 << 12;
+
+/// Consecutive paths stratified together by the stratified sampler.
+const STRATUM_PATHS: u64 = 16;
+
+/// Chunks traced per batch, per worker thread: enough to keep every thread busy until the end
+/// of a batch, few enough to bound the splat buffers alive at once (a chunk's buffer holds about
+/// 16 bytes per path vertex seen by the camera: typically well under a megabyte).
+const CHUNKS_PER_THREAD: usize = 8;
+
+/// Bounces after which Russian roulette may end a path.
+const ROULETTE_DEPTH: u32 = 3;
+
+/// Light tracing: paths from the lights, every non-specular vertex splatted into the film.
+pub struct LightTracer;
+
+impl Integrator for LightTracer {
+    fn name(&self) -> &'static str {
+        "light"
+    }
+
+    fn description(&self) -> &'static str {
+        "light tracing: light paths splat into the film; caustics from any light; smooth mirrors/glass black"
+    }
+
+    fn support(&self, effect: Effect) -> Support {
+        // Dispersion (one wavelength per path), absorption, motion blur (one time per path), depth
+        // of field (connections to a sampled lens point), area lights, glossy surfaces, textures
+        // and meshes are simulated. Specular surfaces seen directly are not an effect of the
+        // list; the module documentation and the description state that they render black.
+        match effect {
+            Effect::Environment => Support::Ignores("paths do not start on the environment, nor is it seen"),
+            _ => Support::Simulates,
+        }
+    }
+
+    fn default_max_depth(&self) -> u32 {
+        DEFAULT_PATH_DEPTH
+    }
+
+    /// Unused: light tracing renders the whole image in [`Integrator::render_image`], which
+    /// always returns `Some`, so the camera pass never asks for the radiance of a camera ray.
+    fn radiance(&self, _: &Scene, _: &RenderParams, _: &Ray, _: &mut PathContext) -> Vec3 {
+        Vec3::ZERO
+    }
+
+    fn render_image(
+        &self,
+        scene: &Scene,
+        opts: &RenderOptions,
+        progress: &(dyn Fn(u64, u64) + Sync),
+    ) -> Option<RenderOutput> {
+        Some(render_light_paths(scene, self, opts, progress))
+    }
+}
+
+/// The splats of one chunk of paths, in the order the paths made them.
+#[derive(Default)]
+struct ChunkSplats {
+    /// (pixel index, contribution before the common 1/(spp·A) scale).
+    splats: Vec<(u32, Vec3)>,
+    rays: RayCounts,
+    non_finite: u64,
+}
+
+/// How a light path leaves its light.
+struct Emission {
+    /// The first ray.
+    ray: Ray,
+    /// Path weight of the emitted ray, `L_e·|cos| / (p_light·p_area·p_dir)` or `I / (p_light·p_dir)`.
+    beta: Vec3,
+    /// For area lights: the emission point, and `1 / (p_light·p_area)` for its direct splat.
+    origin: Option<(SurfaceHit, f32)>,
+}
+
+/// Everything fixed during a light-tracing render.
+struct Tracer<'a> {
+    scene: &'a Scene,
+    params: &'a RenderParams,
+    camera: Camera,
+    dims: CameraDims,
+    sampler: SamplerKind,
+    seed: u64,
+    /// Indices of the lights paths can start on (all but the environment).
+    lights: Vec<usize>,
+}
+
+/// Render with light tracing: `spp × width × height` light paths (or 1-path-per-pixel passes
+/// until the time budget is spent).
+fn render_light_paths(
+    scene: &Scene,
+    integrator: &LightTracer,
+    opts: &RenderOptions,
+    progress: &(dyn Fn(u64, u64) + Sync),
+) -> RenderOutput {
+    let start = Instant::now();
+    let camera = camera_for(scene, opts.resolution);
+    let (w, h) = (camera.width as usize, camera.height as usize);
+    let tracer = Tracer {
+        scene,
+        params: &opts.params,
+        dims: CameraDims::resolve(scene, integrator, opts.spectral),
+        sampler: opts.sampler,
+        seed: opts.seed,
+        lights: (0..scene.lights.len())
+            .filter(|&i| !matches!(scene.lights[i], Light::Environment { .. }))
+            .collect(),
+        camera,
+    };
+    let pixels = (w * h) as u64;
+    let mut film = vec![DVec3::ZERO; w * h];
+    let mut rays = RayCounts::default();
+    let mut non_finite = 0;
+    let mut spp = 0u32;
+    match opts.budget {
+        Budget::Samples(n) => {
+            tracer.trace_range(0..n as u64 * pixels, &mut film, &mut rays, &mut non_finite, progress);
+            spp = n;
+        }
+        Budget::Time(limit) => loop {
+            let paths = spp as u64 * pixels..(spp as u64 + 1) * pixels;
+            tracer.trace_range(paths, &mut film, &mut rays, &mut non_finite, progress);
+            spp += 1;
+            if start.elapsed() >= limit {
+                break;
+            }
+        },
+    }
+    let scale = 1.0 / (spp.max(1) as f64 * film_area(&tracer.camera) as f64);
+    let image =
+        Image { width: w, height: h, pixels: film.into_iter().map(|s| (s * scale).as_vec3()).collect() };
+    RenderOutput {
+        image,
+        spp,
+        seconds: start.elapsed().as_secs_f64(),
+        rays,
+        non_finite_samples: non_finite,
+        spectral: tracer.dims.wavelength,
+        samples_per_pixel: None,
+    }
+}
+
+/// Area of the image plane at distance 1 from the pinhole: `(2·tan(fov/2))² · aspect`.
+fn film_area(camera: &Camera) -> f32 {
+    // The same expression as the camera's own (private) tan_half_fov.
+    let tan_half_fov = (0.5 * camera.fov_degrees.to_radians()).tan();
+    let aspect = camera.width as f32 / camera.height as f32;
+    4.0 * tan_half_fov * tan_half_fov * aspect
+}
+
+/// Merge chunk buffers into the film in their order.
+fn merge(film: &mut [DVec3], chunks: Vec<ChunkSplats>, rays: &mut RayCounts, non_finite: &mut u64) {
+    for chunk in chunks {
+        for (pixel, value) in chunk.splats {
+            film[pixel as usize] += value.as_dvec3();
+        }
+        *rays += chunk.rays;
+        *non_finite += chunk.non_finite;
+    }
+}
+
+impl Tracer<'_> {
+    /// Trace the paths `paths` in fixed chunks, merging the chunks' splats into `film` in order.
+    fn trace_range(
+        &self,
+        paths: Range<u64>,
+        film: &mut [DVec3],
+        rays: &mut RayCounts,
+        non_finite: &mut u64,
+        progress: &(dyn Fn(u64, u64) + Sync),
+    ) {
+        let chunks: Vec<Range<u64>> = (paths.start..paths.end)
+            .step_by(CHUNK_PATHS as usize)
+            .map(|s| s..(s + CHUNK_PATHS).min(paths.end))
+            .collect();
+        let total = chunks.len() as u64;
+        let done = AtomicU64::new(0);
+        let batch = CHUNKS_PER_THREAD * rayon::current_num_threads().max(1);
+        let mut pending: Option<Vec<ChunkSplats>> = None;
+        for group in chunks.chunks(batch) {
+            // Trace this batch while the previous one is merged (in chunk order).
+            let (traced, ()) = rayon::join(
+                || {
+                    group
+                        .par_iter()
+                        .map(|range| {
+                            let c = self.trace_chunk(range.clone());
+                            progress(done.fetch_add(1, Ordering::Relaxed) + 1, total);
+                            c
+                        })
+                        .collect::<Vec<_>>()
+                },
+                || {
+                    if let Some(p) = pending.take() {
+                        merge(film, p, rays, non_finite);
+                    }
+                },
+            );
+            pending = Some(traced);
+        }
+        if let Some(p) = pending {
+            merge(film, p, rays, non_finite);
+        }
+    }
+
+    fn trace_chunk(&self, paths: Range<u64>) -> ChunkSplats {
+        let mut out = ChunkSplats {
+            splats: Vec::with_capacity(2 * (paths.end - paths.start) as usize),
+            ..Default::default()
+        };
+        if self.lights.is_empty() {
+            return out;
+        }
+        for index in paths {
+            self.trace_path(index, &mut out);
+        }
+        out
+    }
+
+    /// The random stream of path `index`: a pure function of (seed, index).
+    fn path_sampler(&self, index: u64) -> Sampler {
+        match self.sampler {
+            SamplerKind::Independent => Sampler::new(self.sampler, self.seed, index, 0, 1),
+            SamplerKind::Stratified => Sampler::new(
+                self.sampler,
+                self.seed,
+                index / STRATUM_PATHS,
+                (index % STRATUM_PATHS) as u32,
+                STRATUM_PATHS as u32,
+            ),
+        }
+    }
+
+    /// Trace light path `index`, appending its splats to `out`.
+    fn trace_path(&self, index: u64, out: &mut ChunkSplats) {
+        let scene = self.scene;
+        let mut ctx = PathContext::new(self.path_sampler(index));
+        let (open, close) = self.camera.shutter;
+        let time = if self.dims.time { open + (close - open) * ctx.sampler.get_1d(Dim::Time) } else { open };
+        let mut weight = Vec3::ONE;
+        if self.dims.wavelength {
+            let w = sample_wavelength(ctx.sampler.get_1d(Dim::Wavelength));
+            ctx.lambda = Some(w.lambda);
+            weight = w.weight;
+        }
+        // The same dimensions for every light, so that stratification lines up across paths.
+        let n = self.lights.len();
+        let choice = ctx.sampler.get_1d(Dim::Light);
+        let light = &scene.lights[self.lights[((choice * n as f32) as usize).min(n - 1)]];
+        let side = ctx.sampler.get_1d(Dim::Light);
+        let u_point = ctx.sampler.get_2d(Dim::Light);
+        let u_dir = ctx.sampler.get_2d(Dim::Light);
+        let Some(emission) = emit(light, 1.0 / n as f32, side, u_point, u_dir) else { return };
+        let shadow = ShadowRays { mode: ShadowMode::Opaque, lambda: ctx.lambda, time };
+
+        // Vertex 0: the emission point of an area light, seen directly.
+        if let Some((origin, inv_pdf)) = emission.origin {
+            self.connect(&origin, &mut ctx, shadow, out, |wc| {
+                weight * light.emitted(origin.n, wc) * (wc.dot(origin.n).abs() * inv_pdf)
+            });
+        }
+
+        let beta0 = weight * emission.beta;
+        // Product of f·|cos|/pdf and absorption since emission (what Russian roulette looks at).
+        let mut throughput = Vec3::ONE;
+        let mut ray = emission.ray;
+        ray.time = time;
+        ctx.rays.primary += 1;
+        // Light is assumed to leave its light in a clear medium.
+        let mut absorption = Vec3::ZERO;
+        let mut depth = 0;
+        while depth < self.params.max_depth {
+            let Some(isect) = scene.intersect(&ray, f32::INFINITY) else { break };
+            let hit = isect.hit;
+            if absorption != Vec3::ZERO {
+                throughput *= (-absorption * hit.t).exp();
+            }
+            depth += 1;
+            let material = scene.material_of(isect.primitive);
+            let bsdf = Scattering::at(material, hit.p, ctx.lambda);
+            let frame = Frame::from_normal(hit.n);
+            // Importance mode: `wo` leads back towards the light, `wi` on towards the camera.
+            let wo_local = frame.to_local(-ray.dir);
+            if !bsdf.is_delta() {
+                let beta = beta0 * throughput;
+                self.connect(&hit, &mut ctx, shadow, out, |wc| {
+                    let wc_local = frame.to_local(wc);
+                    beta * bsdf.eval(wo_local, wc_local, TransportMode::Importance) * wc_local.z.abs()
+                });
+            }
+            if depth >= self.params.max_depth {
+                break;
+            }
+            let uc = ctx.sampler.get_1d(Dim::Bsdf);
+            let u = ctx.sampler.get_2d(Dim::Bsdf);
+            let Some(s) = bsdf.sample(wo_local, uc, u, TransportMode::Importance) else { break };
+            if s.pdf <= 0.0 || s.f == Vec3::ZERO {
+                break;
+            }
+            let wi = frame.to_world(s.wi);
+            throughput *= s.f * (s.wi.z.abs() / s.pdf);
+            if let Some(c) = crossing(&material.bsdf, ray.dir, hit.n, ctx.lambda) {
+                let medium = if s.is_transmission { c.transmitted } else { c.incident };
+                absorption = medium.absorption;
+            }
+            if s.is_transmission {
+                ctx.rays.refracted += 1;
+            } else {
+                ctx.rays.reflected += 1;
+            }
+            ray = ray.spawn(spawn_origin(&hit, wi), wi);
+            if depth > ROULETTE_DEPTH {
+                // No η² correction: the importance-mode throughput is a ratio of fluxes.
+                let rr = throughput.max_element();
+                if rr < 1.0 {
+                    let q = (1.0 - rr).max(0.0);
+                    if ctx.sampler.get_1d(Dim::Other) < q {
+                        break;
+                    }
+                    throughput /= 1.0 - q;
+                }
+            }
+        }
+        out.rays += ctx.rays;
+    }
+
+    /// Connect the vertex `hit` to the camera: `value(wc)` is the vertex's weight towards the
+    /// unit direction `wc` to the camera (β·f·|cos|, or L_e·|cos|/pdf for an emission point);
+    /// when the camera sees the vertex, its splat goes to the pixel it projects to.
+    fn connect(
+        &self,
+        hit: &SurfaceHit,
+        ctx: &mut PathContext,
+        shadow: ShadowRays,
+        out: &mut ChunkSplats,
+        value: impl FnOnce(Vec3) -> Vec3,
+    ) {
+        let cam = &self.camera;
+        let lens = if self.dims.lens {
+            let d = concentric_disk(ctx.sampler.get_2d(Dim::Lens)) * cam.aperture;
+            cam.position + cam.right * d.x + cam.up * d.y
+        } else {
+            cam.position
+        };
+        let to_vertex = hit.p - lens;
+        let dist2 = to_vertex.length_squared();
+        if !(dist2 > 0.0 && dist2.is_finite()) {
+            return;
+        }
+        let dir = to_vertex / dist2.sqrt();
+        let cos_cam = dir.dot(cam.forward);
+        if cos_cam <= 0.0 {
+            return;
+        }
+        // The camera pass's ray from this lens point aims at the pinhole ray's point on the focal
+        // plane, so the splat goes where that point projects.
+        let film = if self.dims.lens {
+            cam.project(lens + dir * (cam.focus_distance / cos_cam))
+        } else {
+            cam.project(hit.p)
+        };
+        let Some(film) = film else { return };
+        if !(film.x >= 0.0 && film.y >= 0.0) {
+            return;
+        }
+        let (x, y) = (film.x as u32, film.y as u32);
+        if x >= cam.width || y >= cam.height {
+            return;
+        }
+        let v = value(-dir);
+        if v == Vec3::ZERO {
+            return;
+        }
+        let visible = transmittance(self.scene, hit, lens, None, shadow, &mut ctx.rays);
+        if visible == Vec3::ZERO {
+            return;
+        }
+        // dω = |cos_v| dA / d² and dA_film = dω / cos³θ (see the module documentation).
+        let c = v * visible / (dist2 * cos_cam * cos_cam * cos_cam);
+        if !c.is_finite() {
+            out.non_finite += 1;
+        }
+        out.splats.push((y * cam.width + x, c));
+    }
+}
+
+/// Sample how a path leaves `light` (picked with probability `p_light`): `side` picks the side of
+/// a two-sided emitter, `u_point` the point, `u_dir` the direction. `None` for the environment.
+fn emit(light: &Light, p_light: f32, side: f32, u_point: Vec2, u_dir: Vec2) -> Option<Emission> {
+    match *light {
+        Light::Point { position, intensity } => {
+            // β = I / (p_light · 1/(4π))
+            let dir = uniform_sphere(u_dir);
+            Some(Emission {
+                ray: Ray::new(position, dir),
+                beta: intensity * (4.0 * PI / p_light),
+                origin: None,
+            })
+        }
+        Light::Environment { .. } => None,
+        Light::Quad { corner, u, v, normal, radiance } => {
+            let p = corner + u_point.x * u + u_point.y * v;
+            let hit = emitter_point(p, normal, point_error(p, (u.abs() + v.abs()).max_element(), 8));
+            area_emission(hit, u.cross(v).length(), radiance, None, u_dir, p_light)
+        }
+        Light::Sphere { center, radius, radiance } => {
+            let n = uniform_sphere(u_point);
+            let p = center + radius * n;
+            let hit = emitter_point(p, n, point_error(p, radius, 8));
+            area_emission(hit, 4.0 * PI * radius * radius, radiance, None, u_dir, p_light)
+        }
+        Light::Surface { shape, radiance } => {
+            let (p, n) = shape.sample(u_point);
+            let local = match shape {
+                EmitterShape::Sphere { radius, .. } | EmitterShape::Disk { radius, .. } => radius,
+                EmitterShape::Quad { u, v, .. } => (u.abs() + v.abs()).max_element(),
+            };
+            let hit = emitter_point(p, n, point_error(p, local, 8));
+            area_emission(hit, shape.area(), radiance, Some(side), u_dir, p_light)
+        }
+    }
+}
+
+/// A point on an emitter as a surface hit (for spawning rays from it).
+fn emitter_point(p: Vec3, n: Vec3, p_error: f32) -> SurfaceHit {
+    SurfaceHit { t: 0.0, p, n, uv: Vec2::ZERO, p_error }
+}
+
+/// Emission from a Lambertian emitter of area `area` at `hit`: a cosine-distributed direction
+/// about the normal, or for a two-sided emitter (`side` given) about the normal's side `side`
+/// picks with probability ½ each. β = L·|cos| / (p_light · (1/area) · (|cos|/π) · p_side).
+fn area_emission(
+    hit: SurfaceHit,
+    area: f32,
+    radiance: Vec3,
+    side: Option<f32>,
+    u_dir: Vec2,
+    p_light: f32,
+) -> Option<Emission> {
+    let local = cosine_hemisphere(u_dir);
+    if local.z <= 0.0 || area <= 0.0 {
+        return None;
+    }
+    let (facing, sides) = match side {
+        Some(s) if s >= 0.5 => (-hit.n, 2.0),
+        Some(_) => (hit.n, 2.0),
+        None => (hit.n, 1.0),
+    };
+    let dir = Frame::from_normal(facing).to_world(local);
+    Some(Emission {
+        ray: Ray::new(spawn_origin(&hit, dir), dir),
+        beta: radiance * (PI * area * sides / p_light),
+        origin: Some((hit, area / p_light)),
+    })
+}
