@@ -26,9 +26,9 @@ impl Integrator for Distributed {
 
     fn support(&self, effect: Effect) -> Support {
         match effect {
-            Effect::Environment => {
-                Support::Approximates("the environment is seen only where rays leave the scene: it casts no light")
-            }
+            Effect::Environment => Support::Approximates(
+                "the environment is seen only where rays leave the scene: it casts no light",
+            ),
             _ => Support::Simulates,
         }
     }

@@ -25,7 +25,9 @@ impl Integrator for RayCast {
     fn support(&self, effect: Effect) -> Support {
         match effect {
             Effect::SoftShadows => Support::Approximates("an area light acts as a point light at its centre"),
-            Effect::Environment => Support::Approximates("the environment is only the background: it lights nothing"),
+            Effect::Environment => {
+                Support::Approximates("the environment is only the background: it lights nothing")
+            }
             Effect::Textures | Effect::Meshes | Effect::MotionBlur | Effect::DepthOfField => {
                 Support::Simulates
             }

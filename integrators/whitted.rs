@@ -51,9 +51,9 @@ pub(super) fn deterministic_support(effect: Effect) -> Support {
     match effect {
         Effect::Absorption | Effect::Textures | Effect::Meshes => Support::Simulates,
         Effect::SoftShadows => Support::Approximates("an area light acts as a point light at its centre"),
-        Effect::Environment => {
-            Support::Approximates("the environment is seen only where rays leave the scene: it casts no light")
-        }
+        Effect::Environment => Support::Approximates(
+            "the environment is seen only where rays leave the scene: it casts no light",
+        ),
         Effect::Glossy => Support::Approximates("rough surfaces are traced as smooth ones"),
         Effect::Dispersion => Support::Approximates(
             "refracts at the nominal index n_d unless --spectral on (one wavelength per sample)",

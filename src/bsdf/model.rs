@@ -23,9 +23,10 @@ impl Scattering {
     pub fn at(material: &Material, p: Vec3, lambda: Option<f32>) -> Scattering {
         match &material.bsdf {
             Bsdf::Diffuse(t) => Scattering::Diffuse(Lambert { albedo: t.eval(p) }),
-            Bsdf::Mirror { color, roughness } => {
-                Scattering::Conductor(RoughConductor::new(*color, TrowbridgeReitz::from_roughness(*roughness)))
-            }
+            Bsdf::Mirror { color, roughness } => Scattering::Conductor(RoughConductor::new(
+                *color,
+                TrowbridgeReitz::from_roughness(*roughness),
+            )),
             Bsdf::Dielectric { inside, outside, roughness } => Scattering::Dielectric(RoughDielectric::new(
                 inside.ior_at(lambda) / outside.ior_at(lambda),
                 TrowbridgeReitz::from_roughness(*roughness),

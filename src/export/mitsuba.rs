@@ -1,0 +1,1144 @@
+//! Mitsuba 3 XML export of a compiled scene (`vitrum export --format mitsuba`).
+//!
+//! `docs/mitsuba-export.md` has the full mapping table; in short:
+//!
+//! | vitrum | Mitsuba 3 |
+//! |---|---|
+//! | sphere | `sphere` |
+//! | clipped sphere (a bowl's hemisphere) | `ply` mesh, smooth vertex normals |
+//! | cylinder wall | `cylinder` (uncapped; caps are separate disks already) |
+//! | disk / annulus | `disk` with `to_world` / flat `ply` ring |
+//! | quad | `rectangle` with `to_world` |
+//! | polygon, mesh triangles | flat `ply` mesh (`face_normals`) |
+//! | diffuse | `twosided` + `diffuse` (a checker on an axis-aligned quad: `checkerboard`) |
+//! | mirror | `twosided` + `conductor` / `roughconductor` (`material="none"`, GGX, α = roughness²) |
+//! | dielectric | `dielectric` / `roughdielectric`, `int_ior` = inside (opposite the normal), `ext_ior` = outside |
+//! | absorption | `homogeneous` interior/exterior media (pure absorbers) with `volpath` |
+//! | point / quad / sphere light | `point` / `rectangle` + `area` / `sphere` + `area` |
+//! | emissive surface (two-sided) | its shape + one-sided `area` emitter |
+//! | environment light / background | `constant` emitter |
+//! | camera | `perspective` (`thinlens` with an aperture), `fov_axis="y"`, `hdrfilm`, `box` filter |
+//! | `max_depth` d (bounces) | `max_depth` d + 1 (path segments) |
+//!
+//! Numbers are written in the shortest form that reads back as the same `f32` (Mitsuba stores
+//! single precision), so nothing is rounded on the way.
+
+use super::ExtraFile;
+use crate::geometry::{Disk, Polygon, Quad, Shape, Sphere};
+use crate::light::Light;
+use crate::material::{Bsdf, Material, Texture};
+use crate::scene::{Primitive, Scene};
+use glam::{DVec3, Vec3};
+use std::collections::BTreeSet;
+use std::fmt::Write as _;
+use std::path::PathBuf;
+
+/// Segments around the full circle of tessellated curved surfaces (clipped spheres, annuli).
+/// A chord deviates from its circle by r·(1 − cos(π/256)) ≈ 7.5e-5·r.
+pub const SEGMENTS: usize = 256;
+
+/// Offset vitrum's checker texture adds to `p / size` before taking the floor (see
+/// [`Texture::eval`]); repeated here so the exported checkerboard has the same cell edges.
+const CHECKER_BIAS: f64 = 1e-4;
+
+/// Russian roulette depth written as the XML default `rr_depth` (Mitsuba's own default).
+pub const RR_DEPTH: u32 = 5;
+
+/// The Mitsuba integrator to write.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MitsubaIntegrator {
+    /// Unidirectional path tracing: `path`, or `volpath` when glass absorbs (media need it).
+    Path,
+    /// Light tracing: `ptracer` (the counterpart of vitrum's `light`).
+    Ptracer,
+}
+
+impl MitsubaIntegrator {
+    /// Parse `path` or `ptracer`.
+    pub fn from_name(name: &str) -> Option<MitsubaIntegrator> {
+        match name {
+            "path" => Some(MitsubaIntegrator::Path),
+            "ptracer" => Some(MitsubaIntegrator::Ptracer),
+            _ => None,
+        }
+    }
+}
+
+/// What to write besides the scene itself.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Options {
+    /// Samples per pixel (the XML default `spp`).
+    pub spp: u32,
+    /// vitrum's maximum depth in bounces (as `path` counts them); written as
+    /// [`mitsuba_max_depth`] of it.
+    pub max_depth: u32,
+    /// The integrator.
+    pub integrator: MitsubaIntegrator,
+    /// Image size (width, height).
+    pub resolution: (u32, u32),
+    /// Folder, relative to the XML file, for mesh files (written with `/` in the XML).
+    pub mesh_folder: String,
+}
+
+impl Options {
+    /// The scene's own settings (samples, depth, resolution) with the `path` integrator; without
+    /// a depth in the scene, the default depth of vitrum's `path`.
+    pub fn from_scene(scene: &Scene, mesh_folder: &str) -> Options {
+        let path_default = crate::integrators::create("path").map_or(64, |i| i.default_max_depth());
+        Options {
+            spp: scene.settings.spp,
+            max_depth: scene.settings.max_depth.unwrap_or(path_default),
+            integrator: MitsubaIntegrator::Path,
+            resolution: (scene.camera.width, scene.camera.height),
+            mesh_folder: mesh_folder.to_string(),
+        }
+    }
+}
+
+/// The result of an export: the XML text, the mesh files it refers to, and what did not
+/// translate exactly (also written as comments at the top of the XML).
+#[derive(Clone, Debug)]
+pub struct MitsubaExport {
+    /// The scene as Mitsuba 3 XML.
+    pub xml: String,
+    /// Mesh files (binary little-endian PLY) with paths relative to the XML file's folder.
+    pub meshes: Vec<ExtraFile>,
+    /// Approximations and dropped features, one sentence each.
+    pub notes: Vec<String>,
+}
+
+/// Mitsuba's `max_depth` for vitrum's `max_depth` d.
+///
+/// vitrum's `path` counts bounces (scattering events): the camera ray has depth 0, a path
+/// scatters at most d times, and next-event estimation happens only at vertices that may still
+/// scatter. Its longest path, camera → d surface vertices → light, has d + 1 segments; with
+/// d = 0 only emitters seen directly contribute. Mitsuba's `max_depth` counts segments (1 =
+/// emitters seen directly, 2 = direct lighting), so it is d + 1. (`whitted` also gathers direct
+/// light at its deepest hit: its d corresponds to d + 2 segments.)
+pub fn mitsuba_max_depth(max_depth: u32) -> u32 {
+    max_depth.saturating_add(1)
+}
+
+/// Export a compiled scene as Mitsuba 3 XML.
+pub fn export(scene: &Scene, opts: &Options) -> MitsubaExport {
+    Exporter::new(scene, opts).run()
+}
+
+// ---------- XML writing ----------
+
+/// Indented XML text.
+#[derive(Default)]
+struct Xml {
+    out: String,
+    depth: usize,
+}
+
+impl Xml {
+    fn line(&mut self, text: &str) {
+        for _ in 0..self.depth {
+            self.out.push_str("    ");
+        }
+        self.out.push_str(text);
+        self.out.push('\n');
+    }
+
+    fn tag(name: &str, attrs: &[(&str, &str)], end: &str) -> String {
+        let mut s = format!("<{name}");
+        for (k, v) in attrs {
+            let _ = write!(s, " {k}=\"{}\"", escape_attr(v));
+        }
+        s.push_str(end);
+        s
+    }
+
+    fn open(&mut self, name: &str, attrs: &[(&str, &str)]) {
+        self.line(&Xml::tag(name, attrs, ">"));
+        self.depth += 1;
+    }
+
+    fn close(&mut self, name: &str) {
+        self.depth -= 1;
+        self.line(&format!("</{name}>"));
+    }
+
+    fn leaf(&mut self, name: &str, attrs: &[(&str, &str)]) {
+        self.line(&Xml::tag(name, attrs, "/>"));
+    }
+
+    fn comment(&mut self, text: &str) {
+        self.line(&format!("<!-- {} -->", escape_comment(text)));
+    }
+
+    fn float(&mut self, name: &str, x: f32) {
+        self.leaf("float", &[("name", name), ("value", &num(x))]);
+    }
+
+    fn integer(&mut self, name: &str, value: &str) {
+        self.leaf("integer", &[("name", name), ("value", value)]);
+    }
+
+    fn string(&mut self, name: &str, value: &str) {
+        self.leaf("string", &[("name", name), ("value", value)]);
+    }
+
+    fn boolean(&mut self, name: &str, value: bool) {
+        self.leaf("boolean", &[("name", name), ("value", if value { "true" } else { "false" })]);
+    }
+
+    fn rgb(&mut self, name: &str, c: Vec3) {
+        self.leaf("rgb", &[("name", name), ("value", &triple(c))]);
+    }
+
+    fn point(&mut self, name: &str, p: Vec3) {
+        self.leaf("point", &[("name", name), ("x", &num(p.x)), ("y", &num(p.y)), ("z", &num(p.z))]);
+    }
+
+    /// `<transform name=...><matrix/></transform>` for the affine map with the given images of
+    /// the local x, y, z axes and origin.
+    fn affine(&mut self, name: &str, x: DVec3, y: DVec3, z: DVec3, origin: DVec3) {
+        let rows = [[x.x, y.x, z.x, origin.x], [x.y, y.y, z.y, origin.y], [x.z, y.z, z.z, origin.z]];
+        let mut value = String::new();
+        for row in rows {
+            for v in row {
+                let _ = write!(value, "{} ", num(v as f32));
+            }
+        }
+        value.push_str("0 0 0 1");
+        self.open("transform", &[("name", name)]);
+        self.leaf("matrix", &[("value", &value)]);
+        self.close("transform");
+    }
+}
+
+/// Escape text for a double-quoted attribute value.
+fn escape_attr(s: &str) -> String {
+    let mut out = String::with_capacity(s.len());
+    for c in s.chars() {
+        match c {
+            '&' => out.push_str("&amp;"),
+            '<' => out.push_str("&lt;"),
+            '>' => out.push_str("&gt;"),
+            '"' => out.push_str("&quot;"),
+            '\'' => out.push_str("&apos;"),
+            '\n' => out.push_str("&#10;"),
+            '\t' => out.push_str("&#9;"),
+            c if (c as u32) < 0x20 => out.push(' '),
+            c => out.push(c),
+        }
+    }
+    out
+}
+
+/// Make text safe inside `<!-- ... -->`: no `--`, no trailing `-`, no control characters.
+fn escape_comment(s: &str) -> String {
+    let mut out = String::with_capacity(s.len());
+    for c in s.chars() {
+        let c = if (c as u32) < 0x20 { ' ' } else { c };
+        if c == '-' && out.ends_with('-') {
+            out.push(' ');
+        }
+        out.push(c);
+    }
+    if out.ends_with('-') {
+        out.push(' ');
+    }
+    out
+}
+
+/// The shortest decimal that reads back as the same `f32` (exponent form for very small or
+/// large magnitudes); never `-0`.
+fn num(x: f32) -> String {
+    if x == 0.0 {
+        return "0".into();
+    }
+    let a = x.abs();
+    if (1e-4..1e9).contains(&a) {
+        format!("{x}")
+    } else {
+        format!("{x:e}")
+    }
+}
+
+fn triple(c: Vec3) -> String {
+    format!("{}, {}, {}", num(c.x), num(c.y), num(c.z))
+}
+
+/// A name reduced to `[a-z0-9-]`, for ids and file names.
+fn slug(name: &str) -> String {
+    let mut s = String::new();
+    for c in name.chars().flat_map(char::to_lowercase) {
+        if c.is_ascii_alphanumeric() {
+            s.push(c);
+        } else if !s.is_empty() && !s.ends_with('-') {
+            s.push('-');
+        }
+    }
+    let s: String = s.trim_end_matches('-').chars().take(40).collect();
+    s.trim_end_matches('-').to_string()
+}
+
+// ---------- meshes ----------
+
+/// A triangle mesh for a PLY file.
+#[derive(Default)]
+struct Mesh {
+    positions: Vec<Vec3>,
+    /// Per-vertex shading normals (smooth surfaces); flat meshes use face normals.
+    normals: Option<Vec<Vec3>>,
+    faces: Vec<[u32; 3]>,
+}
+
+impl Mesh {
+    /// Add a triangle, turned if needed so that its winding normal faces `outward`.
+    fn triangle(&mut self, mut f: [u32; 3], outward: Vec3) {
+        let p = |i: u32| self.positions[i as usize];
+        if (p(f[1]) - p(f[0])).cross(p(f[2]) - p(f[0])).dot(outward) < 0.0 {
+            f.swap(1, 2);
+        }
+        self.faces.push(f);
+    }
+
+    /// Binary little-endian PLY.
+    fn to_ply(&self) -> Vec<u8> {
+        let mut header = format!(
+            "ply\nformat binary_little_endian 1.0\ncomment written by vitrum {}\nelement vertex {}\n\
+             property float x\nproperty float y\nproperty float z\n",
+            crate::VERSION,
+            self.positions.len()
+        );
+        if self.normals.is_some() {
+            header.push_str("property float nx\nproperty float ny\nproperty float nz\n");
+        }
+        let _ = write!(
+            header,
+            "element face {}\nproperty list uchar uint vertex_indices\nend_header\n",
+            self.faces.len()
+        );
+        let mut out = header.into_bytes();
+        for (i, p) in self.positions.iter().enumerate() {
+            for c in p.to_array() {
+                out.extend_from_slice(&c.to_le_bytes());
+            }
+            if let Some(n) = &self.normals {
+                for c in n[i].to_array() {
+                    out.extend_from_slice(&c.to_le_bytes());
+                }
+            }
+        }
+        for f in &self.faces {
+            out.push(3);
+            for i in f {
+                out.extend_from_slice(&i.to_le_bytes());
+            }
+        }
+        out
+    }
+}
+
+/// A right-handed orthonormal frame (t1, t2) around the unit `n`: t1 × t2 = n. Clipped spheres
+/// and disks with the same axis get the same frame, so their tessellations share rim vertices.
+fn frame(n: Vec3) -> (Vec3, Vec3) {
+    let t1 = n.any_orthonormal_pair().0;
+    (t1, n.cross(t1))
+}
+
+/// Point `k` of the circle of radius `rho` at height `z` along `axis` around `c`. Clipped
+/// spheres and annuli both use this, so shared rims are bit-for-bit the same points.
+fn ring_point(c: Vec3, (t1, t2): (Vec3, Vec3), axis: Vec3, rho: f32, z: f32, k: usize) -> Vec3 {
+    let phi = std::f64::consts::TAU * (k % SEGMENTS) as f64 / SEGMENTS as f64;
+    let (s, co) = (phi.sin() as f32, phi.cos() as f32);
+    c + rho * (co * t1 + s * t2) + z * axis
+}
+
+/// The kept zone of a clipped sphere, `(p − c)·axis <= max_height`, from the pole at −axis up to
+/// the clipping circle, with outward vertex normals; `None` when nothing is kept.
+fn sphere_zone(s: &Sphere, shift: Vec3) -> Option<Mesh> {
+    let (c, r, axis) = (s.center() + shift, s.radius(), s.axis());
+    let cos_max = (-(s.max_height() as f64) / r as f64).clamp(-1.0, 1.0);
+    if cos_max >= 1.0 {
+        return None;
+    }
+    let theta_max = cos_max.acos();
+    let rings = ((SEGMENTS as f64 / 2.0 * theta_max / std::f64::consts::PI).ceil() as usize).max(4);
+    let fr = frame(axis);
+    let mut mesh = Mesh { normals: Some(Vec::new()), ..Mesh::default() };
+    let add = |mesh: &mut Mesh, p: Vec3| {
+        mesh.positions.push(p);
+        mesh.normals.as_mut().expect("smooth mesh").push(((p - c) / r).normalize_or(-axis));
+    };
+    add(&mut mesh, c - r * axis);
+    for j in 1..=rings {
+        let (sin, cos) = if j == rings {
+            ((1.0 - cos_max * cos_max).max(0.0).sqrt(), cos_max)
+        } else {
+            (theta_max * j as f64 / rings as f64).sin_cos()
+        };
+        let (rho, z) = ((r as f64 * sin) as f32, (-(r as f64) * cos) as f32);
+        for k in 0..SEGMENTS {
+            add(&mut mesh, ring_point(c, fr, axis, rho, z, k));
+        }
+    }
+    let ring = |j: usize, k: usize| (1 + (j - 1) * SEGMENTS + k % SEGMENTS) as u32;
+    for k in 0..SEGMENTS {
+        let f = [0, ring(1, k), ring(1, k + 1)];
+        let out = mesh.positions[f[1] as usize] - c;
+        mesh.triangle(f, out);
+        for j in 1..rings {
+            let (a, b, cc, d) = (ring(j, k), ring(j, k + 1), ring(j + 1, k + 1), ring(j + 1, k));
+            let out = mesh.positions[a as usize] + mesh.positions[cc as usize] - 2.0 * c;
+            mesh.triangle([a, b, cc], out);
+            mesh.triangle([a, cc, d], out);
+        }
+    }
+    Some(mesh)
+}
+
+/// An annulus as a flat ring of quads between its two circles (vertices on the circles).
+fn annulus(d: &Disk, shift: Vec3) -> Mesh {
+    let (c, n) = (d.center() + shift, d.normal());
+    let fr = frame(n);
+    let mut mesh = Mesh::default();
+    for rho in [d.radius(), d.inner_radius()] {
+        for k in 0..SEGMENTS {
+            mesh.positions.push(ring_point(c, fr, n, rho, 0.0, k));
+        }
+    }
+    for k in 0..SEGMENTS {
+        let (a, b) = (k as u32, ((k + 1) % SEGMENTS) as u32);
+        let (ai, bi) = (a + SEGMENTS as u32, b + SEGMENTS as u32);
+        mesh.triangle([a, b, bi], n);
+        mesh.triangle([a, bi, ai], n);
+    }
+    mesh
+}
+
+/// A convex polygon as a triangle fan.
+fn polygon(p: &Polygon, shift: Vec3) -> Mesh {
+    let mut mesh =
+        Mesh { positions: p.vertices().into_iter().map(|v| v + shift).collect(), ..Mesh::default() };
+    for i in 1..mesh.positions.len().saturating_sub(1) {
+        mesh.triangle([0, i as u32, i as u32 + 1], p.normal());
+    }
+    mesh
+}
+
+// ---------- the scene ----------
+
+/// A checker texture on an axis-aligned quad as Mitsuba's `checkerboard`: the `to_uv` scale and
+/// offset, and the colours for Mitsuba's `color0` and `color1`.
+struct CheckerMap {
+    scale: (f64, f64),
+    offset: (f64, f64),
+    color0: Vec3,
+    color1: Vec3,
+}
+
+/// The index and sign of the one non-zero component of `v`.
+fn axis_aligned(v: Vec3) -> Option<(usize, f64)> {
+    let nonzero: Vec<usize> = (0..3).filter(|&i| v[i] != 0.0).collect();
+    match nonzero[..] {
+        [i] => Some((i, v[i].signum() as f64)),
+        _ => None,
+    }
+}
+
+/// vitrum's world-space checker restricted to a quad whose edges are parallel to coordinate
+/// axes, expressed in the quad's uv (Mitsuba's rectangle has uv = (a, b) of `corner + a·u + b·v`).
+///
+/// vitrum: colour1 where ⌊x/s + β⌋ + ⌊y/s + β⌋ + ⌊z/s + β⌋ is even. Mitsuba: color0 where
+/// ⌊2u'⌋ + ⌊2v'⌋ is even, u' = `to_uv`(uv). With 2u' = σ_u (x_i/s + β) along the axis i of the
+/// edge u (sign σ_u), ⌊2u'⌋ has the parity of the cell index along i, plus one if σ_u < 0; the
+/// cell index across the plane is a constant. Exact up to the quad's own rounding.
+fn checker_on_quad(q: &Quad, shift: Vec3, color1: Vec3, color2: Vec3, size: f32) -> Option<CheckerMap> {
+    let (i, su) = axis_aligned(q.u())?;
+    let (k, sv) = axis_aligned(q.v())?;
+    if i == k {
+        return None;
+    }
+    let m = 3 - i - k;
+    let s = size as f64;
+    let corner = (q.corner() + shift).as_dvec3();
+    let along = |axis: usize, sign: f64, len: f32| {
+        (len.abs() as f64 / (2.0 * s), sign * (corner[axis] / s + CHECKER_BIAS) / 2.0)
+    };
+    let (sx, tx) = along(i, su, q.u()[i]);
+    let (sy, ty) = along(k, sv, q.v()[k]);
+    let across = (corner[m] / s + CHECKER_BIAS).floor() as i64;
+    let flips = (su < 0.0) as i64 + (sv < 0.0) as i64;
+    let (color0, color1) =
+        if (across + flips).rem_euclid(2) == 0 { (color1, color2) } else { (color2, color1) };
+    Some(CheckerMap { scale: (sx, sy), offset: (tx, ty), color0, color1 })
+}
+
+/// Everything that belongs to one exported shape element.
+enum Geometry {
+    Sphere { center: Vec3, radius: f32 },
+    Cylinder { p0: Vec3, p1: Vec3, radius: f32 },
+    Disk { center: Vec3, normal: Vec3, radius: f32 },
+    Rectangle { corner: Vec3, u: Vec3, v: Vec3 },
+    Mesh { mesh: Mesh, smooth: bool },
+}
+
+struct Exporter<'a> {
+    scene: &'a Scene,
+    opts: &'a Options,
+    notes: Vec<String>,
+    meshes: Vec<ExtraFile>,
+    /// Shared BSDFs referenced by shapes (material indices).
+    used_materials: BTreeSet<usize>,
+    /// Absorption coefficients of media, by id number.
+    media: Vec<Vec3>,
+    /// Whether absorption is exported as media (`volpath`).
+    with_media: bool,
+}
+
+impl<'a> Exporter<'a> {
+    fn new(scene: &'a Scene, opts: &'a Options) -> Exporter<'a> {
+        Exporter {
+            scene,
+            opts,
+            notes: Vec::new(),
+            meshes: Vec::new(),
+            used_materials: BTreeSet::new(),
+            media: Vec::new(),
+            with_media: false,
+        }
+    }
+
+    fn note(&mut self, text: String) {
+        if !self.notes.contains(&text) {
+            self.notes.push(text);
+        }
+    }
+
+    fn object_name(&self, prim: &Primitive) -> String {
+        self.scene.objects.get(prim.object as usize).map_or_else(|| "object".into(), |o| o.name.clone())
+    }
+
+    fn material_id(&self, index: usize) -> String {
+        format!("mat{index}-{}", slug(&self.scene.materials[index].name))
+    }
+
+    fn run(mut self) -> MitsubaExport {
+        let scene = self.scene;
+        let used: BTreeSet<u32> = scene.primitives.iter().map(|p| p.material).collect();
+        self.material_notes(&used);
+
+        let mut shapes = Xml { depth: 1, ..Xml::default() };
+        self.shapes(&mut shapes);
+        let mut emitters = Xml { depth: 1, ..Xml::default() };
+        self.emitters(&mut emitters);
+
+        let s = &scene.settings;
+        if s.ambient != Vec3::ZERO {
+            self.note(format!(
+                "the scene ambient ({}) is dropped: it is part of the empirical Phong model of raycast and whitted",
+                triple(s.ambient)
+            ));
+        }
+        self.note(
+            "the empirical Phong terms of every material (k_a, k_d, k_s, h) are dropped: Mitsuba renders \
+             the physical description only"
+                .into(),
+        );
+        if let Some(r) = s.reflectance {
+            self.note(format!(
+                "the constant dielectric reflectance {r} (render.reflectance) is dropped: Mitsuba uses exact Fresnel"
+            ));
+        }
+
+        let mut head = Xml { depth: 1, ..Xml::default() };
+        self.head(&mut head);
+        let mut defs = Xml { depth: 1, ..Xml::default() };
+        self.definitions(&mut defs);
+
+        let mut xml = Xml::default();
+        xml.line("<?xml version=\"1.0\" encoding=\"utf-8\"?>");
+        xml.comment(&format!(
+            "Mitsuba 3 scene exported by vitrum {} from {} (hash {})",
+            crate::VERSION,
+            scene.origin.name,
+            scene.origin.hash
+        ));
+        xml.comment(
+            "Load with mi.load_file(path, spp=..., res=...) (width=..., height=... for non-square images), \
+             then mi.render(scene). See docs/mitsuba-export.md for the mapping.",
+        );
+        for n in &self.notes {
+            xml.comment(&format!("Not exact: {n}"));
+        }
+        xml.open("scene", &[("version", "3.0.0")]);
+        xml.out.push_str(&head.out);
+        xml.out.push_str(&defs.out);
+        xml.out.push_str(&shapes.out);
+        xml.out.push_str(&emitters.out);
+        xml.close("scene");
+        MitsubaExport { xml: xml.out, meshes: self.meshes, notes: self.notes }
+    }
+
+    /// Notes on materials that do not translate exactly, and whether media are needed.
+    fn material_notes(&mut self, used: &BTreeSet<u32>) {
+        let mut absorbs = false;
+        for &i in used {
+            let m = &self.scene.materials[i as usize];
+            if let Bsdf::Dielectric { inside, outside, .. } = &m.bsdf {
+                for (side, medium) in [("inside", inside), ("outside", outside)] {
+                    if medium.ior.is_dispersive() {
+                        self.note(format!(
+                            "material `{}`: the dispersive index on its {side} is written as its nominal n_d = {} \
+                             (Mitsuba 3 has no dispersion)",
+                            m.name,
+                            num(medium.ior.nominal())
+                        ));
+                    }
+                }
+                absorbs |= inside.absorption != Vec3::ZERO || outside.absorption != Vec3::ZERO;
+            }
+        }
+        if absorbs {
+            match self.opts.integrator {
+                MitsubaIntegrator::Path => {
+                    self.with_media = true;
+                    self.note(
+                        "absorbing glass: Beer-Lambert absorption is written as homogeneous media (pure absorbers, \
+                         albedo 0) inside/outside the glass surfaces, rendered with volpath (path with media); \
+                         volpath samples the absorption stochastically instead of weighting by the exact \
+                         transmittance: same mean, more noise"
+                            .into(),
+                    );
+                }
+                MitsubaIntegrator::Ptracer => self.note(
+                    "absorbing glass: absorption is dropped with ptracer (export with --integrator path to get \
+                     volpath with media)"
+                        .into(),
+                ),
+            }
+        }
+    }
+
+    /// Defaults, integrator and sensor.
+    fn head(&mut self, x: &mut Xml) {
+        let (w, h) = self.opts.resolution;
+        let mi_depth = mitsuba_max_depth(self.opts.max_depth);
+        x.leaf("default", &[("name", "spp"), ("value", &self.opts.spp.to_string())]);
+        if w == h {
+            x.leaf("default", &[("name", "res"), ("value", &w.to_string())]);
+        } else {
+            x.leaf("default", &[("name", "width"), ("value", &w.to_string())]);
+            x.leaf("default", &[("name", "height"), ("value", &h.to_string())]);
+        }
+        x.leaf("default", &[("name", "max_depth"), ("value", &mi_depth.to_string())]);
+        x.leaf("default", &[("name", "rr_depth"), ("value", &RR_DEPTH.to_string())]);
+        let seed = self.scene.settings.seed;
+        if seed > u32::MAX as u64 {
+            self.note(format!("the seed {seed} is written modulo 2^32 (Mitsuba's sampler seed is 32-bit)"));
+        }
+        x.leaf("default", &[("name", "seed"), ("value", &(seed & 0xffff_ffff).to_string())]);
+
+        let kind = match self.opts.integrator {
+            MitsubaIntegrator::Path if self.with_media => "volpath",
+            MitsubaIntegrator::Path => "path",
+            MitsubaIntegrator::Ptracer => "ptracer",
+        };
+        x.comment(&format!(
+            "vitrum max_depth {} counts bounces (scattering events) as its path integrator does; \
+             Mitsuba's max_depth counts path segments: {} = {} + 1",
+            self.opts.max_depth, mi_depth, self.opts.max_depth
+        ));
+        x.open("integrator", &[("type", kind)]);
+        x.integer("max_depth", "$max_depth");
+        x.integer("rr_depth", "$rr_depth");
+        x.close("integrator");
+
+        let cam = &self.scene.camera;
+        let lens = cam.has_lens();
+        let reach = {
+            let (lo, hi) = self.scene.bvh_stats.bounds;
+            let far = (0..8)
+                .map(|i| {
+                    let corner = Vec3::new(
+                        if i & 1 == 0 { lo.x } else { hi.x },
+                        if i & 2 == 0 { lo.y } else { hi.y },
+                        if i & 4 == 0 { lo.z } else { hi.z },
+                    );
+                    (corner - cam.position).length()
+                })
+                .fold(0.0f32, f32::max);
+            if far.is_finite() && far > 0.0 {
+                far
+            } else {
+                1.0
+            }
+        };
+        if cam.shutter.1 > cam.shutter.0 && self.scene.primitives.iter().any(|p| p.velocity.is_some()) {
+            self.note(format!(
+                "motion blur: moving objects are written where they are at mid-shutter (t = {}) and render sharp \
+                 (Mitsuba 3 shapes do not move)",
+                num(0.5 * (cam.shutter.0 + cam.shutter.1))
+            ));
+        }
+        x.open("sensor", &[("type", if lens { "thinlens" } else { "perspective" })]);
+        x.string("fov_axis", "y");
+        x.float("fov", cam.fov_degrees);
+        if lens {
+            x.float("aperture_radius", cam.aperture);
+            x.float("focus_distance", cam.focus_distance);
+        }
+        x.comment("clipping planes scaled to the scene: nothing in it is closer or farther");
+        x.float("near_clip", 1e-4 * reach);
+        x.float("far_clip", 1e2 * reach);
+        x.open("transform", &[("name", "to_world")]);
+        let target = cam.position + cam.forward;
+        x.leaf(
+            "lookat",
+            &[("origin", &triple(cam.position)), ("target", &triple(target)), ("up", &triple(cam.up))],
+        );
+        x.close("transform");
+        x.open("sampler", &[("type", "independent")]);
+        x.integer("sample_count", "$spp");
+        x.integer("seed", "$seed");
+        x.close("sampler");
+        x.open("film", &[("type", "hdrfilm")]);
+        let (wv, hv) = if w == h { ("$res", "$res") } else { ("$width", "$height") };
+        x.integer("width", wv);
+        x.integer("height", hv);
+        x.string("pixel_format", "rgb");
+        x.string("component_format", "float32");
+        x.comment("a one-pixel box filter: uniform sampling over each pixel's area, as vitrum");
+        x.leaf("rfilter", &[("type", "box")]);
+        x.close("film");
+        x.close("sensor");
+    }
+
+    /// Shared BSDFs and media, after the shapes that use them have been written.
+    fn definitions(&mut self, x: &mut Xml) {
+        for (i, sigma) in self.media.clone().into_iter().enumerate() {
+            x.comment(&format!("absorption coefficient {} per scene unit (pure absorber)", triple(sigma)));
+            x.open("medium", &[("type", "homogeneous"), ("id", &format!("medium{i}"))]);
+            // Mitsuba reads an RGB sigma_t as a reflectance in [0, 1]: normalise it and scale.
+            let scale = sigma.max_element();
+            x.rgb("sigma_t", sigma / scale);
+            x.float("scale", scale);
+            x.rgb("albedo", Vec3::ZERO);
+            x.close("medium");
+        }
+        for i in self.used_materials.clone() {
+            let id = self.material_id(i);
+            let m = &self.scene.materials[i];
+            x.comment(&format!("material `{}`", m.name));
+            self.bsdf(x, m, Some(&id), None);
+        }
+    }
+
+    /// One BSDF element (with `id` when shared).
+    fn bsdf(&mut self, x: &mut Xml, m: &Material, id: Option<&str>, checker: Option<&CheckerMap>) {
+        let with_id = |kind: &'static str| -> Vec<(&'static str, String)> {
+            let mut a = vec![("type", kind.to_string())];
+            if let Some(id) = id {
+                a.push(("id", id.to_string()));
+            }
+            a
+        };
+        let open = |x: &mut Xml, attrs: Vec<(&'static str, String)>| {
+            let refs: Vec<(&str, &str)> = attrs.iter().map(|(k, v)| (*k, v.as_str())).collect();
+            x.open("bsdf", &refs);
+        };
+        match &m.bsdf {
+            Bsdf::Diffuse(texture) => {
+                open(x, with_id("twosided"));
+                x.open("bsdf", &[("type", "diffuse")]);
+                match texture {
+                    Texture::Constant(c) => x.rgb("reflectance", *c),
+                    Texture::Checker { color1, color2, size } => match checker {
+                        Some(map) => {
+                            x.comment(&format!(
+                                "vitrum's 3-D checker (cells of {} scene units) on this axis-aligned quad, \
+                                 mapped exactly onto its uv",
+                                num(*size)
+                            ));
+                            x.open("texture", &[("type", "checkerboard"), ("name", "reflectance")]);
+                            x.rgb("color0", map.color0);
+                            x.rgb("color1", map.color1);
+                            x.affine(
+                                "to_uv",
+                                DVec3::new(map.scale.0, 0.0, 0.0),
+                                DVec3::new(0.0, map.scale.1, 0.0),
+                                DVec3::Z,
+                                DVec3::new(map.offset.0, map.offset.1, 0.0),
+                            );
+                            x.close("texture");
+                        }
+                        None => {
+                            self.note(format!(
+                                "material `{}`: the 3-D world-space checker texture is written as its mean colour \
+                                 where it lies on anything but an axis-aligned quad (Mitsuba's checkerboard is \
+                                 uv-based)",
+                                m.name
+                            ));
+                            x.comment("vitrum's 3-D checker texture, as its mean colour");
+                            x.rgb("reflectance", 0.5 * (*color1 + *color2));
+                        }
+                    },
+                    #[allow(unreachable_patterns)]
+                    other => {
+                        // New texture kinds: extend here.
+                        self.note(format!("material `{}`: texture {other:?} is written as grey 0.5", m.name));
+                        x.rgb("reflectance", Vec3::splat(0.5));
+                    }
+                }
+                x.close("bsdf");
+                x.close("bsdf");
+            }
+            Bsdf::Mirror { color, roughness } => {
+                open(x, with_id("twosided"));
+                if *roughness > 0.0 {
+                    x.open("bsdf", &[("type", "roughconductor")]);
+                    x.string("distribution", "ggx");
+                    x.float("alpha", roughness * roughness);
+                } else {
+                    x.open("bsdf", &[("type", "conductor")]);
+                }
+                x.string("material", "none");
+                x.rgb("specular_reflectance", *color);
+                x.close("bsdf");
+                x.close("bsdf");
+            }
+            Bsdf::Dielectric { inside, outside, roughness } => {
+                let (n_in, n_out) = (inside.ior.nominal(), outside.ior.nominal());
+                if n_in == n_out {
+                    x.comment("an index-matched interface (the same index on both sides) lets light pass");
+                    open(x, with_id("null"));
+                } else if *roughness > 0.0 {
+                    open(x, with_id("roughdielectric"));
+                    x.string("distribution", "ggx");
+                    x.float("alpha", roughness * roughness);
+                } else {
+                    open(x, with_id("dielectric"));
+                }
+                if n_in != n_out {
+                    x.comment(
+                        "int_ior: the side opposite the surface normal; ext_ior: the side it points to",
+                    );
+                    x.float("int_ior", n_in);
+                    x.float("ext_ior", n_out);
+                }
+                x.close("bsdf");
+            }
+            #[allow(unreachable_patterns)]
+            other => {
+                // New BSDF kinds: extend here.
+                self.note(format!("material `{}`: {other:?} is written as black diffuse", m.name));
+                open(x, with_id("diffuse"));
+                x.rgb("reflectance", Vec3::ZERO);
+                x.close("bsdf");
+            }
+        }
+    }
+
+    /// The id of the medium with absorption `sigma`, added if new.
+    fn medium(&mut self, sigma: Vec3) -> String {
+        let i = match self.media.iter().position(|&m| m == sigma) {
+            Some(i) => i,
+            None => {
+                self.media.push(sigma);
+                self.media.len() - 1
+            }
+        };
+        format!("medium{i}")
+    }
+
+    /// Store a mesh file and return its path as the XML refers to it.
+    fn mesh_file(&mut self, name: &str, mesh: &Mesh) -> String {
+        let base = slug(name);
+        let file = format!("{:03}-{}.ply", self.meshes.len(), if base.is_empty() { "mesh" } else { &base });
+        self.meshes.push(ExtraFile {
+            path: PathBuf::from(&self.opts.mesh_folder).join(&file),
+            contents: mesh.to_ply(),
+        });
+        format!("{}/{file}", self.opts.mesh_folder)
+    }
+
+    /// Where a primitive is drawn: its position at mid-shutter.
+    fn shift(&self, prim: &Primitive) -> Vec3 {
+        let (open, close) = self.scene.camera.shutter;
+        prim.velocity.map_or(Vec3::ZERO, |v| v * (0.5 * (open + close)))
+    }
+
+    /// Every primitive, in scene-object order; triangles of one object and material form one mesh.
+    fn shapes(&mut self, x: &mut Xml) {
+        let scene = self.scene;
+        let mut order: Vec<usize> = (0..scene.primitives.len()).collect();
+        order.sort_by_key(|&i| scene.primitives[i].object);
+        let mut done = vec![false; order.len()];
+        for (pos, &i) in order.iter().enumerate() {
+            if done[pos] {
+                continue;
+            }
+            let prim = &scene.primitives[i];
+            let shift = self.shift(prim);
+            let name = self.object_name(prim);
+            let geometry = match &prim.shape {
+                Shape::Sphere(s) if s.is_clipped() => match sphere_zone(s, shift) {
+                    Some(mesh) => Geometry::Mesh { mesh, smooth: true },
+                    None => continue,
+                },
+                Shape::Sphere(s) => Geometry::Sphere { center: s.center() + shift, radius: s.radius() },
+                Shape::Cylinder(c) => Geometry::Cylinder {
+                    p0: c.base() + shift,
+                    p1: c.base() + c.axis() * c.height() + shift,
+                    radius: c.radius(),
+                },
+                Shape::Disk(d) if d.inner_radius() > 0.0 => {
+                    Geometry::Mesh { mesh: annulus(d, shift), smooth: false }
+                }
+                Shape::Disk(d) => {
+                    Geometry::Disk { center: d.center() + shift, normal: d.normal(), radius: d.radius() }
+                }
+                Shape::Quad(q) => Geometry::Rectangle { corner: q.corner() + shift, u: q.u(), v: q.v() },
+                Shape::Polygon(p) => Geometry::Mesh { mesh: polygon(p, shift), smooth: false },
+                Shape::Triangle(_) => {
+                    // All triangles of this object with this material, as one mesh.
+                    let mut mesh = Mesh::default();
+                    for (later, &j) in order.iter().enumerate().skip(pos) {
+                        let other = &scene.primitives[j];
+                        if other.object != prim.object
+                            || other.material != prim.material
+                            || other.light.is_some()
+                        {
+                            continue;
+                        }
+                        if let Shape::Triangle(t) = &other.shape {
+                            let base = mesh.positions.len() as u32;
+                            mesh.positions.extend(t.vertices().map(|v| v + shift));
+                            mesh.faces.push([base, base + 1, base + 2]);
+                            done[later] = true;
+                        }
+                    }
+                    Geometry::Mesh { mesh, smooth: false }
+                }
+            };
+            self.shape(x, prim, &name, geometry, shift);
+        }
+    }
+
+    /// One `<shape>` with its BSDF, emitter and media.
+    fn shape(&mut self, x: &mut Xml, prim: &Primitive, name: &str, geometry: Geometry, shift: Vec3) {
+        let mut checker = None;
+        match &geometry {
+            Geometry::Sphere { center, radius } => {
+                x.comment(&format!("{name}: sphere"));
+                x.open("shape", &[("type", "sphere")]);
+                x.point("center", *center);
+                x.float("radius", *radius);
+            }
+            Geometry::Cylinder { p0, p1, radius } => {
+                x.comment(&format!("{name}: cylinder wall (Mitsuba's cylinder has no caps; caps are disks)"));
+                x.open("shape", &[("type", "cylinder")]);
+                x.point("p0", *p0);
+                x.point("p1", *p1);
+                x.float("radius", *radius);
+            }
+            Geometry::Disk { center, normal, radius } => {
+                x.comment(&format!("{name}: disk (Mitsuba's unit disk in the xy plane, normal +z)"));
+                x.open("shape", &[("type", "disk")]);
+                let (t1, t2) = frame(*normal);
+                let r = *radius as f64;
+                x.affine(
+                    "to_world",
+                    t1.as_dvec3() * r,
+                    t2.as_dvec3() * r,
+                    normal.as_dvec3(),
+                    center.as_dvec3(),
+                );
+            }
+            Geometry::Rectangle { corner, u, v } => {
+                x.comment(&format!(
+                    "{name}: quad (Mitsuba's rectangle is [-1, 1]² in the xy plane, normal +z)"
+                ));
+                x.open("shape", &[("type", "rectangle")]);
+                let (u, v) = (u.as_dvec3(), v.as_dvec3());
+                let n = u.cross(v).normalize_or_zero();
+                let centre = corner.as_dvec3() + 0.5 * (u + v);
+                x.affine("to_world", 0.5 * u, 0.5 * v, n, centre);
+                if let (Shape::Quad(q), Bsdf::Diffuse(Texture::Checker { color1, color2, size })) =
+                    (&prim.shape, &self.scene.materials[prim.material as usize].bsdf)
+                {
+                    checker = checker_on_quad(q, shift, *color1, *color2, *size);
+                }
+            }
+            Geometry::Mesh { mesh, smooth } => {
+                let what = match prim.shape {
+                    Shape::Sphere(_) => "clipped sphere, tessellated (smooth vertex normals)",
+                    Shape::Disk(_) => "annulus, tessellated",
+                    Shape::Polygon(_) => "convex polygon as a triangle fan",
+                    _ => "triangle mesh",
+                };
+                x.comment(&format!("{name}: {what}, {} triangles", mesh.faces.len()));
+                let file = self.mesh_file(name, mesh);
+                x.open("shape", &[("type", "ply")]);
+                x.string("filename", &file);
+                x.boolean("face_normals", !smooth);
+            }
+        }
+        // A two-sided emissive sphere around the camera is seen from inside: emit inwards.
+        let flip = match (prim.light.map(|l| &self.scene.lights[l as usize]), &prim.shape) {
+            (Some(Light::Surface { .. }), Shape::Sphere(s)) => {
+                (self.scene.camera.position - s.center()).length() < s.radius()
+            }
+            _ => false,
+        };
+        if flip {
+            x.boolean("flip_normals", true);
+        }
+        let m = &self.scene.materials[prim.material as usize];
+        if checker.is_some() {
+            self.bsdf(x, m, None, checker.as_ref());
+        } else {
+            self.used_materials.insert(prim.material as usize);
+            x.leaf("ref", &[("id", &self.material_id(prim.material as usize))]);
+        }
+        if self.with_media {
+            if let Bsdf::Dielectric { inside, outside, .. } = &m.bsdf {
+                for (side, medium) in [("interior", inside), ("exterior", outside)] {
+                    if medium.absorption != Vec3::ZERO {
+                        let id = self.medium(medium.absorption);
+                        x.leaf("ref", &[("name", side), ("id", &id)]);
+                    }
+                }
+            }
+        }
+        if let Some(light) = prim.light {
+            match &self.scene.lights[light as usize] {
+                Light::Quad { radiance, .. } | Light::Sphere { radiance, .. } => {
+                    x.comment("one-sided area emitter on the side the normal points to, as vitrum's");
+                    x.open("emitter", &[("type", "area")]);
+                    x.rgb("radiance", *radiance);
+                    x.close("emitter");
+                }
+                Light::Surface { radiance, .. } => {
+                    self.note(format!(
+                        "{name}: vitrum's emissive surface emits on both sides, Mitsuba's area emitter on one: \
+                         written emitting {}",
+                        if flip { "inwards (the camera is inside it)" } else { "along its normal" }
+                    ));
+                    x.comment("emissive material: one-sided area emitter (vitrum's emits on both sides)");
+                    x.open("emitter", &[("type", "area")]);
+                    x.rgb("radiance", *radiance);
+                    x.close("emitter");
+                }
+                #[allow(unreachable_patterns)]
+                other => {
+                    // New emitting surfaces: extend here.
+                    self.note(format!("{name}: the emission of light {other:?} is not exported"));
+                }
+            }
+        }
+        x.close("shape");
+    }
+
+    /// Lights without a surface of their own, and the background.
+    fn emitters(&mut self, x: &mut Xml) {
+        for light in &self.scene.lights {
+            match light {
+                Light::Point { position, intensity } => {
+                    x.comment("point light: intensity in W/sr");
+                    x.open("emitter", &[("type", "point")]);
+                    x.point("position", *position);
+                    x.rgb("intensity", *intensity);
+                    x.close("emitter");
+                }
+                // Written with their surface (the primitive that carries the light).
+                Light::Quad { .. } | Light::Sphere { .. } | Light::Surface { .. } => {}
+                // The compiled scene's background is the environment's radiance: written below.
+                Light::Environment { .. } => {}
+                #[allow(unreachable_patterns)]
+                other => {
+                    // New light kinds: extend here.
+                    self.note(format!("light {other:?} is not exported"));
+                }
+            }
+        }
+        let background = self.scene.settings.background;
+        if background != Vec3::ZERO {
+            x.comment("environment light (render.background): radiance of every ray that leaves the scene");
+            x.open("emitter", &[("type", "constant")]);
+            x.rgb("radiance", background);
+            x.close("emitter");
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn numbers_read_back_exactly_and_never_as_negative_zero() {
+        for x in [0.1f32, 1.52, 39.0, 1.0 / 3.0, 7.5e-5, 1e-30, 3.4e38, -0.42] {
+            assert_eq!(num(x).parse::<f32>().unwrap(), x, "{}", num(x));
+        }
+        assert_eq!(num(-0.0), "0");
+        assert_eq!(num(39.0), "39");
+    }
+
+    #[test]
+    fn comments_and_attributes_are_escaped() {
+        assert_eq!(escape_comment("a--b-"), "a- -b- ");
+        assert!(!escape_comment("---").contains("--"));
+        assert_eq!(escape_attr("<\"a\" & 'b'>"), "&lt;&quot;a&quot; &amp; &apos;b&apos;&gt;");
+        assert_eq!(slug("Glass bowl (inner) #2"), "glass-bowl-inner-2");
+    }
+
+    #[test]
+    fn depth_counts_segments() {
+        assert_eq!(mitsuba_max_depth(0), 1);
+        assert_eq!(mitsuba_max_depth(5), 6);
+    }
+
+    /// vitrum's checker and the exported checkerboard agree at random points of a floor and of a
+    /// wall with a negative edge.
+    #[test]
+    fn checkerboard_matches_the_world_space_checker() {
+        let (c1, c2) = (Vec3::ONE, Vec3::ZERO);
+        let texture = Texture::Checker { color1: c1, color2: c2, size: 0.25 };
+        let quads = [
+            Quad::new(Vec3::new(-1.0, 0.0, -1.0), Vec3::new(0.0, 0.0, 2.0), Vec3::new(2.0, 0.0, 0.0)),
+            Quad::new(Vec3::new(1.0, 0.3, 0.9), Vec3::new(0.0, 0.0, -1.7), Vec3::new(0.0, 1.3, 0.0)),
+            Quad::new(Vec3::new(0.6, 1.0, -0.4), Vec3::new(-1.1, 0.0, 0.0), Vec3::new(0.0, 0.0, -0.7)),
+        ];
+        for q in quads {
+            let map = checker_on_quad(&q, Vec3::ZERO, c1, c2, 0.25).unwrap();
+            for i in 0..40 {
+                for j in 0..40 {
+                    let (a, b) = ((i as f64 + 0.37) / 40.0, (j as f64 + 0.61) / 40.0);
+                    let p = q.corner() + q.u() * a as f32 + q.v() * b as f32;
+                    let (u, v) = (map.scale.0 * a + map.offset.0, map.scale.1 * b + map.offset.1);
+                    let same = ((u - u.floor()) > 0.5) == ((v - v.floor()) > 0.5);
+                    let mitsuba = if same { map.color0 } else { map.color1 };
+                    assert_eq!(mitsuba, texture.eval(p), "quad {q:?} at ({a}, {b})");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn a_bowl_rim_shares_its_vertices_with_the_hemispheres() {
+        let (c, axis) = (Vec3::new(0.1, 0.55, -0.1), Vec3::Y);
+        let outer = sphere_zone(&Sphere::clipped(c, 0.55, axis, 0.0), Vec3::ZERO).unwrap();
+        let inner = sphere_zone(&Sphere::clipped(c, 0.51, axis, 0.0), Vec3::ZERO).unwrap();
+        let rim = annulus(&Disk::new(c, axis, 0.55, 0.51), Vec3::ZERO);
+        let last = |m: &Mesh| m.positions[m.positions.len() - SEGMENTS..].to_vec();
+        assert_eq!(last(&outer), rim.positions[..SEGMENTS]);
+        assert_eq!(last(&inner), rim.positions[SEGMENTS..]);
+        // every face of the zone faces away from the centre, every rim face along the axis
+        for f in &outer.faces {
+            let p = f.map(|i| outer.positions[i as usize]);
+            assert!((p[1] - p[0]).cross(p[2] - p[0]).dot(p[0] + p[1] + p[2] - 3.0 * c) > 0.0);
+            assert!(p.iter().all(|q| (*q - c).dot(axis) <= 1e-6));
+        }
+        for f in &rim.faces {
+            let p = f.map(|i| rim.positions[i as usize]);
+            assert!((p[1] - p[0]).cross(p[2] - p[0]).dot(axis) > 0.0);
+        }
+    }
+}

@@ -1,0 +1,574 @@
+//! `vitrum export --format mitsuba`: every shipped scene exports to well-formed Mitsuba 3 XML,
+//! and the mapping of shapes, interfaces, lights, camera and settings is the documented one
+//! (docs/mitsuba-export.md).
+
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn vitrum() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_vitrum"))
+}
+
+fn scene(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes").join(name)
+}
+
+// ---------- a small XML reader: elements and attributes, no text content ----------
+
+#[derive(Debug)]
+struct Element {
+    name: String,
+    attrs: Vec<(String, String)>,
+    children: Vec<Element>,
+}
+
+impl Element {
+    fn attr(&self, key: &str) -> Option<&str> {
+        self.attrs.iter().find(|(k, _)| k == key).map(|(_, v)| v.as_str())
+    }
+
+    /// Direct children with this tag name.
+    fn kids<'a>(&'a self, name: &str) -> impl Iterator<Item = &'a Element> + 'a {
+        let name = name.to_string();
+        self.children.iter().filter(move |c| c.name == name)
+    }
+
+    /// All descendants (and self) with this tag name, depth first.
+    fn all<'a>(&'a self, name: &str, out: &mut Vec<&'a Element>) {
+        if self.name == name {
+            out.push(self);
+        }
+        for c in &self.children {
+            c.all(name, out);
+        }
+    }
+
+    /// The `value` of the child property `<kind name="name" value=.../>`.
+    fn param(&self, kind: &str, name: &str) -> Option<&str> {
+        self.kids(kind).find(|c| c.attr("name") == Some(name)).and_then(|c| c.attr("value"))
+    }
+}
+
+fn is_name_char(c: char, first: bool) -> bool {
+    c.is_ascii_alphabetic()
+        || c == '_'
+        || c == ':'
+        || (!first && (c.is_ascii_digit() || c == '-' || c == '.'))
+}
+
+fn unescape(s: &str) -> Result<String, String> {
+    let mut out = String::new();
+    let mut rest = s;
+    while let Some(i) = rest.find('&') {
+        out.push_str(&rest[..i]);
+        let end = rest[i..].find(';').ok_or_else(|| format!("unterminated entity in {s:?}"))? + i;
+        let entity = &rest[i + 1..end];
+        out.push(match entity {
+            "amp" => '&',
+            "lt" => '<',
+            "gt" => '>',
+            "quot" => '"',
+            "apos" => '\'',
+            e if e.starts_with('#') => {
+                let code = e[1..].parse::<u32>().map_err(|_| format!("bad character reference &{e};"))?;
+                char::from_u32(code).ok_or_else(|| format!("bad character reference &{e};"))?
+            }
+            e => return Err(format!("unknown entity &{e};")),
+        });
+        rest = &rest[end + 1..];
+    }
+    out.push_str(rest);
+    Ok(out)
+}
+
+/// Parse a document with one root element: balanced tags, quoted and escaped attributes,
+/// well-formed comments, no text content.
+fn parse_xml(text: &str) -> Result<Element, String> {
+    let mut stack: Vec<Element> = Vec::new();
+    let mut root = None;
+    let mut s = text;
+    if let Some(rest) = s.strip_prefix("<?xml") {
+        s = &rest[rest.find("?>").ok_or("unterminated XML declaration")? + 2..];
+    }
+    loop {
+        let trimmed = s.trim_start();
+        if trimmed.is_empty() {
+            break;
+        }
+        if !trimmed.starts_with('<') {
+            return Err(format!("text content outside tags: {:?}", &trimmed[..trimmed.len().min(40)]));
+        }
+        s = trimmed;
+        if let Some(rest) = s.strip_prefix("<!--") {
+            let end = rest.find("-->").ok_or("unterminated comment")?;
+            let body = &rest[..end];
+            if body.contains("--") || body.ends_with('-') {
+                return Err(format!("`--` inside a comment: {body:?}"));
+            }
+            s = &rest[end + 3..];
+            continue;
+        }
+        if let Some(rest) = s.strip_prefix("</") {
+            let end = rest.find('>').ok_or("unterminated closing tag")?;
+            let name = rest[..end].trim();
+            let element =
+                stack.pop().ok_or_else(|| format!("closing tag </{name}> without an opening one"))?;
+            if element.name != name {
+                return Err(format!("<{}> closed by </{name}>", element.name));
+            }
+            match stack.last_mut() {
+                Some(parent) => parent.children.push(element),
+                None if root.is_none() => root = Some(element),
+                None => return Err("more than one root element".into()),
+            }
+            s = &rest[end + 1..];
+            continue;
+        }
+        // An opening or empty-element tag.
+        let mut chars = s[1..].char_indices();
+        let mut name_end = 0;
+        for (i, c) in chars.by_ref() {
+            if !is_name_char(c, i == 0) {
+                name_end = i;
+                break;
+            }
+        }
+        let name = s[1..1 + name_end].to_string();
+        if name.is_empty() {
+            return Err(format!("bad tag: {:?}", &s[..s.len().min(40)]));
+        }
+        let mut rest = &s[1 + name_end..];
+        let mut attrs = Vec::new();
+        let empty;
+        loop {
+            rest = rest.trim_start();
+            if let Some(r) = rest.strip_prefix("/>") {
+                empty = true;
+                rest = r;
+                break;
+            }
+            if let Some(r) = rest.strip_prefix('>') {
+                empty = false;
+                rest = r;
+                break;
+            }
+            let eq = rest.find('=').ok_or_else(|| format!("attribute without value in <{name}>"))?;
+            let key = rest[..eq].trim().to_string();
+            if key.is_empty() || !key.chars().enumerate().all(|(i, c)| is_name_char(c, i == 0)) {
+                return Err(format!("bad attribute name {key:?} in <{name}>"));
+            }
+            let after = rest[eq + 1..].trim_start();
+            let value =
+                after.strip_prefix('"').ok_or_else(|| format!("unquoted attribute {key} in <{name}>"))?;
+            let close = value.find('"').ok_or_else(|| format!("unterminated attribute {key} in <{name}>"))?;
+            if attrs.iter().any(|(k, _): &(String, String)| *k == key) {
+                return Err(format!("duplicate attribute {key} in <{name}>"));
+            }
+            if value[..close].contains('<') {
+                return Err(format!("raw `<` in attribute {key} of <{name}>"));
+            }
+            attrs.push((key, unescape(&value[..close])?));
+            rest = &value[close + 1..];
+        }
+        let element = Element { name, attrs, children: Vec::new() };
+        if empty {
+            match stack.last_mut() {
+                Some(parent) => parent.children.push(element),
+                None if root.is_none() => root = Some(element),
+                None => return Err("more than one root element".into()),
+            }
+        } else {
+            stack.push(element);
+        }
+        s = rest;
+    }
+    if let Some(open) = stack.last() {
+        return Err(format!("<{}> is never closed", open.name));
+    }
+    root.ok_or_else(|| "no root element".into())
+}
+
+#[test]
+fn the_reader_rejects_malformed_xml() {
+    assert!(parse_xml("<a><b/></a>").is_ok());
+    for bad in [
+        "<a><b></a>",
+        "<a>",
+        "<a/><b/>",
+        "<a x=1/>",
+        "<a x=\"&foo;\"/>",
+        "<a>text</a>",
+        "<!-- a -- b --><a/>",
+    ] {
+        assert!(parse_xml(bad).is_err(), "{bad}");
+    }
+}
+
+// ---------- exporting ----------
+
+/// An exported scene: the parsed XML, its folder and the command's output.
+struct Exported {
+    root: Element,
+    dir: tempfile::TempDir,
+    xml: PathBuf,
+    output: Output,
+}
+
+impl Exported {
+    /// `$name` references resolved through the scene's `<default>`s.
+    fn resolve<'a>(&'a self, value: &'a str) -> &'a str {
+        match value.strip_prefix('$') {
+            Some(name) => self
+                .root
+                .kids("default")
+                .find(|d| d.attr("name") == Some(name))
+                .and_then(|d| d.attr("value"))
+                .unwrap_or_else(|| panic!("no default for {value}")),
+            None => value,
+        }
+    }
+
+    fn by_id(&self, id: &str) -> &Element {
+        let mut found = Vec::new();
+        for kind in ["bsdf", "medium", "texture"] {
+            let mut all = Vec::new();
+            self.root.all(kind, &mut all);
+            found.extend(all.into_iter().filter(|e| e.attr("id") == Some(id)));
+        }
+        assert_eq!(found.len(), 1, "id {id} should name exactly one element");
+        found[0]
+    }
+
+    fn shapes(&self, kind: &str) -> Vec<&Element> {
+        self.root.kids("shape").filter(|s| s.attr("type") == Some(kind)).collect()
+    }
+
+    /// The BSDF of a shape: inline or referenced.
+    fn bsdf_of<'a>(&'a self, shape: &'a Element) -> &'a Element {
+        let inline: Vec<_> = shape.kids("bsdf").collect();
+        let refs: Vec<_> = shape.kids("ref").filter(|r| r.attr("name").is_none()).collect();
+        match (&inline[..], &refs[..]) {
+            ([b], []) => b,
+            ([], [r]) => self.by_id(r.attr("id").unwrap()),
+            _ => panic!("shape {:?} should have exactly one BSDF", shape.attr("type")),
+        }
+    }
+
+    /// A dielectric shape's (int_ior, ext_ior).
+    fn iors(&self, shape: &Element) -> (f32, f32) {
+        let b = self.bsdf_of(shape);
+        assert_eq!(b.attr("type"), Some("dielectric"));
+        let get = |n| b.param("float", n).unwrap().parse::<f32>().unwrap();
+        (get("int_ior"), get("ext_ior"))
+    }
+}
+
+fn export_with(scene_file: &Path, extra: &[&str]) -> Exported {
+    let dir = tempfile::tempdir().unwrap();
+    let xml = dir.path().join("scene.xml");
+    let output = vitrum()
+        .arg("export")
+        .arg(scene_file)
+        .args(["--format", "mitsuba", "-o"])
+        .arg(&xml)
+        .args(extra)
+        .output()
+        .unwrap();
+    assert!(
+        output.status.success(),
+        "export of {} failed: {}",
+        scene_file.display(),
+        String::from_utf8_lossy(&output.stderr)
+    );
+    let text = std::fs::read_to_string(&xml).unwrap();
+    let root = parse_xml(&text).unwrap_or_else(|e| panic!("{}: {e}", scene_file.display()));
+    Exported { root, dir, xml, output }
+}
+
+fn export(name: &str) -> Exported {
+    export_with(&scene(name), &[])
+}
+
+fn floats(text: &str) -> Vec<f32> {
+    text.split([',', ' ']).filter(|s| !s.is_empty()).map(|s| s.parse().unwrap()).collect()
+}
+
+#[test]
+fn every_shipped_scene_exports_to_well_formed_xml_with_its_meshes() {
+    let mut names: Vec<_> = std::fs::read_dir(Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes"))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "toml"))
+        .collect();
+    names.sort();
+    assert!(names.len() >= 10, "{names:?}");
+    for path in names {
+        let e = export_with(&path, &[]);
+        let what = path.display();
+        assert_eq!(e.root.name, "scene", "{what}");
+        assert_eq!(e.root.attr("version"), Some("3.0.0"), "{what}");
+        assert_eq!(e.root.kids("integrator").count(), 1, "{what}");
+        assert_eq!(e.root.kids("sensor").count(), 1, "{what}");
+        assert!(e.root.kids("shape").count() >= 5, "{what}");
+        // every reference resolves, every shape has one BSDF
+        let mut refs = Vec::new();
+        e.root.all("ref", &mut refs);
+        for r in refs {
+            e.by_id(r.attr("id").unwrap());
+        }
+        for shape in e.root.kids("shape") {
+            e.bsdf_of(shape);
+        }
+        // every `$name` has a default
+        let mut props = Vec::new();
+        for kind in ["integer", "float", "string"] {
+            e.root.all(kind, &mut props);
+        }
+        for p in props {
+            e.resolve(p.attr("value").unwrap());
+        }
+        // mesh files exist beside the XML and are PLY
+        for shape in e.shapes("ply") {
+            let file = e.xml.parent().unwrap().join(shape.param("string", "filename").unwrap());
+            let bytes =
+                std::fs::read(&file).unwrap_or_else(|err| panic!("{what}: {}: {err}", file.display()));
+            assert!(bytes.starts_with(b"ply\nformat binary_little_endian 1.0\n"), "{}", file.display());
+        }
+        // no temporary files are left behind
+        for entry in std::fs::read_dir(e.dir.path()).unwrap() {
+            let name = entry.unwrap().file_name().to_string_lossy().into_owned();
+            assert!(!name.starts_with('.'), "{what}: leftover {name}");
+        }
+    }
+}
+
+#[test]
+fn cornell_glass_maps_shapes_interfaces_light_and_camera() {
+    let e = export("cornell-glass.toml");
+
+    let spheres = e.shapes("sphere");
+    assert_eq!(spheres.len(), 1);
+    assert_eq!(e.iors(spheres[0]), (1.52, 1.0));
+    assert_eq!(floats(spheres[0].kids("point").next().unwrap().attr("x").unwrap()), [-0.42]);
+    assert_eq!(spheres[0].param("float", "radius"), Some("0.4"));
+
+    // the capped cylinder: an uncapped cylinder plus two disks, all glass, caps facing out
+    let cylinders = e.shapes("cylinder");
+    assert_eq!(cylinders.len(), 1);
+    assert_eq!(e.iors(cylinders[0]), (1.52, 1.0));
+    assert_eq!(cylinders[0].param("float", "radius"), Some("0.28"));
+    let disks = e.shapes("disk");
+    assert_eq!(disks.len(), 2);
+    let mut normal_y = Vec::new();
+    for d in &disks {
+        assert_eq!(e.iors(d), (1.52, 1.0));
+        let m =
+            floats(d.kids("transform").next().unwrap().kids("matrix").next().unwrap().attr("value").unwrap());
+        // the third column is the disk's normal (Mitsuba's +z)
+        normal_y.push(m[6]);
+        assert!((m[3] - 0.45).abs() < 1e-6 && (m[11] - 0.3).abs() < 1e-6, "{m:?}");
+    }
+    normal_y.sort_by(f32::total_cmp);
+    assert_eq!(normal_y, [-1.0, 1.0]);
+
+    // five walls as rectangles, two-sided diffuse; the floor's checker as a checkerboard
+    let rects = e.shapes("rectangle");
+    assert_eq!(rects.len(), 5);
+    for r in &rects {
+        let b = e.bsdf_of(r);
+        assert_eq!(b.attr("type"), Some("twosided"));
+        assert_eq!(b.kids("bsdf").next().unwrap().attr("type"), Some("diffuse"));
+    }
+    let mut textures = Vec::new();
+    e.root.all("texture", &mut textures);
+    assert_eq!(textures.len(), 1);
+    assert_eq!(textures[0].attr("type"), Some("checkerboard"));
+
+    // the point light
+    let emitters: Vec<_> = e.root.kids("emitter").collect();
+    assert_eq!(emitters.len(), 1);
+    assert_eq!(emitters[0].attr("type"), Some("point"));
+    assert_eq!(floats(emitters[0].param("rgb", "intensity").unwrap()), [5.0, 5.0, 5.0]);
+    let pos = emitters[0].kids("point").next().unwrap();
+    assert_eq!((pos.attr("x"), pos.attr("y"), pos.attr("z")), (Some("0"), Some("1.8"), Some("0")));
+
+    // the camera
+    let sensor = e.root.kids("sensor").next().unwrap();
+    assert_eq!(sensor.attr("type"), Some("perspective"));
+    assert_eq!(sensor.param("float", "fov"), Some("39"));
+    assert_eq!(sensor.param("string", "fov_axis"), Some("y"));
+    let lookat = sensor.kids("transform").next().unwrap().kids("lookat").next().unwrap();
+    assert_eq!(floats(lookat.attr("origin").unwrap()), [0.0, 1.0, 3.8]);
+    assert_eq!(floats(lookat.attr("up").unwrap()), [0.0, 1.0, 0.0]);
+    let film = sensor.kids("film").next().unwrap();
+    assert_eq!(film.attr("type"), Some("hdrfilm"));
+    assert_eq!(e.resolve(film.param("integer", "width").unwrap()), "800");
+    assert_eq!(e.resolve(film.param("integer", "height").unwrap()), "800");
+    assert_eq!(film.kids("rfilter").next().unwrap().attr("type"), Some("box"));
+    let sampler = sensor.kids("sampler").next().unwrap();
+    assert_eq!(sampler.attr("type"), Some("independent"));
+    assert_eq!(sampler.param("integer", "sample_count"), Some("$spp"));
+
+    // the integrator: path, vitrum's 5 bounces are 6 segments
+    let integrator = e.root.kids("integrator").next().unwrap();
+    assert_eq!(integrator.attr("type"), Some("path"));
+    assert_eq!(e.resolve(integrator.param("integer", "max_depth").unwrap()), "6");
+
+    // what does not translate is said, in the file and on stderr
+    let stderr = String::from_utf8_lossy(&e.output.stderr);
+    assert!(stderr.contains("Phong") && stderr.contains("ambient"), "{stderr}");
+    let text = std::fs::read_to_string(&e.xml).unwrap();
+    assert!(text.contains("<!-- Not exact: the scene ambient"), "{text}");
+}
+
+#[test]
+fn hollow_spheres_inner_surfaces_swap_the_indices() {
+    let e = export("hollow-spheres.toml");
+    let spheres = e.shapes("sphere");
+    assert_eq!(spheres.len(), 4);
+    let mut by_radius: Vec<(f32, (f32, f32))> =
+        spheres.iter().map(|s| (s.param("float", "radius").unwrap().parse().unwrap(), e.iors(s))).collect();
+    by_radius.sort_by(|a, b| a.0.total_cmp(&b.0));
+    assert_eq!(
+        by_radius,
+        [(0.2, (1.0, 1.52)), (0.34, (1.0, 1.52)), (0.38, (1.52, 1.0)), (0.38, (1.52, 1.0))],
+        "inner spheres: air inside (opposite the outward normal), glass outside"
+    );
+}
+
+#[test]
+fn options_set_samples_depth_resolution_and_integrator() {
+    let e = export_with(
+        &scene("soft-shadows.toml"),
+        &["--spp", "7", "--max-depth", "9", "--resolution", "320x200", "--integrator", "ptracer"],
+    );
+    assert_eq!(e.resolve("$spp"), "7");
+    let integrator = e.root.kids("integrator").next().unwrap();
+    assert_eq!(integrator.attr("type"), Some("ptracer"));
+    assert_eq!(e.resolve(integrator.param("integer", "max_depth").unwrap()), "10");
+    let film = e.root.kids("sensor").next().unwrap().kids("film").next().unwrap();
+    assert_eq!(e.resolve(film.param("integer", "width").unwrap()), "320");
+    assert_eq!(e.resolve(film.param("integer", "height").unwrap()), "200");
+    // the quad light: a rectangle with a one-sided area emitter and a black BSDF
+    let lights: Vec<_> =
+        e.shapes("rectangle").into_iter().filter(|s| s.kids("emitter").count() == 1).collect();
+    assert_eq!(lights.len(), 1);
+    let emitter = lights[0].kids("emitter").next().unwrap();
+    assert_eq!(emitter.attr("type"), Some("area"));
+    assert_eq!(floats(emitter.param("rgb", "radiance").unwrap()), [31.25, 31.25, 31.25]);
+    let black = e.bsdf_of(lights[0]).kids("bsdf").next().unwrap();
+    assert_eq!(floats(black.param("rgb", "reflectance").unwrap()), [0.0, 0.0, 0.0]);
+    // it faces down (u × v = −y): the third column of to_world
+    let m = floats(
+        lights[0].kids("transform").next().unwrap().kids("matrix").next().unwrap().attr("value").unwrap(),
+    );
+    assert_eq!((m[2], m[6], m[10]), (0.0, -1.0, 0.0));
+}
+
+#[test]
+fn absorbing_glass_becomes_media_with_volpath() {
+    let e = export("coloured-glass.toml");
+    assert_eq!(e.root.kids("integrator").next().unwrap().attr("type"), Some("volpath"));
+    let media: Vec<_> = e.root.kids("medium").collect();
+    assert_eq!(media.len(), 3);
+    // the hollow sphere: its glass is the interior of the outer surface and the exterior of
+    // the inner one, the same medium
+    let spheres = e.shapes("sphere");
+    let medium_of = |s: &Element, side: &str| {
+        s.kids("ref").find(|r| r.attr("name") == Some(side)).map(|r| r.attr("id").unwrap().to_string())
+    };
+    let radius = |s: &Element| s.param("float", "radius").unwrap().to_string();
+    let outer = spheres.iter().find(|s| radius(s) == "0.22").unwrap();
+    let inner = spheres.iter().find(|s| radius(s) == "0.19").unwrap();
+    assert!(medium_of(outer, "interior").is_some() && medium_of(outer, "exterior").is_none());
+    assert_eq!(medium_of(inner, "exterior"), medium_of(outer, "interior"));
+    assert!(medium_of(inner, "interior").is_none());
+    let blue = e.by_id(&medium_of(outer, "interior").unwrap());
+    let scale: f32 = blue.param("float", "scale").unwrap().parse().unwrap();
+    let sigma: Vec<f32> = floats(blue.param("rgb", "sigma_t").unwrap()).iter().map(|s| s * scale).collect();
+    assert_eq!(sigma, [30.0, 12.0, 1.0]);
+}
+
+#[test]
+fn clipped_spheres_annuli_polygons_and_meshes_become_ply_files() {
+    let e = export("shapes-gallery.toml");
+    let meshes = e.shapes("ply");
+    // drinking-glass rim, bowl (2 hemispheres + rim), icosahedron, hexagon, annulus
+    assert_eq!(meshes.len(), 7);
+    let smooth = meshes.iter().filter(|m| m.param("boolean", "face_normals") == Some("false")).count();
+    assert_eq!(smooth, 2, "the bowl's hemispheres have smooth normals, the flat meshes face normals");
+    // the air bubble: an interface with air inside and glass outside, as written
+    let bubble = e.shapes("sphere").into_iter().find(|s| s.param("float", "radius") == Some("0.09")).unwrap();
+    assert_eq!(e.iors(bubble), (1.0, 1.52));
+    // the glossy mirror of frosted-glass and the frosted materials
+    let f = export("frosted-glass.toml");
+    let mut bsdfs = Vec::new();
+    f.root.all("bsdf", &mut bsdfs);
+    let kinds: Vec<_> = bsdfs.iter().filter_map(|b| b.attr("type")).collect();
+    assert!(kinds.contains(&"roughconductor") && kinds.contains(&"roughdielectric"), "{kinds:?}");
+    let frosted = bsdfs.iter().find(|b| b.attr("id").is_some_and(|id| id.contains("frosted"))).unwrap();
+    assert_eq!(frosted.param("string", "distribution"), Some("ggx"));
+    let alpha: f32 = frosted.param("float", "alpha").unwrap().parse().unwrap();
+    assert!((alpha - 0.09).abs() < 1e-6, "alpha = roughness²: {alpha}");
+}
+
+#[test]
+fn polygon_vertices_are_recovered_from_the_edges() {
+    use glam::Vec3;
+    use vitrum::geometry::Polygon;
+    let hexagon = vec![
+        Vec3::new(-0.99, 1.4, -0.2),
+        Vec3::new(-0.99, 1.275, 0.0165),
+        Vec3::new(-0.99, 1.025, 0.0165),
+        Vec3::new(-0.99, 0.9, -0.2),
+        Vec3::new(-0.99, 1.025, -0.4165),
+        Vec3::new(-0.99, 1.275, -0.4165),
+    ];
+    let got = Polygon::new(hexagon.clone()).unwrap().vertices();
+    assert_eq!(got.len(), 6);
+    for (a, b) in got.iter().zip(&hexagon) {
+        assert!((*a - *b).length() < 1e-5, "{a} vs {b}");
+    }
+    // a vertex on a straight edge (a 180° corner) is left out: the same square
+    let square = vec![Vec3::ZERO, Vec3::new(0.5, 0.0, 0.0), Vec3::X, Vec3::new(1.0, 1.0, 0.0), Vec3::Y];
+    let got = Polygon::new(square).unwrap().vertices();
+    assert_eq!(got.len(), 4, "{got:?}");
+}
+
+#[test]
+fn bad_input_exits_with_code_2_and_writes_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("x.xml");
+    let run = |args: &[&str], output: &Path| {
+        let o = vitrum().arg("export").args(args).arg("-o").arg(output).output().unwrap();
+        (o.status.code(), String::from_utf8_lossy(&o.stderr).into_owned())
+    };
+    let cornell = scene("cornell-glass.toml");
+    let cornell = cornell.to_str().unwrap();
+
+    let (code, err) = run(&[cornell, "--format", "pbrt"], &out);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(err.contains("pbrt") && err.contains("mitsuba"), "{err}");
+
+    let (code, err) = run(&[cornell], &dir.path().join("no-such-folder").join("x.xml"));
+    assert_eq!(code, Some(2), "{err}");
+    assert!(err.contains("no-such-folder"), "{err}");
+
+    let (code, err) = run(&[cornell], &dir.path().join("x.exr"));
+    assert_eq!(code, Some(2), "{err}");
+
+    let (code, err) = run(&[cornell, "--spp", "0"], &out);
+    assert_eq!(code, Some(2), "{err}");
+
+    let (code, err) = run(&[cornell, "--integrator", "bdpt"], &out);
+    assert_eq!(code, Some(2), "{err}");
+
+    let missing = dir.path().join("missing.toml");
+    let (code, err) = run(&[missing.to_str().unwrap()], &out);
+    assert_eq!(code, Some(2), "{err}");
+
+    let entries: HashMap<_, _> =
+        std::fs::read_dir(dir.path()).unwrap().map(|e| (e.unwrap().file_name(), ())).collect();
+    assert!(entries.is_empty(), "{entries:?}");
+}
