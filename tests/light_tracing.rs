@@ -9,6 +9,9 @@
 //! path splats each vertex into one pixel, so pixels are at most weakly correlated). The tolerance
 //! is stated in standard errors of the difference between the two methods.
 
+mod common;
+
+use common::{closed_sphere, mean_and_error};
 use glam::Vec3;
 use vitrum::image::Image;
 use vitrum::integrators::create;
@@ -290,47 +293,6 @@ intensity = 4.0
     assert!(mean(&light, &backdrop).min_element() > 0.5 * mean(&path, &backdrop).min_element());
 }
 
-/// Per-pixel mean and standard error of the mean from `k` independent renders.
-fn mean_and_error(scene: &Scene, integrator: &str, spp: u32, k: u64) -> (Vec<Vec3>, Vec<Vec3>) {
-    let renders: Vec<Image> = (0..k).map(|seed| render_with(scene, integrator, spp, 100 + seed)).collect();
-    let n = renders[0].pixels.len();
-    let mut mean = vec![Vec3::ZERO; n];
-    let mut error = vec![Vec3::ZERO; n];
-    for i in 0..n {
-        let m = renders.iter().map(|r| r.pixels[i]).sum::<Vec3>() / k as f32;
-        let var =
-            renders.iter().map(|r| (r.pixels[i] - m) * (r.pixels[i] - m)).sum::<Vec3>() / (k - 1) as f32;
-        mean[i] = m;
-        error[i] = (var / k as f32).powf(0.5);
-    }
-    (mean, error)
-}
-
-fn closed_sphere(inside: &str) -> Scene {
-    let text = format!(
-        r#"
-[camera]
-position = [0.1, 0.2, 0.3]
-look_at = [1.0, 0.0, 0.0]
-fov = 120.0
-resolution = [12, 12]
-[render]
-integrator = "light"
-max_depth = 256
-[materials.wall]
-type = "diffuse"
-color = 0.5
-{inside}
-[[objects]]
-shape = "sphere"
-center = [0.0, 0.0, 0.0]
-radius = 1.0
-material = "wall"
-"#
-    );
-    load_str(&text, "closed sphere", None).unwrap()
-}
-
 /// The image mean is `expected` within 3 standard errors, and every 3×3 block within 4 of its
 /// own (the standard error of one pixel estimated from `k` renders is itself too noisy for a
 /// per-pixel bound over the whole image).
@@ -357,15 +319,17 @@ fn assert_uniform(scene: &Scene, spp: u32, k: u64, expected: f32, what: &str) {
 #[test]
 fn closed_diffuse_sphere_with_emission_is_uniformly_one() {
     // L = Le + ρ·L  ⇒  L = 0.5 / (1 − 0.5) = 1 everywhere inside.
-    assert_uniform(&closed_sphere("emission = 0.5"), 64, 8, 1.0, "emitting sphere");
+    assert_uniform(&closed_sphere("light", "emission = 0.5"), 64, 8, 1.0, "emitting sphere");
 }
 
 #[test]
 fn closed_diffuse_sphere_around_a_point_light_is_uniformly_one() {
     // Intensity π at the centre of a unit sphere: E = π, direct L = ρ·E/π = 0.5, and every
     // bounce adds the same fraction: L = 0.5 / (1 − 0.5) = 1.
-    let scene =
-        closed_sphere("[[lights]]\ntype = \"point\"\nposition = [0.0, 0.0, 0.0]\nintensity = 3.14159265");
+    let scene = closed_sphere(
+        "light",
+        "[[lights]]\ntype = \"point\"\nposition = [0.0, 0.0, 0.0]\nintensity = 3.14159265",
+    );
     assert_uniform(&scene, 64, 8, 1.0, "point light in a sphere");
 }
 

@@ -1,36 +1,15 @@
 //! `path` against analytic answers: the white furnace, a closed diffuse sphere, caustics and the
 //! 1/N convergence of Monte Carlo.
 
+mod common;
+
+use common::{closed_sphere, mean_and_error, render_with};
 use glam::Vec3;
 use vitrum::image::Image;
 use vitrum::integrators::create;
 use vitrum::render::{render, RenderOptions};
 use vitrum::sampler::SamplerKind;
 use vitrum::scene::{load_str, Scene};
-
-fn render_with(scene: &Scene, integrator: &str, spp: u32, seed: u64) -> Image {
-    let mut opts = RenderOptions::from_scene(scene, spp);
-    opts.seed = seed;
-    opts.sampler = SamplerKind::Independent;
-    render(scene, create(integrator).unwrap().as_ref(), &opts, &|_, _| {}).image
-}
-
-/// Per-pixel mean and standard error (of the mean) from `k` independent renders (k ≥ 32 keeps
-/// the estimated error itself reliable enough for a 5-standard-error bound on every pixel).
-fn mean_and_error(scene: &Scene, integrator: &str, spp: u32, k: u64) -> (Vec<Vec3>, Vec<Vec3>) {
-    let renders: Vec<Image> = (0..k).map(|seed| render_with(scene, integrator, spp, 100 + seed)).collect();
-    let n = renders[0].pixels.len();
-    let mut mean = vec![Vec3::ZERO; n];
-    let mut error = vec![Vec3::ZERO; n];
-    for i in 0..n {
-        let m = renders.iter().map(|r| r.pixels[i]).sum::<Vec3>() / k as f32;
-        let var =
-            renders.iter().map(|r| (r.pixels[i] - m) * (r.pixels[i] - m)).sum::<Vec3>() / (k - 1) as f32;
-        mean[i] = m;
-        error[i] = (var / k as f32).powf(0.5);
-    }
-    (mean, error)
-}
 
 /// The mean of all pixels and channels equals `expected` within 3 standard errors, and no pixel
 /// is more than 5 of its own standard errors away (a floor of 1e-4 for noise-free pixels).
@@ -87,38 +66,13 @@ fn white_furnace_smooth_glass_sphere_renders_one() {
     assert_everywhere(&mean, &error, 1.0, "smooth glass furnace");
 }
 
-fn closed_sphere(inside: &str) -> Scene {
-    let text = format!(
-        r#"
-[camera]
-position = [0.1, 0.2, 0.3]
-look_at = [1.0, 0.0, 0.0]
-fov = 120.0
-resolution = [12, 12]
-[render]
-integrator = "path"
-max_depth = 256
-[materials.wall]
-type = "diffuse"
-color = 0.5
-{inside}
-[[objects]]
-shape = "sphere"
-center = [0.0, 0.0, 0.0]
-radius = 1.0
-material = "wall"
-"#
-    );
-    load_str(&text, "closed sphere", None).unwrap()
-}
-
 #[test]
 fn closed_diffuse_sphere_with_emission_is_uniformly_one() {
     // L = Le + ρ·L  ⇒  L = 0.5 / (1 − 0.5) = 1 everywhere inside.
     // Inside a sphere light sampling and BSDF sampling have the same density, so every bounce
     // adds exactly ρ^k·Le and only Russian roulette is random: a skewed estimator (most paths
     // stop early, a few carry large weights), hence the many samples per batch.
-    let scene = closed_sphere("emission = 0.5");
+    let scene = closed_sphere("path", "emission = 0.5");
     let (mean, error) = mean_and_error(&scene, "path", 32, 32);
     assert_everywhere(&mean, &error, 1.0, "emitting sphere");
 }
@@ -127,8 +81,10 @@ fn closed_diffuse_sphere_with_emission_is_uniformly_one() {
 fn closed_diffuse_sphere_around_a_point_light_is_uniformly_one() {
     // Intensity π at the centre of a unit sphere: E = π, direct L = ρ·E/π = 0.5, and every
     // bounce adds the same fraction: L = 0.5 / (1 − 0.5) = 1.
-    let scene =
-        closed_sphere("[[lights]]\ntype = \"point\"\nposition = [0.0, 0.0, 0.0]\nintensity = 3.14159265");
+    let scene = closed_sphere(
+        "path",
+        "[[lights]]\ntype = \"point\"\nposition = [0.0, 0.0, 0.0]\nintensity = 3.14159265",
+    );
     let (mean, error) = mean_and_error(&scene, "path", 32, 32);
     assert_everywhere(&mean, &error, 1.0, "point light in a sphere");
 }

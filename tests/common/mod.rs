@@ -1,0 +1,61 @@
+//! Helpers shared by the integration tests of the Monte Carlo methods.
+#![allow(dead_code)] // each test crate uses a subset
+
+use glam::Vec3;
+use vitrum::image::Image;
+use vitrum::integrators::create;
+use vitrum::render::{render, RenderOptions};
+use vitrum::sampler::SamplerKind;
+use vitrum::scene::{load_str, Scene};
+
+/// A render of `scene` by `integrator` with independent sampling.
+pub fn render_with(scene: &Scene, integrator: &str, spp: u32, seed: u64) -> Image {
+    let mut opts = RenderOptions::from_scene(scene, spp);
+    opts.seed = seed;
+    opts.sampler = SamplerKind::Independent;
+    render(scene, create(integrator).unwrap().as_ref(), &opts, &|_, _| {}).image
+}
+
+/// Per-pixel mean and standard error (of the mean) from `k` independent renders (k ≥ 32 keeps
+/// the estimated error itself reliable enough for a 5-standard-error bound on every pixel).
+pub fn mean_and_error(scene: &Scene, integrator: &str, spp: u32, k: u64) -> (Vec<Vec3>, Vec<Vec3>) {
+    let renders: Vec<Image> = (0..k).map(|seed| render_with(scene, integrator, spp, 100 + seed)).collect();
+    let n = renders[0].pixels.len();
+    let mut mean = vec![Vec3::ZERO; n];
+    let mut error = vec![Vec3::ZERO; n];
+    for i in 0..n {
+        let m = renders.iter().map(|r| r.pixels[i]).sum::<Vec3>() / k as f32;
+        let var =
+            renders.iter().map(|r| (r.pixels[i] - m) * (r.pixels[i] - m)).sum::<Vec3>() / (k - 1) as f32;
+        mean[i] = m;
+        error[i] = (var / k as f32).powf(0.5);
+    }
+    (mean, error)
+}
+
+/// The inside of a closed unit sphere of diffuse albedo 0.5, seen by a camera at its centre,
+/// with `inside` added to the scene (an emission line for the material, or a light).
+pub fn closed_sphere(integrator: &str, inside: &str) -> Scene {
+    let text = format!(
+        r#"
+[camera]
+position = [0.1, 0.2, 0.3]
+look_at = [1.0, 0.0, 0.0]
+fov = 120.0
+resolution = [12, 12]
+[render]
+integrator = "{integrator}"
+max_depth = 256
+[materials.wall]
+type = "diffuse"
+color = 0.5
+{inside}
+[[objects]]
+shape = "sphere"
+center = [0.0, 0.0, 0.0]
+radius = 1.0
+material = "wall"
+"#
+    );
+    load_str(&text, "closed sphere", None).unwrap()
+}
