@@ -11,33 +11,12 @@
 
 mod common;
 
-use common::{closed_sphere, mean_and_error};
+use common::{closed_sphere, mean_and_error, render_opts, render_sampled, render_with};
 use glam::Vec3;
 use vitrum::image::Image;
-use vitrum::integrators::create;
-use vitrum::render::{render, RenderOptions, RenderOutput};
+use vitrum::render::RenderOptions;
 use vitrum::sampler::SamplerKind;
 use vitrum::scene::{load_str, Scene};
-
-fn render_opts(scene: &Scene, integrator: &str, opts: &RenderOptions) -> RenderOutput {
-    render(scene, create(integrator).unwrap().as_ref(), opts, &|_, _| {})
-}
-
-/// A render with independent sampling.
-fn render_with(scene: &Scene, integrator: &str, spp: u32, seed: u64) -> Image {
-    render_sampled(scene, integrator, spp, seed, SamplerKind::Independent)
-}
-
-/// A render with the given sampler (different seeds give independent renders with either).
-fn render_sampled(scene: &Scene, integrator: &str, spp: u32, seed: u64, sampler: SamplerKind) -> Image {
-    let mut opts = RenderOptions::from_scene(scene, spp);
-    opts.seed = seed;
-    opts.sampler = sampler;
-    let out = render_opts(scene, integrator, &opts);
-    assert_eq!(out.non_finite_samples, 0, "{integrator}: non-finite samples");
-    assert_eq!(out.spp, spp);
-    out.image
-}
 
 /// The mean of two renders of a method (seeds `seed`, `seed + 1`) and, per pixel, the variance
 /// of that mean.

@@ -4,16 +4,30 @@
 use glam::Vec3;
 use vitrum::image::Image;
 use vitrum::integrators::create;
-use vitrum::render::{render, RenderOptions};
+use vitrum::render::{render, RenderOptions, RenderOutput};
 use vitrum::sampler::SamplerKind;
 use vitrum::scene::{load_str, Scene};
 
+/// A render of `scene` by `integrator` with the given options.
+pub fn render_opts(scene: &Scene, integrator: &str, opts: &RenderOptions) -> RenderOutput {
+    render(scene, create(integrator).unwrap().as_ref(), opts, &|_, _| {})
+}
+
 /// A render of `scene` by `integrator` with independent sampling.
 pub fn render_with(scene: &Scene, integrator: &str, spp: u32, seed: u64) -> Image {
+    render_sampled(scene, integrator, spp, seed, SamplerKind::Independent)
+}
+
+/// A render with the given sampler (different seeds give independent renders with either);
+/// every sample must be finite.
+pub fn render_sampled(scene: &Scene, integrator: &str, spp: u32, seed: u64, sampler: SamplerKind) -> Image {
     let mut opts = RenderOptions::from_scene(scene, spp);
     opts.seed = seed;
-    opts.sampler = SamplerKind::Independent;
-    render(scene, create(integrator).unwrap().as_ref(), &opts, &|_, _| {}).image
+    opts.sampler = sampler;
+    let out = render_opts(scene, integrator, &opts);
+    assert_eq!(out.non_finite_samples, 0, "{integrator}: non-finite samples");
+    assert_eq!(out.spp, spp);
+    out.image
 }
 
 /// Per-pixel mean and standard error (of the mean) from `k` independent renders (k ≥ 32 keeps
