@@ -90,6 +90,8 @@ use crate::scene::{Effect, Scene};
 use crate::spectrum::sample_wavelength;
 use crate::stats::RayCounts;
 use glam::{DVec3, Vec2, Vec3};
+use rand::SeedableRng;
+use rand_pcg::Pcg32;
 use rayon::prelude::*;
 use std::f32::consts::PI;
 use std::ops::Range;
@@ -382,9 +384,19 @@ impl Tracer<'_> {
             let wo_local = frame.to_local(-ray.dir);
             if !bsdf.is_delta() {
                 let beta = beta0 * throughput;
+                // Rough glass: its multiply scattered light by a one-walk estimate, seeded here so
+                // that the sampler's dimensions do not depend on whether the camera is visible.
+                let mut walk = bsdf.has_multiple_scattering().then(|| {
+                    let (a, b) = (ctx.sampler.get_1d(Dim::Other), ctx.sampler.get_1d(Dim::Other));
+                    Pcg32::seed_from_u64(u64::from(a.to_bits()) << 32 | u64::from(b.to_bits()))
+                });
                 self.connect(&hit, &mut ctx, shadow, out, |wc| {
                     let wc_local = frame.to_local(wc);
-                    beta * bsdf.eval(wo_local, wc_local, TransportMode::Importance) * wc_local.z.abs()
+                    let mut f = bsdf.eval(wo_local, wc_local, TransportMode::Importance);
+                    if let Some(rng) = walk.as_mut() {
+                        f += bsdf.eval_multiple(wo_local, wc_local, TransportMode::Importance, rng);
+                    }
+                    beta * f * wc_local.z.abs()
                 });
             }
             if depth >= self.params.max_depth {

@@ -162,7 +162,7 @@ pub(super) fn trace(
             let u = ctx.sampler.get_2d(Dim::Bsdf);
             if let Some(s) = lobe.sample(frame.to_local(wo), u).filter(|s| s.pdf > 0.0) {
                 let wi = frame.to_world(s.wi);
-                l += follow(wi, s.f * (s.wi.z.abs() / s.pdf), seg.absorption, s.is_specular, ctx);
+                l += follow(wi, s.f * (s.wi.z.abs() / s.pdf), seg.absorption, !s.is_evaluable(), ctx);
             }
         }
         Bsdf::Mirror { color, .. } => {
@@ -184,7 +184,7 @@ pub(super) fn trace(
                 {
                     let wi = frame.to_world(s.wi);
                     let medium = if s.is_transmission { c.transmitted } else { c.incident };
-                    l += follow(wi, s.f * (s.wi.z.abs() / s.pdf), medium.absorption, s.is_specular, ctx);
+                    l += follow(wi, s.f * (s.wi.z.abs() / s.pdf), medium.absorption, !s.is_evaluable(), ctx);
                 }
             } else {
                 let transmitted = refract(wo, n, c.n_t / c.n_i);

@@ -51,6 +51,7 @@ impl Lambert {
             f: self.albedo * FRAC_1_PI,
             pdf: wi.z.abs() / PI,
             is_specular: false,
+            is_multiple: false,
             is_transmission: false,
             eta: 1.0,
         })

@@ -119,14 +119,36 @@ impl TrowbridgeReitz {
         self.g1_over_cos(w) * cos_wm * self.d(wm)
     }
 
+    /// Density of the upward-facing normals (wm.z > 0) visible from any `w`, including from below
+    /// the mean surface as inside a microsurface: max(0, w·wm) D(wm) / A(w), with the projected
+    /// visible area A(w) = cos θw (1 + Λ) for w above and |cos θw| Λ(w) below (Heitz 2016, §4).
+    /// Zero where no facet is visible (w straight down, or horizontal).
+    pub fn d_visible_any(&self, w: Vec3, wm: Vec3) -> f32 {
+        let cos_wm = w.dot(wm);
+        if cos_wm <= 0.0 || w.z == 0.0 {
+            return 0.0;
+        }
+        let lambda = self.lambda(w);
+        let area = if w.z > 0.0 { w.z * (1.0 + lambda) } else { -w.z * lambda };
+        if area > 0.0 && area.is_finite() {
+            cos_wm * self.d(wm) / area
+        } else {
+            0.0
+        }
+    }
+
     /// A normal drawn from [`d_visible`](Self::d_visible)(w, ·) (Heitz 2018, "Sampling the GGX
     /// distribution of visible normals"); `w` below the surface is flipped to `-w` first, so the
     /// result always has wm.z > 0 and faces the flipped `w`.
     pub fn sample_visible(&self, w: Vec3, u: Vec2) -> Vec3 {
-        let w = if w.z < 0.0 { -w } else { w };
-        // In the stretched space where the distribution becomes the unit-roughness one, the
-        // visible normals are the visible half of a unit sphere, uniformly distributed in its
-        // projection onto the plane perpendicular to the (stretched) view direction.
+        self.sample_visible_any(if w.z < 0.0 { -w } else { w }, u)
+    }
+
+    /// A normal drawn from [`d_visible_any`](Self::d_visible_any)(w, ·) for any `w`, also from
+    /// below the mean surface: Heitz's projection of the hemisphere holds for every direction
+    /// (with cos θw < 0 the warp keeps the part of the disk between the equator's ellipse and the
+    /// rim, which is what a ray travelling upwards sees).
+    pub fn sample_visible_any(&self, w: Vec3, u: Vec2) -> Vec3 {
         let v = Vec3::new(self.alpha_x * w.x, self.alpha_y * w.y, w.z).normalize();
         let tangent_len2 = v.x * v.x + v.y * v.y;
         let t1 = if tangent_len2 > 0.0 { Vec3::new(-v.y, v.x, 0.0) / tangent_len2.sqrt() } else { Vec3::X };
@@ -159,7 +181,9 @@ pub(crate) mod tests {
     /// Polar angles of `w` in degrees; 135° is below the surface (the flipped case).
     const VNDF_THETAS: [f32; 4] = [0.0, 45.0, 89.0, 135.0];
     /// Number of chi-square cases run here (counted in the Šidák correction).
-    pub(crate) const CHI2_CASES: usize = VNDF_ALPHAS.len() * VNDF_THETAS.len();
+    /// Directions below the mean surface for [`TrowbridgeReitz::sample_visible_any`].
+    const BELOW_THETAS: [f32; 2] = [100.0, 150.0];
+    pub(crate) const CHI2_CASES: usize = VNDF_ALPHAS.len() * (VNDF_THETAS.len() + BELOW_THETAS.len());
 
     /// Distributions wide enough for the quadrature of [`chi2::integrate_sphere`] to resolve.
     fn distributions() -> Vec<TrowbridgeReitz> {
@@ -197,6 +221,24 @@ pub(crate) mod tests {
                 let w = direction(theta, 0.7);
                 let mass = chi2::integrate_sphere(|wm| dist.d_visible(w, wm));
                 assert!((mass - 1.0).abs() < 2e-3, "{dist:?} θ {theta}: {mass}");
+            }
+        }
+    }
+
+    #[test]
+    fn visible_normal_density_from_below_is_normalised() {
+        for dist in distributions() {
+            for theta in [90.5f32, 100.0, 135.0, 170.0, 179.0] {
+                let w = direction(theta, 0.7);
+                let mass = chi2::integrate_sphere(|wm| dist.d_visible_any(w, wm));
+                assert!((mass - 1.0).abs() < 2e-3, "{dist:?} θ {theta}: {mass}");
+                // Above the surface it is the ordinary visible-normal density.
+                let up = direction(180.0 - theta, 0.7);
+                let wm = Vec3::new(0.1, -0.2, 1.0).normalize();
+                assert!(
+                    (dist.d_visible_any(up, wm) - dist.d_visible(up, wm)).abs()
+                        <= 1e-4 * dist.d_visible(up, wm)
+                );
             }
         }
     }
@@ -249,6 +291,13 @@ pub(crate) mod tests {
                     .seed((k * VNDF_THETAS.len() + l) as u64)
                     .run(|_, u| Some(dist.sample_visible(w, u)), |wm| dist.d_visible(w, wm));
                 results.push((format!("vndf α=({ax},{ay}) θ={theta}°"), outcome));
+            }
+            for (l, theta) in BELOW_THETAS.into_iter().enumerate() {
+                let w = direction(theta, 0.6);
+                let outcome = chi2::ChiSquare::default()
+                    .seed(1000 + (k * BELOW_THETAS.len() + l) as u64)
+                    .run(|_, u| Some(dist.sample_visible_any(w, u)), |wm| dist.d_visible_any(w, wm));
+                results.push((format!("vndf from below α=({ax},{ay}) θ={theta}°"), outcome));
             }
         }
         assert_eq!(results.len(), CHI2_CASES);

@@ -14,6 +14,7 @@
 
 pub mod lambert;
 pub mod microfacet;
+pub mod microsurface;
 pub mod model;
 pub mod rough_conductor;
 pub mod rough_dielectric;
@@ -73,6 +74,9 @@ pub struct BsdfSample {
     pub pdf: f32,
     /// True for a delta lobe (perfect mirror or perfect refraction): `eval`/`pdf` cannot reproduce it.
     pub is_specular: bool,
+    /// True for light that a rough dielectric scattered between several facets: like a delta
+    /// sample, `eval`/`pdf` do not include it, so only its weight f·|cos θi|/pdf is meaningful.
+    pub is_multiple: bool,
     /// True when `wi` lies on the other side of the surface from `wo`.
     pub is_transmission: bool,
     /// Relative index crossed, n(side of `wi`) / n(side of `wo`); 1 for reflection.
@@ -84,6 +88,13 @@ impl BsdfSample {
     #[inline]
     pub fn weight(&self) -> Vec3 {
         self.f * (self.wi.z.abs() / self.pdf)
+    }
+
+    /// Whether `eval` and `pdf` reproduce this sample, so that it can take part in multiple
+    /// importance sampling (false for delta and multiply scattered samples).
+    #[inline]
+    pub fn is_evaluable(&self) -> bool {
+        !self.is_specular && !self.is_multiple
     }
 }
 

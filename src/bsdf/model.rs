@@ -4,6 +4,7 @@
 use super::{BsdfSample, Lambert, RoughConductor, RoughDielectric, TransportMode, TrowbridgeReitz};
 use crate::material::{Bsdf, Material};
 use glam::{Vec2, Vec3};
+use rand::Rng;
 
 /// A material's BSDF at one point, in the local frame of the surface's geometric normal (the
 /// `outside` side is +Z).
@@ -43,12 +44,27 @@ impl Scattering {
         }
     }
 
-    /// The BSDF value for the local directions `wo`, `wi`.
+    /// The BSDF value for the local directions `wo`, `wi` (for rough glass, its single scattering).
     pub fn eval(&self, wo: Vec3, wi: Vec3, mode: TransportMode) -> Vec3 {
         match self {
             Scattering::Diffuse(m) => m.eval(wo, wi),
             Scattering::Conductor(m) => m.eval(wo, wi),
             Scattering::Dielectric(m) => m.eval(wo, wi, mode),
+        }
+    }
+
+    /// Whether `eval` leaves out part of the scattering (rough glass's light scattered between
+    /// several facets), which [`eval_multiple`](Self::eval_multiple) then estimates.
+    pub fn has_multiple_scattering(&self) -> bool {
+        matches!(self, Scattering::Dielectric(d) if !d.is_specular())
+    }
+
+    /// An unbiased estimate of the scattering that `eval` leaves out (zero for every model but
+    /// rough glass), drawn with `rng`.
+    pub fn eval_multiple<R: Rng>(&self, wo: Vec3, wi: Vec3, mode: TransportMode, rng: &mut R) -> Vec3 {
+        match self {
+            Scattering::Dielectric(m) => m.eval_multiple(wo, wi, mode, rng),
+            _ => Vec3::ZERO,
         }
     }
 

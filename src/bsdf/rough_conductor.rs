@@ -70,6 +70,7 @@ impl RoughConductor {
                 f: self.reflectance / wi.z.abs(),
                 pdf: 1.0,
                 is_specular: true,
+                is_multiple: false,
                 is_transmission: false,
                 eta: 1.0,
             });
@@ -85,7 +86,15 @@ impl RoughConductor {
             return None;
         }
         let f = self.reflectance * (dist.d(wm) * dist.g(wo, wi) / (4.0 * wo.z.abs() * wi.z.abs()));
-        Some(BsdfSample { wi, f, pdf, is_specular: false, is_transmission: false, eta: 1.0 })
+        Some(BsdfSample {
+            wi,
+            f,
+            pdf,
+            is_specular: false,
+            is_multiple: false,
+            is_transmission: false,
+            eta: 1.0,
+        })
     }
 }
 
