@@ -93,7 +93,8 @@ fn straight_crossing_reflectance(cos: f32, n_i: f32, n_t: f32, constant: Option<
 }
 
 /// Fraction of the light at `target` that reaches the surface point `from` (0 if blocked).
-/// `light` is the emitter's light index, which does not block its own light.
+/// `light` is the emitter's light index: the ray ends on reaching it, but its surface blocks
+/// targets behind it (the far side of an emissive ball).
 pub fn transmittance(
     scene: &Scene,
     from: &SurfaceHit,
@@ -123,7 +124,10 @@ pub fn transmittance(
         let Some(hit) = hit else {
             return t;
         };
-        if light.is_some() && scene.light_of(hit.primitive) == light {
+        // Reaching the light itself ends the ray; meeting it well before the target does not (a
+        // point on the far side of an emissive ball is hidden by its near side).
+        if light.is_some() && scene.light_of(hit.primitive) == light && hit.hit.t >= remaining * (1.0 - 1e-3)
+        {
             return t;
         }
         let ShadowMode::ThroughGlass { reflectance } = shadow.mode else {

@@ -104,6 +104,54 @@ fn closed_diffuse_sphere_around_a_point_light_is_uniformly_one() {
     assert_everywhere(&mean, &error, 1.0, "point light in a sphere");
 }
 
+#[test]
+fn emissive_ball_lights_the_floor_as_the_closed_form() {
+    // A ball of radius r and radiance L whose centre is d above a floor of albedo ρ gives the
+    // point below it the irradiance π L (r/d)², so the floor's radiance is ρ L (r/d)². The ball is
+    // black, so there is no interreflection, and the camera sees only a 1° patch of floor. A
+    // point sampled on the far half of the ball is hidden by its near half: counting it made the
+    // ball twice as bright.
+    let scene = load_str(
+        r#"
+[camera]
+position = [0.0, 0.5, 0.0]
+look_at = [0.0, 0.0, 0.0]
+up = [0.0, 0.0, 1.0]
+fov = 1.0
+resolution = [8, 8]
+[render]
+background = 0.0
+[materials.floor]
+type = "diffuse"
+color = 0.5
+[materials.lamp]
+type = "diffuse"
+color = 0.0
+emission = 1.0
+[[objects]]
+shape = "quad"
+corner = [-5.0, 0.0, -5.0]
+u = [0.0, 0.0, 10.0]
+v = [10.0, 0.0, 0.0]
+material = "floor"
+[[objects]]
+shape = "sphere"
+center = [0.0, 1.0, 0.0]
+radius = 0.25
+material = "lamp"
+"#,
+        "emissive-ball",
+        None,
+    )
+    .unwrap();
+    let expected = 0.5 * 0.25f32.powi(2);
+    for integrator in ["path", "distributed"] {
+        let (mean, error) = mean_and_error(&scene, integrator, 64, 16);
+        // The patch spans ±0.0044 around the axis: the closed form varies by < 1e-4 over it.
+        assert_everywhere(&mean, &error, expected, &format!("{integrator}: floor under an emissive ball"));
+    }
+}
+
 /// A floor just past the focus of a glass ball lens (f = nR / 2(n − 1) = 0.45 from its centre),
 /// lit by a small area light, seen from between the ball and the floor.
 const CAUSTIC: &str = r#"

@@ -20,7 +20,7 @@ pub mod rough_conductor;
 pub mod rough_dielectric;
 
 #[cfg(test)]
-mod chi2;
+pub(crate) mod chi2;
 
 pub use lambert::Lambert;
 pub use microfacet::TrowbridgeReitz;
