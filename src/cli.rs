@@ -1,4 +1,5 @@
-//! The `vitrum` command line: `render`, `info`, `integrators`.
+//! The `vitrum` command line: `render`, `info`, `integrators`, `export`, and the research commands
+//! of [`crate::commands`] (`diff`, `converge`, `compare`).
 //!
 //! Exit codes: 0 success; 2 bad input (options, scene file, image file) with a message naming
 //! the problem; 1 any other failure.
@@ -38,6 +39,12 @@ pub enum Command {
     Integrators,
     /// Write the scene for another renderer (Mitsuba 3 XML), to render the same scene there.
     Export(ExportArgs),
+    /// Error metrics of an EXR image against a reference, and an optional false-colour error map.
+    Diff(crate::commands::diff::DiffArgs),
+    /// Render progressively and record error against samples and seconds at every power of two.
+    Converge(Box<crate::commands::converge::ConvergeArgs>),
+    /// Render with several methods at equal time (or samples): a figure and a table.
+    Compare(Box<crate::commands::compare::CompareArgs>),
 }
 
 /// Options of `vitrum render`.
@@ -167,7 +174,8 @@ impl CliError {
     }
 }
 
-fn parse_resolution(s: &str) -> Result<(u32, u32), String> {
+/// Parses `WIDTHxHEIGHT` within the renderer's size limits.
+pub fn parse_resolution(s: &str) -> Result<(u32, u32), String> {
     let (w, h) =
         s.split_once(['x', 'X']).ok_or_else(|| format!("`{s}` is not WIDTHxHEIGHT, e.g. 800x800"))?;
     let parse =
@@ -195,6 +203,9 @@ pub fn main() -> i32 {
         Command::Render(args) => run_render(&args),
         Command::Info(args) => run_info(&args),
         Command::Export(args) => run_export(&args),
+        Command::Diff(args) => crate::commands::diff::run(&args),
+        Command::Converge(args) => crate::commands::converge::run(&args),
+        Command::Compare(args) => crate::commands::compare::run(&args),
         Command::Integrators => {
             for i in integrators::all() {
                 println!("{:<12} {}", i.name(), i.description());
@@ -220,7 +231,8 @@ pub fn load_scene(path: Option<&Path>) -> Result<Scene, CliError> {
     }
 }
 
-fn integrator_named(name: &str) -> Result<Box<dyn Integrator>, CliError> {
+/// The integrator called `name`, or a bad-input error listing the known ones.
+pub fn integrator_named(name: &str) -> Result<Box<dyn Integrator>, CliError> {
     integrators::create(name).ok_or_else(|| {
         CliError::BadInput(format!("unknown integrator `{name}`; known: {}", integrators::names().join(", ")))
     })
@@ -229,8 +241,23 @@ fn integrator_named(name: &str) -> Result<Box<dyn Integrator>, CliError> {
 /// Most worker threads a render may ask for.
 const MAX_THREADS: usize = 1024;
 
+/// A worker pool with `threads` threads (all cores when `None`), refusing 0 and absurd counts.
+pub fn thread_pool(threads: Option<usize>) -> Result<rayon::ThreadPool, CliError> {
+    match threads {
+        Some(0) => return Err(CliError::BadInput("--threads 0: at least one thread".into())),
+        Some(n) if n > MAX_THREADS => {
+            return Err(CliError::BadInput(format!("--threads {n}: at most {MAX_THREADS}")));
+        }
+        _ => {}
+    }
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads.unwrap_or(0))
+        .build()
+        .map_err(|e| CliError::Failure(format!("cannot start worker threads: {e}")))
+}
+
 /// Check that an output file can be created before spending time on a render.
-fn check_output_path(path: &Path, extension: &str) -> Result<(), CliError> {
+pub fn check_output_path(path: &Path, extension: &str) -> Result<(), CliError> {
     if path.is_dir() {
         return Err(CliError::BadInput(format!("{}: is a folder, not a file", path.display())));
     }
@@ -343,17 +370,7 @@ fn run_render(args: &RenderArgs) -> Result<(), CliError> {
         check_output_path(png, "png")?;
     }
     check_effects(&scene, integrator.as_ref(), &opts, args.strict)?;
-    match args.threads {
-        Some(0) => return Err(CliError::BadInput("--threads 0: at least one thread".into())),
-        Some(n) if n > MAX_THREADS => {
-            return Err(CliError::BadInput(format!("--threads {n}: at most {MAX_THREADS}")));
-        }
-        _ => {}
-    }
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(args.threads.unwrap_or(0))
-        .build()
-        .map_err(|e| CliError::Failure(format!("cannot start worker threads: {e}")))?;
+    let pool = thread_pool(args.threads)?;
 
     let bar = (!args.quiet && std::io::stderr().is_terminal()).then(|| {
         let bar = indicatif::ProgressBar::new(render::camera_for(&scene, opts.resolution).height as u64);

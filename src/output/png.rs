@@ -60,7 +60,7 @@ pub fn stage_grey_png(
 }
 
 /// Stage packed RGB8 bytes as a PNG file.
-fn stage_rgb8(path: &Path, width: usize, height: usize, bytes: &[u8]) -> Result<Staged, OutputError> {
+pub fn stage_rgb8(path: &Path, width: usize, height: usize, bytes: &[u8]) -> Result<Staged, OutputError> {
     let too_big = || OutputError::format(path, "image too large for PNG");
     let width = u32::try_from(width).map_err(|_| too_big())?;
     let height = u32::try_from(height).map_err(|_| too_big())?;

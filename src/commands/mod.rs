@@ -1,0 +1,120 @@
+//! The research commands beyond `render`: `diff` (error metrics), `converge` (error against samples
+//! and seconds) and `compare` (equal-time figures and tables). Each lives in its own module with
+//! its clap arguments and a `run` function; [`crate::cli`] dispatches to them.
+
+pub mod compare;
+pub mod converge;
+pub mod diff;
+
+use crate::cli::{integrator_named, CliError};
+use crate::integrators::{self, Integrator, RenderParams};
+use crate::render::{Budget, RenderOptions};
+use crate::scene::compile::{MAX_DEPTH, MAX_PIXELS};
+use crate::scene::Scene;
+
+/// Render options shared by the sweeps (`converge`, `compare`); the scene file gives the rest.
+#[derive(clap::Args, Debug, Clone, Default)]
+pub struct SweepArgs {
+    /// Image size, e.g. 400x300 (default from the scene file).
+    #[arg(long, value_parser = crate::cli::parse_resolution)]
+    pub resolution: Option<(u32, u32)>,
+    /// Seed of the random streams (default from the scene file).
+    #[arg(long)]
+    pub seed: Option<u64>,
+    /// Maximum depth for every method (default: each method's own, or the scene file's).
+    #[arg(long, value_parser = clap::value_parser!(u32).range(0..=MAX_DEPTH as i64))]
+    pub max_depth: Option<u32>,
+    /// Worker threads (default: all cores).
+    #[arg(long, allow_negative_numbers = true)]
+    pub threads: Option<usize>,
+}
+
+impl SweepArgs {
+    /// The options for rendering `scene` with `integrator` under `budget`.
+    pub fn options(&self, scene: &Scene, integrator: &dyn Integrator, budget: Budget) -> RenderOptions {
+        let s = &scene.settings;
+        RenderOptions {
+            budget,
+            resolution: self.resolution,
+            seed: self.seed.unwrap_or(s.seed),
+            params: RenderParams {
+                max_depth: self.max_depth.or(s.max_depth).unwrap_or(integrator.default_max_depth()),
+                reflectance: s.reflectance,
+                ssaa: s.ssaa,
+            },
+            spectral: s.spectral,
+            sampler: s.sampler,
+        }
+    }
+
+    /// A worker pool with the requested number of threads.
+    pub fn pool(&self) -> Result<rayon::ThreadPool, CliError> {
+        crate::cli::thread_pool(self.threads)
+    }
+}
+
+/// The integrators named in a comma-separated list, or every one for `all`.
+pub fn parse_integrators(list: &str) -> Result<Vec<Box<dyn Integrator>>, CliError> {
+    if list.trim() == "all" {
+        return Ok(integrators::all());
+    }
+    let names: Vec<&str> = list.split(',').map(str::trim).filter(|n| !n.is_empty()).collect();
+    if names.is_empty() {
+        return Err(CliError::BadInput(format!(
+            "-i `{list}`: name at least one integrator ({}), or `all`",
+            integrators::names().join(", ")
+        )));
+    }
+    names.into_iter().map(integrator_named).collect()
+}
+
+/// A crop rectangle `X,Y,W,H` in pixels from the top-left corner.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct CropArg {
+    /// Left edge.
+    pub x: usize,
+    /// Top edge.
+    pub y: usize,
+    /// Width.
+    pub width: usize,
+    /// Height.
+    pub height: usize,
+}
+
+/// Parses `X,Y,W,H` (whole pixels, W and H at least 1).
+pub fn parse_crop(s: &str) -> Result<CropArg, String> {
+    let parts: Vec<&str> = s.split(',').map(str::trim).collect();
+    if parts.len() != 4 {
+        return Err(format!("`{s}` is not X,Y,W,H, e.g. 100,120,64,64"));
+    }
+    let mut v = [0usize; 4];
+    for (slot, p) in v.iter_mut().zip(&parts) {
+        *slot = p.parse().map_err(|_| format!("`{p}` in `{s}` is not a whole number of pixels"))?;
+    }
+    if v[2] == 0 || v[3] == 0 || (v[2] as u64) * (v[3] as u64) > MAX_PIXELS {
+        return Err(format!("`{s}`: width and height must be at least 1 and the area at most {MAX_PIXELS}"));
+    }
+    Ok(CropArg { x: v[0], y: v[1], width: v[2], height: v[3] })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn crops_parse_and_bad_ones_are_refused() {
+        assert_eq!(parse_crop("1, 2,3,4"), Ok(CropArg { x: 1, y: 2, width: 3, height: 4 }));
+        for bad in ["1,2,3", "1,2,0,4", "a,2,3,4", "-1,2,3,4", "1,2,3,4,5"] {
+            assert!(parse_crop(bad).is_err(), "{bad}");
+        }
+    }
+
+    #[test]
+    fn integrator_lists() {
+        assert_eq!(parse_integrators("all").unwrap().len(), integrators::all().len());
+        let two = parse_integrators("path, light").unwrap();
+        assert_eq!(two.iter().map(|i| i.name()).collect::<Vec<_>>(), ["path", "light"]);
+        assert!(parse_integrators("path,nope").is_err());
+        assert!(parse_integrators(" , ").is_err());
+    }
+}
