@@ -74,16 +74,24 @@
 //! buffer, and the buffers are merged into an f64 film in chunk order, so the image is
 //! bit-identical at any thread count. Chunks are traced in batches of a few per thread and each
 //! batch is merged while the next one is traced, so memory stays bounded.
+//!
+//! # Sample indices: progressive rendering and variance
+//! Sample index `s` is the `w·h` paths `s·w·h .. (s+1)·w·h` (chunks never straddle two), and the
+//! film is summed in path order whatever the ranges asked for, so rendering the sample indices
+//! `0..a` and then `a..b` gives the bits of `0..b` at once ([`crate::render::Accumulate`]). The
+//! splats of one sample index form one image, an unbiased estimate on its own; the spread of
+//! these `spp` batch images gives each pixel's variance (none with a single sample index).
 
 use super::{Integrator, PathContext, RenderParams, DEFAULT_PATH_DEPTH};
 use crate::bsdf::lambert::cosine_hemisphere;
 use crate::bsdf::{Frame, Scattering, TransportMode};
 use crate::camera::{concentric_disk, Camera};
 use crate::geometry::{point_error, spawn_origin, Ray, SurfaceHit};
-use crate::image::Image;
 use crate::light::{uniform_sphere, EmitterShape, Light};
 use crate::lighting::{crossing, transmittance, ShadowMode, ShadowRays};
-use crate::render::{camera_for, Budget, CameraDims, RenderOptions, RenderOutput};
+use crate::render::{
+    camera_for, render_accumulated, Accumulate, CameraDims, Film, Progression, RenderOptions, RenderOutput,
+};
 use crate::sampler::{Dim, Sampler, SamplerKind};
 use crate::scene::effects::Support;
 use crate::scene::{Effect, Scene};
@@ -96,7 +104,6 @@ use rayon::prelude::*;
 use std::f32::consts::PI;
 use std::ops::Range;
 use std::sync::atomic::{AtomicU64, Ordering};
-use std::time::Instant;
 
 /// Light paths per chunk of work (the unit of determinism: splats are merged chunk by chunk).
 pub const CHUNK_PATHS: u64 = 1 << 12;
@@ -151,7 +158,33 @@ impl Integrator for LightTracer {
         opts: &RenderOptions,
         progress: &(dyn Fn(u64, u64) + Sync),
     ) -> Option<RenderOutput> {
-        Some(render_light_paths(scene, self, opts, progress))
+        Some(render_accumulated(scene, self, opts, progress))
+    }
+
+    fn progression(&self) -> Progression<'_> {
+        Progression::Own(self)
+    }
+}
+
+impl Accumulate for LightTracer {
+    /// A film whose pixel estimate is the splat sum over `spp · A` (see the module documentation).
+    fn film(&self, scene: &Scene, opts: &RenderOptions) -> Film {
+        let tracer = Tracer::new(scene, self, opts);
+        let (w, h) = (tracer.camera.width as usize, tracer.camera.height as usize);
+        Film::new(w, h, film_area(&tracer.camera) as f64, tracer.dims.wavelength)
+    }
+
+    /// Sample index `s` is the `w·h` light paths `s·w·h .. (s+1)·w·h`; their splats are one
+    /// term of every pixel's sum and sum of squares.
+    fn add_samples(
+        &self,
+        scene: &Scene,
+        opts: &RenderOptions,
+        samples: Range<u32>,
+        film: &mut Film,
+        progress: &(dyn Fn(u64, u64) + Sync),
+    ) {
+        Tracer::new(scene, self, opts).trace_samples(samples, film, progress);
     }
 }
 
@@ -162,6 +195,8 @@ struct ChunkSplats {
     splats: Vec<(u32, Vec3)>,
     rays: RayCounts,
     non_finite: u64,
+    /// Whether the chunk holds the last paths of its sample index.
+    ends_sample: bool,
 }
 
 /// How a light path leaves its light.
@@ -186,61 +221,6 @@ struct Tracer<'a> {
     lights: Vec<usize>,
 }
 
-/// Render with light tracing: `spp × width × height` light paths (or 1-path-per-pixel passes
-/// until the time budget is spent).
-fn render_light_paths(
-    scene: &Scene,
-    integrator: &LightTracer,
-    opts: &RenderOptions,
-    progress: &(dyn Fn(u64, u64) + Sync),
-) -> RenderOutput {
-    let start = Instant::now();
-    let camera = camera_for(scene, opts.resolution);
-    let (w, h) = (camera.width as usize, camera.height as usize);
-    let tracer = Tracer {
-        scene,
-        params: &opts.params,
-        dims: CameraDims::resolve(scene, integrator, opts.spectral),
-        sampler: opts.sampler,
-        seed: opts.seed,
-        lights: (0..scene.lights.len())
-            .filter(|&i| !matches!(scene.lights[i], Light::Environment { .. }))
-            .collect(),
-        camera,
-    };
-    let pixels = (w * h) as u64;
-    let mut film = vec![DVec3::ZERO; w * h];
-    let mut rays = RayCounts::default();
-    let mut non_finite = 0;
-    let mut spp = 0u32;
-    match opts.budget {
-        Budget::Samples(n) => {
-            tracer.trace_range(0..n as u64 * pixels, &mut film, &mut rays, &mut non_finite, progress);
-            spp = n;
-        }
-        Budget::Time(limit) => loop {
-            let paths = spp as u64 * pixels..(spp as u64 + 1) * pixels;
-            tracer.trace_range(paths, &mut film, &mut rays, &mut non_finite, progress);
-            spp += 1;
-            if start.elapsed() >= limit {
-                break;
-            }
-        },
-    }
-    let scale = 1.0 / (spp.max(1) as f64 * film_area(&tracer.camera) as f64);
-    let image =
-        Image { width: w, height: h, pixels: film.into_iter().map(|s| (s * scale).as_vec3()).collect() };
-    RenderOutput {
-        image,
-        spp,
-        seconds: start.elapsed().as_secs_f64(),
-        rays,
-        non_finite_samples: non_finite,
-        spectral: tracer.dims.wavelength,
-        samples_per_pixel: None,
-    }
-}
-
 /// Area of the image plane at distance 1 from the pinhole: `(2·tan(fov/2))² · aspect`.
 fn film_area(camera: &Camera) -> f32 {
     // The same expression as the camera's own (private) tan_half_fov.
@@ -249,43 +229,69 @@ fn film_area(camera: &Camera) -> f32 {
     4.0 * tan_half_fov * tan_half_fov * aspect
 }
 
-/// Merge chunk buffers into the film in their order.
-fn merge(film: &mut [DVec3], chunks: Vec<ChunkSplats>, rays: &mut RayCounts, non_finite: &mut u64) {
+/// Merge chunk buffers into the film in their order; `batch` collects the current sample
+/// index's splats, whose squares go to the film when its last chunk is merged.
+fn merge(film: &mut Film, batch: &mut [DVec3], chunks: Vec<ChunkSplats>) {
     for chunk in chunks {
         for (pixel, value) in chunk.splats {
-            film[pixel as usize] += value.as_dvec3();
+            let v = value.as_dvec3();
+            film.sum[pixel as usize] += v;
+            batch[pixel as usize] += v;
         }
-        *rays += chunk.rays;
-        *non_finite += chunk.non_finite;
+        film.rays += chunk.rays;
+        film.non_finite += chunk.non_finite;
+        if chunk.ends_sample {
+            for (sq, b) in film.sum_sq.iter_mut().zip(batch.iter_mut()) {
+                *sq += *b * *b;
+                *b = DVec3::ZERO;
+            }
+        }
+    }
+}
+
+impl<'a> Tracer<'a> {
+    fn new(scene: &'a Scene, integrator: &LightTracer, opts: &'a RenderOptions) -> Tracer<'a> {
+        Tracer {
+            scene,
+            params: &opts.params,
+            camera: camera_for(scene, opts.resolution),
+            dims: CameraDims::resolve(scene, integrator, opts.spectral),
+            sampler: opts.sampler,
+            seed: opts.seed,
+            lights: (0..scene.lights.len())
+                .filter(|&i| !matches!(scene.lights[i], Light::Environment { .. }))
+                .collect(),
+        }
     }
 }
 
 impl Tracer<'_> {
-    /// Trace the paths `paths` in fixed chunks, merging the chunks' splats into `film` in order.
-    fn trace_range(
-        &self,
-        paths: Range<u64>,
-        film: &mut [DVec3],
-        rays: &mut RayCounts,
-        non_finite: &mut u64,
-        progress: &(dyn Fn(u64, u64) + Sync),
-    ) {
-        let chunks: Vec<Range<u64>> = (paths.start..paths.end)
-            .step_by(CHUNK_PATHS as usize)
-            .map(|s| s..(s + CHUNK_PATHS).min(paths.end))
-            .collect();
+    /// Trace the paths of the sample indices `samples` in fixed chunks (never straddling two
+    /// sample indices), merging the chunks' splats into `film` in order.
+    fn trace_samples(&self, samples: Range<u32>, film: &mut Film, progress: &(dyn Fn(u64, u64) + Sync)) {
+        let pixels = self.camera.width as u64 * self.camera.height as u64;
+        let mut chunks: Vec<(Range<u64>, bool)> = Vec::new();
+        for s in samples {
+            let (start, end) = (s as u64 * pixels, (s as u64 + 1) * pixels);
+            for c in (start..end).step_by(CHUNK_PATHS as usize) {
+                let stop = (c + CHUNK_PATHS).min(end);
+                chunks.push((c..stop, stop == end));
+            }
+        }
         let total = chunks.len() as u64;
         let done = AtomicU64::new(0);
-        let batch = CHUNKS_PER_THREAD * rayon::current_num_threads().max(1);
+        let batch_size = CHUNKS_PER_THREAD * rayon::current_num_threads().max(1);
+        let mut batch = vec![DVec3::ZERO; pixels as usize];
         let mut pending: Option<Vec<ChunkSplats>> = None;
-        for group in chunks.chunks(batch) {
+        for group in chunks.chunks(batch_size) {
             // Trace this batch while the previous one is merged (in chunk order).
             let (traced, ()) = rayon::join(
                 || {
                     group
                         .par_iter()
-                        .map(|range| {
-                            let c = self.trace_chunk(range.clone());
+                        .map(|(range, ends_sample)| {
+                            let mut c = self.trace_chunk(range.clone());
+                            c.ends_sample = *ends_sample;
                             progress(done.fetch_add(1, Ordering::Relaxed) + 1, total);
                             c
                         })
@@ -293,14 +299,14 @@ impl Tracer<'_> {
                 },
                 || {
                     if let Some(p) = pending.take() {
-                        merge(film, p, rays, non_finite);
+                        merge(film, &mut batch, p);
                     }
                 },
             );
             pending = Some(traced);
         }
         if let Some(p) = pending {
-            merge(film, p, rays, non_finite);
+            merge(film, &mut batch, p);
         }
     }
 

@@ -15,7 +15,7 @@ pub use ssaa::{Ssaa, SsaaParams};
 pub use whitted::Whitted;
 
 use crate::geometry::Ray;
-use crate::render::{RenderOptions, RenderOutput};
+use crate::render::{Progression, RenderOptions, RenderOutput};
 use crate::sampler::Sampler;
 use crate::scene::effects::Support;
 use crate::scene::{Effect, Scene};
@@ -81,6 +81,11 @@ pub trait Integrator: Send + Sync {
         _progress: &(dyn Fn(u64, u64) + Sync),
     ) -> Option<RenderOutput> {
         None
+    }
+    /// How the method's image grows with the sample count (progressive rendering, per-pixel
+    /// variance); the default is the shared camera pass.
+    fn progression(&self) -> Progression<'_> {
+        Progression::CameraPass
     }
 }
 

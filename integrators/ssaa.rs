@@ -17,7 +17,7 @@ use super::{Integrator, PathContext, RenderParams};
 use crate::camera::Camera;
 use crate::geometry::Ray;
 use crate::image::Image;
-use crate::render::{camera_for, RenderOptions, RenderOutput};
+use crate::render::{camera_for, Progression, RenderOptions, RenderOutput};
 use crate::sampler::Sampler;
 use crate::scene::effects::Support;
 use crate::scene::{Effect, Scene};
@@ -169,7 +169,15 @@ impl Integrator for Ssaa {
             non_finite_samples: non_finite,
             spectral: false,
             samples_per_pixel: Some(counts),
+            // A fixed pattern (grid or contrast-driven subdivision): no sample variance.
+            variance: None,
         })
+    }
+
+    fn progression(&self) -> Progression<'_> {
+        Progression::Fixed(
+            "its sample pattern is set by --ssaa-mode/--ssaa-grid/--ssaa-levels, not by a sample count",
+        )
     }
 }
 

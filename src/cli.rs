@@ -5,7 +5,7 @@
 //! the problem; 1 any other failure.
 
 use crate::integrators::{self, Integrator, RenderParams};
-use crate::output::exr::{stage_exr, ExrMetadata};
+use crate::output::exr::{stage_exr_with_channels, variance_channels, ExrMetadata};
 use crate::output::png::stage_png;
 use crate::output::Staged;
 use crate::render::{self, Budget, RenderOptions, RenderOutput};
@@ -115,6 +115,10 @@ pub struct RenderArgs {
     /// Write the number of camera samples per pixel as a grey-scale PNG (white = the most).
     #[arg(long)]
     pub density_map: Option<PathBuf>,
+    /// Add the variance of each pixel's estimate (`variance.R`, `variance.G`, `variance.B`) and
+    /// its sample count (`samples`) as extra EXR channels; needs at least 2 samples per pixel.
+    #[arg(long)]
+    pub variance: bool,
 }
 
 /// Options of `vitrum info`.
@@ -281,7 +285,7 @@ pub fn check_output_path(path: &Path, extension: &str) -> Result<(), CliError> {
 
 /// Warn about (or, when `strict`, refuse) effects the integrator does not simulate; dispersion
 /// counts as simulated whenever the render traces wavelengths.
-fn check_effects(
+pub fn check_effects(
     scene: &Scene,
     integrator: &dyn Integrator,
     opts: &RenderOptions,
@@ -370,6 +374,17 @@ fn run_render(args: &RenderArgs) -> Result<(), CliError> {
         check_output_path(png, "png")?;
     }
     check_effects(&scene, integrator.as_ref(), &opts, args.strict)?;
+    if args.variance {
+        if let render::Progression::Fixed(why) = integrator.progression() {
+            return Err(CliError::BadInput(format!(
+                "--variance: `{}` renders a fixed sample pattern ({why}); it has no sample variance",
+                integrator.name()
+            )));
+        }
+        if opts.budget == Budget::Samples(1) {
+            return Err(CliError::BadInput("--variance needs at least 2 samples per pixel (--spp 2)".into()));
+        }
+    }
     let pool = thread_pool(args.threads)?;
 
     let bar = (!args.quiet && std::io::stderr().is_terminal()).then(|| {
@@ -405,7 +420,22 @@ fn run_render(args: &RenderArgs) -> Result<(), CliError> {
     };
     // Encode every output first and publish them together: a failure leaves none behind.
     let failure = |e: crate::output::OutputError| CliError::Failure(e.to_string());
-    let mut staged = vec![stage_exr(&args.output, &out.image, &meta).map_err(failure)?];
+    let extra = match (&out.variance, args.variance) {
+        (Some(variance), true) => {
+            let counts =
+                out.samples_per_pixel.clone().unwrap_or_else(|| vec![out.spp as f32; variance.pixels.len()]);
+            variance_channels(variance, &counts)
+        }
+        (None, true) => {
+            eprintln!(
+                "vitrum: warning: --variance: no variance after {} sample(s) per pixel; none written",
+                out.spp
+            );
+            Vec::new()
+        }
+        (_, false) => Vec::new(),
+    };
+    let mut staged = vec![stage_exr_with_channels(&args.output, &out.image, &meta, &extra).map_err(failure)?];
     if let Some(png) = &args.png {
         let exposure = args.exposure.unwrap_or(scene.settings.exposure);
         staged.push(stage_png(png, &out.image, exposure).map_err(failure)?);
@@ -435,6 +465,7 @@ fn stage_density_map(path: &Path, out: &RenderOutput) -> Result<Staged, crate::o
 /// Print the one-line summary (or the JSON object).
 fn report(args: &RenderArgs, scene: &Scene, integrator: &str, opts: &RenderOptions, out: &RenderOutput) {
     let mrays = out.rays.total() as f64 / out.seconds.max(1e-9) / 1e6;
+    let noise = out.noise();
     if args.json {
         let summary = json!({
             "integrator": integrator,
@@ -463,13 +494,20 @@ fn report(args: &RenderArgs, scene: &Scene, integrator: &str, opts: &RenderOptio
                        "max": c.iter().copied().fold(0.0f32, f32::max)})
             }),
             "effects": scene.effects.names(),
+            // The reference-free noise estimate (see `render`'s module documentation).
+            "noise": noise.map(|n| json!({
+                "std_error": n.std_error,
+                "mse": n.mse,
+                "non_finite_pixels": n.non_finite,
+                "basis": noise_basis(integrator, opts, out),
+            })),
             "output": args.output,
             "png": args.png,
         });
         println!("{summary}");
     } else if !args.quiet {
         eprintln!(
-            "{integrator}: {}x{} at {} spp{} in {:.3} s, {} rays ({:.1} per pixel: primary {}, reflected {}, refracted {}, shadow {}), {:.2} Mrays/s -> {}",
+            "{integrator}: {}x{} at {} spp{} in {:.3} s, {} rays ({:.1} per pixel: primary {}, reflected {}, refracted {}, shadow {}), {:.2} Mrays/s, {} -> {}",
             out.image.width,
             out.image.height,
             out.spp,
@@ -482,8 +520,24 @@ fn report(args: &RenderArgs, scene: &Scene, integrator: &str, opts: &RenderOptio
             out.rays.refracted,
             out.rays.shadow,
             mrays,
+            match noise {
+                Some(n) => format!("std error {:.3e}", n.std_error),
+                None => "std error n/a".to_string(),
+            },
             args.output.display()
         );
+    }
+}
+
+/// What the noise estimate of a render rests on, for the JSON summary.
+fn noise_basis(integrator: &str, opts: &RenderOptions, out: &RenderOutput) -> String {
+    let n = out.spp;
+    if integrator == "light" {
+        format!("spread of {n} light-path batches (one per sample index, w·h paths each)")
+    } else if opts.sampler == SamplerKind::Stratified && matches!(opts.budget, Budget::Samples(_)) {
+        format!("variance of {n} stratified samples per pixel: an upper bound (stratification not credited)")
+    } else {
+        format!("variance of {n} independent samples per pixel")
     }
 }
 

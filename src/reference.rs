@@ -1,9 +1,30 @@
 //! High-sample reference renders for sweeps, cached on disk by scene content, settings and version.
+//!
+//! A reference is a `path` render. It is stored in the cache folder as an EXR file named after
+//! its resolution, sample count and a digest of its key, with a JSON sidecar holding the whole
+//! key: the scene's content hash, the resolution, spp, seed, maximum depth, the other render
+//! settings that change the image (Fresnel override, spectral mode, sampler) and the crate
+//! version. A later request with the same key reads the file back instead of rendering; a key
+//! that differs in anything, a missing or unreadable file, or one of another size is rendered
+//! anew and replaces it. Both files are written atomically, the EXR before its sidecar, so a
+//! reader never trusts a half-written reference. The content hash covers the scene file's text,
+//! not the mesh files it loads: after editing a mesh, clear the cache.
+//!
+//! The reference's random streams use [`reference_seed`] of the given seed, never the seed
+//! itself: a render judged against it with the same seed would otherwise share its first samples
+//! with the reference (with the independent sampler, exactly), and its error would look smaller
+//! than it is.
 
 use crate::image::Image;
-use crate::render::RenderOptions;
+use crate::output::exr::{read_exr, stage_exr, ExrMetadata};
+use crate::output::{write_atomically, OutputError};
+use crate::render::{camera_for, Budget, RenderOptions};
 use crate::scene::Scene;
+use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
+
+/// The cache folder used when none is given: `.vitrum-cache` in the working directory.
+pub const DEFAULT_CACHE_DIR: &str = ".vitrum-cache";
 
 /// A reference image and where it came from.
 #[derive(Clone, Debug)]
@@ -18,15 +39,211 @@ pub struct Reference {
     pub cached: bool,
 }
 
+/// Everything a cached reference depends on (the sidecar's contents).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ReferenceKey {
+    /// The integrator (always `path`).
+    pub integrator: String,
+    /// Content hash of the scene text.
+    pub scene_hash: String,
+    /// The scene's display name (informative; not part of the identity).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub scene: Option<String>,
+    /// Width in pixels.
+    pub width: u32,
+    /// Height in pixels.
+    pub height: u32,
+    /// Samples per pixel.
+    pub spp: u32,
+    /// The seed of the sweep (the reference itself uses [`reference_seed`] of it).
+    pub seed: u64,
+    /// Maximum depth.
+    pub max_depth: u32,
+    /// Constant dielectric reflectance, when set.
+    pub reflectance: Option<f32>,
+    /// Spectral mode (`Debug` form).
+    pub spectral: String,
+    /// Sampler name.
+    pub sampler: String,
+    /// The crate version that rendered it.
+    pub version: String,
+}
+
+impl ReferenceKey {
+    /// The key of the `path` reference of `scene` at `spp` with the options `opts`.
+    pub fn new(scene: &Scene, opts: &RenderOptions, spp: u32) -> ReferenceKey {
+        let camera = camera_for(scene, opts.resolution);
+        ReferenceKey {
+            integrator: "path".into(),
+            scene_hash: scene.origin.hash.clone(),
+            scene: Some(scene.origin.name.clone()),
+            width: camera.width,
+            height: camera.height,
+            spp,
+            seed: opts.seed,
+            max_depth: opts.params.max_depth,
+            reflectance: opts.params.reflectance,
+            spectral: format!("{:?}", opts.spectral),
+            sampler: opts.sampler.name().into(),
+            version: crate::VERSION.into(),
+        }
+    }
+
+    /// Whether two keys name the same reference (the display name may differ).
+    fn same(&self, other: &ReferenceKey) -> bool {
+        ReferenceKey { scene: None, ..self.clone() } == ReferenceKey { scene: None, ..other.clone() }
+    }
+
+    /// The file name without extension: readable settings and a digest of the whole key.
+    pub fn file_stem(&self) -> String {
+        let identity = ReferenceKey { scene: None, ..self.clone() };
+        let text = serde_json::to_string(&identity).expect("a key serialises");
+        format!("path-{}x{}-{}spp-{:016x}", self.width, self.height, self.spp, fnv1a(text.as_bytes()))
+    }
+}
+
+/// The seed of a reference's random streams for the sweep seed `seed` (see the module documentation).
+pub fn reference_seed(seed: u64) -> u64 {
+    seed ^ 0x7265_6665_7265_6e63 // "referenc"
+}
+
+/// 64-bit FNV-1a: a stable digest (unlike `std`'s hasher, the same in every Rust version).
+fn fnv1a(bytes: &[u8]) -> u64 {
+    bytes.iter().fold(0xcbf2_9ce4_8422_2325, |h, &b| (h ^ b as u64).wrapping_mul(0x0000_0100_0000_01b3))
+}
+
+/// The cached reference for `key` in `cache_dir`, when a valid one is there.
+fn read_cached(exr: &Path, sidecar: &Path, key: &ReferenceKey) -> Option<Image> {
+    let stored: ReferenceKey = serde_json::from_str(&std::fs::read_to_string(sidecar).ok()?).ok()?;
+    if !stored.same(key) {
+        return None;
+    }
+    let (image, _) = read_exr(exr).ok()?;
+    (image.width == key.width as usize && image.height == key.height as usize).then_some(image)
+}
+
 /// The `path` reference of `scene` at `spp` samples with the resolution, seed and depth of
 /// `opts`, read from `cache_dir` when an identical one was made before, otherwise rendered and
 /// stored there.
 pub fn path_reference(
-    _scene: &Scene,
-    _opts: &RenderOptions,
-    _spp: u32,
-    _cache_dir: &Path,
-    _progress: &(dyn Fn(u64, u64) + Sync),
-) -> Result<Reference, crate::output::OutputError> {
-    unimplemented!("under construction")
+    scene: &Scene,
+    opts: &RenderOptions,
+    spp: u32,
+    cache_dir: &Path,
+    progress: &(dyn Fn(u64, u64) + Sync),
+) -> Result<Reference, OutputError> {
+    let key = ReferenceKey::new(scene, opts, spp);
+    let stem = key.file_stem();
+    let exr = cache_dir.join(format!("{stem}.exr"));
+    let sidecar = cache_dir.join(format!("{stem}.json"));
+    if let Some(image) = read_cached(&exr, &sidecar, &key) {
+        return Ok(Reference { image, path: exr, spp, cached: true });
+    }
+
+    std::fs::create_dir_all(cache_dir).map_err(|e| OutputError::io(cache_dir, e))?;
+    let path = crate::integrators::create("path").expect("`path` is registered");
+    let opts =
+        RenderOptions { budget: Budget::Samples(spp), seed: reference_seed(opts.seed), ..opts.clone() };
+    let out = crate::render::render(scene, path.as_ref(), &opts, progress);
+    let meta = ExrMetadata {
+        version: crate::VERSION.to_string(),
+        integrator: "path".into(),
+        spp: out.spp,
+        seed: opts.seed,
+        render_time_seconds: out.seconds,
+        rays: out.rays,
+        scene: format!("{} ({})", scene.origin.name, scene.origin.hash),
+        effects: scene.effects.names(),
+    };
+    stage_exr(&exr, &out.image, &meta)?.commit()?;
+    let text = serde_json::to_string_pretty(&key).expect("a key serialises") + "\n";
+    write_atomically(&sidecar, |tmp| {
+        std::fs::write(tmp, text.as_bytes()).map_err(|e| OutputError::io(tmp, e))
+    })?;
+    Ok(Reference { image: out.image, path: exr, spp, cached: false })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::load_str;
+
+    const SCENE: &str = r#"
+[camera]
+position = [0.0, 0.0, 3.0]
+look_at = [0.0, 0.0, 0.0]
+fov = 40.0
+resolution = [8, 6]
+[render]
+integrator = "path"
+[materials.white]
+type = "diffuse"
+color = 0.5
+[[objects]]
+shape = "sphere"
+center = [0.0, 0.0, 0.0]
+radius = 1.0
+material = "white"
+[[lights]]
+type = "environment"
+radiance = 1.0
+"#;
+
+    fn bits(image: &Image) -> Vec<[u32; 3]> {
+        image.pixels.iter().map(|p| p.to_array().map(f32::to_bits)).collect()
+    }
+
+    #[test]
+    fn the_second_call_reads_the_cache_and_another_key_renders_again() {
+        let scene = load_str(SCENE, "ball", None).unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        let opts = RenderOptions::from_scene(&scene, 1);
+        let first = path_reference(&scene, &opts, 4, dir.path(), &|_, _| {}).unwrap();
+        assert!(!first.cached);
+        assert_eq!((first.image.width, first.image.height, first.spp), (8, 6, 4));
+        let again = path_reference(&scene, &opts, 4, dir.path(), &|_, _| {}).unwrap();
+        assert!(again.cached);
+        assert_eq!(again.path, first.path);
+        assert_eq!(bits(&again.image), bits(&first.image));
+
+        // Another seed, sample count, depth or resolution is another reference.
+        let changes: [&dyn Fn(&mut RenderOptions); 3] =
+            [&|o| o.seed += 1, &|o| o.params.max_depth = 2, &|o| o.resolution = Some((4, 4))];
+        for change in changes {
+            let mut other = opts.clone();
+            change(&mut other);
+            assert!(!path_reference(&scene, &other, 4, dir.path(), &|_, _| {}).unwrap().cached);
+        }
+        assert!(!path_reference(&scene, &opts, 8, dir.path(), &|_, _| {}).unwrap().cached);
+        // Another scene text (same name) is another reference.
+        let edited = load_str(&SCENE.replace("color = 0.5", "color = 0.6"), "ball", None).unwrap();
+        assert!(!path_reference(&edited, &opts, 4, dir.path(), &|_, _| {}).unwrap().cached);
+        // And the first key is still there.
+        assert!(path_reference(&scene, &opts, 4, dir.path(), &|_, _| {}).unwrap().cached);
+    }
+
+    #[test]
+    fn a_damaged_cache_entry_is_rendered_again() {
+        let scene = load_str(SCENE, "ball", None).unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        let opts = RenderOptions::from_scene(&scene, 1);
+        let first = path_reference(&scene, &opts, 2, dir.path(), &|_, _| {}).unwrap();
+        std::fs::write(&first.path, "not an EXR").unwrap();
+        let again = path_reference(&scene, &opts, 2, dir.path(), &|_, _| {}).unwrap();
+        assert!(!again.cached);
+        assert_eq!(bits(&again.image), bits(&first.image), "the same render again");
+        assert!(path_reference(&scene, &opts, 2, dir.path(), &|_, _| {}).unwrap().cached);
+    }
+
+    #[test]
+    fn file_names_show_the_settings_and_differ_by_key() {
+        let scene = load_str(SCENE, "ball", None).unwrap();
+        let opts = RenderOptions::from_scene(&scene, 1);
+        let key = ReferenceKey::new(&scene, &opts, 64);
+        assert!(key.file_stem().starts_with("path-8x6-64spp-"), "{}", key.file_stem());
+        let other = ReferenceKey { seed: key.seed + 1, ..key.clone() };
+        assert_ne!(key.file_stem(), other.file_stem());
+        let renamed = ReferenceKey { scene: Some("elsewhere.toml".into()), ..key.clone() };
+        assert_eq!(key.file_stem(), renamed.file_stem());
+    }
 }

@@ -1,8 +1,38 @@
-//! The camera-pass driver: every pixel's samples in parallel, deterministic at any thread count.
+//! The render drivers: the camera pass (every pixel's samples in parallel), the [`Film`] that
+//! sums sample indices, progressive rendering ([`Progressive`]) and the per-pixel variance, all
+//! deterministic at any thread count.
 //!
 //! A camera sample draws, in this order and only when the scene calls for the effect and the
 //! integrator simulates it: the position in the pixel, a point on the lens, a time in the
 //! shutter interval and a wavelength. Everything else is up to the integrator.
+//!
+//! # Films and progressive rendering
+//! A [`Film`] holds per pixel the f64 sums of the per-sample estimates and of their squares. The
+//! camera pass continues every pixel's sums sample index by sample index, in index order, and
+//! light tracing adds its `w·h` paths per sample index in path order; so adding the sample
+//! ranges `0..a` and then `a..b` gives the very bits of adding `0..b` at once. A progressive
+//! render reports the image after N samples without re-rendering anything, and that image *is*
+//! the plain N-sample render:
+//! - Stratification needs the sample count in advance, so progressive passes (like the passes
+//!   of a time budget) draw independent samples. A checkpoint at N ≥ 2 samples equals, bit for
+//!   bit, a plain N-sample render with the independent sampler (`--sampler independent`); a plain
+//!   1-sample render traces the pixel centres, a progressive first pass random points in them.
+//! - Light tracing's path streams do not depend on the count: its checkpoints equal plain renders
+//!   with either sampler.
+//!
+//! Which methods grow ([`Integrator::progression`]): the camera-pass methods (`raycast`,
+//! `whitted`, `distributed`, `path`; the deterministic ones converge to their own antialiased
+//! image) and `light`. `ssaa` renders one fixed pattern whatever the sample count
+//! ([`Progression::Fixed`]): a progressive render of it is that one image.
+//!
+//! # Variance
+//! The variance of a pixel's estimate (its squared standard error) is s²/n, with s² the unbiased
+//! variance of its n per-sample estimates: the camera samples of the pixel, or for light tracing
+//! the n images made by one sample index's `w·h` paths each (batches, independent of each other
+//! up to the 16-path strata of the stratified sampler that may straddle two batches). With the
+//! stratified camera sampler the samples of a pixel are not independent and s²/n overestimates
+//! the error (the gain of stratification is not seen): a conservative estimate. With fewer than
+//! two samples there is no estimate.
 
 use crate::camera::Camera;
 use crate::image::Image;
@@ -12,8 +42,9 @@ use crate::scene::effects::Support;
 use crate::scene::{Effect, Scene, SpectralMode};
 use crate::spectrum::sample_wavelength;
 use crate::stats::RayCounts;
-use glam::{Vec2, Vec3};
+use glam::{DVec3, Vec2, Vec3};
 use rayon::prelude::*;
+use std::ops::Range;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::{Duration, Instant};
 
@@ -25,7 +56,6 @@ pub enum Budget {
     /// Whole 1-sample passes until this much time has passed (at least one pass).
     Time(Duration),
 }
-
 /// Everything a render needs besides the scene and the integrator.
 #[derive(Clone, Debug)]
 pub struct RenderOptions {
@@ -80,8 +110,174 @@ pub struct RenderOutput {
     pub spectral: bool,
     /// Camera samples taken per pixel, when it varies (adaptive supersampling).
     pub samples_per_pixel: Option<Vec<f32>>,
+    /// Variance of each pixel's estimate per channel (its squared standard error); `None` when
+    /// it cannot be estimated (fewer than two samples, or a deterministic sample pattern).
+    pub variance: Option<Image>,
 }
 
+/// A noise estimate of a render that needs no reference, from its per-pixel variance.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Noise {
+    /// Mean over pixels and channels of the standard error of the pixel estimate.
+    pub std_error: f64,
+    /// Mean over pixels and channels of the variance of the estimate: the expected MSE against
+    /// the converged image (of an unbiased method).
+    pub mse: f64,
+    /// Pixels whose variance is NaN or infinite, left out of both means.
+    pub non_finite: usize,
+}
+
+impl RenderOutput {
+    /// The reference-free noise estimate, when the render has a per-pixel variance.
+    pub fn noise(&self) -> Option<Noise> {
+        let variance = self.variance.as_ref()?;
+        let (mut se, mut mse, mut count, mut non_finite) = (0.0f64, 0.0f64, 0usize, 0usize);
+        for v in &variance.pixels {
+            if !v.is_finite() {
+                non_finite += 1;
+                continue;
+            }
+            let v = v.as_dvec3();
+            se += v.x.sqrt() + v.y.sqrt() + v.z.sqrt();
+            mse += v.element_sum();
+            count += 3;
+        }
+        let n = count.max(1) as f64;
+        Some(Noise { std_error: se / n, mse: mse / n, non_finite })
+    }
+}
+
+/// The running sums of a render: what a progressive render carries from pass to pass.
+#[derive(Clone, Debug)]
+pub struct Film {
+    /// Width in pixels.
+    pub width: usize,
+    /// Height in pixels.
+    pub height: usize,
+    /// Per pixel, the sum over sample indices of the per-sample estimates (before `norm`).
+    pub sum: Vec<DVec3>,
+    /// Per pixel, the sum of their squares.
+    pub sum_sq: Vec<DVec3>,
+    /// Sample indices added so far (the driver advances it after each addition).
+    pub samples: u32,
+    /// A pixel's estimate is `sum / (samples · norm)`: 1 for the camera pass, the film area for
+    /// light tracing.
+    pub norm: f64,
+    /// Rays traced, by kind.
+    pub rays: RayCounts,
+    /// Samples (or light paths' splats) that were NaN or infinite.
+    pub non_finite: u64,
+    /// Sampler requests per purpose (camera pass only).
+    pub requests: DimensionRequests,
+    /// Whether wavelengths are traced.
+    pub spectral: bool,
+    /// Seconds spent adding samples.
+    pub seconds: f64,
+}
+
+/// `x` clamped below at 0 per channel, NaN kept (a NaN must never turn into a clean 0).
+fn non_negative(v: DVec3) -> DVec3 {
+    let f = |x: f64| if x < 0.0 { 0.0 } else { x };
+    DVec3::new(f(v.x), f(v.y), f(v.z))
+}
+
+impl Film {
+    /// An empty film of `width × height` pixels.
+    pub fn new(width: usize, height: usize, norm: f64, spectral: bool) -> Film {
+        Film {
+            width,
+            height,
+            sum: vec![DVec3::ZERO; width * height],
+            sum_sq: vec![DVec3::ZERO; width * height],
+            samples: 0,
+            norm,
+            rays: RayCounts::default(),
+            non_finite: 0,
+            requests: DimensionRequests::default(),
+            spectral,
+            seconds: 0.0,
+        }
+    }
+
+    /// The mean per pixel (black before the first sample).
+    pub fn image(&self) -> Image {
+        let scale = 1.0 / (self.samples.max(1) as f64 * self.norm);
+        let pixels = self.sum.iter().map(|s| (*s * scale).as_vec3()).collect();
+        Image { width: self.width, height: self.height, pixels }
+    }
+
+    /// The variance of each pixel's mean, s²/n; `None` below two samples.
+    pub fn variance(&self) -> Option<Image> {
+        if self.samples < 2 {
+            return None;
+        }
+        let n = self.samples as f64;
+        let scale = 1.0 / (self.norm * self.norm * n * (n - 1.0));
+        let pixels = self
+            .sum
+            .iter()
+            .zip(&self.sum_sq)
+            .map(|(s, q)| (non_negative(*q - *s * *s / n) * scale).as_vec3())
+            .collect();
+        Some(Image { width: self.width, height: self.height, pixels })
+    }
+
+    /// The render so far.
+    pub fn output(&self) -> RenderOutput {
+        RenderOutput {
+            image: self.image(),
+            spp: self.samples,
+            seconds: self.seconds,
+            rays: self.rays,
+            non_finite_samples: self.non_finite,
+            spectral: self.spectral,
+            samples_per_pixel: None,
+            variance: self.variance(),
+        }
+    }
+}
+
+/// A method with its own image loop that still builds its image sample index by sample index
+/// (light tracing), so that it can render progressively and estimate its variance.
+pub trait Accumulate: Sync {
+    /// An empty film for rendering `scene` with `opts`.
+    fn film(&self, scene: &Scene, opts: &RenderOptions) -> Film;
+    /// Add the sample indices `samples` (from `film.samples` on) to `film`, each sample index
+    /// adding one term to every pixel's sum and sum of squares; the caller then advances
+    /// `film.samples` and its time. `progress` gets (work done, work total) of this call.
+    fn add_samples(
+        &self,
+        scene: &Scene,
+        opts: &RenderOptions,
+        samples: Range<u32>,
+        film: &mut Film,
+        progress: &(dyn Fn(u64, u64) + Sync),
+    );
+}
+
+/// How a method's image grows with the sample count (see the module documentation).
+#[derive(Clone, Copy)]
+pub enum Progression<'a> {
+    /// The shared camera pass adds samples of [`Integrator::radiance`].
+    CameraPass,
+    /// The method adds sample indices itself.
+    Own(&'a dyn Accumulate),
+    /// The method cannot grow an image: every checkpoint is rendered anew; the text says why.
+    Fresh(&'static str),
+    /// The method renders one image whatever the sample count; the text says why.
+    Fixed(&'static str),
+}
+
+impl std::fmt::Debug for Progression<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Progression::CameraPass => write!(f, "CameraPass"),
+            Progression::Own(_) => write!(f, "Own"),
+            Progression::Fresh(why) => write!(f, "Fresh({why:?})"),
+            Progression::Fixed(why) => write!(f, "Fixed({why:?})"),
+        }
+    }
+}
 /// The camera for a render, with the resolution override applied.
 pub fn camera_for(scene: &Scene, resolution: Option<(u32, u32)>) -> Camera {
     match resolution {
@@ -118,26 +314,40 @@ impl CameraDims {
     }
 }
 
-/// Sums of one row over a range of samples.
-struct RowSums {
-    sums: Vec<Vec3>,
+/// Counters of one row over a range of samples.
+struct RowStats {
     rays: RayCounts,
     non_finite: u64,
     requests: [u64; DIM_PURPOSES],
 }
 
-/// Everything fixed during one camera pass.
+/// Everything fixed during camera passes.
 struct Pass<'a> {
     scene: &'a Scene,
     integrator: &'a dyn Integrator,
     camera: Camera,
-    opts: &'a RenderOptions,
+    opts: RenderOptions,
     dims: CameraDims,
 }
 
-impl Pass<'_> {
+impl<'a> Pass<'a> {
+    fn new(scene: &'a Scene, integrator: &'a dyn Integrator, opts: &RenderOptions) -> Pass<'a> {
+        Pass {
+            scene,
+            integrator,
+            camera: camera_for(scene, opts.resolution),
+            opts: opts.clone(),
+            dims: CameraDims::resolve(scene, integrator, opts.spectral),
+        }
+    }
+
+    /// An empty film of the camera's size.
+    fn film(&self) -> Film {
+        Film::new(self.camera.width as usize, self.camera.height as usize, 1.0, self.dims.wavelength)
+    }
+
     /// One camera sample of pixel (`x`, `y`): its radiance, with its rays and sampler requests.
-    fn sample(&self, x: u32, y: u32, index: u32, total: u32, row: &mut RowSums) -> Vec3 {
+    fn sample(&self, x: u32, y: u32, index: u32, total: u32, row: &mut RowStats) -> Vec3 {
         let pixel = y as u64 * self.camera.width as u64 + x as u64;
         let mut sampler = Sampler::new(self.opts.sampler, self.opts.seed, pixel, index, total);
         let offset = if total == 1 { Vec2::splat(0.5) } else { sampler.get_2d(Dim::Pixel) };
@@ -161,25 +371,52 @@ impl Pass<'_> {
         l
     }
 
-    fn row(&self, y: u32, samples: std::ops::Range<u32>, total: u32) -> RowSums {
-        let mut row = RowSums {
-            sums: vec![Vec3::ZERO; self.camera.width as usize],
-            rays: RayCounts::default(),
-            non_finite: 0,
-            requests: [0; DIM_PURPOSES],
-        };
-        for x in 0..self.camera.width {
-            let mut sum = Vec3::ZERO;
+    /// Continue the sums of row `y` with the samples `samples` (of `total`, 0 when unknown).
+    fn row(
+        &self,
+        y: u32,
+        samples: Range<u32>,
+        total: u32,
+        sum: &mut [DVec3],
+        sum_sq: &mut [DVec3],
+    ) -> RowStats {
+        let mut row = RowStats { rays: RayCounts::default(), non_finite: 0, requests: [0; DIM_PURPOSES] };
+        for (x, (sum, sum_sq)) in sum.iter_mut().zip(sum_sq.iter_mut()).enumerate() {
             for s in samples.clone() {
-                let l = self.sample(x, y, s, total, &mut row);
+                let l = self.sample(x as u32, y, s, total, &mut row);
                 if !l.is_finite() {
                     row.non_finite += 1;
                 }
-                sum += l;
+                let l = l.as_dvec3();
+                *sum += l;
+                *sum_sq += l * l;
             }
-            row.sums[x as usize] = sum;
         }
         row
+    }
+
+    /// Add the samples `samples` (of `total` planned, 0 when unknown) to every pixel of `film`.
+    fn add(&self, film: &mut Film, samples: Range<u32>, total: u32, progress: &(dyn Fn(u64, u64) + Sync)) {
+        let (w, h) = (film.width, film.height as u64);
+        let done = AtomicU64::new(0);
+        let rows: Vec<RowStats> = film
+            .sum
+            .par_chunks_mut(w)
+            .zip(film.sum_sq.par_chunks_mut(w))
+            .enumerate()
+            .map(|(y, (sum, sum_sq))| {
+                let r = self.row(y as u32, samples.clone(), total, sum, sum_sq);
+                progress(done.fetch_add(1, Ordering::Relaxed) + 1, h);
+                r
+            })
+            .collect();
+        for row in rows {
+            film.rays += row.rays;
+            film.non_finite += row.non_finite;
+            for (a, b) in film.requests.0.iter_mut().zip(row.requests) {
+                *a += b;
+            }
+        }
     }
 }
 
@@ -195,6 +432,28 @@ impl DimensionRequests {
     pub fn get(&self, purpose: Dim) -> u64 {
         self.0[purpose as usize]
     }
+}
+
+/// Spend `budget` on `film`: `add(film, samples, total)` adds a sample range of `total` planned
+/// samples (0 when the count is not known in advance).
+fn run_budget(film: &mut Film, budget: Budget, mut add: impl FnMut(&mut Film, Range<u32>, u32)) {
+    let start = Instant::now();
+    match budget {
+        Budget::Samples(n) => {
+            add(film, 0..n, n);
+            film.samples = n;
+        }
+        // The sample count is unknown in advance: no stratification across passes.
+        Budget::Time(limit) => loop {
+            let s = film.samples;
+            add(film, s..s + 1, 0);
+            film.samples = s + 1;
+            if start.elapsed() >= limit {
+                break;
+            }
+        },
+    }
+    film.seconds += start.elapsed().as_secs_f64();
 }
 
 /// Render `scene` with `integrator`; `progress` is called with (rows done, rows total) of the
@@ -218,63 +477,297 @@ pub fn camera_pass(
     opts: &RenderOptions,
     progress: &(dyn Fn(u64, u64) + Sync),
 ) -> (RenderOutput, DimensionRequests) {
-    let pass = Pass {
-        scene,
-        integrator,
-        camera: camera_for(scene, opts.resolution),
-        opts,
-        dims: CameraDims::resolve(scene, integrator, opts.spectral),
-    };
-    let (w, h) = (pass.camera.width as usize, pass.camera.height as usize);
-    let start = Instant::now();
-    let mut sums = vec![Vec3::ZERO; w * h];
-    let mut rays = RayCounts::default();
-    let mut non_finite = 0;
-    let mut requests = DimensionRequests::default();
-    let (passes, total): (Box<dyn Iterator<Item = std::ops::Range<u32>>>, u32) = match opts.budget {
-        Budget::Samples(n) => (Box::new(std::iter::once(0..n)), n),
-        // The sample count is unknown in advance: no stratification across passes.
-        Budget::Time(_) => (Box::new((0..).map(|i| i..i + 1)), 0),
-    };
-    let mut spp = 0;
-    let done = AtomicU64::new(0);
-    for samples in passes {
-        done.store(0, Ordering::Relaxed);
-        let rows: Vec<RowSums> = (0..h as u32)
-            .into_par_iter()
-            .map(|y| {
-                let r = pass.row(y, samples.clone(), total);
-                progress(done.fetch_add(1, Ordering::Relaxed) + 1, h as u64);
-                r
-            })
-            .collect();
-        for (y, row) in rows.into_iter().enumerate() {
-            for (acc, s) in sums[y * w..(y + 1) * w].iter_mut().zip(&row.sums) {
-                *acc += *s;
+    let pass = Pass::new(scene, integrator, opts);
+    let mut film = pass.film();
+    run_budget(&mut film, opts.budget, |film, samples, total| pass.add(film, samples, total, progress));
+    (film.output(), film.requests)
+}
+
+/// Render `opts.budget` with a method that adds sample indices itself (for its
+/// [`Integrator::render_image`]): all samples at once, or 1-sample passes until the time is up.
+pub fn render_accumulated(
+    scene: &Scene,
+    method: &dyn Accumulate,
+    opts: &RenderOptions,
+    progress: &(dyn Fn(u64, u64) + Sync),
+) -> RenderOutput {
+    let mut film = method.film(scene, opts);
+    run_budget(&mut film, opts.budget, |film, samples, _| {
+        method.add_samples(scene, opts, samples, film, progress)
+    });
+    film.output()
+}
+
+/// How the checkpoints of a progressive render are made.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Growth {
+    /// One render grows: the checkpoint at N samples is its first N sample indices.
+    Incremental,
+    /// Every checkpoint is a fresh N-sample render; the text says why.
+    Fresh(&'static str),
+    /// The method renders one image whatever the sample count: a single checkpoint.
+    Fixed(&'static str),
+}
+
+/// Where a growing render's samples come from.
+enum Source<'a> {
+    Camera(Pass<'a>),
+    Own(&'a dyn Accumulate),
+    /// Whole renders (fresh or fixed).
+    Renders,
+}
+
+/// A render that grows by sample ranges and can report the cumulative image at any count.
+pub struct Progressive<'a> {
+    scene: &'a Scene,
+    integrator: &'a dyn Integrator,
+    opts: RenderOptions,
+    growth: Growth,
+    source: Source<'a>,
+    /// The running sums (incremental growth).
+    film: Option<Film>,
+    /// The latest whole render (fresh or fixed growth).
+    last: Option<RenderOutput>,
+    /// Seconds spent rendering, over all passes or renders.
+    spent: f64,
+}
+
+impl<'a> Progressive<'a> {
+    /// A progressive render of `scene` by `integrator` with `opts` (whose budget is ignored: the
+    /// caller chooses the sample counts); incremental when the method can grow an image.
+    pub fn new(scene: &'a Scene, integrator: &'a dyn Integrator, opts: &RenderOptions) -> Progressive<'a> {
+        let (growth, source) = match integrator.progression() {
+            Progression::CameraPass => {
+                (Growth::Incremental, Source::Camera(Pass::new(scene, integrator, opts)))
             }
-            rays += row.rays;
-            non_finite += row.non_finite;
-            for (a, b) in requests.0.iter_mut().zip(row.requests) {
-                *a += b;
+            Progression::Own(method) => (Growth::Incremental, Source::Own(method)),
+            Progression::Fresh(why) => (Growth::Fresh(why), Source::Renders),
+            Progression::Fixed(why) => (Growth::Fixed(why), Source::Renders),
+        };
+        let film = match &source {
+            Source::Camera(pass) => Some(pass.film()),
+            Source::Own(method) => Some(method.film(scene, opts)),
+            Source::Renders => None,
+        };
+        Progressive { scene, integrator, opts: opts.clone(), growth, source, film, last: None, spent: 0.0 }
+    }
+
+    /// A progressive render whose every checkpoint is a fresh render with the options' own
+    /// sampler (stratified when the scene says so), for methods that could also grow.
+    pub fn fresh(scene: &'a Scene, integrator: &'a dyn Integrator, opts: &RenderOptions) -> Progressive<'a> {
+        let mut p = Progressive::new(scene, integrator, opts);
+        if p.growth == Growth::Incremental {
+            p.growth = Growth::Fresh("each checkpoint is a new render with the scene's sampler, as asked");
+            p.source = Source::Renders;
+            p.film = None;
+        }
+        p
+    }
+
+    /// How checkpoints are made.
+    pub fn growth(&self) -> Growth {
+        self.growth
+    }
+
+    /// Samples per pixel of the current image (0 before the first advance).
+    pub fn spp(&self) -> u32 {
+        match (&self.film, &self.last) {
+            (Some(film), _) => film.samples,
+            (None, Some(out)) => out.spp,
+            (None, None) => 0,
+        }
+    }
+
+    /// Seconds spent rendering so far, over every pass or fresh render.
+    pub fn seconds_spent(&self) -> f64 {
+        self.spent
+    }
+
+    /// Grow the image to `spp` samples per pixel (a fresh `spp`-sample render when the method
+    /// cannot grow; nothing after the first render of a fixed method). `progress` gets
+    /// (work done, work total) of this step, from worker threads.
+    pub fn advance_to(&mut self, spp: u32, progress: &(dyn Fn(u64, u64) + Sync)) {
+        let start = Instant::now();
+        match (&self.source, self.film.as_mut()) {
+            (Source::Camera(pass), Some(film)) if spp > film.samples => {
+                pass.add(film, film.samples..spp, 0, progress);
+            }
+            (Source::Own(method), Some(film)) if spp > film.samples => {
+                method.add_samples(self.scene, &self.opts, film.samples..spp, film, progress);
+            }
+            (Source::Renders, _) => {
+                if matches!(self.growth, Growth::Fixed(_)) && self.last.is_some() {
+                    return;
+                }
+                let opts = RenderOptions { budget: Budget::Samples(spp), ..self.opts.clone() };
+                let out = render(self.scene, self.integrator, &opts, progress);
+                self.spent += out.seconds;
+                self.last = Some(out);
+                return;
+            }
+            _ => return,
+        }
+        let seconds = start.elapsed().as_secs_f64();
+        let film = self.film.as_mut().expect("incremental renders have a film");
+        film.samples = film.samples.max(spp);
+        film.seconds += seconds;
+        self.spent += seconds;
+    }
+
+    /// The current image: the cumulative render (its seconds are the time spent on all its
+    /// passes), or the latest fresh render; `None` before the first advance.
+    pub fn output(&self) -> Option<RenderOutput> {
+        match (&self.film, &self.last) {
+            (Some(film), _) if film.samples > 0 => Some(film.output()),
+            (None, Some(out)) => Some(out.clone()),
+            _ => None,
+        }
+    }
+}
+
+/// The checkpoints of a progressive render up to `max` samples: every power of two below it,
+/// then `max` itself.
+pub fn power_of_two_checkpoints(max: u32) -> Vec<u32> {
+    let mut out: Vec<u32> = (0..32).map(|k| 1u32 << k).take_while(|&n| n < max).collect();
+    if max > 0 {
+        out.push(max);
+    }
+    out
+}
+
+/// Render progressively under `opts.budget` and call `checkpoint` with the cumulative render at
+/// every power of two: up to `Budget::Samples(max)` (and at `max`), or until the render time
+/// reaches `Budget::Time` (and where it stops, growing by 1-sample passes). With `fresh`, every
+/// checkpoint is rendered anew ([`Progressive::fresh`]). A fixed method has one checkpoint.
+/// `progress` gets (done, total) in thousandths of a sample per pixel (sample budgets) or in
+/// milliseconds (time budgets). Returns how the checkpoints were made.
+pub fn render_progressive(
+    scene: &Scene,
+    integrator: &dyn Integrator,
+    opts: &RenderOptions,
+    fresh: bool,
+    progress: &(dyn Fn(u64, u64) + Sync),
+    checkpoint: &mut dyn FnMut(&RenderOutput),
+) -> Growth {
+    let mut p = if fresh {
+        Progressive::fresh(scene, integrator, opts)
+    } else {
+        Progressive::new(scene, integrator, opts)
+    };
+    let growth = p.growth();
+    // Progress of a step from `from` to `to` work units out of `total`.
+    let step = |from: u64, to: u64, total: u64| {
+        move |done: u64, of: u64| progress((from + (to - from) * done / of.max(1)).min(total), total)
+    };
+    match opts.budget {
+        Budget::Samples(max) => {
+            let targets = match growth {
+                Growth::Fixed(_) => vec![max],
+                _ => power_of_two_checkpoints(max),
+            };
+            // Work in thousandths of a sample: what each step renders.
+            let cost = |prev: u32, t: u32| match growth {
+                Growth::Incremental => (t - prev) as u64 * 1000,
+                _ => t as u64 * 1000,
+            };
+            let (mut total, mut prev) = (0u64, 0u32);
+            for &t in &targets {
+                total += cost(prev, t);
+                prev = t;
+            }
+            let (mut done, mut prev) = (0u64, 0u32);
+            for &target in &targets {
+                let next = done + cost(prev, target);
+                p.advance_to(target, &step(done, next, total));
+                checkpoint(&p.output().expect("rendered"));
+                (done, prev) = (next, target);
             }
         }
-        spp = samples.end;
-        if let Budget::Time(limit) = opts.budget {
-            if start.elapsed() >= limit {
-                break;
+        Budget::Time(limit) => {
+            let total = limit.as_millis().max(1) as u64;
+            let mut spp = 0u32;
+            loop {
+                spp = match growth {
+                    Growth::Incremental => spp + 1,
+                    Growth::Fresh(_) => (spp * 2).max(1),
+                    Growth::Fixed(_) => 1,
+                };
+                // Progress in milliseconds of render time.
+                let (before, start) = ((p.seconds_spent() * 1000.0) as u64, Instant::now());
+                let timed = |_: u64, _: u64| {
+                    progress((before + start.elapsed().as_millis() as u64).min(total), total)
+                };
+                p.advance_to(spp, &timed);
+                let out_of_time =
+                    p.seconds_spent() >= limit.as_secs_f64() || matches!(growth, Growth::Fixed(_));
+                if spp.is_power_of_two() || out_of_time {
+                    checkpoint(&p.output().expect("rendered"));
+                }
+                progress(((p.seconds_spent() * 1000.0) as u64).min(total), total);
+                if out_of_time || spp == u32::MAX {
+                    break;
+                }
             }
         }
     }
-    let inv = 1.0 / spp as f32;
-    let image = Image { width: w, height: h, pixels: sums.into_iter().map(|s| s * inv).collect() };
-    let out = RenderOutput {
-        image,
-        spp,
-        seconds: start.elapsed().as_secs_f64(),
-        rays,
-        non_finite_samples: non_finite,
-        spectral: pass.dims.wavelength,
-        samples_per_pixel: None,
-    };
-    (out, requests)
+    growth
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn checkpoints_are_powers_of_two_then_the_maximum() {
+        assert_eq!(power_of_two_checkpoints(0), Vec::<u32>::new());
+        assert_eq!(power_of_two_checkpoints(1), [1]);
+        assert_eq!(power_of_two_checkpoints(8), [1, 2, 4, 8]);
+        assert_eq!(power_of_two_checkpoints(11), [1, 2, 4, 8, 11]);
+        assert_eq!(power_of_two_checkpoints(u32::MAX).len(), 33);
+    }
+
+    /// A 2×1 film with the per-sample values `a` (pixel 0) and `b` (pixel 1).
+    fn film(a: &[f64], b: &[f64], norm: f64) -> Film {
+        let mut film = Film::new(2, 1, norm, false);
+        for (pixel, values) in [a, b].into_iter().enumerate() {
+            for &v in values {
+                film.sum[pixel] += DVec3::splat(v);
+                film.sum_sq[pixel] += DVec3::splat(v * v);
+            }
+        }
+        film.samples = a.len() as u32;
+        film
+    }
+
+    #[test]
+    fn the_variance_is_that_of_the_mean() {
+        // Samples 1, 2, 3: mean 2, sample variance 1, variance of the mean 1/3.
+        let f = film(&[1.0, 2.0, 3.0], &[5.0, 5.0, 5.0], 1.0);
+        assert_eq!(f.image().pixels, [Vec3::splat(2.0), Vec3::splat(5.0)]);
+        let v = f.variance().unwrap();
+        assert!((v.pixels[0] - Vec3::splat(1.0 / 3.0)).abs().max_element() < 1e-7, "{v:?}");
+        assert_eq!(v.pixels[1], Vec3::ZERO, "a constant pixel has no variance");
+        // The norm scales the estimate and its standard error alike (light tracing's film area).
+        let g = film(&[1.0, 2.0, 3.0], &[5.0, 5.0, 5.0], 2.0);
+        assert_eq!(g.image().pixels[0], Vec3::splat(1.0));
+        assert!((g.variance().unwrap().pixels[0] - Vec3::splat(1.0 / 12.0)).abs().max_element() < 1e-7);
+        // One sample: no estimate.
+        assert!(film(&[1.0], &[2.0], 1.0).variance().is_none());
+    }
+
+    #[test]
+    fn the_noise_estimate_averages_pixels_and_counts_non_finite_ones() {
+        let mut f = film(&[1.0, 2.0, 3.0], &[5.0, 5.0, 5.0], 1.0);
+        let noise = f.output().noise().unwrap();
+        assert!((noise.mse - 1.0 / 6.0).abs() < 1e-7, "{noise:?}");
+        assert!((noise.std_error - (1.0f64 / 3.0).sqrt() / 2.0).abs() < 1e-7, "{noise:?}");
+        assert_eq!(noise.non_finite, 0);
+        f.sum_sq[1].x = f64::NAN;
+        let v = f.variance().unwrap();
+        assert!(v.pixels[1].x.is_nan(), "a NaN stays NaN, it is not clamped to 0");
+        let noise = f.output().noise().unwrap();
+        assert_eq!(noise.non_finite, 1);
+        assert!((noise.mse - 1.0 / 3.0).abs() < 1e-7, "{noise:?}");
+        assert!(film(&[1.0], &[1.0], 1.0).output().noise().is_none());
+    }
 }

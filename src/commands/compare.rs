@@ -1,7 +1,36 @@
 //! `vitrum compare`: equal-time (or equal-sample) renders of several methods, as a figure and a table.
+//!
+//! Every method renders the scene with the same budget, one after the other on the same worker
+//! pool: `--time T` gives each whole 1-sample passes until T seconds have passed (at least one
+//! pass), `--spp N` gives each N samples per pixel (`ssaa`, deterministic and adaptive, renders
+//! once whatever the budget and reports its mean samples per pixel). Each render is measured
+//! against a reference, either an EXR file (`--reference`) or a cached high-sample `path` render
+//! (`--reference-spp`, cached in `--cache`). The output folder receives `METHOD.exr` for every
+//! method, `compare.png` (the figure, laid out as [`crate::figure::compose`] documents),
+//! `compare.csv` and `compare.md` (the table). Every input is checked before the first render, and
+//! the files are published together once all of them are encoded.
 
-use crate::cli::CliError;
-use std::path::PathBuf;
+use crate::cli::{load_scene, CliError};
+use crate::commands::{parse_crop, parse_integrators, CropArg, SweepArgs};
+use crate::figure::canvas::Canvas;
+use crate::figure::compose::{self, format_number, format_seconds, Panel};
+use crate::image::Image;
+use crate::integrators::Integrator;
+use crate::metrics::{self, Crop, Metrics};
+use crate::output::exr::{read_exr, stage_exr, ExrMetadata};
+use crate::output::{stage, OutputError, Staged};
+use crate::render::{self, Budget, RenderOutput};
+use crate::scene::Scene;
+use indicatif::{MultiProgress, ProgressBar, ProgressDrawTarget, ProgressStyle};
+use std::fmt::Write as _;
+use std::io::IsTerminal;
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+/// Seconds per method when neither `--time` nor `--spp` is given.
+pub const DEFAULT_SECONDS: f64 = 10.0;
+/// Samples per pixel of the cached `path` reference when no `--reference` file is given.
+pub const DEFAULT_REFERENCE_SPP: u32 = 1024;
 
 /// Options of `vitrum compare`.
 #[derive(clap::Args, Debug, Clone)]
@@ -9,17 +38,507 @@ pub struct CompareArgs {
     /// Scene file (TOML); the embedded default scene when omitted.
     pub scene: Option<PathBuf>,
     /// Integrators, comma-separated, or `all`.
-    #[arg(short, long, default_value = "all")]
+    #[arg(short, long, value_name = "LIST", default_value = "all")]
     pub integrators: String,
+    /// Equal time: each method renders whole passes until this many seconds have passed (default 10).
+    #[arg(long, value_name = "SECONDS", value_parser = parse_seconds, conflicts_with = "spp", allow_negative_numbers = true)]
+    pub time: Option<f64>,
+    /// Equal samples: each method takes this many samples per pixel.
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..), allow_negative_numbers = true)]
+    pub spp: Option<u32>,
+    /// Reference image (EXR) of the same size as the renders.
+    #[arg(long, value_name = "REF.exr", conflicts_with_all = ["reference_spp", "cache"])]
+    pub reference: Option<PathBuf>,
+    /// Samples per pixel of the `path` reference rendered (or read from the cache) when no
+    /// `--reference` is given (default 1024).
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..), allow_negative_numbers = true)]
+    pub reference_spp: Option<u32>,
+    /// Folder of cached references (default `.vitrum-cache`).
+    #[arg(long, value_name = "DIR")]
+    pub cache: Option<PathBuf>,
+    /// Zoomed insets of this rectangle, X,Y,W,H in pixels from the top-left.
+    #[arg(long, value_name = "X,Y,W,H", value_parser = parse_crop)]
+    pub crop: Option<CropArg>,
+    /// Exposure of the figure in stops, the same for every render (default from the scene file).
+    #[arg(long, value_name = "EV", value_parser = parse_exposure, allow_hyphen_values = true)]
+    pub exposure: Option<f32>,
     /// Render options shared by every integrator.
     #[command(flatten)]
-    pub render: super::SweepArgs,
-    /// Output folder.
-    #[arg(long, default_value = "compare")]
+    pub render: SweepArgs,
+    /// Output folder (created if missing; its parent must exist).
+    #[arg(long, value_name = "DIR", default_value = "compare")]
     pub out: PathBuf,
+    /// No progress bars and no summary (warnings still go to stderr).
+    #[arg(long)]
+    pub quiet: bool,
+}
+
+/// Parses a positive, finite number of seconds.
+fn parse_seconds(s: &str) -> Result<f64, String> {
+    let t: f64 = s.trim().parse().map_err(|_| format!("`{s}` is not a number of seconds"))?;
+    if !(t.is_finite() && t > 0.0) || Duration::try_from_secs_f64(t).is_err() {
+        return Err(format!("`{s}`: must be a positive, finite number of seconds"));
+    }
+    Ok(t)
+}
+
+/// Parses a finite exposure in stops.
+fn parse_exposure(s: &str) -> Result<f32, String> {
+    match s.trim().parse::<f32>() {
+        Ok(ev) if ev.is_finite() => Ok(ev),
+        _ => Err(format!("`{s}` is not a finite number of stops")),
+    }
+}
+
+/// Where the reference comes from.
+enum ReferenceSource {
+    /// Read from a file: the image and a description for the title and the table.
+    File(Image, String),
+    /// A `path` render of this many samples, cached in this folder.
+    Cached(u32, PathBuf),
+}
+
+/// Everything `compare` will do, checked before the first render.
+struct Plan {
+    scene: Scene,
+    scene_name: String,
+    methods: Vec<Box<dyn Integrator>>,
+    budget: Budget,
+    size: (usize, usize),
+    crop: Option<Crop>,
+    exposure: f32,
+    reference: ReferenceSource,
+    out: PathBuf,
+}
+
+/// One method's render and its errors.
+struct Row {
+    method: &'static str,
+    out: RenderOutput,
+    metrics: Metrics,
+    seed: u64,
+}
+
+impl Plan {
+    /// Checks every input; any problem is bad input (exit 2) and nothing has been rendered.
+    fn new(args: &CompareArgs) -> Result<Plan, CliError> {
+        let bad = |m: String| CliError::BadInput(m);
+        let methods = parse_integrators(&args.integrators)?;
+        for (i, m) in methods.iter().enumerate() {
+            if methods[..i].iter().any(|n| n.name() == m.name()) {
+                return Err(bad(format!("-i {}: `{}` is named twice", args.integrators, m.name())));
+            }
+        }
+        let budget = match (args.spp, args.time) {
+            (Some(n), _) => Budget::Samples(n),
+            (None, t) => Budget::Time(Duration::from_secs_f64(t.unwrap_or(DEFAULT_SECONDS))),
+        };
+        let scene = load_scene(args.scene.as_deref())?;
+        let scene_name = match &args.scene {
+            Some(p) => p.file_name().map_or_else(|| p.display().to_string(), |n| n.to_string_lossy().into()),
+            None => "cornell-glass (embedded default)".into(),
+        };
+        let camera = render::camera_for(&scene, args.render.resolution);
+        let size = (camera.width as usize, camera.height as usize);
+        let crop = args.crop.map(|c| Crop { x: c.x, y: c.y, width: c.width, height: c.height });
+        if let Some(c) = crop {
+            if c.x + c.width > size.0 || c.y + c.height > size.1 {
+                return Err(bad(format!(
+                    "--crop {},{},{},{} does not fit inside the {}x{} image",
+                    c.x, c.y, c.width, c.height, size.0, size.1
+                )));
+            }
+        }
+        let reference = match &args.reference {
+            Some(path) => {
+                let (image, attributes) = read_exr(path).map_err(|e| bad(format!("--reference: {e}")))?;
+                if (image.width, image.height) != size {
+                    return Err(bad(format!(
+                        "--reference {}: the reference is {}x{} but the renders are {}x{} \
+                         (give --resolution {}x{} or another reference)",
+                        path.display(),
+                        image.width,
+                        image.height,
+                        size.0,
+                        size.1,
+                        image.width,
+                        image.height
+                    )));
+                }
+                if let Some(scene_text) = attributes.get("vitrum:scene") {
+                    if !scene_text.contains(&scene.origin.hash) {
+                        eprintln!(
+                            "vitrum: warning: --reference {} was rendered from another scene ({scene_text})",
+                            path.display()
+                        );
+                    }
+                }
+                let name = path
+                    .file_name()
+                    .map_or_else(|| path.display().to_string(), |n| n.to_string_lossy().into());
+                let describe = match (attributes.get("vitrum:integrator"), attributes.get("vitrum:spp")) {
+                    (Some(i), Some(spp)) => format!("{i}, {spp} spp ({name})"),
+                    _ => name,
+                };
+                ReferenceSource::File(image, describe)
+            }
+            None => {
+                let cache =
+                    args.cache.clone().unwrap_or_else(|| PathBuf::from(crate::reference::DEFAULT_CACHE_DIR));
+                if cache.exists() && !cache.is_dir() {
+                    return Err(bad(format!("--cache {}: is not a folder", cache.display())));
+                }
+                ReferenceSource::Cached(args.reference_spp.unwrap_or(DEFAULT_REFERENCE_SPP), cache)
+            }
+        };
+        check_out_folder(&args.out)?;
+        if let Some(reference) = &args.reference {
+            let target = |name: &str| args.out.join(format!("{name}.exr"));
+            if let Some(name) =
+                methods.iter().map(|m| m.name()).find(|name| same_file(reference, &target(name)))
+            {
+                return Err(bad(format!(
+                    "--reference {}: `{name}` would write its render over the reference; choose another --out",
+                    reference.display()
+                )));
+            }
+        }
+        let exposure = args.exposure.unwrap_or(scene.settings.exposure);
+        Ok(Plan {
+            scene,
+            scene_name,
+            methods,
+            budget,
+            size,
+            crop,
+            exposure,
+            reference,
+            out: args.out.clone(),
+        })
+    }
+
+    /// "equal time, 10 s per method" or "equal samples, 64 spp".
+    fn budget_text(&self) -> String {
+        match self.budget {
+            Budget::Samples(n) => format!("equal samples: {n} spp per method"),
+            Budget::Time(t) => {
+                let t = t.as_secs_f64();
+                let t = if t.fract() == 0.0 { format!("{t:.0}") } else { format_number(t) };
+                format!("equal time: {t} s per method")
+            }
+        }
+    }
+}
+
+/// The output folder must be a folder, or be creatable in an existing one.
+fn check_out_folder(out: &Path) -> Result<(), CliError> {
+    if out.exists() {
+        if !out.is_dir() {
+            return Err(CliError::BadInput(format!("--out {}: is a file, not a folder", out.display())));
+        }
+        return Ok(());
+    }
+    let parent = out.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
+    if !parent.is_dir() {
+        return Err(CliError::BadInput(format!(
+            "--out {}: the folder {} does not exist",
+            out.display(),
+            parent.display()
+        )));
+    }
+    Ok(())
+}
+
+/// Whether `a` and `b` name the same existing file.
+fn same_file(a: &Path, b: &Path) -> bool {
+    matches!((a.canonicalize(), b.canonicalize()), (Ok(a), Ok(b)) if a == b)
+}
+
+/// Progress bars on stderr, drawn only when it is a terminal: methods done, and the current render.
+struct Bars {
+    multi: MultiProgress,
+    overall: ProgressBar,
+}
+
+impl Bars {
+    fn new(steps: u64, quiet: bool) -> Bars {
+        let target = if !quiet && std::io::stderr().is_terminal() {
+            ProgressDrawTarget::stderr()
+        } else {
+            ProgressDrawTarget::hidden()
+        };
+        let multi = MultiProgress::with_draw_target(target);
+        let overall = multi.add(ProgressBar::new(steps));
+        overall.set_style(
+            ProgressStyle::with_template("compare     [{bar:40}] {pos}/{len} renders, {elapsed} elapsed")
+                .expect("valid template")
+                .progress_chars("=> "),
+        );
+        Bars { multi, overall }
+    }
+
+    /// A bar for one render: rows of the pass for a sample budget, seconds for a time budget.
+    fn render(&self, name: &str, budget: Budget) -> ProgressBar {
+        let bar = self.multi.add(ProgressBar::new(1));
+        let template = match budget {
+            Budget::Samples(_) => "{msg:11} [{bar:40}] {pos}/{len}, ETA {eta}",
+            Budget::Time(_) => "{msg:11} [{bar:40}] {percent}% of the time",
+        };
+        bar.set_style(ProgressStyle::with_template(template).expect("valid template").progress_chars("=> "));
+        bar.set_message(name.to_string());
+        bar
+    }
 }
 
 /// Runs `vitrum compare`.
-pub fn run(_args: &CompareArgs) -> Result<(), CliError> {
-    Err(CliError::Failure("compare: under construction".into()))
+pub fn run(args: &CompareArgs) -> Result<(), CliError> {
+    let plan = Plan::new(args)?;
+    for w in &plan.scene.warnings {
+        eprintln!("vitrum: warning: {w}");
+    }
+    let pool = args.render.pool()?;
+    let cached = matches!(plan.reference, ReferenceSource::Cached(..));
+    let bars = Bars::new(plan.methods.len() as u64 + cached as u64, args.quiet);
+    let failure = |e: OutputError| CliError::Failure(e.to_string());
+
+    let (reference, reference_text) = match &plan.reference {
+        ReferenceSource::File(image, text) => (image.clone(), text.clone()),
+        ReferenceSource::Cached(spp, cache) => {
+            let path = crate::integrators::create("path").expect("`path` is registered");
+            let opts = args.render.options(&plan.scene, path.as_ref(), Budget::Samples(*spp));
+            let bar = bars.render("reference", Budget::Samples(*spp));
+            let progress = |done: u64, total: u64| {
+                bar.set_length(total);
+                bar.set_position(done);
+            };
+            let r =
+                pool.install(|| crate::reference::path_reference(&plan.scene, &opts, *spp, cache, &progress));
+            bar.finish_and_clear();
+            bars.overall.inc(1);
+            let r = r.map_err(failure)?;
+            if !args.quiet {
+                let how = if r.cached { "read from the cache" } else { "rendered and cached" };
+                eprintln!("reference: path, {} spp, {how}: {}", r.spp, r.path.display());
+            }
+            (r.image, format!("path, {} spp ({})", r.spp, r.path.display()))
+        }
+    };
+
+    let mut rows = Vec::new();
+    for method in &plan.methods {
+        let opts = args.render.options(&plan.scene, method.as_ref(), plan.budget);
+        crate::cli::check_effects(&plan.scene, method.as_ref(), &opts, false)?;
+        let bar = bars.render(method.name(), plan.budget);
+        let start = Instant::now();
+        let progress = |done: u64, total: u64| match plan.budget {
+            Budget::Samples(_) => {
+                bar.set_length(total);
+                bar.set_position(done);
+            }
+            Budget::Time(limit) => {
+                bar.set_length(limit.as_millis() as u64);
+                bar.set_position((start.elapsed().as_millis() as u64).min(limit.as_millis() as u64));
+            }
+        };
+        let out = pool.install(|| render::render(&plan.scene, method.as_ref(), &opts, &progress));
+        bar.finish_and_clear();
+        bars.overall.inc(1);
+        if out.non_finite_samples > 0 {
+            eprintln!(
+                "vitrum: warning: {}: {} sample(s) were NaN or infinite",
+                method.name(),
+                out.non_finite_samples
+            );
+        }
+        let metrics = metrics::compare(&out.image, &reference, None)
+            .map_err(|e| CliError::Failure(format!("{}: {e}", method.name())))?;
+        rows.push(Row { method: method.name(), out, metrics, seed: opts.seed });
+    }
+    bars.overall.finish_and_clear();
+
+    let title = format!(
+        "{} · {} · {}x{} · reference: {}",
+        plan.scene_name,
+        plan.budget_text(),
+        plan.size.0,
+        plan.size.1,
+        short_reference(&reference_text)
+    );
+    let errors = rows
+        .iter()
+        .map(|row| metrics::relative_squared_error(&row.out.image, &reference))
+        .collect::<Result<Vec<_>, _>>()
+        .map_err(|e| CliError::Failure(e.to_string()))?;
+    let panels: Vec<Panel> = rows
+        .iter()
+        .zip(&errors)
+        .map(|(row, error)| Panel {
+            method: row.method,
+            image: &row.out.image,
+            spp: row.out.spp,
+            seconds: row.out.seconds,
+            rel_mse: row.metrics.rel_mse,
+            error,
+        })
+        .collect();
+    let figure = compose::compose(&title, &panels, plan.exposure, plan.crop);
+    let csv = csv_table(&rows);
+    let markdown = markdown_table(&plan, &rows, &reference_text);
+
+    publish(&plan, &rows, &figure, &csv, &markdown).map_err(failure)?;
+    if !args.quiet {
+        for row in &rows {
+            eprintln!(
+                "{:<11} {:>6} spp {:>8} s  relMSE {:<9} MSE {}",
+                row.method,
+                row.out.spp,
+                format_seconds(row.out.seconds),
+                format_number(row.metrics.rel_mse),
+                format_number(row.metrics.mse)
+            );
+        }
+        eprintln!(
+            "compare: {} method(s) -> {} (compare.png, compare.csv, compare.md, METHOD.exr)",
+            rows.len(),
+            plan.out.display()
+        );
+    }
+    Ok(())
+}
+
+/// The reference description without its (possibly long) file path.
+fn short_reference(text: &str) -> &str {
+    text.split(" (").next().unwrap_or(text)
+}
+
+/// Encodes every output, then publishes them together; on failure nothing is left behind (and a
+/// folder created for them is removed again).
+fn publish(plan: &Plan, rows: &[Row], figure: &Canvas, csv: &str, markdown: &str) -> Result<(), OutputError> {
+    let created = !plan.out.exists();
+    if created {
+        std::fs::create_dir(&plan.out).map_err(|e| OutputError::io(&plan.out, e))?;
+    }
+    let result = (|| {
+        let mut staged: Vec<Staged> = Vec::new();
+        for row in rows {
+            let meta = ExrMetadata {
+                version: crate::VERSION.to_string(),
+                integrator: row.method.to_string(),
+                spp: row.out.spp,
+                seed: row.seed,
+                render_time_seconds: row.out.seconds,
+                rays: row.out.rays,
+                scene: format!("{} ({})", plan.scene.origin.name, plan.scene.origin.hash),
+                effects: plan.scene.effects.names(),
+            };
+            staged.push(stage_exr(&plan.out.join(format!("{}.exr", row.method)), &row.out.image, &meta)?);
+        }
+        staged.push(figure.stage_png(&plan.out.join("compare.png"))?);
+        staged.push(stage_text(&plan.out.join("compare.csv"), csv)?);
+        staged.push(stage_text(&plan.out.join("compare.md"), markdown)?);
+        staged.into_iter().try_for_each(Staged::commit)
+    })();
+    if result.is_err() && created {
+        // Only empty: the staged files removed themselves when dropped.
+        let _ = std::fs::remove_dir(&plan.out);
+    }
+    result
+}
+
+/// Prepares a text file for publishing.
+fn stage_text(path: &Path, text: &str) -> Result<Staged, OutputError> {
+    stage(path, |tmp| std::fs::write(tmp, text).map_err(|e| OutputError::io(tmp, e)))
+}
+
+/// Millions of rays per second.
+fn mrays_per_second(out: &RenderOutput) -> f64 {
+    out.rays.total() as f64 / out.seconds.max(1e-9) / 1e6
+}
+
+/// 1/(MSE·seconds): higher is better; infinite for an exact render.
+fn efficiency(row: &Row) -> f64 {
+    1.0 / (row.metrics.mse * row.out.seconds.max(1e-9))
+}
+
+/// The CSV header.
+pub const CSV_HEADER: &str =
+    "method,spp,seconds,rays,mrays_per_second,mse,rel_mse,efficiency,non_finite_pixels";
+
+/// The table as CSV, one row per method (full precision).
+fn csv_table(rows: &[Row]) -> String {
+    let mut s = String::from(CSV_HEADER);
+    s.push('\n');
+    for r in rows {
+        let _ = writeln!(
+            s,
+            "{},{},{},{},{},{},{},{},{}",
+            r.method,
+            r.out.spp,
+            r.out.seconds,
+            r.out.rays.total(),
+            mrays_per_second(&r.out),
+            r.metrics.mse,
+            r.metrics.rel_mse,
+            efficiency(r),
+            r.metrics.non_finite_test
+        );
+    }
+    s
+}
+
+/// The table as Markdown with a caption stating the scene, budget and reference.
+fn markdown_table(plan: &Plan, rows: &[Row], reference: &str) -> String {
+    let mut s = format!("# vitrum compare: {}\n\n", plan.scene_name);
+    let _ = writeln!(
+        s,
+        "{} ({}); {}x{} pixels; reference: {}. MSE and relMSE over the whole image \
+         (DESIGN.md definitions); efficiency = 1/(MSE·seconds).\n",
+        plan.budget_text(),
+        match plan.budget {
+            Budget::Time(_) => "whole passes, at least one",
+            Budget::Samples(_) => "the same samples for every method",
+        },
+        plan.size.0,
+        plan.size.1,
+        reference
+    );
+    s.push_str("| method | spp | seconds | rays | Mrays/s | MSE | relMSE | efficiency | non-finite px |\n");
+    s.push_str("|---|--:|--:|--:|--:|--:|--:|--:|--:|\n");
+    for r in rows {
+        let _ = writeln!(
+            s,
+            "| {} | {} | {:.3} | {} | {:.2} | {:.3e} | {:.3e} | {:.3e} | {} |",
+            r.method,
+            r.out.spp,
+            r.out.seconds,
+            r.out.rays.total(),
+            mrays_per_second(&r.out),
+            r.metrics.mse,
+            r.metrics.rel_mse,
+            efficiency(r),
+            r.metrics.non_finite_test
+        );
+    }
+    s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn seconds_and_exposures_must_be_finite() {
+        assert_eq!(parse_seconds("0.5"), Ok(0.5));
+        for bad in ["0", "-1", "nan", "inf", "abc", "1e300"] {
+            assert!(parse_seconds(bad).is_err(), "{bad}");
+        }
+        assert_eq!(parse_exposure("-1.5"), Ok(-1.5));
+        assert!(parse_exposure("nan").is_err() && parse_exposure("inf").is_err());
+    }
+
+    #[test]
+    fn the_reference_text_loses_its_path_in_the_title() {
+        assert_eq!(short_reference("path, 1024 spp (.vitrum-cache/x.exr)"), "path, 1024 spp");
+        assert_eq!(short_reference("ref.exr"), "ref.exr");
+    }
 }

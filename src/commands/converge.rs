@@ -1,7 +1,45 @@
 //! `vitrum converge`: progressive renders with error against samples and seconds.
+//!
+//! Every integrator renders once, progressively ([`crate::render::render_progressive`]): the image
+//! grows pass by pass and at every power of two of the sample count (and at the last count) the
+//! cumulative image is measured against the reference with DESIGN.md's metrics, together with the
+//! cumulative render seconds and rays. The reference is a file (`--reference`) or the cached
+//! `path` render of [`crate::reference::path_reference`].
+//!
+//! Outputs in `--out` (each written atomically): `converge.csv` (one row per integrator and
+//! checkpoint, rewritten after every integrator so that a stopped run keeps what it measured),
+//! `relmse-spp.svg|png` and `relmse-seconds.svg|png` (log-log, the fitted slope in the legend),
+//! `converge.json` (the reference, the budget, how each method's checkpoints were made and its
+//! fitted slopes) and with `--exr` the image of every checkpoint, `METHOD-Nspp.exr`.
+//!
+//! Progressive checkpoints draw independent samples (see [`crate::render`]); `--fresh` renders
+//! every checkpoint anew with the scene's sampler (stratified by default), and then the seconds
+//! of a row are those of its own render. `ssaa` renders one fixed pattern: one row.
 
-use crate::cli::CliError;
-use std::path::PathBuf;
+use super::SweepArgs;
+use crate::cli::{load_scene, CliError};
+use crate::figure::plot::{fit_slope, write_loglog, LogLogPlot, Series};
+use crate::image::Image;
+use crate::integrators::Integrator;
+use crate::metrics::{self, Metrics};
+use crate::output::exr::{read_exr, stage_exr, ExrMetadata};
+use crate::output::{write_atomically, OutputError};
+use crate::reference::{path_reference, DEFAULT_CACHE_DIR};
+use crate::render::{self, Budget, Growth, RenderOutput};
+use crate::scene::Scene;
+use indicatif::{MultiProgress, ProgressBar, ProgressStyle};
+use serde_json::json;
+use std::io::IsTerminal;
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+/// The largest sample count when neither `--spp-max` nor `--time` is given.
+pub const DEFAULT_SPP_MAX: u32 = 64;
+/// Samples per pixel of the cached `path` reference when no `--reference` is given.
+pub const DEFAULT_REFERENCE_SPP: u32 = 1024;
+/// The CSV header.
+pub const CSV_HEADER: &str =
+    "integrator,spp,seconds,rays,mse,rmse,rel_mse,mae,psnr,non_finite,std_error,est_mse";
 
 /// Options of `vitrum converge`.
 #[derive(clap::Args, Debug, Clone)]
@@ -11,15 +49,461 @@ pub struct ConvergeArgs {
     /// Integrators, comma-separated, or `all`.
     #[arg(short, long, default_value = "path,light")]
     pub integrators: String,
+    /// Reference image (EXR of the render's size); default: a `path` render, cached.
+    #[arg(long, conflicts_with_all = ["reference_spp", "cache"])]
+    pub reference: Option<PathBuf>,
+    /// Samples per pixel of the cached `path` reference (default 1024).
+    #[arg(long)]
+    pub reference_spp: Option<u32>,
+    /// Folder of cached references (default `.vitrum-cache`).
+    #[arg(long)]
+    pub cache: Option<PathBuf>,
+    /// Largest sample count (default 64); checkpoints at every power of two below it and at it.
+    #[arg(long, conflicts_with = "time")]
+    pub spp_max: Option<u32>,
+    /// Render each integrator for this many seconds instead (checkpoints at powers of two and
+    /// where the time runs out).
+    #[arg(long, allow_negative_numbers = true)]
+    pub time: Option<f64>,
     /// Render options shared by every integrator.
     #[command(flatten)]
-    pub render: super::SweepArgs,
+    pub render: SweepArgs,
     /// Output folder.
     #[arg(long, default_value = "converge")]
     pub out: PathBuf,
+    /// Also write the image of every checkpoint as `METHOD-Nspp.exr`.
+    #[arg(long)]
+    pub exr: bool,
+    /// Render every checkpoint anew (with the scene's sampler) instead of growing one render.
+    #[arg(long)]
+    pub fresh: bool,
+    /// No progress bars and no summary (warnings still go to stderr).
+    #[arg(long)]
+    pub quiet: bool,
+}
+
+/// Where the reference comes from.
+enum ReferenceSource {
+    /// Read from a file: the image and its path.
+    File(Image, PathBuf),
+    /// A `path` render of this many samples, cached in this folder.
+    Cached(u32, PathBuf),
+}
+
+/// Everything checked before rendering.
+struct Plan {
+    scene: Scene,
+    methods: Vec<Box<dyn Integrator>>,
+    budget: Budget,
+    reference: ReferenceSource,
+    width: usize,
+    height: usize,
+}
+
+/// One checkpoint of one integrator.
+#[derive(Clone, Debug)]
+pub struct Row {
+    /// Integrator name.
+    pub integrator: String,
+    /// Samples per pixel.
+    pub spp: u32,
+    /// Render seconds (cumulative for a growing render).
+    pub seconds: f64,
+    /// Rays traced (cumulative for a growing render).
+    pub rays: u64,
+    /// Error against the reference.
+    pub metrics: Metrics,
+    /// The reference-free noise estimate, when the render has one.
+    pub noise: Option<render::Noise>,
+}
+
+impl Row {
+    /// The row as a CSV line (no newline); absent values are empty fields.
+    pub fn csv(&self) -> String {
+        let m = &self.metrics;
+        let opt = |v: Option<f64>| v.map_or(String::new(), |v| v.to_string());
+        format!(
+            "{},{},{},{},{},{},{},{},{},{},{},{}",
+            self.integrator,
+            self.spp,
+            self.seconds,
+            self.rays,
+            m.mse,
+            m.rmse,
+            m.rel_mse,
+            m.mae,
+            m.psnr,
+            m.non_finite_test,
+            opt(self.noise.map(|n| n.std_error)),
+            opt(self.noise.map(|n| n.mse)),
+        )
+    }
+}
+
+/// Check everything that can be checked before rendering.
+fn plan(args: &ConvergeArgs) -> Result<Plan, CliError> {
+    let bad = CliError::BadInput;
+    let methods = super::parse_integrators(&args.integrators)?;
+    let scene = load_scene(args.scene.as_deref())?;
+    let budget = match (args.spp_max, args.time) {
+        (_, Some(t)) if !(t.is_finite() && t > 0.0) => {
+            return Err(bad(format!("--time {t}: must be a positive number of seconds")))
+        }
+        (_, Some(t)) => Budget::Time(
+            Duration::try_from_secs_f64(t).map_err(|_| bad(format!("--time {t}: too long to represent")))?,
+        ),
+        (Some(0), _) => return Err(bad("--spp-max 0: at least one sample per pixel".into())),
+        (n, None) => Budget::Samples(n.unwrap_or(DEFAULT_SPP_MAX)),
+    };
+    let camera = render::camera_for(&scene, args.render.resolution);
+    let (width, height) = (camera.width as usize, camera.height as usize);
+    let reference = match &args.reference {
+        Some(path) => {
+            let (image, _) = read_exr(path).map_err(|e| bad(format!("--reference: {e}")))?;
+            if (image.width, image.height) != (width, height) {
+                return Err(bad(format!(
+                    "--reference {}: the reference is {}x{} but the renders are {width}x{height} \
+                     (give --resolution {}x{} or another reference)",
+                    path.display(),
+                    image.width,
+                    image.height,
+                    image.width,
+                    image.height
+                )));
+            }
+            ReferenceSource::File(image, path.clone())
+        }
+        None => {
+            let spp = args.reference_spp.unwrap_or(DEFAULT_REFERENCE_SPP);
+            if spp == 0 {
+                return Err(bad("--reference-spp 0: at least one sample per pixel".into()));
+            }
+            let cache = args.cache.clone().unwrap_or_else(|| PathBuf::from(DEFAULT_CACHE_DIR));
+            if cache.exists() && !cache.is_dir() {
+                return Err(bad(format!("--cache {}: is not a folder", cache.display())));
+            }
+            ReferenceSource::Cached(spp, cache)
+        }
+    };
+    if args.out.exists() && !args.out.is_dir() {
+        return Err(bad(format!("--out {}: is not a folder", args.out.display())));
+    }
+    Ok(Plan { scene, methods, budget, reference, width, height })
+}
+
+/// Progress bars on stderr when it is a terminal: the whole run and the current render.
+struct Bars {
+    multi: Option<MultiProgress>,
+    overall: ProgressBar,
+}
+
+impl Bars {
+    fn new(steps: u64, quiet: bool) -> Bars {
+        if quiet || !std::io::stderr().is_terminal() {
+            return Bars { multi: None, overall: ProgressBar::hidden() };
+        }
+        let multi = MultiProgress::new();
+        let overall = multi.add(ProgressBar::new(steps * 1000));
+        overall.set_style(
+            ProgressStyle::with_template("converge [{bar:40}] {percent:>3}%, elapsed {elapsed}")
+                .expect("valid template")
+                .progress_chars("=> "),
+        );
+        Bars { multi: Some(multi), overall }
+    }
+
+    /// A bar for one render.
+    fn render(&self, name: &str, unit: &str) -> ProgressBar {
+        let Some(multi) = &self.multi else { return ProgressBar::hidden() };
+        let bar = multi.add(ProgressBar::new(1));
+        let template = format!("{{msg:>12}} [{{bar:40}}] {{percent:>3}}% of {unit}, ETA {{eta}}");
+        bar.set_style(ProgressStyle::with_template(&template).expect("valid template").progress_chars("=> "));
+        bar.set_message(name.to_string());
+        bar
+    }
+
+    /// Report (done, total) of step `index` on `bar` and on the overall bar.
+    fn update(&self, bar: &ProgressBar, index: u64, done: u64, total: u64) {
+        bar.set_length(total.max(1));
+        bar.set_position(done);
+        self.overall.set_position(index * 1000 + 1000 * done / total.max(1));
+    }
+}
+
+/// How one method's checkpoints were made, and its fitted slopes.
+struct MethodSummary {
+    name: &'static str,
+    growth: Growth,
+    slope_spp: Option<f64>,
+    slope_seconds: Option<f64>,
+    last: Option<Row>,
+}
+
+/// Write `text` to `path` atomically.
+fn write_text(path: &Path, text: &str) -> Result<(), OutputError> {
+    write_atomically(path, |tmp| std::fs::write(tmp, text.as_bytes()).map_err(|e| OutputError::io(tmp, e)))
+}
+
+/// The CSV file of `rows`.
+pub fn csv(rows: &[Row]) -> String {
+    let mut text = String::from(CSV_HEADER);
+    text.push('\n');
+    for r in rows {
+        text.push_str(&r.csv());
+        text.push('\n');
+    }
+    text
+}
+
+/// The row of one checkpoint, and its EXR file with `--exr`.
+fn measure(
+    args: &ConvergeArgs,
+    scene: &Scene,
+    method: &dyn Integrator,
+    seed: u64,
+    reference: &Image,
+    out: &RenderOutput,
+) -> Result<Row, CliError> {
+    let metrics =
+        metrics::compare(&out.image, reference, None).map_err(|e| CliError::Failure(e.to_string()))?;
+    if args.exr {
+        let path = args.out.join(format!("{}-{}spp.exr", method.name(), out.spp));
+        let meta = ExrMetadata {
+            version: crate::VERSION.to_string(),
+            integrator: method.name().to_string(),
+            spp: out.spp,
+            seed,
+            render_time_seconds: out.seconds,
+            rays: out.rays,
+            scene: format!("{} ({})", scene.origin.name, scene.origin.hash),
+            effects: scene.effects.names(),
+        };
+        stage_exr(&path, &out.image, &meta)
+            .and_then(|s| s.commit())
+            .map_err(|e| CliError::Failure(e.to_string()))?;
+    }
+    Ok(Row {
+        integrator: method.name().to_string(),
+        spp: out.spp,
+        seconds: out.seconds,
+        rays: out.rays.total(),
+        metrics,
+        noise: out.noise(),
+    })
 }
 
 /// Runs `vitrum converge`.
-pub fn run(_args: &ConvergeArgs) -> Result<(), CliError> {
-    Err(CliError::Failure("converge: under construction".into()))
+pub fn run(args: &ConvergeArgs) -> Result<(), CliError> {
+    let plan = plan(args)?;
+    let pool = args.render.pool()?;
+    std::fs::create_dir_all(&args.out)
+        .map_err(|e| CliError::Failure(format!("{}: cannot create the folder: {e}", args.out.display())))?;
+    for w in &plan.scene.warnings {
+        eprintln!("vitrum: warning: {w}");
+    }
+    let failure = |e: OutputError| CliError::Failure(e.to_string());
+    let scene = &plan.scene;
+    let cached = matches!(plan.reference, ReferenceSource::Cached(..));
+    let bars = Bars::new(plan.methods.len() as u64 + cached as u64, args.quiet);
+
+    // The reference.
+    let (reference, reference_json, reference_text) = match &plan.reference {
+        ReferenceSource::File(image, path) => (
+            image.clone(),
+            json!({"source": "file", "path": path}),
+            format!("reference: {} ({}x{})", path.display(), image.width, image.height),
+        ),
+        ReferenceSource::Cached(spp, cache) => {
+            let path = crate::integrators::create("path").expect("`path` is registered");
+            let opts = args.render.options(scene, path.as_ref(), Budget::Samples(*spp));
+            let bar = bars.render("reference", "rows");
+            let progress = |done: u64, total: u64| bars.update(&bar, 0, done, total);
+            let r = pool.install(|| path_reference(scene, &opts, *spp, cache, &progress));
+            bar.finish_and_clear();
+            let r = r.map_err(failure)?;
+            let how = if r.cached { "read from the cache" } else { "rendered and cached" };
+            (
+                r.image,
+                json!({"source": "path", "spp": r.spp, "path": r.path, "cached": r.cached}),
+                format!("reference: path, {} spp, {how}: {}", r.spp, r.path.display()),
+            )
+        }
+    };
+    if !args.quiet {
+        bars.overall.suspend(|| eprintln!("{reference_text}"));
+    }
+    if let (ReferenceSource::Cached(ref_spp, _), Budget::Samples(max)) = (&plan.reference, plan.budget) {
+        if *ref_spp < 16 * max {
+            eprintln!(
+                "vitrum: warning: the reference ({ref_spp} spp) is less than 16 times the largest sample count \
+                 ({max}): its own noise adds about {:.0}% to the error measured there",
+                100.0 * max as f64 / *ref_spp as f64
+            );
+        }
+    }
+
+    let mut rows: Vec<Row> = Vec::new();
+    let mut summaries = Vec::new();
+    let csv_path = args.out.join("converge.csv");
+    for (index, method) in plan.methods.iter().enumerate() {
+        let opts = args.render.options(scene, method.as_ref(), plan.budget);
+        crate::cli::check_effects(scene, method.as_ref(), &opts, false)?;
+        let unit = match plan.budget {
+            Budget::Samples(_) => "samples",
+            Budget::Time(_) => "time",
+        };
+        let bar = bars.render(method.name(), unit);
+        let step = index as u64 + cached as u64;
+        let progress = |done: u64, total: u64| bars.update(&bar, step, done, total);
+        let mut error: Option<CliError> = None;
+        let mut method_rows: Vec<Row> = Vec::new();
+        let mut checkpoint = |out: &RenderOutput| {
+            if error.is_none() {
+                match measure(args, scene, method.as_ref(), opts.seed, &reference, out) {
+                    Ok(row) => method_rows.push(row),
+                    Err(e) => error = Some(e),
+                }
+            }
+        };
+        let growth = pool.install(|| {
+            render::render_progressive(scene, method.as_ref(), &opts, args.fresh, &progress, &mut checkpoint)
+        });
+        bar.finish_and_clear();
+        if let Some(e) = error {
+            return Err(e);
+        }
+        let points = |x: fn(&Row) -> f64| -> Vec<(f64, f64)> {
+            method_rows.iter().map(|r| (x(r), r.metrics.rel_mse)).collect()
+        };
+        summaries.push(MethodSummary {
+            name: method.name(),
+            growth,
+            slope_spp: fit_slope(&points(|r| r.spp as f64)),
+            slope_seconds: fit_slope(&points(|r| r.seconds)),
+            last: method_rows.last().cloned(),
+        });
+        rows.extend(method_rows);
+        write_text(&csv_path, &csv(&rows)).map_err(failure)?;
+    }
+    bars.overall.finish_and_clear();
+
+    // Plots of relMSE against samples and against seconds.
+    let mut plots = Vec::new();
+    // A short scene name: the file stem, or "default scene".
+    let name = &scene.origin.name;
+    let short = match Path::new(name).file_stem() {
+        Some(stem) if !name.starts_with('<') => stem.to_string_lossy().into_owned(),
+        _ => "default scene".to_string(),
+    };
+    let title = format!("{short}: relMSE");
+    for (x_name, x_label, x) in [
+        ("spp", "samples per pixel", (|r: &Row| r.spp as f64) as fn(&Row) -> f64),
+        ("seconds", "render time (s)", |r: &Row| r.seconds),
+    ] {
+        let series: Vec<Series> = summaries
+            .iter()
+            .map(|s| Series {
+                name: s.name.to_string(),
+                points: rows
+                    .iter()
+                    .filter(|r| r.integrator == s.name)
+                    .map(|r| (x(r), r.metrics.rel_mse))
+                    .collect(),
+            })
+            .collect();
+        let plot = LogLogPlot {
+            title: &format!("{title} against {x_label}"),
+            x_label,
+            y_label: "relMSE",
+            series: &series,
+        };
+        let svg = args.out.join(format!("relmse-{x_name}.svg"));
+        let png = svg.with_extension("png");
+        match write_loglog(&plot, &svg, &png) {
+            Ok(()) => plots.push((svg, png)),
+            // A plot with no positive error (every render equals the reference) is no failure.
+            Err(e @ OutputError::Format { .. }) => eprintln!("vitrum: warning: no plot: {e}"),
+            Err(e) => return Err(failure(e)),
+        }
+    }
+
+    let growth_json = |g: Growth| match g {
+        Growth::Incremental => json!({"growth": "incremental"}),
+        Growth::Fresh(why) => json!({"growth": "fresh", "note": why}),
+        Growth::Fixed(why) => json!({"growth": "fixed", "note": why}),
+    };
+    let summary = json!({
+        "scene": scene.origin.name,
+        "scene_hash": scene.origin.hash,
+        "width": plan.width,
+        "height": plan.height,
+        "seed": args.render.seed.unwrap_or(scene.settings.seed),
+        "budget": match plan.budget {
+            Budget::Samples(n) => json!({"spp_max": n}),
+            Budget::Time(t) => json!({"seconds": t.as_secs_f64()}),
+        },
+        "reference": reference_json,
+        "integrators": summaries.iter().map(|s| {
+            let mut v = growth_json(s.growth);
+            v["name"] = json!(s.name);
+            v["rel_mse_slope_spp"] = json!(s.slope_spp);
+            v["rel_mse_slope_seconds"] = json!(s.slope_seconds);
+            v["checkpoints"] = json!(rows.iter().filter(|r| r.integrator == s.name).count());
+            v
+        }).collect::<Vec<_>>(),
+        "csv": csv_path,
+        "plots": plots.iter().map(|(s, p)| json!([s, p])).collect::<Vec<_>>(),
+    });
+    let json_path = args.out.join("converge.json");
+    write_text(&json_path, &(serde_json::to_string_pretty(&summary).expect("JSON") + "\n"))
+        .map_err(failure)?;
+
+    if !args.quiet {
+        let slope = |s: Option<f64>| s.map_or("n/a".to_string(), |s| format!("{s:.2}"));
+        for s in &summaries {
+            let Some(last) = &s.last else { continue };
+            let how = match s.growth {
+                Growth::Incremental => String::new(),
+                Growth::Fresh(why) => format!(" ({why})"),
+                Growth::Fixed(why) => format!(" (one fixed image: {why})"),
+            };
+            eprintln!(
+                "{:<12} {} spp in {:.3} s: relMSE {:.4e}; slope {} against samples, {} against seconds{how}",
+                s.name,
+                last.spp,
+                last.seconds,
+                last.metrics.rel_mse,
+                slope(s.slope_spp),
+                slope(s.slope_seconds),
+            );
+        }
+        eprintln!("converge -> {}, {}", csv_path.display(), json_path.display());
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn csv_rows_have_every_column_and_empty_fields_for_missing_noise() {
+        let m = Metrics {
+            mse: 0.25,
+            rmse: 0.5,
+            rel_mse: 0.125,
+            mae: 0.4,
+            psnr: 6.0,
+            peak: 1.0,
+            pixels: 4,
+            non_finite_test: 1,
+            non_finite_reference: 0,
+        };
+        let row = Row { integrator: "path".into(), spp: 8, seconds: 1.5, rays: 100, metrics: m, noise: None };
+        let text = csv(&[row]);
+        let lines: Vec<&str> = text.lines().collect();
+        assert_eq!(lines[0], CSV_HEADER);
+        assert_eq!(lines[1], "path,8,1.5,100,0.25,0.5,0.125,0.4,6,1,,");
+        assert_eq!(lines[1].split(',').count(), CSV_HEADER.split(',').count());
+    }
 }

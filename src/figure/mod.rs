@@ -3,4 +3,5 @@
 
 pub mod canvas;
 pub mod colormap;
+pub mod compose;
 pub mod plot;

@@ -108,6 +108,106 @@ pub fn stage_exr(path: &Path, image: &Image, meta: &ExrMetadata) -> Result<Stage
     stage(path, |tmp| file.write().to_file(tmp).map_err(|e| exr_error(path, e)))
 }
 
+/// An extra float32 channel of an EXR file, one value per pixel in row-major order.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ExtraChannel {
+    /// Channel name, e.g. `variance.R` (a `layer.` prefix groups channels in viewers).
+    pub name: String,
+    /// `width * height` values.
+    pub values: Vec<f32>,
+}
+
+/// The channels of a render's per-pixel variance: `variance.R`, `variance.G`, `variance.B` (the
+/// variance of each pixel's estimate, its squared standard error) and `samples` (the samples
+/// behind it).
+pub fn variance_channels(variance: &Image, samples: &[f32]) -> Vec<ExtraChannel> {
+    let channel = |name: &str, f: fn(glam::Vec3) -> f32| ExtraChannel {
+        name: name.to_string(),
+        values: variance.pixels.iter().map(|&v| f(v)).collect(),
+    };
+    vec![
+        channel("variance.R", |v| v.x),
+        channel("variance.G", |v| v.y),
+        channel("variance.B", |v| v.z),
+        ExtraChannel { name: "samples".into(), values: samples.to_vec() },
+    ]
+}
+
+/// Like [`stage_exr`], with `extra` float32 channels beside R, G, B in the beauty layer.
+pub fn stage_exr_with_channels(
+    path: &Path,
+    image: &Image,
+    meta: &ExrMetadata,
+    extra: &[ExtraChannel],
+) -> Result<Staged, OutputError> {
+    use exr::prelude::{AnyChannel, AnyChannels, FlatSamples, SmallVec};
+    if extra.is_empty() {
+        return stage_exr(path, image, meta);
+    }
+    check_pixel_count(path, image)?;
+    for c in extra {
+        if c.values.len() != image.pixels.len() {
+            return Err(OutputError::format(
+                path,
+                format!("channel {} has {} values for {} pixels", c.name, c.values.len(), image.pixels.len()),
+            ));
+        }
+        if ["R", "G", "B"].contains(&c.name.as_str()) || extra.iter().filter(|o| o.name == c.name).count() > 1
+        {
+            return Err(OutputError::format(path, format!("channel {} is given twice", c.name)));
+        }
+    }
+    let mut attributes = LayerAttributes::named(BEAUTY_LAYER);
+    attributes.software_name = Some(text(&format!("vitrum {}", meta.version)));
+    for (name, value) in metadata_attributes(path, meta)? {
+        attributes.other.insert(text(name), value);
+    }
+    let rgb = |f: fn(&glam::Vec3) -> f32| image.pixels.iter().map(f).collect::<Vec<f32>>();
+    let mut list = vec![
+        AnyChannel::new("R", FlatSamples::F32(rgb(|p| p.x))),
+        AnyChannel::new("G", FlatSamples::F32(rgb(|p| p.y))),
+        AnyChannel::new("B", FlatSamples::F32(rgb(|p| p.z))),
+    ];
+    for c in extra {
+        list.push(AnyChannel::new(text(&c.name), FlatSamples::F32(c.values.clone())));
+    }
+    let channels = AnyChannels::sort(SmallVec::from_vec(list));
+    let layer = Layer::new((image.width, image.height), attributes, Encoding::SMALL_LOSSLESS, channels);
+    let file = exr::image::Image::from_layer(layer);
+    stage(path, |tmp| file.write().to_file(tmp).map_err(|e| exr_error(path, e)))
+}
+
+/// Every channel of an EXR file's first layer.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ExrChannels {
+    /// Width in pixels.
+    pub width: usize,
+    /// Height in pixels.
+    pub height: usize,
+    /// The values of each channel as f32, row-major, by channel name.
+    pub channels: BTreeMap<String, Vec<f32>>,
+}
+
+/// Every channel of the first layer as f32 values, by name, with the layer's width and height.
+pub fn read_exr_channels(path: &Path) -> Result<ExrChannels, OutputError> {
+    let file = read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .all_channels()
+        .first_valid_layer()
+        .all_attributes()
+        .from_file(path)
+        .map_err(|e| exr_error(path, e))?;
+    let layer = &file.layer_data;
+    let channels = layer
+        .channel_data
+        .list
+        .iter()
+        .map(|c| (utf8(c.name.as_slice()), c.sample_data.values_as_f32().collect()))
+        .collect();
+    Ok(ExrChannels { width: layer.size.width(), height: layer.size.height(), channels })
+}
+
 /// Read the first layer's R, G, B channels as f32 plus all header attributes (image- and layer-level) as strings.
 pub fn read_exr(path: &Path) -> Result<(Image, BTreeMap<String, String>), OutputError> {
     // Read once and decode twice (pixels, then the raw headers), so both come from the same file version.
@@ -326,6 +426,33 @@ mod tests {
             let name = path.file_name().unwrap().to_str().unwrap();
             assert!(err.to_string().contains(name), "{err}");
         }
+    }
+
+    #[test]
+    fn variance_channels_round_trip_beside_rgb() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("variance.exr");
+        let image = test_image();
+        let mut variance = Image::new(7, 5);
+        for (i, v) in variance.pixels.iter_mut().enumerate() {
+            *v = Vec3::new(i as f32, 2.0 * i as f32, 0.5);
+        }
+        let extra = variance_channels(&variance, &[16.0; 35]);
+        stage_exr_with_channels(&path, &image, &test_metadata(), &extra).unwrap().commit().unwrap();
+        let (back, attrs) = read_exr(&path).unwrap();
+        assert_eq!(bits(&back), bits(&image));
+        assert_eq!(attrs["vitrum:spp"], "64");
+        assert_eq!(
+            attrs["channels"],
+            "B:F32, G:F32, R:F32, samples:F32, variance.B:F32, variance.G:F32, variance.R:F32"
+        );
+        let ExrChannels { width, height, channels } = read_exr_channels(&path).unwrap();
+        assert_eq!((width, height), (7, 5));
+        assert_eq!(channels["variance.G"][3], 6.0);
+        assert_eq!(channels["variance.B"], vec![0.5; 35]);
+        assert_eq!(channels["samples"], vec![16.0; 35]);
+        let short = [ExtraChannel { name: "x".into(), values: vec![1.0; 3] }];
+        assert!(stage_exr_with_channels(&path, &image, &test_metadata(), &short).is_err());
     }
 
     #[test]

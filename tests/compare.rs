@@ -1,0 +1,274 @@
+//! `vitrum compare` end to end: the figure has the size `figure::compose` documents (with and
+//! without a crop), the table one row per method in CSV and Markdown, every method its EXR; equal
+//! time gives every method at least its time; bad input exits with code 2 before rendering and
+//! leaves nothing behind.
+
+use std::fs;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+use tempfile::TempDir;
+
+/// Render size of every case: small, and not square (so width and height cannot be swapped).
+const SIZE: (u32, u32) = (32, 24);
+const RESOLUTION: &str = "32x24";
+
+/// A temporary working folder with `out/` for the outputs and a `path` reference render.
+struct Sandbox {
+    dir: TempDir,
+}
+
+impl Sandbox {
+    fn new() -> Sandbox {
+        let dir = tempfile::tempdir().unwrap();
+        fs::create_dir(dir.path().join("out")).unwrap();
+        let sandbox = Sandbox { dir };
+        sandbox.render_reference("ref.exr", RESOLUTION);
+        sandbox
+    }
+
+    fn path(&self, name: &str) -> PathBuf {
+        self.dir.path().join(name)
+    }
+
+    /// A 16-sample `path` render of the shipped scene at `resolution`, written to `name`.
+    fn render_reference(&self, name: &str, resolution: &str) {
+        let out = self.vitrum(&[
+            "render",
+            &scene(),
+            "-i",
+            "path",
+            "--spp",
+            "16",
+            "--resolution",
+            resolution,
+            "--quiet",
+            "-o",
+            name,
+        ]);
+        assert!(out.status.success(), "{}", stderr(&out));
+    }
+
+    /// Run the binary in the sandbox (so a default cache folder would land there).
+    fn vitrum(&self, args: &[&str]) -> Output {
+        Command::new(env!("CARGO_BIN_EXE_vitrum"))
+            .args(args)
+            .current_dir(self.dir.path())
+            .output()
+            .expect("the vitrum binary runs")
+    }
+
+    /// `vitrum compare` of the shipped scene at the test size with `extra` options, and unless
+    /// they say otherwise, `ref.exr` as the reference and `out/cmp` as the output folder.
+    fn compare(&self, extra: &[&str]) -> Output {
+        let scene = scene();
+        let mut args = vec!["compare", &scene, "--resolution", RESOLUTION, "--quiet"];
+        for (option, default) in [("--reference", "ref.exr"), ("--out", "out/cmp")] {
+            if !extra.contains(&option) {
+                args.extend([option, default]);
+            }
+        }
+        args.extend(extra);
+        self.vitrum(&args)
+    }
+
+    /// The names of the files in `folder` (relative to the sandbox), sorted.
+    fn files(&self, folder: &str) -> Vec<String> {
+        let mut names: Vec<String> = fs::read_dir(self.path(folder))
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into())
+            .collect();
+        names.sort();
+        names
+    }
+}
+
+/// The shipped thesis scene.
+fn scene() -> String {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell-glass.toml").display().to_string()
+}
+
+fn stderr(out: &Output) -> String {
+    String::from_utf8_lossy(&out.stderr).into_owned()
+}
+
+/// The figure size by the formula of `figure::compose`'s documentation.
+fn expected_figure_size(image: (u32, u32), methods: u32, crop: Option<(u32, u32)>) -> (u32, u32) {
+    let (w, h) = image;
+    let column = w.max(160);
+    let font = column / 11;
+    let line = 5 * font / 4;
+    let gap = (column / 40).max(4);
+    let bar = font / 2;
+    let width = methods * column + (methods + 1) * gap;
+    let mut height = 6 * gap + 6 * line + bar + 2 * h;
+    if let Some((cw, ch)) = crop {
+        let zoom = (w / cw).min(h / ch).max(1);
+        height += gap + zoom * ch;
+    }
+    (width, height)
+}
+
+/// The decoded size of a PNG file.
+fn png_size(path: &Path) -> (u32, u32) {
+    let image = image::open(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    (image.width(), image.height())
+}
+
+/// The first cell of every data row of the CSV and of the Markdown table.
+fn table_methods(folder: &Path) -> (Vec<String>, Vec<String>) {
+    let csv = fs::read_to_string(folder.join("compare.csv")).unwrap();
+    let mut lines = csv.lines();
+    assert_eq!(
+        lines.next(),
+        Some("method,spp,seconds,rays,mrays_per_second,mse,rel_mse,efficiency,non_finite_pixels")
+    );
+    let csv_rows: Vec<String> = lines
+        .map(|l| {
+            let cells: Vec<&str> = l.split(',').collect();
+            assert_eq!(cells.len(), 9, "{l}");
+            assert!(cells[1..].iter().all(|c| c.parse::<f64>().is_ok()), "{l}");
+            cells[0].to_string()
+        })
+        .collect();
+    let md = fs::read_to_string(folder.join("compare.md")).unwrap();
+    let table: Vec<&str> = md.lines().filter(|l| l.starts_with('|')).collect();
+    assert!(table.len() >= 2 && table[0].contains("relMSE") && table[1].starts_with("|---"), "{md}");
+    let md_rows = table[2..].iter().map(|l| l.split('|').nth(1).unwrap().trim().to_string()).collect();
+    (csv_rows, md_rows)
+}
+
+#[test]
+fn equal_samples_write_the_documented_figure_a_table_row_and_an_exr_per_method() {
+    let sandbox = Sandbox::new();
+    let out = sandbox.compare(&["-i", "raycast,whitted,path", "--spp", "2"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let folder = sandbox.path("out/cmp");
+    assert_eq!(
+        sandbox.files("out/cmp"),
+        ["compare.csv", "compare.md", "compare.png", "path.exr", "raycast.exr", "whitted.exr"]
+    );
+    assert_eq!(png_size(&folder.join("compare.png")), expected_figure_size(SIZE, 3, None));
+    let (csv, md) = table_methods(&folder);
+    assert_eq!(csv, ["raycast", "whitted", "path"]);
+    assert_eq!(md, csv);
+    let csv = fs::read_to_string(folder.join("compare.csv")).unwrap();
+    assert!(csv.lines().skip(1).all(|l| l.split(',').nth(1) == Some("2")), "{csv}");
+
+    let (image, attributes) = vitrum::output::exr::read_exr(&folder.join("whitted.exr")).unwrap();
+    assert_eq!((image.width as u32, image.height as u32), SIZE);
+    assert_eq!(attributes.get("vitrum:integrator").map(String::as_str), Some("whitted"));
+    // Nothing else was written: no temporary files, no reference cache.
+    assert_eq!(sandbox.files("out"), ["cmp"]);
+    assert!(!sandbox.path(".vitrum-cache").exists());
+}
+
+#[test]
+fn a_crop_adds_the_magnified_inset_to_the_figure() {
+    let sandbox = Sandbox::new();
+    let out = sandbox.compare(&["-i", "whitted,light", "--spp", "1", "--crop", "8,6,8,6"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let with_crop = png_size(&sandbox.path("out/cmp/compare.png"));
+    // k = min(32 / 8, 24 / 6) = 4: a 32×24 inset and one more gap of 4.
+    assert_eq!(with_crop, expected_figure_size(SIZE, 2, Some((8, 6))));
+    assert_eq!(
+        with_crop,
+        (expected_figure_size(SIZE, 2, None).0, expected_figure_size(SIZE, 2, None).1 + 28)
+    );
+    let (csv, md) = table_methods(&sandbox.path("out/cmp"));
+    assert_eq!((csv.len(), md.len()), (2, 2));
+}
+
+#[test]
+fn equal_time_gives_every_method_whole_passes_for_at_least_its_time() {
+    let sandbox = Sandbox::new();
+    let out = sandbox.compare(&["-i", "whitted,path", "--time", "0.15"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let csv = fs::read_to_string(sandbox.path("out/cmp/compare.csv")).unwrap();
+    for line in csv.lines().skip(1) {
+        let cells: Vec<&str> = line.split(',').collect();
+        let (spp, seconds): (u32, f64) = (cells[1].parse().unwrap(), cells[2].parse().unwrap());
+        assert!(spp >= 1 && seconds >= 0.15, "{line}");
+    }
+    let md = fs::read_to_string(sandbox.path("out/cmp/compare.md")).unwrap();
+    assert!(md.contains("equal time"), "{md}");
+}
+
+#[test]
+fn without_a_reference_file_the_path_reference_is_cached() {
+    let sandbox = Sandbox::new();
+    let scene = scene();
+    let args = [
+        "compare",
+        &scene,
+        "-i",
+        "whitted",
+        "--spp",
+        "1",
+        "--resolution",
+        RESOLUTION,
+        "--reference-spp",
+        "4",
+    ];
+    let run = |out: &str| {
+        let mut all = args.to_vec();
+        all.extend(["--cache", "cache", "--out", out]);
+        let output = sandbox.vitrum(&all);
+        assert!(output.status.success(), "{}", stderr(&output));
+        stderr(&output)
+    };
+    assert!(run("first").contains("rendered and cached"));
+    assert_eq!(sandbox.files("cache").len(), 2, "the EXR and its key");
+    assert!(run("second").contains("read from the cache"));
+    for out in ["first", "second"] {
+        assert_eq!(table_methods(&sandbox.path(out)), (vec!["whitted".into()], vec!["whitted".into()]));
+    }
+}
+
+#[test]
+fn bad_input_exits_2_before_rendering_and_leaves_nothing() {
+    let sandbox = Sandbox::new();
+    sandbox.render_reference("small.exr", "16x16");
+    fs::write(sandbox.path("not-an-exr.exr"), "hello").unwrap();
+    fs::write(sandbox.path("file"), "keep me").unwrap();
+    let cases: &[(&[&str], &str)] = &[
+        (&["-i", "path,nope"], "nope"),
+        (&["-i", "path,path"], "twice"),
+        (&["-i", " , "], "integrator"),
+        (&["--reference", "small.exr"], "16x16"),
+        (&["--reference", "missing.exr"], "missing.exr"),
+        (&["--reference", "not-an-exr.exr"], "not-an-exr.exr"),
+        (&["--crop", "30,20,8,8"], "32x24"),
+        (&["--crop", "1,2,0,4"], "crop"),
+        (&["--spp", "0"], "spp"),
+        (&["--spp", "-3"], "spp"),
+        (&["--time", "-1"], "time"),
+        (&["--time", "abc"], "time"),
+        (&["--time", "nan"], "time"),
+        (&["--time", "1", "--spp", "2"], "spp"),
+        (&["--reference-spp", "4"], "reference"),
+        (&["--exposure", "nan"], "exposure"),
+        (&["--threads", "0"], "thread"),
+        (&["--max-depth", "100000"], "max-depth"),
+        (&["--out", "file"], "file"),
+        (&["--out", "out/missing/cmp"], "missing"),
+    ];
+    for (extra, needle) in cases {
+        let out = sandbox.compare(extra);
+        let message = stderr(&out);
+        assert_eq!(out.status.code(), Some(2), "{extra:?}: {message}");
+        assert!(message.contains(needle), "{extra:?} should name `{needle}`: {message}");
+        assert!(!message.contains("panicked"), "{extra:?}: {message}");
+        assert!(sandbox.files("out").is_empty(), "{extra:?} left {:?}", sandbox.files("out"));
+    }
+    assert_eq!(fs::read_to_string(sandbox.path("file")).unwrap(), "keep me");
+    assert!(!sandbox.path(".vitrum-cache").exists());
+
+    // A render that would replace the reference itself is refused too.
+    fs::create_dir(sandbox.path("keep")).unwrap();
+    fs::copy(sandbox.path("ref.exr"), sandbox.path("keep/path.exr")).unwrap();
+    let out = sandbox.compare(&["-i", "whitted,path", "--reference", "keep/path.exr", "--out", "keep"]);
+    assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
+    assert!(stderr(&out).contains("over the reference"), "{}", stderr(&out));
+    assert_eq!(sandbox.files("keep"), ["path.exr"]);
+    assert_eq!(fs::read(sandbox.path("keep/path.exr")).unwrap(), fs::read(sandbox.path("ref.exr")).unwrap());
+}
