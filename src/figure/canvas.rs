@@ -118,47 +118,23 @@ impl Canvas {
     /// Sets `text` with its top-left corner at (x, y), `size` pixels from ascent to descent,
     /// blending anti-aliased glyph coverage over the canvas. Returns the advance width in pixels.
     pub fn text(&mut self, x: f32, y: f32, size: f32, color: Rgb, text: &str) -> f32 {
-        let font = font().as_scaled(PxScale::from(size));
-        let mut caret = x;
-        let mut previous = None;
-        for c in text.chars() {
-            let id = font.glyph_id(c);
-            if let Some(p) = previous {
-                caret += font.kern(p, id);
+        let (x0, y0) = (x.floor(), y.floor());
+        let width = for_each_text_pixel(size, text, (x - x0, y - y0), |gx, gy, coverage| {
+            let (px, py) = (x0 as i64 + gx, y0 as i64 + gy);
+            if px < 0 || py < 0 || px >= self.width as i64 || py >= self.height as i64 {
+                return;
             }
-            let glyph = id.with_scale_and_position(size, ab_glyph::point(caret, y + font.ascent()));
-            caret += font.h_advance(id);
-            previous = Some(id);
-            let Some(outlined) = font.outline_glyph(glyph) else { continue };
-            let bounds = outlined.px_bounds();
-            outlined.draw(|gx, gy, coverage| {
-                let (px, py) = (bounds.min.x as i64 + gx as i64, bounds.min.y as i64 + gy as i64);
-                if px < 0 || py < 0 || px >= self.width as i64 || py >= self.height as i64 {
-                    return;
-                }
-                let under = self.get(px as u32, py as u32);
-                let a = coverage.clamp(0.0, 1.0);
-                let mix = |u: u8, c: u8| (u as f32 * (1.0 - a) + c as f32 * a).round() as u8;
-                self.set(px, py, [mix(under[0], color[0]), mix(under[1], color[1]), mix(under[2], color[2])]);
-            });
-        }
-        caret - x
+            let under = self.get(px as u32, py as u32);
+            let a = coverage.clamp(0.0, 1.0);
+            let mix = |u: u8, c: u8| (u as f32 * (1.0 - a) + c as f32 * a).round() as u8;
+            self.set(px, py, [mix(under[0], color[0]), mix(under[1], color[1]), mix(under[2], color[2])]);
+        });
+        width
     }
 
     /// The advance width of `text` at `size` pixels, as [`text`](Self::text) would set it.
     pub fn text_width(size: f32, text: &str) -> f32 {
-        let font = font().as_scaled(PxScale::from(size));
-        let mut width = 0.0;
-        let mut previous = None;
-        for c in text.chars() {
-            let id = font.glyph_id(c);
-            if let Some(p) = previous {
-                width += font.kern(p, id);
-            }
-            width += font.h_advance(id);
-            previous = Some(id);
-        }
-        width
+        for_each_text_pixel(size, text, (0.0, 0.0), |_, _, _| {})
     }
 
     /// Prepares the canvas as a PNG file at `path` (written by [`Staged::commit`]).
@@ -171,6 +147,42 @@ impl Canvas {
     pub fn save_png(&self, path: &Path) -> Result<(), OutputError> {
         self.stage_png(path)?.commit()
     }
+}
+
+/// Lays out `text` at `size` pixels in the embedded font, with the top of its ascent at `offset`
+/// (sub-pixel, from the origin), and calls `pixel(x, y, coverage)` for every pixel a glyph covers,
+/// in whole pixels from the origin. Glyphs sit at their side bearings and kerning applies. Returns
+/// the advance width.
+pub fn for_each_text_pixel(
+    size: f32,
+    text: &str,
+    offset: (f32, f32),
+    mut pixel: impl FnMut(i64, i64, f32),
+) -> f32 {
+    let font = font().as_scaled(PxScale::from(size));
+    let mut caret = offset.0;
+    let mut previous = None;
+    for c in text.chars() {
+        let id = font.glyph_id(c);
+        if let Some(p) = previous {
+            caret += font.kern(p, id);
+        }
+        let glyph = id.with_scale_and_position(size, ab_glyph::point(caret, offset.1 + font.ascent()));
+        caret += font.h_advance(id);
+        previous = Some(id);
+        let Some(outlined) = font.outline_glyph(glyph) else { continue };
+        let bounds = outlined.px_bounds();
+        outlined.draw(|gx, gy, coverage| {
+            pixel(bounds.min.x as i64 + gx as i64, bounds.min.y as i64 + gy as i64, coverage)
+        });
+    }
+    caret - offset.0
+}
+
+/// The height of a line of text at `size` pixels, from ascent to descent.
+pub fn text_height(size: f32) -> f32 {
+    let font = font().as_scaled(PxScale::from(size));
+    font.ascent() - font.descent()
 }
 
 #[cfg(test)]

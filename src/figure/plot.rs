@@ -7,11 +7,13 @@
 //! Points that cannot be shown on log axes (not positive or not finite) are left out of the
 //! drawing and of the fit.
 
-use super::canvas::FONT_BYTES;
+use super::canvas::{for_each_text_pixel, text_height, FONT_BYTES};
 use crate::output::{stage, OutputError};
 use plotters::coord::Shift;
 use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, VPos};
 use plotters::style::FontStyle;
+use plotters_backend::{BackendColor, BackendCoord, BackendTextStyle, DrawingErrorKind};
 use std::path::Path;
 use std::sync::OnceLock;
 
@@ -96,7 +98,7 @@ pub fn write_loglog(plot: &LogLogPlot, svg: &Path, png: &Path) -> Result<(), Out
     }
     let mut rgb = vec![0u8; w as usize * h as usize * 3];
     {
-        let root = BitMapBackend::with_buffer(&mut rgb, PLOT_SIZE).into_drawing_area();
+        let root = GlyphPlacing(BitMapBackend::with_buffer(&mut rgb, PLOT_SIZE)).into_drawing_area();
         draw(&root, plot, x_range, y_range).map_err(|m| OutputError::format(png, m))?;
     }
 
@@ -321,5 +323,125 @@ mod tests {
         let missing = dir.path().join("no-such").join("p.svg");
         assert!(write_loglog(&LogLogPlot { series: &sample_plot_series(), ..plot }, &missing, &png).is_err());
         assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
+    }
+}
+
+/// A bitmap backend that sets text itself: plotters' own ab_glyph text drawing places each glyph
+/// at the pen position without its side bearing (so "pixel" reads "pi xel"); this one places
+/// glyphs as [`Canvas::text`](super::canvas::Canvas::text) does. Everything else is delegated.
+struct GlyphPlacing<'a>(BitMapBackend<'a>);
+
+impl<'a> DrawingBackend for GlyphPlacing<'a> {
+    type ErrorType = <BitMapBackend<'a> as DrawingBackend>::ErrorType;
+
+    fn get_size(&self) -> (u32, u32) {
+        self.0.get_size()
+    }
+
+    fn ensure_prepared(&mut self) -> Result<(), DrawingErrorKind<Self::ErrorType>> {
+        self.0.ensure_prepared()
+    }
+
+    fn present(&mut self) -> Result<(), DrawingErrorKind<Self::ErrorType>> {
+        self.0.present()
+    }
+
+    fn draw_pixel(
+        &mut self,
+        point: BackendCoord,
+        color: BackendColor,
+    ) -> Result<(), DrawingErrorKind<Self::ErrorType>> {
+        self.0.draw_pixel(point, color)
+    }
+
+    fn draw_line<S: plotters_backend::BackendStyle>(
+        &mut self,
+        from: BackendCoord,
+        to: BackendCoord,
+        style: &S,
+    ) -> Result<(), DrawingErrorKind<Self::ErrorType>> {
+        self.0.draw_line(from, to, style)
+    }
+
+    fn draw_rect<S: plotters_backend::BackendStyle>(
+        &mut self,
+        upper_left: BackendCoord,
+        bottom_right: BackendCoord,
+        style: &S,
+        fill: bool,
+    ) -> Result<(), DrawingErrorKind<Self::ErrorType>> {
+        self.0.draw_rect(upper_left, bottom_right, style, fill)
+    }
+
+    fn draw_path<S: plotters_backend::BackendStyle, I: IntoIterator<Item = BackendCoord>>(
+        &mut self,
+        path: I,
+        style: &S,
+    ) -> Result<(), DrawingErrorKind<Self::ErrorType>> {
+        self.0.draw_path(path, style)
+    }
+
+    fn draw_circle<S: plotters_backend::BackendStyle>(
+        &mut self,
+        center: BackendCoord,
+        radius: u32,
+        style: &S,
+        fill: bool,
+    ) -> Result<(), DrawingErrorKind<Self::ErrorType>> {
+        self.0.draw_circle(center, radius, style, fill)
+    }
+
+    fn fill_polygon<S: plotters_backend::BackendStyle, I: IntoIterator<Item = BackendCoord>>(
+        &mut self,
+        vert: I,
+        style: &S,
+    ) -> Result<(), DrawingErrorKind<Self::ErrorType>> {
+        self.0.fill_polygon(vert, style)
+    }
+
+    fn estimate_text_size<S: BackendTextStyle>(
+        &self,
+        text: &str,
+        style: &S,
+    ) -> Result<(u32, u32), DrawingErrorKind<Self::ErrorType>> {
+        let size = style.size() as f32;
+        let width = for_each_text_pixel(size, text, (0.0, 0.0), |_, _, _| {});
+        Ok((width.ceil() as u32, text_height(size).ceil() as u32))
+    }
+
+    fn draw_text<S: BackendTextStyle>(
+        &mut self,
+        text: &str,
+        style: &S,
+        pos: BackendCoord,
+    ) -> Result<(), DrawingErrorKind<Self::ErrorType>> {
+        let color = style.color();
+        if color.alpha == 0.0 {
+            return Ok(());
+        }
+        let size = style.size() as f32;
+        let (width, height) = (for_each_text_pixel(size, text, (0.0, 0.0), |_, _, _| {}), text_height(size));
+        let dx = match style.anchor().h_pos {
+            HPos::Left => 0.0,
+            HPos::Right => -width,
+            HPos::Center => -width / 2.0,
+        };
+        let dy = match style.anchor().v_pos {
+            VPos::Top => 0.0,
+            VPos::Center => -height / 2.0,
+            VPos::Bottom => -height,
+        };
+        let transform = style.transform();
+        let (w, h) = self.get_size();
+        let mut result = Ok(());
+        for_each_text_pixel(size, text, (dx, dy), |x, y, coverage| {
+            let (x, y) = transform.transform(x as i32, y as i32);
+            let (x, y) = (pos.0 + x, pos.1 + y);
+            if result.is_ok() && x >= 0 && y >= 0 && (x as u32) < w && (y as u32) < h {
+                let alpha = color.alpha * f64::from(coverage.clamp(0.0, 1.0));
+                result = self.0.draw_pixel((x, y), BackendColor { alpha, rgb: color.rgb });
+            }
+        });
+        result
     }
 }
