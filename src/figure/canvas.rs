@@ -119,7 +119,7 @@ impl Canvas {
     /// blending anti-aliased glyph coverage over the canvas. Returns the advance width in pixels.
     pub fn text(&mut self, x: f32, y: f32, size: f32, color: Rgb, text: &str) -> f32 {
         let (x0, y0) = (x.floor(), y.floor());
-        let width = for_each_text_pixel(size, text, (x - x0, y - y0), |gx, gy, coverage| {
+        for_each_text_pixel(size, text, (x - x0, y - y0), |gx, gy, coverage| {
             let (px, py) = (x0 as i64 + gx, y0 as i64 + gy);
             if px < 0 || py < 0 || px >= self.width as i64 || py >= self.height as i64 {
                 return;
@@ -128,8 +128,7 @@ impl Canvas {
             let a = coverage.clamp(0.0, 1.0);
             let mix = |u: u8, c: u8| (u as f32 * (1.0 - a) + c as f32 * a).round() as u8;
             self.set(px, py, [mix(under[0], color[0]), mix(under[1], color[1]), mix(under[2], color[2])]);
-        });
-        width
+        })
     }
 
     /// The advance width of `text` at `size` pixels, as [`text`](Self::text) would set it.
