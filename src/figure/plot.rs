@@ -222,110 +222,6 @@ fn draw<DB: DrawingBackend>(
     root.present().map_err(err)
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn slope_of_a_power_law_is_exact() {
-        let points: Vec<(f64, f64)> = (0..8).map(|i| 2f64.powi(i)).map(|x| (x, 3.0 * x.powf(-0.5))).collect();
-        assert!((fit_slope(&points).unwrap() + 0.5).abs() < 1e-12);
-        let points: Vec<(f64, f64)> =
-            (1..6).map(|i| (i as f64 * 0.1, 7.0 * (i as f64 * 0.1).powi(2))).collect();
-        assert!((fit_slope(&points).unwrap() - 2.0).abs() < 1e-12);
-    }
-
-    #[test]
-    fn slope_skips_unusable_points() {
-        let mut points = vec![(1.0, 1.0), (10.0, 0.1), (100.0, 0.01)];
-        points.extend([(0.0, 5.0), (-1.0, 2.0), (1000.0, 0.0), (f64::NAN, 1.0), (5.0, f64::INFINITY)]);
-        assert!((fit_slope(&points).unwrap() + 1.0).abs() < 1e-12);
-        assert_eq!(fit_slope(&[(1.0, 1.0)]), None);
-        assert_eq!(fit_slope(&[(1.0, 1.0), (0.0, 3.0)]), None);
-        assert_eq!(fit_slope(&[(2.0, 1.0), (2.0, 3.0)]), None);
-        assert_eq!(fit_slope(&[]), None);
-    }
-
-    #[test]
-    fn legend_names_carry_the_slope() {
-        let s = Series { name: "path".into(), points: vec![(1.0, 1.0), (100.0, 0.1)] };
-        assert_eq!(legend_label(&s), "path (slope −0.50)");
-        let lone = Series { name: "light".into(), points: vec![(1.0, 1.0)] };
-        assert_eq!(legend_label(&lone), "light");
-    }
-
-    #[test]
-    fn tick_labels() {
-        assert_eq!(tick_label(100.0, true), "100");
-        assert_eq!(tick_label(0.01, true), "0.01");
-        assert_eq!(tick_label(1e-5, false), "10⁻⁵");
-        assert_eq!(tick_label(3.0, true), "");
-    }
-
-    fn sample_plot_series() -> Vec<Series> {
-        let spp = [1.0, 4.0, 16.0, 64.0, 256.0];
-        vec![
-            Series { name: "path".into(), points: spp.iter().map(|&n| (n, 0.3 / n)).collect() },
-            Series {
-                name: "light".into(),
-                points: spp.iter().map(|&n| (n, 0.9 * f64::powf(n, -0.9))).collect(),
-            },
-        ]
-    }
-
-    #[test]
-    fn writes_a_valid_svg_and_png() {
-        let dir = tempfile::tempdir().unwrap();
-        let (svg, png) = (dir.path().join("plot.svg"), dir.path().join("plot.png"));
-        let series = sample_plot_series();
-        let plot = LogLogPlot {
-            title: "Error against samples",
-            x_label: "samples per pixel",
-            y_label: "MSE",
-            series: &series,
-        };
-        write_loglog(&plot, &svg, &png).unwrap();
-
-        let text = std::fs::read_to_string(&svg).unwrap();
-        assert!(text.starts_with("<svg"), "{}", &text[..text.len().min(80)]);
-        assert!(text.trim_end().ends_with("</svg>"));
-        for needle in
-            ["Error against samples", "samples per pixel", "MSE", "path (slope −1.00)", "light (slope −0.90)"]
-        {
-            assert!(text.contains(needle), "the SVG lacks `{needle}`");
-        }
-
-        let decoded = ::image::open(&png).unwrap().to_rgb8();
-        assert_eq!(decoded.dimensions(), PLOT_SIZE);
-        // A white page with dark text and the first series' blue on it.
-        assert_eq!(decoded.get_pixel(2, 2).0, [255, 255, 255]);
-        assert!(decoded.pixels().any(|p| p.0 == [0, 114, 178]));
-        assert!(decoded.pixels().filter(|p| p.0.iter().all(|&c| c < 60)).count() > 500);
-
-        let mut names: Vec<String> = std::fs::read_dir(dir.path())
-            .unwrap()
-            .map(|e| e.unwrap().file_name().to_string_lossy().into())
-            .collect();
-        names.sort();
-        assert_eq!(names, ["plot.png", "plot.svg"]);
-    }
-
-    #[test]
-    fn nothing_to_plot_is_an_error_and_writes_nothing() {
-        let dir = tempfile::tempdir().unwrap();
-        let (svg, png) = (dir.path().join("plot.svg"), dir.path().join("plot.png"));
-        let series = [Series { name: "zero".into(), points: vec![(1.0, 0.0), (0.0, 1.0)] }];
-        let plot = LogLogPlot { title: "t", x_label: "x", y_label: "y", series: &series };
-        let err = write_loglog(&plot, &svg, &png).unwrap_err();
-        assert!(err.to_string().contains("plot.svg"), "{err}");
-        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
-        // A missing folder is an error naming the file, and nothing is left either.
-        let missing = dir.path().join("no-such").join("p.svg");
-        assert!(write_loglog(&LogLogPlot { series: &sample_plot_series(), ..plot }, &missing, &png).is_err());
-        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
-    }
-}
-
 /// A bitmap backend that sets text itself: plotters' own ab_glyph text drawing places each glyph
 /// at the pen position without its side bearing (so "pixel" reads "pi xel"); this one places
 /// glyphs as [`Canvas::text`](super::canvas::Canvas::text) does. Everything else is delegated.
@@ -443,5 +339,109 @@ impl<'a> DrawingBackend for GlyphPlacing<'a> {
             }
         });
         result
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn slope_of_a_power_law_is_exact() {
+        let points: Vec<(f64, f64)> = (0..8).map(|i| 2f64.powi(i)).map(|x| (x, 3.0 * x.powf(-0.5))).collect();
+        assert!((fit_slope(&points).unwrap() + 0.5).abs() < 1e-12);
+        let points: Vec<(f64, f64)> =
+            (1..6).map(|i| (i as f64 * 0.1, 7.0 * (i as f64 * 0.1).powi(2))).collect();
+        assert!((fit_slope(&points).unwrap() - 2.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn slope_skips_unusable_points() {
+        let mut points = vec![(1.0, 1.0), (10.0, 0.1), (100.0, 0.01)];
+        points.extend([(0.0, 5.0), (-1.0, 2.0), (1000.0, 0.0), (f64::NAN, 1.0), (5.0, f64::INFINITY)]);
+        assert!((fit_slope(&points).unwrap() + 1.0).abs() < 1e-12);
+        assert_eq!(fit_slope(&[(1.0, 1.0)]), None);
+        assert_eq!(fit_slope(&[(1.0, 1.0), (0.0, 3.0)]), None);
+        assert_eq!(fit_slope(&[(2.0, 1.0), (2.0, 3.0)]), None);
+        assert_eq!(fit_slope(&[]), None);
+    }
+
+    #[test]
+    fn legend_names_carry_the_slope() {
+        let s = Series { name: "path".into(), points: vec![(1.0, 1.0), (100.0, 0.1)] };
+        assert_eq!(legend_label(&s), "path (slope −0.50)");
+        let lone = Series { name: "light".into(), points: vec![(1.0, 1.0)] };
+        assert_eq!(legend_label(&lone), "light");
+    }
+
+    #[test]
+    fn tick_labels() {
+        assert_eq!(tick_label(100.0, true), "100");
+        assert_eq!(tick_label(0.01, true), "0.01");
+        assert_eq!(tick_label(1e-5, false), "10⁻⁵");
+        assert_eq!(tick_label(3.0, true), "");
+    }
+
+    fn sample_plot_series() -> Vec<Series> {
+        let spp = [1.0, 4.0, 16.0, 64.0, 256.0];
+        vec![
+            Series { name: "path".into(), points: spp.iter().map(|&n| (n, 0.3 / n)).collect() },
+            Series {
+                name: "light".into(),
+                points: spp.iter().map(|&n| (n, 0.9 * f64::powf(n, -0.9))).collect(),
+            },
+        ]
+    }
+
+    #[test]
+    fn writes_a_valid_svg_and_png() {
+        let dir = tempfile::tempdir().unwrap();
+        let (svg, png) = (dir.path().join("plot.svg"), dir.path().join("plot.png"));
+        let series = sample_plot_series();
+        let plot = LogLogPlot {
+            title: "Error against samples",
+            x_label: "samples per pixel",
+            y_label: "MSE",
+            series: &series,
+        };
+        write_loglog(&plot, &svg, &png).unwrap();
+
+        let text = std::fs::read_to_string(&svg).unwrap();
+        assert!(text.starts_with("<svg"), "{}", &text[..text.len().min(80)]);
+        assert!(text.trim_end().ends_with("</svg>"));
+        for needle in
+            ["Error against samples", "samples per pixel", "MSE", "path (slope −1.00)", "light (slope −0.90)"]
+        {
+            assert!(text.contains(needle), "the SVG lacks `{needle}`");
+        }
+
+        let decoded = ::image::open(&png).unwrap().to_rgb8();
+        assert_eq!(decoded.dimensions(), PLOT_SIZE);
+        // A white page with dark text and the first series' blue on it.
+        assert_eq!(decoded.get_pixel(2, 2).0, [255, 255, 255]);
+        assert!(decoded.pixels().any(|p| p.0 == [0, 114, 178]));
+        assert!(decoded.pixels().filter(|p| p.0.iter().all(|&c| c < 60)).count() > 500);
+
+        let mut names: Vec<String> = std::fs::read_dir(dir.path())
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into())
+            .collect();
+        names.sort();
+        assert_eq!(names, ["plot.png", "plot.svg"]);
+    }
+
+    #[test]
+    fn nothing_to_plot_is_an_error_and_writes_nothing() {
+        let dir = tempfile::tempdir().unwrap();
+        let (svg, png) = (dir.path().join("plot.svg"), dir.path().join("plot.png"));
+        let series = [Series { name: "zero".into(), points: vec![(1.0, 0.0), (0.0, 1.0)] }];
+        let plot = LogLogPlot { title: "t", x_label: "x", y_label: "y", series: &series };
+        let err = write_loglog(&plot, &svg, &png).unwrap_err();
+        assert!(err.to_string().contains("plot.svg"), "{err}");
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
+        // A missing folder is an error naming the file, and nothing is left either.
+        let missing = dir.path().join("no-such").join("p.svg");
+        assert!(write_loglog(&LogLogPlot { series: &sample_plot_series(), ..plot }, &missing, &png).is_err());
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
     }
 }
