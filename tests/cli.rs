@@ -131,6 +131,53 @@ fn assert_scene_error(prefix: &str, replacement: &str, field: &str, needles: &[&
     assert_scene_error_at(&text, line, field, needles);
 }
 
+/// `CORNELL` with each `(prefix, replacement)` applied as by [`with_line`] (a replacement may
+/// span several lines), then `extra` appended (more objects, lights or tables).
+fn edited(edits: &[(&str, &str)], extra: &str) -> String {
+    let mut lines: Vec<String> = CORNELL.lines().map(String::from).collect();
+    for (prefix, replacement) in edits {
+        let hits: Vec<usize> =
+            (0..lines.len()).filter(|&i| lines[i].trim_start().starts_with(prefix)).collect();
+        assert_eq!(hits.len(), 1, "`{prefix}` must start exactly one line");
+        lines[hits[0]] = replacement.to_string();
+    }
+    lines.join("\n") + "\n" + extra
+}
+
+/// The 1-based number of the one line of `text` that starts with `prefix` (ignoring
+/// indentation).
+fn line_of(text: &str, prefix: &str) -> usize {
+    let hits: Vec<usize> = text
+        .lines()
+        .enumerate()
+        .filter(|(_, l)| l.trim_start().starts_with(prefix))
+        .map(|(i, _)| i)
+        .collect();
+    assert_eq!(hits.len(), 1, "`{prefix}` must start exactly one line of:\n{text}");
+    hits[0] + 1
+}
+
+/// `CORNELL` with `extra` appended: expect a refusal at the line of `extra` that starts with
+/// `at`, naming `field` and every `needles`.
+fn assert_extra_error(extra: &str, at: &str, field: &str, needles: &[&str]) {
+    let text = edited(&[], extra);
+    assert_scene_error_at(&text, line_of(&text, at), field, needles);
+}
+
+/// A refused scene whose error belongs to no field (TOML syntax, encoding): the message is
+/// `scene.toml:LINE:COLUMN: ` followed by the problem.
+fn assert_unfielded_error(bytes: &[u8], line: usize, needles: &[&str]) {
+    let sandbox = Sandbox::new();
+    let path = sandbox.path("scene.toml");
+    fs::write(&path, bytes).unwrap();
+    let out = render(&sandbox, Some(&path), &[]);
+    let location = format!("scene.toml:{line}:");
+    let mut all = vec![location.as_str()];
+    all.extend_from_slice(needles);
+    assert_refused(&sandbox, &out, &all);
+    assert!(!stderr(&out).contains(": field `"), "{}", stderr(&out));
+}
+
 // ---- scene files -------------------------------------------------------------------------
 
 #[test]
@@ -362,6 +409,700 @@ fn unknown_integrator_in_the_scene_file() {
         "render.integrator",
         &["unknown integrator `pathtracer`", "raycast", "whitted"],
     );
+}
+
+// ---- scene files: TOML syntax and encoding ----------------------------------------------
+
+#[test]
+fn unterminated_string() {
+    let (text, line) = with_line(r#"name = "glass sphere""#, r#"name = "glass sphere"#);
+    assert_unfielded_error(text.as_bytes(), line, &["TOML syntax error"]);
+}
+
+#[test]
+fn key_without_equals_sign() {
+    let (text, line) = with_line("radius = 0.4", "radius 0.4");
+    assert_unfielded_error(text.as_bytes(), line, &["TOML syntax error"]);
+}
+
+#[test]
+fn unclosed_array() {
+    // The array may go on over the next lines: the parser stops at the first key after it.
+    let (text, line) = with_line("center = [-0.42", "center = [-0.42, 0.4, -0.25");
+    assert_unfielded_error(text.as_bytes(), line + 1, &["TOML syntax error"]);
+}
+
+#[test]
+fn duplicate_key() {
+    let (text, line) = with_line("radius = 0.4", "radius = 0.4\nradius = 0.5");
+    assert_unfielded_error(text.as_bytes(), line + 1, &["TOML syntax error", "duplicate key"]);
+}
+
+#[test]
+fn table_defined_twice() {
+    let text = edited(&[], "[camera]\nfov = 30.0\n");
+    let line = CORNELL.lines().count() + 1;
+    assert_unfielded_error(text.as_bytes(), line, &["TOML syntax error"]);
+}
+
+#[test]
+fn invalid_utf8_names_the_line() {
+    let (text, line) = with_line(r#"name = "glass sphere""#, r#"name = "glass sphère""#);
+    let mut bytes = text.into_bytes();
+    let at = bytes.windows(2).position(|w| w == "è".as_bytes()).unwrap();
+    bytes[at] = 0xff; // not UTF-8
+    assert_unfielded_error(&bytes, line, &["not UTF-8"]);
+}
+
+#[test]
+fn empty_scene_file() {
+    assert_unfielded_error(b"", 1, &["missing field `camera`"]);
+}
+
+#[test]
+fn binary_garbage_as_scene() {
+    let bytes: Vec<u8> = (0..4096u32).map(|i| (i.wrapping_mul(2_654_435_761) >> 13) as u8).collect();
+    let sandbox = Sandbox::new();
+    let path = sandbox.path("scene.toml");
+    fs::write(&path, &bytes).unwrap();
+    let out = render(&sandbox, Some(&path), &[]);
+    assert_refused(&sandbox, &out, &["scene.toml:"]);
+}
+
+// ---- scene files: wrong types ------------------------------------------------------------
+
+#[test]
+fn resolution_as_a_string() {
+    assert_scene_error(
+        "resolution = [800, 800]",
+        r#"resolution = "800x800""#,
+        "camera.resolution",
+        &["invalid type: string"],
+    );
+}
+
+#[test]
+fn fractional_samples_per_pixel() {
+    assert_scene_error("spp = 1", "spp = 1.5", "render.spp", &["invalid type: floating point `1.5`"]);
+}
+
+#[test]
+fn material_name_as_a_number() {
+    assert_scene_error(
+        r#"material = "floor""#,
+        "material = 3",
+        "objects[0].material",
+        &["invalid type: integer `3`"],
+    );
+}
+
+#[test]
+fn boolean_colour() {
+    assert_scene_error("color = 0.73", "color = true", "materials.white.color", &["a colour"]);
+}
+
+#[test]
+fn colour_with_two_channels() {
+    assert_scene_error(
+        "color = [0.63, 0.065, 0.05]",
+        "color = [0.63, 0.065]",
+        "materials.red.color",
+        &["invalid length 2"],
+    );
+}
+
+#[test]
+fn texture_given_a_number() {
+    assert_scene_error(
+        "texture = {",
+        "texture = 5",
+        "materials.floor.texture",
+        &["invalid type: integer `5`"],
+    );
+}
+
+#[test]
+fn camera_as_an_array_of_tables() {
+    assert_scene_error("[camera]", "[[camera]]", "camera[0]", &["invalid type"]);
+}
+
+#[test]
+fn negative_max_depth() {
+    assert_scene_error(
+        "max_depth = 5",
+        "max_depth = -1",
+        "render.max_depth",
+        &["invalid value: integer `-1`"],
+    );
+}
+
+#[test]
+fn negative_seed() {
+    let text = edited(&[("spp = 1", "spp = 1\nseed = -3")], "");
+    assert_scene_error_at(
+        &text,
+        line_of(&text, "seed = -3"),
+        "render.seed",
+        &["invalid value: integer `-3`"],
+    );
+}
+
+#[test]
+fn samples_per_pixel_beyond_u32() {
+    assert_scene_error("spp = 1", "spp = 4294967296", "render.spp", &["invalid value: integer `4294967296`"]);
+}
+
+// ---- scene files: values out of range ----------------------------------------------------
+
+#[test]
+fn field_of_view_out_of_range() {
+    for fov in ["0.0", "180.0", "-10.0", "400"] {
+        assert_scene_error("fov = 39.0", &format!("fov = {fov}"), "camera.fov", &["between 0 and 180"]);
+    }
+}
+
+#[test]
+fn glass_roughness_out_of_range() {
+    let text = edited(&[("ior = 1.52", "ior = 1.52\nroughness = 1.5")], "");
+    assert_scene_error_at(
+        &text,
+        line_of(&text, "roughness"),
+        "materials.glass.roughness",
+        &["[0, 1]", "1.5"],
+    );
+}
+
+#[test]
+fn reflectance_out_of_range_in_the_scene_file() {
+    let text = edited(&[("background = 0.0", "background = 0.0\nreflectance = 2.0")], "");
+    assert_scene_error_at(&text, line_of(&text, "reflectance"), "render.reflectance", &["[0, 1]"]);
+}
+
+#[test]
+fn zero_samples_per_pixel_in_the_scene_file() {
+    assert_scene_error("spp = 1", "spp = 0", "render.spp", &["at least 1"]);
+}
+
+#[test]
+fn max_depth_too_deep() {
+    assert_scene_error("max_depth = 5", "max_depth = 1000", "render.max_depth", &["at most 256"]);
+}
+
+#[test]
+fn negative_aperture() {
+    let text = edited(&[("fov = 39.0", "fov = 39.0\naperture = -0.1")], "");
+    assert_scene_error_at(&text, line_of(&text, "aperture"), "camera.aperture", &["0 or greater"]);
+}
+
+#[test]
+fn zero_focus_distance() {
+    let text = edited(&[("fov = 39.0", "fov = 39.0\naperture = 0.1\nfocus_distance = 0.0")], "");
+    assert_scene_error_at(
+        &text,
+        line_of(&text, "focus_distance"),
+        "camera.focus_distance",
+        &["greater than 0"],
+    );
+}
+
+#[test]
+fn shutter_closing_before_it_opens() {
+    let text = edited(&[("fov = 39.0", "fov = 39.0\nshutter = [1.0, 0.5]")], "");
+    assert_scene_error_at(
+        &text,
+        line_of(&text, "shutter"),
+        "camera.shutter",
+        &["open must not be after close"],
+    );
+}
+
+#[test]
+fn camera_looking_at_itself() {
+    assert_scene_error("look_at = ", "look_at = [0.0, 1.0, 3.8]", "camera.look_at", &["must differ"]);
+}
+
+#[test]
+fn zero_up_vector() {
+    assert_scene_error("up = [0.0, 1.0, 0.0]", "up = [0.0, 0.0, 0.0]", "camera.up", &["non-zero"]);
+}
+
+#[test]
+fn zero_cylinder_height() {
+    assert_scene_error("height = 0.9", "height = 0.0", "objects[6].height", &["greater than 0"]);
+}
+
+#[test]
+fn zero_cylinder_axis() {
+    assert_scene_error("axis = [0.0, 1.0, 0.0]", "axis = [0.0, 0.0, 0.0]", "objects[6].axis", &["non-zero"]);
+}
+
+#[test]
+fn negative_absorption() {
+    let text = edited(&[("ior = 1.52", "ior = 1.52\nabsorption = [0.0, -1.0, 0.0]")], "");
+    assert_scene_error_at(
+        &text,
+        line_of(&text, "absorption"),
+        "materials.glass.absorption",
+        &["0 or greater"],
+    );
+}
+
+#[test]
+fn negative_cauchy_index() {
+    assert_scene_error(
+        "ior = 1.52",
+        "ior = { cauchy = [-2.0, 0.0] }",
+        "materials.glass.ior",
+        &["positive over 380–780 nm"],
+    );
+}
+
+#[test]
+fn abbe_index_below_one() {
+    assert_scene_error("ior = 1.52", "ior = { abbe = [0.9, 40.0] }", "materials.glass.ior", &["n_d > 1"]);
+}
+
+#[test]
+fn both_cauchy_and_abbe() {
+    assert_scene_error(
+        "ior = 1.52",
+        "ior = { cauchy = [1.5, 4000.0], abbe = [1.5, 60.0] }",
+        "materials.glass.ior",
+        &["exactly one of"],
+    );
+}
+
+#[test]
+fn unknown_ssaa_mode_and_sizes() {
+    let cases = [
+        ("mode = \"random\"", "render.ssaa.mode", "not one of adaptive, grid"),
+        ("grid = 0", "render.ssaa.grid", "1..=64"),
+        ("levels = 7", "render.ssaa.levels", "0..=6"),
+    ];
+    for (line, field, needle) in cases {
+        assert_extra_error(&format!("[render.ssaa]\n{line}\n"), line, field, &[needle]);
+    }
+}
+
+#[test]
+fn unknown_spectral_mode_and_sampler() {
+    let text = edited(&[("spp = 1", "spp = 1\nspectral = \"maybe\"")], "");
+    assert_scene_error_at(&text, line_of(&text, "spectral"), "render.spectral", &["auto, on, off"]);
+    let text = edited(&[("spp = 1", "spp = 1\nsampler = \"sobol\"")], "");
+    assert_scene_error_at(&text, line_of(&text, "sampler"), "render.sampler", &["stratified, independent"]);
+}
+
+#[test]
+fn environment_light_together_with_a_background() {
+    let text = edited(
+        &[("background = 0.0", "background = 0.5")],
+        "[[lights]]\ntype = \"environment\"\nradiance = 0.25\n",
+    );
+    let line = line_of(&text, "type = \"environment\"") - 1;
+    assert_scene_error_at(&text, line, "lights[1]", &["remove `render.background`"]);
+}
+
+/// An extra object of material `white` (objects[7]) with the given shape lines.
+fn extra_object(shape: &str) -> String {
+    format!("[[objects]]\nname = \"extra\"\nmaterial = \"white\"\n{shape}\n")
+}
+
+#[test]
+fn polygon_with_two_vertices() {
+    let extra = extra_object("shape = \"polygon\"\nvertices = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]]");
+    assert_extra_error(&extra, "vertices", "objects[7].vertices", &["at least 3 vertices"]);
+}
+
+#[test]
+fn non_convex_polygon() {
+    let extra = extra_object(
+        "shape = \"polygon\"\nvertices = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.2, 0.2, 0.0], [0.0, 1.0, 0.0]]",
+    );
+    assert_extra_error(&extra, "vertices", "objects[7].vertices", &["not convex"]);
+}
+
+#[test]
+fn non_planar_polygon() {
+    let extra = extra_object(
+        "shape = \"polygon\"\nvertices = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.5], [0.0, 1.0, 0.0]]",
+    );
+    assert_extra_error(&extra, "vertices", "objects[7].vertices", &["not planar"]);
+}
+
+#[test]
+fn quad_object_with_parallel_edges() {
+    let extra =
+        extra_object("shape = \"quad\"\ncorner = [0.0, 0.0, 0.0]\nu = [1.0, 0.0, 0.0]\nv = [-2.0, 0.0, 0.0]");
+    assert_extra_error(&extra, "u = [1.0, 0.0, 0.0]", "objects[7].u", &["not parallel"]);
+}
+
+#[test]
+fn hollow_sphere_thicker_than_itself() {
+    let extra =
+        extra_object("shape = \"hollow_sphere\"\ncenter = [0.0, 0.5, 0.0]\nradius = 0.3\ninner_radius = 0.3");
+    assert_extra_error(&extra, "inner_radius", "objects[7].inner_radius", &["smaller than radius"]);
+}
+
+#[test]
+fn annulus_with_a_hole_larger_than_the_disk() {
+    let extra = extra_object(
+        "shape = \"disk\"\ncenter = [0.0, 0.5, 0.0]\nnormal = [0.0, 1.0, 0.0]\nradius = 0.3\ninner_radius = 0.5",
+    );
+    assert_extra_error(&extra, "inner_radius", "objects[7].inner_radius", &["smaller than radius"]);
+}
+
+#[test]
+fn bowl_thicker_than_its_radius() {
+    let extra = extra_object("shape = \"bowl\"\ncenter = [0.0, 0.5, 0.0]\nradius = 0.3\nthickness = 0.4");
+    assert_extra_error(&extra, "thickness", "objects[7].thickness", &["smaller than radius"]);
+}
+
+#[test]
+fn drinking_glass_wall_thicker_than_its_radius() {
+    let extra = extra_object(
+        "shape = \"drinking_glass\"\nbase = [0.0, 0.0, 0.0]\nradius = 0.2\nheight = 0.5\nwall = 0.25\nbottom = 0.05",
+    );
+    assert_extra_error(&extra, "wall", "objects[7].wall", &["smaller than radius"]);
+}
+
+#[test]
+fn drinking_glass_bottom_thicker_than_its_height() {
+    let extra = extra_object(
+        "shape = \"drinking_glass\"\nbase = [0.0, 0.0, 0.0]\nradius = 0.2\nheight = 0.5\nwall = 0.02\nbottom = 0.6",
+    );
+    assert_extra_error(&extra, "bottom", "objects[7].bottom", &["smaller than height"]);
+}
+
+#[test]
+fn colour_and_texture_together() {
+    let text = edited(
+        &[(
+            "texture = {",
+            "color = 0.5\ntexture = { type = \"checker\", color1 = 0.75, color2 = 0.25, size = 0.25 }",
+        )],
+        "",
+    );
+    assert_scene_error_at(
+        &text,
+        line_of(&text, "texture"),
+        "materials.floor.texture",
+        &["either `color` or `texture`"],
+    );
+}
+
+#[test]
+fn zero_checker_size() {
+    assert_scene_error(
+        "texture = {",
+        r#"texture = { type = "checker", color1 = 0.75, color2 = 0.25, size = 0.0 }"#,
+        "materials.floor.texture.size",
+        &["greater than 0"],
+    );
+}
+
+#[test]
+fn emission_on_a_cylinder() {
+    let text = edited(&[("color = 0.73", "color = 0.73\nemission = 1.0")], "");
+    // The first object made of `white` that cannot emit: none (quads can), so add a cylinder.
+    let text = text
+        + "[[objects]]\nname = \"lamp post\"\nshape = \"cylinder\"\nbase = [0.0, 0.0, 0.0]\nradius = 0.05\nheight = 0.5\nmaterial = \"white\"\n";
+    let line = line_of(&text, "name = \"lamp post\"") + 5;
+    assert_scene_error_at(
+        &text,
+        line,
+        "objects[7].material",
+        &["emission is supported on spheres, quads and disks"],
+    );
+}
+
+#[test]
+fn moving_emitter() {
+    let extra = "[materials.lamp]\ntype = \"diffuse\"\nemission = 2.0\n".to_string()
+        + "[[objects]]\nshape = \"sphere\"\ncenter = [0.0, 1.5, 0.0]\nradius = 0.1\nmaterial = \"lamp\"\nvelocity = [0.1, 0.0, 0.0]\n";
+    assert_extra_error(&extra, "velocity", "objects[7].velocity", &["cannot move"]);
+}
+
+// ---- scene files: missing references ------------------------------------------------------
+
+#[test]
+fn object_without_a_material() {
+    let (text, _) = with_line(r#"material = "floor""#, "# no material");
+    let line = line_of(&text, r#"name = "floor""#) - 1;
+    assert_scene_error_at(&text, line, "objects[0]", &["missing field `material`"]);
+}
+
+/// A mesh object (objects[7]) reading `file`, relative to the scene's folder.
+fn mesh_object(file: &str) -> String {
+    format!("[[objects]]\nname = \"mesh\"\nshape = \"mesh\"\nfile = \"{file}\"\nmaterial = \"white\"\n")
+}
+
+/// Render the Cornell scene plus a mesh `mesh.obj` with the content `obj` (none when `None`)
+/// and expect a refusal at the mesh's `file` line.
+fn assert_mesh_error(file: &str, obj: Option<&str>, needles: &[&str]) {
+    let sandbox = Sandbox::new();
+    if let Some(obj) = obj {
+        fs::write(sandbox.path("mesh.obj"), obj).unwrap();
+    }
+    let text = edited(&[], &mesh_object(file));
+    let scene = sandbox.scene(&text);
+    let out = render(&sandbox, Some(&scene), &[]);
+    let location = format!("scene.toml:{}:", line_of(&text, "file = "));
+    let mut all = vec![location.as_str(), "field `objects[7].file`"];
+    all.extend_from_slice(needles);
+    assert_refused(&sandbox, &out, &all);
+}
+
+#[test]
+fn missing_mesh_file() {
+    assert_mesh_error("no-such-mesh.obj", None, &["cannot read OBJ file", "no-such-mesh.obj"]);
+}
+
+#[test]
+fn mesh_file_that_is_a_folder() {
+    assert_mesh_error("out", None, &["not a regular file"]);
+}
+
+#[test]
+fn mesh_file_that_is_a_device_is_not_read_forever() {
+    let start = Instant::now();
+    assert_mesh_error("/dev/zero", None, &["not a regular file"]);
+    assert!(start.elapsed() < Duration::from_secs(10), "took {:?}", start.elapsed());
+}
+
+#[test]
+fn mesh_face_with_a_missing_vertex() {
+    assert_mesh_error("mesh.obj", Some("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n"), &["out of bounds"]);
+}
+
+#[test]
+fn mesh_without_triangles() {
+    assert_mesh_error("mesh.obj", Some("# nothing\nv 0 0 0\n"), &["no (non-degenerate) triangles"]);
+}
+
+#[test]
+fn mesh_with_a_nan_vertex() {
+    assert_mesh_error("mesh.obj", Some("v nan 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n"), &["not a finite number"]);
+}
+
+// ---- scene files: NaN, infinity and huge numbers ------------------------------------------
+
+#[test]
+fn nan_colour() {
+    assert_scene_error("intensity = 5.0", "intensity = nan", "lights[0].intensity", &["NaN", "finite"]);
+}
+
+#[test]
+fn negative_nan_index() {
+    assert_scene_error("ior = 1.52", "ior = -nan", "materials.glass.ior", &["NaN", "finite"]);
+}
+
+#[test]
+fn infinite_field_of_view() {
+    assert_scene_error("fov = 39.0", "fov = +inf", "camera.fov", &["inf", "finite"]);
+}
+
+#[test]
+fn nan_inside_an_inline_table() {
+    assert_scene_error(
+        "texture = {",
+        r#"texture = { type = "checker", color1 = 0.75, color2 = 0.25, size = nan }"#,
+        "materials.floor.texture.size",
+        &["NaN"],
+    );
+}
+
+#[test]
+fn infinite_velocity_component() {
+    let text = edited(&[("radius = 0.4", "radius = 0.4\nvelocity = [0.0, inf, 0.0]")], "");
+    assert_scene_error_at(&text, line_of(&text, "velocity"), "objects[5].velocity[1]", &["inf", "finite"]);
+}
+
+#[test]
+fn nan_in_a_nested_array() {
+    let extra =
+        extra_object("shape = \"polygon\"\nvertices = [[0.0, 0.0, 0.0], [1.0, 0.0, nan], [0.0, 1.0, 0.0]]");
+    assert_extra_error(&extra, "vertices", "objects[7].vertices[1][2]", &["NaN"]);
+}
+
+#[test]
+fn number_within_f32_but_beyond_the_scene_limit() {
+    assert_scene_error("radius = 0.4", "radius = 1e16", "objects[5].radius", &["too large", "1e15"]);
+    assert_scene_error("intensity = 5.0", "intensity = 3e38", "lights[0].intensity", &["too large", "1e15"]);
+}
+
+#[test]
+fn huge_integer_where_a_number_is_expected() {
+    assert_scene_error(
+        "radius = 0.4",
+        "radius = 9223372036854775807",
+        "objects[5].radius",
+        &["too large", "1e15"],
+    );
+}
+
+#[test]
+fn resolution_side_too_large() {
+    assert_scene_error(
+        "resolution = [800, 800]",
+        "resolution = [65537, 1]",
+        "camera.resolution",
+        &["too large"],
+    );
+}
+
+#[test]
+fn resolution_with_too_many_pixels() {
+    assert_scene_error(
+        "resolution = [800, 800]",
+        "resolution = [8193, 8193]",
+        "camera.resolution",
+        &["too large"],
+    );
+}
+
+/// Run `vitrum render` on `scene` with the address space limited to 400 MB (`ulimit -v`):
+/// a film of 2²⁶ pixels alone takes gigabytes, so only a refusal *before* allocating can
+/// succeed in that space.
+fn render_in_400_mb(sandbox: &Sandbox, scene: &Path, resolution: &str) -> Output {
+    Command::new("sh")
+        .current_dir(sandbox.dir.path())
+        .arg("-c")
+        .arg(r#"ulimit -v 400000 && exec "$0" render "$1" -o out/image.exr --quiet --resolution "$2""#)
+        .arg(env!("CARGO_BIN_EXE_vitrum"))
+        .arg(scene)
+        .arg(resolution)
+        .output()
+        .expect("sh runs")
+}
+
+#[test]
+fn resolution_that_would_exhaust_memory_is_refused_within_400_mb() {
+    let sandbox = Sandbox::new();
+    // The scene's resolution is refused while the scene compiles, before any image exists.
+    let (text, line) = with_line("resolution = [800, 800]", "resolution = [65536, 65536]");
+    let scene = sandbox.scene(&text);
+    let out = Command::new("sh")
+        .current_dir(sandbox.dir.path())
+        .arg("-c")
+        .arg(r#"ulimit -v 400000 && exec "$0" render "$1" -o out/image.exr --quiet"#)
+        .arg(env!("CARGO_BIN_EXE_vitrum"))
+        .arg(&scene)
+        .output()
+        .unwrap();
+    let location = format!("scene.toml:{line}:");
+    assert_refused(&sandbox, &out, &[&location, "field `camera.resolution`", "too large"]);
+    // The same for the command-line override.
+    let out = render_in_400_mb(&sandbox, &sandbox.scene(CORNELL), "65536x65536");
+    assert_refused(&sandbox, &out, &["--resolution", "too large"]);
+    // The control: an image the renderer accepts (exactly 2²⁶ pixels) cannot be rendered in
+    // that space, so the limit above would have caught an allocation.
+    let out = render_in_400_mb(&sandbox, &sandbox.scene(CORNELL), "8192x8192");
+    assert!(!out.status.success(), "a 2^26-pixel render fitted in 400 MB: the test proves nothing");
+}
+
+#[test]
+fn moving_object_leaving_the_scene_limit() {
+    let text = edited(
+        &[
+            ("fov = 39.0", "fov = 39.0\nshutter = [0.0, 1e15]"),
+            ("radius = 0.4", "radius = 0.4\nvelocity = [1e15, 0.0, 0.0]"),
+        ],
+        "",
+    );
+    assert_scene_error_at(
+        &text,
+        line_of(&text, "velocity"),
+        "objects[5].velocity",
+        &["moves beyond", "1e16"],
+    );
+}
+
+#[test]
+fn mesh_scaled_beyond_the_scene_limit() {
+    let sandbox = Sandbox::new();
+    fs::write(sandbox.path("mesh.obj"), "v 0 0 0\nv 1e15 0 0\nv 0 1e15 0\nf 1 2 3\n").unwrap();
+    let text = edited(&[], &(mesh_object("mesh.obj") + "scale = 100.0\n"));
+    let out = render(&sandbox, Some(&sandbox.scene(&text)), &[]);
+    let location = format!("scene.toml:{}:", line_of(&text, "file = "));
+    assert_refused(&sandbox, &out, &[&location, "field `objects[7].file`", "reaches beyond", "1e16"]);
+}
+
+#[test]
+fn light_power_that_overflows() {
+    let extra = "[[lights]]\ntype = \"sphere\"\ncenter = [0.0, 1.5, 0.0]\nradius = 1e15\nradiance = 1e15\n";
+    assert_extra_error(extra, "radiance = 1e15", "lights[1].radiance", &["power", "overflows"]);
+    let extra = "[materials.lamp]\ntype = \"diffuse\"\nemission = 1e15\n".to_string()
+        + "[[objects]]\nshape = \"sphere\"\ncenter = [0.0, 1.5, 0.0]\nradius = 1e15\nmaterial = \"lamp\"\n";
+    assert_extra_error(&extra, "emission", "materials.lamp.emission", &["power", "overflows"]);
+}
+
+// ---- scene files: lights without area ----------------------------------------------------
+
+/// An extra quad light (lights[1]) with edges `u` and `v`.
+fn quad_light(u: &str, v: &str) -> String {
+    format!("[[lights]]\ntype = \"quad\"\ncorner = [-0.2, 1.95, -0.2]\nu = {u}\nv = {v}\nradiance = 10.0\n")
+}
+
+#[test]
+fn quad_light_with_parallel_edges() {
+    let extra = quad_light("[0.4, 0.0, 0.0]", "[0.8, 0.0, 0.0]");
+    assert_extra_error(&extra, "u = [0.4", "lights[1].u", &["not parallel", "area > 0"]);
+}
+
+#[test]
+fn quad_light_with_a_zero_edge() {
+    let extra = quad_light("[0.4, 0.0, 0.0]", "[0.0, 0.0, 0.0]");
+    assert_extra_error(&extra, "u = [0.4", "lights[1].u", &["non-zero", "area > 0"]);
+}
+
+#[test]
+fn quad_light_whose_area_underflows() {
+    let extra = quad_light("[1e-20, 0.0, 0.0]", "[0.0, 0.0, 1e-20]");
+    assert_extra_error(&extra, "u = [1e-20", "lights[1].u", &["too small", "underflows"]);
+}
+
+#[test]
+fn sphere_light_of_radius_zero() {
+    let extra = "[[lights]]\ntype = \"sphere\"\ncenter = [0.0, 1.5, 0.0]\nradius = 0.0\nradiance = 10.0\n";
+    assert_extra_error(extra, "radius = 0.0", "lights[1].radius", &["greater than 0"]);
+}
+
+#[test]
+fn sphere_light_whose_area_underflows() {
+    let extra = "[[lights]]\ntype = \"sphere\"\ncenter = [0.0, 1.5, 0.0]\nradius = 1e-30\nradiance = 10.0\n";
+    assert_extra_error(extra, "radius = 1e-30", "lights[1].radius", &["too small", "underflows"]);
+}
+
+#[test]
+fn emitting_sphere_whose_area_underflows() {
+    let extra = "[materials.lamp]\ntype = \"diffuse\"\nemission = 2.0\n".to_string()
+        + "[[objects]]\nshape = \"sphere\"\ncenter = [0.0, 1.5, 0.0]\nradius = 1e-30\nmaterial = \"lamp\"\n";
+    assert_extra_error(&extra, "radius = 1e-30", "objects[7].radius", &["too small", "underflows"]);
+}
+
+#[test]
+fn scene_file_that_is_a_device_is_not_read_forever() {
+    let sandbox = Sandbox::new();
+    let start = Instant::now();
+    let out = render(&sandbox, Some(Path::new("/dev/zero")), &[]);
+    assert_refused(&sandbox, &out, &["/dev/zero", "larger than 64 MiB"]);
+    assert!(start.elapsed() < Duration::from_secs(20), "took {:?}", start.elapsed());
+}
+
+#[test]
+fn fuzz_regression_inputs_are_refused() {
+    // Scenes that once crashed the loader (see fuzz/README.md): all are refused now.
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("fuzz/seeds");
+    let mut count = 0;
+    for entry in fs::read_dir(&dir).unwrap() {
+        let path = entry.unwrap().path();
+        let sandbox = Sandbox::new();
+        let out = render(&sandbox, Some(&path), &[]);
+        let name = path.file_name().unwrap().to_string_lossy().into_owned();
+        assert_refused(&sandbox, &out, &[&format!("{name}:"), "field `"]);
+        count += 1;
+    }
+    assert!(count >= 5, "{count} regression inputs in {}", dir.display());
 }
 
 // ---- command-line options ----------------------------------------------------------------

@@ -1,7 +1,9 @@
 //! Scene compilation: text → [`SceneDesc`] → validated, expanded, BVH-accelerated [`Scene`].
 
 use super::bodies::{self, BodySurface};
-use super::desc::{IorDesc, LightDesc, MaterialDesc, PhongDesc, Rgb, SceneDesc, ShapeDesc, TextureDesc};
+use super::desc::{
+    IorDesc, LightDesc, MaterialDesc, PhongDesc, Rgb, SceneDesc, ShapeDesc, TextureDesc, IOR_TABLE_ERROR,
+};
 use super::effects::{Effect, Effects};
 use super::source::{FieldPath, SceneError, Source};
 use super::{
@@ -9,7 +11,7 @@ use super::{
 };
 use crate::camera::Camera;
 use crate::dispersion::Ior;
-use crate::geometry::{parallelogram_normal, try_unit, Disk, Polygon, Quad, Shape, Sphere};
+use crate::geometry::{parallelogram_normal, try_unit, Bounds, Disk, Polygon, Quad, Shape, Sphere};
 use crate::integrators::SsaaParams;
 use crate::light::{EmitterShape, Light};
 use crate::material::{Bsdf, Material, Medium, Phong, Texture};
@@ -28,6 +30,16 @@ pub const MAX_PIXELS: u64 = 1 << 26;
 pub const MAX_DEPTH: u32 = 256;
 /// Largest image side in pixels.
 pub const MAX_SIDE: u32 = 65536;
+/// Largest magnitude of a number in a scene file (`render.seed` excepted). Products of two
+/// such numbers (squared distances in the intersection tests, areas, radiance times area) stay
+/// far inside the single-precision range.
+pub const MAX_MAGNITUDE: f64 = 1e15;
+/// Every object stays within this distance of the origin along each axis, over the whole
+/// shutter interval (composite bodies, meshes and moving objects can reach beyond
+/// [`MAX_MAGNITUDE`] although each of their numbers is within it).
+pub const MAX_EXTENT: f32 = 1e16;
+/// Most candidate keys [`culprit`] re-parses the document for (it costs a parse each).
+const MAX_CULPRITS: usize = 16;
 
 /// Relative padding of primitive boxes in the BVH (a few times the shapes' seam slack).
 const BOX_PADDING: f32 = 4e-6;
@@ -35,11 +47,42 @@ const BOX_PADDING: f32 = 4e-6;
 /// Display name of the embedded default scene.
 pub const DEFAULT_SCENE_NAME: &str = "<embedded default scene>";
 
+/// Largest scene file read, in bytes: scene files are hand-written text, and a device such as
+/// `/dev/zero` given as the scene must not be read forever.
+pub const MAX_SCENE_BYTES: u64 = 64 << 20;
+
 /// Load and compile a scene file.
 pub fn load(path: &Path) -> Result<Scene, SceneError> {
-    let text = std::fs::read_to_string(path)
-        .map_err(|source| SceneError::Io { path: path.to_path_buf(), source })?;
-    load_str(&text, &path.display().to_string(), path.parent())
+    use std::io::Read;
+    let io_error = |source| SceneError::Io { path: path.to_path_buf(), source };
+    let mut bytes = Vec::new();
+    std::fs::File::open(path)
+        .and_then(|f| f.take(MAX_SCENE_BYTES + 1).read_to_end(&mut bytes))
+        .map_err(io_error)?;
+    if bytes.len() as u64 > MAX_SCENE_BYTES {
+        return Err(io_error(std::io::Error::new(
+            std::io::ErrorKind::InvalidData,
+            format!("the file is larger than {} MiB", MAX_SCENE_BYTES >> 20),
+        )));
+    }
+    let name = path.display().to_string();
+    let text = match String::from_utf8(bytes) {
+        Ok(text) => text,
+        Err(e) => {
+            // Point at the first byte that is not UTF-8.
+            let valid = e.utf8_error().valid_up_to();
+            let before = String::from_utf8_lossy(&e.as_bytes()[..valid]);
+            let (line, column) = Source::new(name.as_str(), &before).line_column(valid);
+            return Err(SceneError::Invalid {
+                file: name,
+                line,
+                column,
+                field: String::new(),
+                message: "the file is not UTF-8 text (TOML files must be UTF-8)".into(),
+            });
+        }
+    };
+    load_str(&text, &name, path.parent())
 }
 
 /// Compile the embedded default scene.
@@ -81,6 +124,9 @@ pub fn parse(source: &Source) -> Result<SceneDesc, SceneError> {
 /// error go away (serde then complains about something else, such as the missing key), if
 /// exactly one does.
 fn culprit(source: &Source, candidates: &[usize], message: &str) -> Option<usize> {
+    if candidates.len() > MAX_CULPRITS {
+        return None;
+    }
     let mut hits = candidates.iter().copied().filter(|&offset| {
         source.without(&source.path_at(offset)).is_some_and(|text| match toml::from_str::<SceneDesc>(&text) {
             Ok(_) => true,
@@ -94,6 +140,11 @@ fn culprit(source: &Source, candidates: &[usize], message: &str) -> Option<usize
 /// Whether a serde error `message` is about the entry `key = value` (`key` is `None` for array
 /// elements, `value` is `None` for tables).
 fn names(message: &str, key: Option<&str>, value: Option<&toml_edit::Value>) -> bool {
+    if message.starts_with(IOR_TABLE_ERROR) {
+        let table = value.and_then(|v| v.as_inline_table());
+        return matches!(key, Some("ior" | "ior_outside"))
+            && table.is_some_and(|t| t.contains_key("cauchy") == t.contains_key("abbe"));
+    }
     if let Some(rest) = message.strip_prefix("unknown field `") {
         return key.is_some() && rest.split('`').next() == key;
     }
@@ -216,8 +267,18 @@ impl Compiler<'_> {
             };
             let kind = shape_kind(&object.shape);
             let surfaces = self.shape(&path, &object.shape, &mut warnings)?;
-            if surfaces.iter().any(|(s, _)| !(s.bounds().min.is_finite() && s.bounds().max.is_finite())) {
-                return Err(self.err(&path, "the object is too large: its extent overflows single precision"));
+            if surfaces.iter().any(|(s, _)| !within_extent(s.bounds())) {
+                // Only a mesh (vertices × scale) can get here: every other number is checked.
+                let at = match object.shape {
+                    ShapeDesc::Mesh { .. } => path.key("file"),
+                    _ => path.clone(),
+                };
+                return Err(self.err(
+                    &at,
+                    format!(
+                        "the object reaches beyond ±{MAX_EXTENT:e} from the origin (the scene's size limit)"
+                    ),
+                ));
             }
             if matches!(object.shape, ShapeDesc::Mesh { .. }) {
                 effects.add(Effect::Meshes, format!("objects[{i}] is a triangle mesh"));
@@ -227,6 +288,21 @@ impl Compiler<'_> {
                 Some(v) => Some(self.finite_vector(&path.key("velocity"), v)?).filter(|v| *v != Vec3::ZERO),
                 None => None,
             };
+            if let Some(v) = velocity {
+                let moved = |t: f32, b: Bounds| Bounds { min: b.min + v * t, max: b.max + v * t };
+                let (open, close) = camera.shutter;
+                if surfaces.iter().any(|(s, _)| {
+                    !(within_extent(moved(open, s.bounds())) && within_extent(moved(close, s.bounds())))
+                }) {
+                    return Err(self.err(
+                        &path.key("velocity"),
+                        format!(
+                            "the object moves beyond ±{MAX_EXTENT:e} from the origin while the shutter is \
+                             open [{open:?}, {close:?}] (the scene's size limit)"
+                        ),
+                    ));
+                }
+            }
             if velocity.is_some() && camera.shutter.1 > camera.shutter.0 {
                 effects.add(
                     Effect::MotionBlur,
@@ -243,11 +319,18 @@ impl Compiler<'_> {
                     let shape = emitter_shape(&object.shape).ok_or_else(|| {
                         self.err(&path.key("material"), "emission is supported on spheres, quads and disks")
                     })?;
+                    let size = match object.shape {
+                        ShapeDesc::Quad { .. } => "u",
+                        _ => "radius",
+                    };
+                    self.emitter_area(&path.key(size), shape.area())?;
+                    let light = Light::Surface { shape, radiance };
+                    self.finite_power(&m, &light)?;
                     effects.add(
                         Effect::SoftShadows,
                         format!("objects[{i}] emits light (material `{}`)", object.material),
                     );
-                    lights.push(Light::Surface { shape, radiance });
+                    lights.push(light);
                     Some(lights.len() as u32 - 1)
                 }
                 _ => None,
@@ -610,6 +693,20 @@ impl Compiler<'_> {
                     Some(d) => d.join(file),
                     None => PathBuf::from(file),
                 };
+                // Only regular files: a device (`/dev/zero`) or a pipe would never end.
+                match std::fs::metadata(&full) {
+                    Ok(m) if m.is_file() => {}
+                    Ok(_) => {
+                        return Err(self.err(
+                            &path.key("file"),
+                            format!("{} is not a regular file (an OBJ file is expected)", full.display()),
+                        ))
+                    }
+                    Err(e) => {
+                        return Err(self
+                            .err(&path.key("file"), format!("cannot read OBJ file {}: {e}", full.display())))
+                    }
+                }
                 let (triangles, degenerate) = super::mesh::load_obj(&full, scale, v(*translate))
                     .map_err(|e| self.err(&path.key("file"), e))?;
                 if degenerate > 0 {
@@ -664,7 +761,58 @@ impl Compiler<'_> {
         })
     }
 
+    /// A light's area must be a finite, normal positive number: sampling a point on it divides
+    /// by it.
+    fn emitter_area(&self, path: &FieldPath, area: f32) -> Result<(), SceneError> {
+        if !area.is_finite() {
+            Err(self.err(path, "the light is too large: its area overflows single precision"))
+        } else if area < f32::MIN_POSITIVE {
+            Err(self.err(
+                path,
+                format!(
+                    "the light is too small: its area ({area:?}) underflows single precision (it must be at \
+                     least {:e})",
+                    f32::MIN_POSITIVE
+                ),
+            ))
+        } else {
+            Ok(())
+        }
+    }
+
+    /// A light's power must be finite (`vitrum info` shows it; light tracing starts from it).
+    fn finite_power(&self, path: &FieldPath, light: &Light) -> Result<(), SceneError> {
+        let power = light.power();
+        if power.is_finite() {
+            Ok(())
+        } else {
+            Err(self.err(
+                path,
+                format!(
+                    "the light's power ({power} W) overflows single precision: make it dimmer or smaller"
+                ),
+            ))
+        }
+    }
+
     fn light(&self, path: &FieldPath, l: &LightDesc) -> Result<Light, SceneError> {
+        let light = self.light_unchecked(path, l)?;
+        match &light {
+            Light::Quad { u, v, .. } => self.emitter_area(&path.key("u"), u.cross(*v).length())?,
+            Light::Sphere { radius, .. } => {
+                self.emitter_area(&path.key("radius"), 4.0 * std::f32::consts::PI * radius * radius)?
+            }
+            _ => {}
+        }
+        let strength = match l {
+            LightDesc::Point { .. } => "intensity",
+            _ => "radiance",
+        };
+        self.finite_power(&path.key(strength), &light)?;
+        Ok(light)
+    }
+
+    fn light_unchecked(&self, path: &FieldPath, l: &LightDesc) -> Result<Light, SceneError> {
         let v = Vec3::from_array;
         Ok(match l {
             LightDesc::Point { position, intensity } => Light::Point {
@@ -724,6 +872,11 @@ fn material_effects(effects: &mut Effects, m: &Material, object: usize) {
             }
         }
     }
+}
+
+/// Whether bounds lie within ±[`MAX_EXTENT`] (and so are finite).
+fn within_extent(b: Bounds) -> bool {
+    b.min.cmpge(Vec3::splat(-MAX_EXTENT)).all() && b.max.cmple(Vec3::splat(MAX_EXTENT)).all()
 }
 
 /// The geometry of an emissive object, for the shapes that can emit.

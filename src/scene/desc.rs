@@ -328,6 +328,9 @@ fn default_ior_outside() -> IorDesc {
     IorDesc::Constant(1.0)
 }
 
+/// The error for an index table without exactly one of `cauchy` and `abbe`.
+pub const IOR_TABLE_ERROR: &str = "give exactly one of `cauchy = [A, B]` or `abbe = [n_d, V_d]`";
+
 /// A refractive index: a number, a named glass (`"bk7"`), `{ cauchy = [A, B_nm²] }` or
 /// `{ abbe = [n_d, V_d] }`.
 #[derive(Clone, Debug, PartialEq)]
@@ -373,9 +376,7 @@ impl<'de> Deserialize<'de> for IorDesc {
                 match (t.cauchy, t.abbe) {
                     (Some(c), None) => Ok(IorDesc::Cauchy(c)),
                     (None, Some(a)) => Ok(IorDesc::Abbe(a)),
-                    _ => Err(serde::de::Error::custom(
-                        "give exactly one of `cauchy = [A, B]` or `abbe = [n_d, V_d]`",
-                    )),
+                    _ => Err(serde::de::Error::custom(IOR_TABLE_ERROR)),
                 }
             }
         }

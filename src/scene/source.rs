@@ -9,6 +9,8 @@ use std::ops::Range;
 use std::path::PathBuf;
 use toml_edit::{ImDocument, Item, Table, Value};
 
+use super::compile::MAX_MAGNITUDE;
+
 /// One step of a path into the scene document.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub enum Segment {
@@ -171,7 +173,11 @@ impl<'a> Source<'a> {
 
     /// 1-based line and column of a byte offset.
     pub fn line_column(&self, offset: usize) -> (usize, usize) {
-        let offset = offset.min(self.text.len());
+        let mut offset = offset.min(self.text.len());
+        // An offset inside a multi-byte character counts as that character.
+        while !self.text.is_char_boundary(offset) {
+            offset -= 1;
+        }
         let before = &self.text[..offset];
         let line = before.matches('\n').count() + 1;
         let column = before.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1;
@@ -292,9 +298,17 @@ impl<'a> Source<'a> {
         }
     }
 
-    /// Every float in the document that is NaN, infinite, or too large for f32, as an error.
+    /// Every number in the document that is NaN, infinite, or larger in magnitude than
+    /// [`MAX_MAGNITUDE`] (`render.seed` excepted), as an error.
     pub fn check_numbers(&self) -> Result<(), SceneError> {
         let Some(doc) = self.doc.as_ref() else { return Ok(()) };
+        let seed = FieldPath::from("render.seed");
+        let too_large = |path: &FieldPath, x: String| {
+            self.error_at(
+                path,
+                format!("{x} is too large: numbers in a scene file are limited to ±{MAX_MAGNITUDE:e}"),
+            )
+        };
         let mut stack = vec![(FieldPath::default(), Node::Item(doc.as_item()))];
         while let Some((path, node)) = stack.pop() {
             let value = match node {
@@ -309,14 +323,12 @@ impl<'a> Source<'a> {
                             self.error_at(&path, format!("{x} is not allowed: numbers must be finite"))
                         );
                     }
-                    if x.abs() > f32::MAX as f64 {
-                        return Err(
-                            self.error_at(&path, format!("{x} is too large: the limit is {:e}", f32::MAX))
-                        );
+                    if x.abs() > MAX_MAGNITUDE {
+                        return Err(too_large(&path, format!("{x:e}")));
                     }
                 }
-                Some(Value::Integer(i)) if (*i.value() as f64).abs() > f32::MAX as f64 => {
-                    return Err(self.error_at(&path, "integer too large"));
+                Some(Value::Integer(i)) if path != seed && (*i.value() as f64).abs() > MAX_MAGNITUDE => {
+                    return Err(too_large(&path, i.value().to_string()));
                 }
                 _ => {}
             }
