@@ -81,6 +81,9 @@
 //! `0..a` and then `a..b` gives the bits of `0..b` at once ([`crate::render::Accumulate`]). The
 //! splats of one sample index form one image, an unbiased estimate on its own; the spread of
 //! these `spp` batch images gives each pixel's variance (none with a single sample index).
+//! A render adds them in passes of whole sample indices ([`render_accumulated`]), so a Ctrl-C
+//! lands between sample indices: the image of the `k` indices done is, bit for bit, a plain
+//! `k`-sample render.
 
 use super::{Integrator, PathContext, RenderParams, DEFAULT_PATH_DEPTH};
 use crate::bsdf::lambert::cosine_hemisphere;

@@ -2,10 +2,13 @@
 //! of [`crate::commands`] (`diff`, `converge`, `compare`).
 //!
 //! Exit codes: 0 success; 2 bad input (options, scene file, image file) with a message naming
-//! the problem; 1 any other failure.
+//! the problem; 1 any other failure; 130 a render interrupted by Ctrl-C (see
+//! [`crate::interrupt`]): the first Ctrl-C writes the samples done, a second one aborts
+//! without writing anything.
 
 use crate::integrators::{self, Integrator, RenderParams};
-use crate::output::exr::{stage_exr_with_channels, variance_channels, ExrMetadata};
+use crate::interrupt;
+use crate::output::exr::{stage_exr_with_notes, variance_channels, ExrMetadata};
 use crate::output::png::stage_png;
 use crate::output::Staged;
 use crate::render::{self, Budget, RenderOptions, RenderOutput};
@@ -218,6 +221,8 @@ pub fn main() -> i32 {
         }
     };
     match result {
+        // Only `render` catches Ctrl-C: it has written the samples done.
+        Ok(()) if interrupt::stop_requested() => interrupt::EXIT_INTERRUPTED,
         Ok(()) => 0,
         Err(e) => {
             let (CliError::BadInput(m) | CliError::Failure(m)) = &e;
@@ -388,9 +393,9 @@ fn run_render(args: &RenderArgs) -> Result<(), CliError> {
     let pool = thread_pool(args.threads)?;
 
     let bar = (!args.quiet && std::io::stderr().is_terminal()).then(|| {
-        let bar = indicatif::ProgressBar::new(render::camera_for(&scene, opts.resolution).height as u64);
+        let bar = indicatif::ProgressBar::new(1);
         bar.set_style(
-            indicatif::ProgressStyle::with_template("{spinner} {msg} [{bar:40}] {pos}/{len} rows, ETA {eta}")
+            indicatif::ProgressStyle::with_template("{spinner} {msg} [{bar:40}] {percent:>3}%, ETA {eta}")
                 .expect("valid template")
                 .progress_chars("=> "),
         );
@@ -403,10 +408,17 @@ fn run_render(args: &RenderArgs) -> Result<(), CliError> {
             b.set_position(done);
         }
     };
+    // From here on the first Ctrl-C stops the render at its next pass boundary and the samples
+    // done are written; a second one aborts without writing (before, Ctrl-C simply ends the
+    // process: there is nothing to save).
+    if let Err(e) = interrupt::install_handler() {
+        eprintln!("vitrum: warning: cannot catch Ctrl-C ({e}): an interrupted render would be lost");
+    }
     let out = pool.install(|| render::render(&scene, integrator.as_ref(), &opts, &progress));
     if let Some(b) = bar {
         b.finish_and_clear();
     }
+    let interrupted = interrupt::stop_requested().then(|| interruption(integrator.as_ref(), &opts, &out));
 
     let meta = ExrMetadata {
         version: crate::VERSION.to_string(),
@@ -435,7 +447,10 @@ fn run_render(args: &RenderArgs) -> Result<(), CliError> {
         }
         (_, false) => Vec::new(),
     };
-    let mut staged = vec![stage_exr_with_channels(&args.output, &out.image, &meta, &extra).map_err(failure)?];
+    let notes: Vec<(String, String)> =
+        interrupted.iter().map(|what| ("vitrum:interrupted".to_string(), what.clone())).collect();
+    let mut staged =
+        vec![stage_exr_with_notes(&args.output, &out.image, &meta, &extra, &notes).map_err(failure)?];
     if let Some(png) = &args.png {
         let exposure = args.exposure.unwrap_or(scene.settings.exposure);
         staged.push(stage_png(png, &out.image, exposure).map_err(failure)?);
@@ -449,8 +464,29 @@ fn run_render(args: &RenderArgs) -> Result<(), CliError> {
     if out.non_finite_samples > 0 {
         eprintln!("vitrum: warning: {} sample(s) were NaN or infinite", out.non_finite_samples);
     }
+    if let Some(what) = &interrupted {
+        eprintln!("vitrum: warning: interrupted: {what}; written to {}", args.output.display());
+    }
     report(args, &scene, integrator.name(), &opts, &out);
     Ok(())
+}
+
+/// What an interrupted render did, for the warning and the `vitrum:interrupted` attribute.
+fn interruption(integrator: &dyn Integrator, opts: &RenderOptions, out: &RenderOutput) -> String {
+    if let render::Progression::Fixed(_) = integrator.progression() {
+        return format!("SIGINT; `{}` renders one fixed pattern and finished it", integrator.name());
+    }
+    match opts.budget {
+        Budget::Samples(n) => format!("SIGINT after {} of {n} samples per pixel", out.spp),
+        Budget::Time(t) => {
+            format!(
+                "SIGINT after {} samples per pixel, {:.3} s of a {} s budget",
+                out.spp,
+                out.seconds,
+                t.as_secs_f64()
+            )
+        }
+    }
 }
 
 /// The camera samples per pixel as grey levels, white for the most-sampled pixel.
@@ -503,6 +539,13 @@ fn report(args: &RenderArgs, scene: &Scene, integrator: &str, opts: &RenderOptio
             })),
             "output": args.output,
             "png": args.png,
+            // Whether Ctrl-C stopped the render (`spp` is then the samples done), and the
+            // sample count asked for.
+            "interrupted": interrupt::stop_requested(),
+            "requested_spp": match opts.budget {
+                Budget::Samples(n) => Some(n),
+                Budget::Time(_) => None,
+            },
         });
         println!("{summary}");
     } else if !args.quiet {

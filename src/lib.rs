@@ -13,6 +13,7 @@ pub mod export;
 pub mod figure;
 pub mod geometry;
 pub mod image;
+pub mod interrupt;
 pub mod light;
 pub mod lighting;
 pub mod material;

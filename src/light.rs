@@ -300,6 +300,19 @@ impl Light {
         }
     }
 
+    /// Whether `p` lies strictly inside the light's closed emitting surface (the centre of a
+    /// sphere, where [`Light::as_point_from`] puts its point stand-in): a shadow ray towards
+    /// such a point reaches the light where it meets its surface.
+    pub fn encloses(&self, p: Vec3) -> bool {
+        let (center, radius) = match *self {
+            Light::Sphere { center, radius, .. }
+            | Light::Surface { shape: EmitterShape::Sphere { center, radius }, .. } => (center, radius),
+            _ => return false,
+        };
+        // Well inside: a point sampled on the surface (roundoff included) is not enclosed.
+        (p - center).length() < radius * (1.0 - 1e-3)
+    }
+
     /// The light as the deterministic methods (raycast, whitted) see it from point `p`: a point
     /// light as itself; an area quad as a point at its centre with the intensity of a Lambertian
     /// emitter in that direction, `L·A·cos θ`; a sphere as a point at its centre with intensity
@@ -342,6 +355,28 @@ pub(crate) mod tests {
 
     /// Number of chi-square cases run here (counted in the Šidák correction).
     pub(crate) const CHI2_CASES: usize = 7;
+
+    #[test]
+    fn only_the_inside_of_a_sphere_is_enclosed() {
+        let center = Vec3::new(0.5, 1.0, -2.0);
+        let sphere = Light::Sphere { center, radius: 0.05, radiance: Vec3::ONE };
+        let ball =
+            Light::Surface { shape: EmitterShape::Sphere { center, radius: 0.05 }, radiance: Vec3::ONE };
+        for light in [&sphere, &ball] {
+            assert!(light.encloses(center));
+            assert!(light.encloses(center + Vec3::new(0.0, 0.049, 0.0)));
+            // Sampled surface points, roundoff included, are outside.
+            for k in 0..100 {
+                let (p, _) = EmitterShape::Sphere { center, radius: 0.05 }
+                    .sample(Vec2::new(k as f32 / 100.0, (k as f32 * 0.618).fract()));
+                assert!(!light.encloses(p), "{p}");
+            }
+            assert!(!light.encloses(center + Vec3::X));
+        }
+        let quad =
+            Light::Quad { corner: Vec3::ZERO, u: Vec3::X, v: Vec3::Z, normal: -Vec3::Y, radiance: Vec3::ONE };
+        assert!(!quad.encloses(Vec3::new(0.5, 0.0, 0.5)));
+    }
 
     /// Distances along `p + t·w` (t > 0) at which the ray meets the sphere.
     fn sphere_hits(p: Vec3, w: Vec3, center: Vec3, radius: f32) -> Vec<f32> {

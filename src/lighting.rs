@@ -125,10 +125,13 @@ pub fn transmittance(
             return t;
         };
         // Reaching the light itself ends the ray; meeting it well before the target does not (a
-        // point on the far side of an emissive ball is hidden by its near side).
-        if light.is_some() && scene.light_of(hit.primitive) == light && hit.hit.t >= remaining * (1.0 - 1e-3)
-        {
-            return t;
+        // point on the far side of an emissive ball is hidden by its near side), unless the
+        // target is inside the light (a sphere's centre, its stand-in for the deterministic
+        // methods), which the ray reaches where it meets the light's surface.
+        if let Some(index) = light.filter(|&l| scene.light_of(hit.primitive) == Some(l)) {
+            if hit.hit.t >= remaining * (1.0 - 1e-3) || scene.lights[index as usize].encloses(target) {
+                return t;
+            }
         }
         let ShadowMode::ThroughGlass { reflectance } = shadow.mode else {
             return Vec3::ZERO;

@@ -25,6 +25,25 @@
 //! image) and `light`. `ssaa` renders one fixed pattern whatever the sample count
 //! ([`Progression::Fixed`]): a progressive render of it is that one image.
 //!
+//! # Passes and interrupts
+//! A render spends its budget in sample passes: a sample budget of n in passes
+//! of adaptive size (doubling while a pass takes under about an eighth of a second), each still
+//! drawing sample s of n (so stratification is kept), a time budget in 1-sample passes. Because
+//! the film sums every pixel's samples in index order whatever the ranges, the passes change no
+//! bit of the image. Between passes the drivers check [`crate::interrupt::stop_requested`]:
+//! after a stop (the first Ctrl-C of `vitrum render`) the render returns the whole passes done,
+//! at least one, so `spp` is the whole number of samples every pixel got. That image equals,
+//! bit for bit:
+//! - for light tracing, a plain render with that many samples (either sampler);
+//! - for the camera pass with the independent sampler, or a time budget, a plain render with
+//!   that many samples and `--sampler independent` (for 2 samples or more, as above);
+//! - for the camera pass with the stratified sampler, the first `spp` sample indices of the
+//!   planned n-sample pattern: an unbiased estimate (each pixel's strata are assigned to sample
+//!   indices by a random permutation), but not what a plain `spp`-sample stratified render draws.
+//!
+//! `ssaa` renders its one fixed pattern to the end. [`Progressive`] renders are driven by their
+//! caller and ignore the flag.
+//!
 //! # Variance
 //! The variance of a pixel's estimate (its squared standard error) is s²/n, with s² the unbiased
 //! variance of its n per-sample estimates: the camera samples of the pixel, or for light tracing
@@ -434,30 +453,84 @@ impl DimensionRequests {
     }
 }
 
-/// Spend `budget` on `film`: `add(film, samples, total)` adds a sample range of `total` planned
-/// samples (0 when the count is not known in advance).
-fn run_budget(film: &mut Film, budget: Budget, mut add: impl FnMut(&mut Film, Range<u32>, u32)) {
+/// Seconds a sample pass should take: long enough that the pass overhead (a parallel loop's
+/// start and tail) is negligible, short enough that a stop request is honoured promptly.
+const PASS_SECONDS: f64 = 0.25;
+
+/// The sample count of the pass after one of `size` samples that took `took`: doubled while
+/// passes are short, halved (down to one) when they are long.
+fn next_pass_size(size: u32, took: Duration) -> u32 {
+    let t = took.as_secs_f64();
+    if t < PASS_SECONDS / 2.0 {
+        size.saturating_mul(2)
+    } else if t > 2.0 * PASS_SECONDS {
+        (size / 2).max(1)
+    } else {
+        size
+    }
+}
+
+/// How a sample range is added to a film: `add(film, samples, total, progress)` adds the sample
+/// indices `samples` of `total` planned (0 when the count is not known in advance), reporting
+/// (work done, work total) of this call to `progress`.
+type AddSamples<'f> = dyn FnMut(&mut Film, Range<u32>, u32, &(dyn Fn(u64, u64) + Sync)) + 'f;
+
+/// Spend `budget` on `film` in sample passes, checking `stop()` between passes: after a stop
+/// the film holds the whole passes done (at least one), a whole number of samples per pixel.
+/// `progress` gets (done, total) of the whole render: thousandths of a sample per pixel for a
+/// sample budget, milliseconds for a time budget.
+///
+/// A sample budget of `n` adds `0..n` in passes of adaptive size (see [`next_pass_size`]), each
+/// with `total = n`. Films sum every pixel's samples in index order whatever the ranges asked
+/// for, so the passes change no bit of the result, and the timing that sizes them cannot either.
+fn run_budget(
+    film: &mut Film,
+    budget: Budget,
+    stop: &dyn Fn() -> bool,
+    progress: &(dyn Fn(u64, u64) + Sync),
+    add: &mut AddSamples<'_>,
+) {
     let start = Instant::now();
     match budget {
         Budget::Samples(n) => {
-            add(film, 0..n, n);
-            film.samples = n;
+            let mut size = 1u32;
+            while film.samples < n {
+                let (from, to) = (film.samples, film.samples + size.min(n - film.samples));
+                let pass_start = Instant::now();
+                // Thousandths of a sample per pixel over the whole render.
+                let pass_progress = |done: u64, of: u64| {
+                    let within = (to - from) as u128 * 1000 * done as u128 / of.max(1) as u128;
+                    progress((from as u64 * 1000 + within as u64).min(n as u64 * 1000), n as u64 * 1000)
+                };
+                add(film, from..to, n, &pass_progress);
+                film.samples = to;
+                if stop() {
+                    break;
+                }
+                size = next_pass_size(size, pass_start.elapsed());
+            }
         }
         // The sample count is unknown in advance: no stratification across passes.
-        Budget::Time(limit) => loop {
-            let s = film.samples;
-            add(film, s..s + 1, 0);
-            film.samples = s + 1;
-            if start.elapsed() >= limit {
-                break;
+        Budget::Time(limit) => {
+            let total = (limit.as_millis() as u64).max(1);
+            let timed = |_: u64, _: u64| progress((start.elapsed().as_millis() as u64).min(total), total);
+            loop {
+                let s = film.samples;
+                add(film, s..s + 1, 0, &timed);
+                film.samples = s + 1;
+                if start.elapsed() >= limit || stop() {
+                    break;
+                }
             }
-        },
+        }
     }
     film.seconds += start.elapsed().as_secs_f64();
 }
 
-/// Render `scene` with `integrator`; `progress` is called with (rows done, rows total) of the
-/// current pass, from worker threads.
+/// Render `scene` with `integrator`; `progress` is called with (work done, work total) of the
+/// whole render, from worker threads. After a stop request ([`crate::interrupt`]) the render
+/// ends at its next pass boundary and returns the samples done (`spp` counts them); methods with
+/// one fixed pattern (`ssaa`) finish.
 pub fn render(
     scene: &Scene,
     integrator: &dyn Integrator,
@@ -470,7 +543,8 @@ pub fn render(
     camera_pass(scene, integrator, opts, progress).0
 }
 
-/// The shared camera pass, with the sampler requests it made per purpose.
+/// The shared camera pass, with the sampler requests it made per purpose; it stops early, at a
+/// whole number of samples per pixel, when a stop is requested ([`crate::interrupt`]).
 pub fn camera_pass(
     scene: &Scene,
     integrator: &dyn Integrator,
@@ -479,12 +553,19 @@ pub fn camera_pass(
 ) -> (RenderOutput, DimensionRequests) {
     let pass = Pass::new(scene, integrator, opts);
     let mut film = pass.film();
-    run_budget(&mut film, opts.budget, |film, samples, total| pass.add(film, samples, total, progress));
+    run_budget(
+        &mut film,
+        opts.budget,
+        &crate::interrupt::stop_requested,
+        progress,
+        &mut |film, samples, total, p| pass.add(film, samples, total, p),
+    );
     (film.output(), film.requests)
 }
 
 /// Render `opts.budget` with a method that adds sample indices itself (for its
-/// [`Integrator::render_image`]): all samples at once, or 1-sample passes until the time is up.
+/// [`Integrator::render_image`]): in passes of whole sample indices until the samples are done,
+/// the time is up or a stop is requested ([`crate::interrupt`]).
 pub fn render_accumulated(
     scene: &Scene,
     method: &dyn Accumulate,
@@ -492,9 +573,13 @@ pub fn render_accumulated(
     progress: &(dyn Fn(u64, u64) + Sync),
 ) -> RenderOutput {
     let mut film = method.film(scene, opts);
-    run_budget(&mut film, opts.budget, |film, samples, _| {
-        method.add_samples(scene, opts, samples, film, progress)
-    });
+    run_budget(
+        &mut film,
+        opts.budget,
+        &crate::interrupt::stop_requested,
+        progress,
+        &mut |film, samples, _, p| method.add_samples(scene, opts, samples, film, p),
+    );
     film.output()
 }
 
@@ -724,6 +809,110 @@ mod tests {
         assert_eq!(power_of_two_checkpoints(8), [1, 2, 4, 8]);
         assert_eq!(power_of_two_checkpoints(11), [1, 2, 4, 8, 11]);
         assert_eq!(power_of_two_checkpoints(u32::MAX).len(), 33);
+    }
+
+    /// A per-sample value that does not sum exactly in f64 in any order but index order.
+    fn value(pixel: usize, s: u32) -> f64 {
+        ((pixel as f64 + 1.0) * 0.1 + s as f64 * 0.37).sin() * 1e3 + 1e-7 * s as f64
+    }
+
+    /// Adds `value` for the samples `samples` to every pixel of `film`, in index order.
+    fn add_values(film: &mut Film, samples: Range<u32>) {
+        for (pixel, (sum, sq)) in film.sum.iter_mut().zip(film.sum_sq.iter_mut()).enumerate() {
+            for s in samples.clone() {
+                let v = DVec3::splat(value(pixel, s));
+                *sum += v;
+                *sq += v * v;
+            }
+        }
+    }
+
+    #[test]
+    fn passes_give_the_bits_of_one_range_and_a_stop_lands_between_passes() {
+        let mut whole = Film::new(3, 2, 1.0, false);
+        add_values(&mut whole, 0..40);
+        let mut passes = Vec::new();
+        let mut film = Film::new(3, 2, 1.0, false);
+        run_budget(&mut film, Budget::Samples(40), &|| false, &|_, _| {}, &mut |f, samples, total, _| {
+            assert_eq!(total, 40, "every pass draws from the planned pattern");
+            passes.push(samples.clone());
+            add_values(f, samples);
+        });
+        assert_eq!(film.samples, 40);
+        assert_eq!((film.sum.clone(), film.sum_sq.clone()), (whole.sum.clone(), whole.sum_sq.clone()));
+        assert_eq!(passes.first(), Some(&(0..1)), "the first pass is one sample");
+        assert!(passes.windows(2).all(|w| w[0].end == w[1].start) && passes.last().unwrap().end == 40);
+
+        // A stop requested during the third pass: that pass finishes, nothing more is added.
+        let calls = std::cell::Cell::new(0);
+        let mut film = Film::new(3, 2, 1.0, false);
+        let stop = || calls.get() >= 3;
+        let mut ends = Vec::new();
+        run_budget(&mut film, Budget::Samples(40), &stop, &|_, _| {}, &mut |f, samples, _, _| {
+            calls.set(calls.get() + 1);
+            ends.push(samples.end);
+            add_values(f, samples);
+        });
+        assert_eq!(film.samples, *ends.last().unwrap());
+        assert_eq!(ends.len(), 3);
+        let mut expected = Film::new(3, 2, 1.0, false);
+        add_values(&mut expected, 0..film.samples);
+        expected.samples = film.samples;
+        assert_eq!(film.sum, expected.sum);
+        assert_eq!(film.image().pixels, expected.image().pixels);
+
+        // A stop requested before the render: one pass all the same; time budgets stop too.
+        for budget in [Budget::Samples(40), Budget::Time(Duration::from_secs(3600))] {
+            let mut film = Film::new(3, 2, 1.0, false);
+            run_budget(&mut film, budget, &|| true, &|_, _| {}, &mut |f, samples, _, _| {
+                add_values(f, samples)
+            });
+            assert_eq!(film.samples, 1, "{budget:?}");
+        }
+    }
+
+    #[test]
+    fn progress_covers_the_whole_render() {
+        let seen = std::sync::Mutex::new(Vec::new());
+        let mut film = Film::new(1, 1, 1.0, false);
+        let progress = |done: u64, total: u64| seen.lock().unwrap().push((done, total));
+        run_budget(&mut film, Budget::Samples(10), &|| false, &progress, &mut |f, samples, _, p| {
+            p(1, 2);
+            p(2, 2);
+            add_values(f, samples);
+        });
+        let seen = seen.into_inner().unwrap();
+        assert!(seen.iter().all(|&(_, total)| total == 10_000), "{seen:?}");
+        assert!(seen.windows(2).all(|w| w[0].0 <= w[1].0), "{seen:?}");
+        assert_eq!(seen.last(), Some(&(10_000, 10_000)));
+    }
+
+    #[test]
+    fn pass_sizes_double_while_short_and_halve_when_long() {
+        let ms = Duration::from_millis;
+        assert_eq!(next_pass_size(4, ms(1)), 8);
+        assert_eq!(next_pass_size(4, ms(200)), 4);
+        assert_eq!(next_pass_size(4, ms(2000)), 2);
+        assert_eq!(next_pass_size(1, ms(2000)), 1);
+        assert_eq!(next_pass_size(u32::MAX, ms(1)), u32::MAX);
+    }
+
+    #[test]
+    fn camera_passes_split_anywhere_give_the_same_bits() {
+        let scene = crate::scene::load_default();
+        let path = crate::integrators::create("path").unwrap();
+        let mut opts = RenderOptions::from_scene(&scene, 6);
+        opts.resolution = Some((12, 8));
+        let pass = Pass::new(&scene, path.as_ref(), &opts);
+        let (mut once, mut split) = (pass.film(), pass.film());
+        pass.add(&mut once, 0..6, 6, &|_, _| {});
+        for range in [0..1, 1..3, 3..6] {
+            pass.add(&mut split, range, 6, &|_, _| {});
+        }
+        assert_eq!(once.sum, split.sum);
+        assert_eq!(once.sum_sq, split.sum_sq);
+        assert_eq!(once.rays, split.rays);
+        assert!(once.sum.iter().any(|s| s.max_element() > 0.0), "a black image would pass trivially");
     }
 
     /// A 2×1 film with the per-sample values `a` (pixel 0) and `b` (pixel 1).

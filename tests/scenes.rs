@@ -1,23 +1,15 @@
 //! Every shipped scene parses, compiles and renders at 64×64 with every integrator, every pixel
 //! finite; and the embedded default scene is `scenes/cornell-glass.toml`.
 
+mod common;
+
 use vitrum::integrators;
 use vitrum::render::{render, RenderOptions};
 use vitrum::scene;
 
-fn scene_files() -> Vec<std::path::PathBuf> {
-    let mut files: Vec<_> = std::fs::read_dir(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes"))
-        .unwrap()
-        .map(|e| e.unwrap().path())
-        .filter(|p| p.extension().is_some_and(|e| e == "toml"))
-        .collect();
-    files.sort();
-    files
-}
-
 #[test]
 fn every_scene_renders_finite_with_every_integrator() {
-    let files = scene_files();
+    let files = common::toml_files(std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes")));
     assert!(files.len() >= 5, "expected the shipped scenes, found {files:?}");
     for file in files {
         let scene = scene::load(&file).unwrap_or_else(|e| panic!("{e}"));

@@ -1,6 +1,6 @@
 //! OpenEXR output: float32 linear RGB in one scanline layer, with the render's metadata in the header.
 
-use super::{check_pixel_count, stage, OutputError, Staged};
+use super::{check_pixel_count, stage_bytes, OutputError, Staged};
 use crate::image::Image;
 use crate::stats::RayCounts;
 use exr::image::{Encoding, Layer, SpecificChannels};
@@ -91,12 +91,38 @@ pub fn write_exr(path: &Path, image: &Image, meta: &ExrMetadata) -> Result<(), O
 
 /// Encode the EXR into a temporary file beside `path`, to be published with [`Staged::commit`].
 pub fn stage_exr(path: &Path, image: &Image, meta: &ExrMetadata) -> Result<Staged, OutputError> {
-    check_pixel_count(path, image)?;
+    stage_rgb_exr(path, image, meta, &[])
+}
+
+/// The beauty layer's attributes: the render metadata and the `notes` (text attributes).
+fn layer_attributes(
+    path: &Path,
+    meta: &ExrMetadata,
+    notes: &[(String, String)],
+) -> Result<LayerAttributes, OutputError> {
     let mut attributes = LayerAttributes::named(BEAUTY_LAYER);
     attributes.software_name = Some(text(&format!("vitrum {}", meta.version)));
     for (name, value) in metadata_attributes(path, meta)? {
         attributes.other.insert(text(name), value);
     }
+    for (name, value) in notes {
+        if attributes.other.contains_key(&text(name)) || name.is_empty() {
+            return Err(OutputError::format(path, format!("attribute `{name}` is given twice or empty")));
+        }
+        attributes.other.insert(text(name), text_value(value));
+    }
+    Ok(attributes)
+}
+
+/// [`stage_exr`] with the text attributes `notes`.
+fn stage_rgb_exr(
+    path: &Path,
+    image: &Image,
+    meta: &ExrMetadata,
+    notes: &[(String, String)],
+) -> Result<Staged, OutputError> {
+    check_pixel_count(path, image)?;
+    let attributes = layer_attributes(path, meta, notes)?;
     let width = image.width;
     let pixels = SpecificChannels::rgb(|p: Vec2<usize>| {
         let c = image.pixels[p.y() * width + p.x()];
@@ -104,8 +130,18 @@ pub fn stage_exr(path: &Path, image: &Image, meta: &ExrMetadata) -> Result<Stage
     });
     let layer = Layer::new((image.width, image.height), attributes, Encoding::SMALL_LOSSLESS, pixels);
     let file = exr::image::Image::from_layer(layer);
+    encode_and_stage(path, |bytes| file.write().to_buffered(bytes))
+}
+
+/// Encode an EXR file in memory with `encode`, then stage its bytes (see [`stage_bytes`]).
+fn encode_and_stage(
+    path: &Path,
+    encode: impl FnOnce(&mut Cursor<Vec<u8>>) -> Result<(), exr::error::Error>,
+) -> Result<Staged, OutputError> {
+    let mut bytes = Cursor::new(Vec::new());
     // Errors name the final path: the temporary name means nothing to the user.
-    stage(path, |tmp| file.write().to_file(tmp).map_err(|e| exr_error(path, e)))
+    encode(&mut bytes).map_err(|e| exr_error(path, e))?;
+    stage_bytes(path, bytes.get_ref())
 }
 
 /// An extra float32 channel of an EXR file, one value per pixel in row-major order.
@@ -140,9 +176,21 @@ pub fn stage_exr_with_channels(
     meta: &ExrMetadata,
     extra: &[ExtraChannel],
 ) -> Result<Staged, OutputError> {
+    stage_exr_with_notes(path, image, meta, extra, &[])
+}
+
+/// Like [`stage_exr_with_channels`], with the extra text attributes `notes` (name, value) in the
+/// header, such as `vitrum:interrupted`; a name may not repeat one of the render metadata.
+pub fn stage_exr_with_notes(
+    path: &Path,
+    image: &Image,
+    meta: &ExrMetadata,
+    extra: &[ExtraChannel],
+    notes: &[(String, String)],
+) -> Result<Staged, OutputError> {
     use exr::prelude::{AnyChannel, AnyChannels, FlatSamples, SmallVec};
     if extra.is_empty() {
-        return stage_exr(path, image, meta);
+        return stage_rgb_exr(path, image, meta, notes);
     }
     check_pixel_count(path, image)?;
     for c in extra {
@@ -157,11 +205,7 @@ pub fn stage_exr_with_channels(
             return Err(OutputError::format(path, format!("channel {} is given twice", c.name)));
         }
     }
-    let mut attributes = LayerAttributes::named(BEAUTY_LAYER);
-    attributes.software_name = Some(text(&format!("vitrum {}", meta.version)));
-    for (name, value) in metadata_attributes(path, meta)? {
-        attributes.other.insert(text(name), value);
-    }
+    let attributes = layer_attributes(path, meta, notes)?;
     let rgb = |f: fn(&glam::Vec3) -> f32| image.pixels.iter().map(f).collect::<Vec<f32>>();
     let mut list = vec![
         AnyChannel::new("R", FlatSamples::F32(rgb(|p| p.x))),
@@ -174,7 +218,7 @@ pub fn stage_exr_with_channels(
     let channels = AnyChannels::sort(SmallVec::from_vec(list));
     let layer = Layer::new((image.width, image.height), attributes, Encoding::SMALL_LOSSLESS, channels);
     let file = exr::image::Image::from_layer(layer);
-    stage(path, |tmp| file.write().to_file(tmp).map_err(|e| exr_error(path, e)))
+    encode_and_stage(path, |bytes| file.write().to_buffered(bytes))
 }
 
 /// Every channel of an EXR file's first layer.
@@ -453,6 +497,25 @@ mod tests {
         assert_eq!(channels["samples"], vec![16.0; 35]);
         let short = [ExtraChannel { name: "x".into(), values: vec![1.0; 3] }];
         assert!(stage_exr_with_channels(&path, &image, &test_metadata(), &short).is_err());
+    }
+
+    #[test]
+    fn notes_are_text_attributes_with_or_without_extra_channels() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("notes.exr");
+        let image = test_image();
+        let notes = [("vitrum:interrupted".to_string(), "SIGINT after 3 of 64 samples".to_string())];
+        let extra = [ExtraChannel { name: "samples".into(), values: vec![3.0; 35] }];
+        for extra in [&extra[..], &[]] {
+            stage_exr_with_notes(&path, &image, &test_metadata(), extra, &notes).unwrap().commit().unwrap();
+            let (back, attrs) = read_exr(&path).unwrap();
+            assert_eq!(bits(&back), bits(&image));
+            assert_eq!(attrs["vitrum:interrupted"], "SIGINT after 3 of 64 samples");
+            assert_eq!(attrs["vitrum:spp"], "64");
+        }
+        let clash = [("vitrum:spp".to_string(), "3".to_string())];
+        assert!(stage_exr_with_notes(&path, &image, &test_metadata(), &[], &clash).is_err());
+        assert_eq!(dir_entries(dir.path()), ["notes.exr"]);
     }
 
     #[test]

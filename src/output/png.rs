@@ -1,13 +1,13 @@
 //! 8-bit sRGB PNG previews of linear HDR images.
 
-use super::{check_pixel_count, stage, OutputError, Staged};
+use super::{check_pixel_count, stage_bytes, OutputError, Staged};
 use crate::image::Image;
 use std::path::Path;
 
 /// The preview colour of a pixel with a NaN channel: magenta, so it stands out.
 const NAN_RGB8: [u8; 3] = [255, 0, 255];
 
-/// The sRGB OETF (IEC 61966-2-1) on [0,1]: linear light to the encoded value; callers clamp first.
+/// The sRGB OETF (IEC 61966-2-1) on \[0, 1\]: linear light to the encoded value; callers clamp first.
 pub fn linear_to_srgb(x: f32) -> f32 {
     if x <= 0.003_130_8 {
         12.92 * x
@@ -32,7 +32,7 @@ pub fn to_srgb8(image: &Image, exposure_ev: f32) -> Vec<u8> {
         .collect()
 }
 
-/// sRGB 8-bit preview: pixel * 2^exposure_ev, then clamp to [0,1], then the sRGB OETF, rounded. NaN pixels become magenta (255,0,255) so they are visible.
+/// sRGB 8-bit preview: pixel * 2^exposure_ev, then clamp to \[0, 1\], then the sRGB OETF, rounded. NaN pixels become magenta (255,0,255) so they are visible.
 pub fn write_png(path: &Path, image: &Image, exposure_ev: f32) -> Result<(), OutputError> {
     stage_png(path, image, exposure_ev)?.commit()
 }
@@ -64,21 +64,20 @@ pub fn stage_rgb8(path: &Path, width: usize, height: usize, bytes: &[u8]) -> Res
     let too_big = || OutputError::format(path, "image too large for PNG");
     let width = u32::try_from(width).map_err(|_| too_big())?;
     let height = u32::try_from(height).map_err(|_| too_big())?;
-    // The temporary name does not end in .png, so the format is given explicitly.
-    stage(path, |tmp| {
-        ::image::save_buffer_with_format(
-            tmp,
-            bytes,
-            width,
-            height,
-            ::image::ExtendedColorType::Rgb8,
-            ::image::ImageFormat::Png,
-        )
-        .map_err(|e| match e {
-            ::image::ImageError::IoError(source) => OutputError::io(path, source),
-            other => OutputError::format(path, format!("cannot encode PNG: {other}")),
-        })
-    })
+    if bytes.len() as u64 != width as u64 * height as u64 * 3 {
+        return Err(OutputError::format(path, "byte count does not match the image size"));
+    }
+    // Encoded in memory, then staged (see `stage_bytes`).
+    let mut png = Vec::new();
+    ::image::ImageEncoder::write_image(
+        ::image::codecs::png::PngEncoder::new(&mut png),
+        bytes,
+        width,
+        height,
+        ::image::ExtendedColorType::Rgb8,
+    )
+    .map_err(|e| OutputError::format(path, format!("cannot encode PNG: {e}")))?;
+    stage_bytes(path, &png)
 }
 
 #[cfg(test)]

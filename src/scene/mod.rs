@@ -202,38 +202,21 @@ pub struct Scene {
 
 impl Scene {
     /// The closest hit along `ray` with distance in (0, `tmax`), with moving primitives where
-    /// they are at `ray.time`.
+    /// they are at `ray.time`. Of primitives hit at exactly the same distance (coincident
+    /// surfaces written identically) the one compiled first wins: the first listed object,
+    /// whatever the BVH's traversal order.
     pub fn intersect(&self, ray: &Ray, tmax: f32) -> Option<Intersection> {
-        let inv = 1.0 / self.bvh_scale;
-        let bray = obvhs::ray::Ray::new(
-            Vec3A::from(ray.origin * inv),
-            Vec3A::from(ray.dir) + Vec3A::ZERO,
-            0.0,
-            tmax * inv,
-        );
-        let scale = self.bvh_scale;
         let prims = &self.primitives;
-        let mut hit = RayHit::none();
         // A static scene pays nothing for motion blur: its traversal never looks at velocities.
-        let found = if self.has_motion {
-            self.bvh.ray_traverse(bray, &mut hit, |r, id| {
-                let prim = &prims[id];
-                let t = match prim.velocity {
-                    None => prim.shape.intersect(ray, 0.0, r.tmax * scale),
-                    Some(v) => prim.shape.intersect(&moved(ray, v), 0.0, r.tmax * scale),
-                };
-                t.map_or(f32::INFINITY, |t| t * inv)
+        let (t, primitive) = if self.has_motion {
+            self.closest(ray, tmax, |prim, limit| match prim.velocity {
+                None => prim.shape.intersect(ray, 0.0, limit),
+                Some(v) => prim.shape.intersect(&moved(ray, v), 0.0, limit),
             })
         } else {
-            self.bvh.ray_traverse(bray, &mut hit, |r, id| {
-                prims[id].shape.intersect(ray, 0.0, r.tmax * scale).map_or(f32::INFINITY, |t| t * inv)
-            })
-        };
-        if !found {
-            return None;
-        }
-        let t = hit.t * scale;
-        let primitive = hit.primitive_id;
+            self.closest(ray, tmax, |prim, limit| prim.shape.intersect(ray, 0.0, limit))
+        }?;
+        let primitive = primitive as u32;
         let prim = &prims[primitive as usize];
         let hit = match prim.velocity {
             None => prim.shape.surface(ray, t),
@@ -246,6 +229,42 @@ impl Scene {
             }
         };
         Some(Intersection { hit, primitive })
+    }
+
+    /// The closest (distance, primitive) of a BVH traversal along `ray` within (0, `tmax`),
+    /// where `hit(prim, limit)` is the primitive's hit distance below `limit`. Ties go to the
+    /// primitive compiled first (the BVH tests them in its own order and keeps the first).
+    #[inline]
+    fn closest(
+        &self,
+        ray: &Ray,
+        tmax: f32,
+        hit: impl Fn(&Primitive, f32) -> Option<f32>,
+    ) -> Option<(f32, usize)> {
+        let inv = 1.0 / self.bvh_scale;
+        let bray = obvhs::ray::Ray::new(
+            Vec3A::from(ray.origin * inv),
+            Vec3A::from(ray.dir) + Vec3A::ZERO,
+            0.0,
+            tmax * inv,
+        );
+        let source = &self.bvh.primitive_indices;
+        let mut best: Option<(f32, usize)> = None;
+        let mut ignored = RayHit::none();
+        self.bvh.ray_traverse(bray, &mut ignored, |_, id| {
+            // Up to and including the best distance so far, to see ties.
+            let limit = best.map_or(tmax, |(t, _)| t.next_up());
+            let Some(t) = hit(&self.primitives[id], limit) else { return f32::INFINITY };
+            if let Some((best_t, best_id)) = best {
+                if t == best_t && source[id] > source[best_id] {
+                    return f32::INFINITY;
+                }
+            }
+            best = Some((t, id));
+            // World to BVH units by a power of two: exact, so the culling distance is `t`.
+            t * inv
+        });
+        best
     }
 
     /// The material of a primitive.

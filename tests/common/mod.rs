@@ -1,4 +1,4 @@
-//! Helpers shared by the integration tests of the Monte Carlo methods.
+//! Helpers shared by the integration tests: scene files, and renders of the Monte Carlo methods.
 #![allow(dead_code)] // each test crate uses a subset
 
 use glam::Vec3;
@@ -72,4 +72,15 @@ material = "wall"
 "#
     );
     load_str(&text, "closed sphere", None).unwrap()
+}
+
+/// The `.toml` files directly in `dir`, sorted.
+pub fn toml_files(dir: &std::path::Path) -> Vec<std::path::PathBuf> {
+    let mut files: Vec<_> = std::fs::read_dir(dir)
+        .unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "toml"))
+        .collect();
+    files.sort();
+    files
 }
