@@ -467,7 +467,7 @@ fn grazing_rays() {
                         case,
                         integrator,
                         format!(
-                            "{hits} ball pixels = Lambert of their hit (rel. err ≤ {worst:.1e}, dimmest {smallest_lit:.2e}), {misses} background 0, {uncertain} within 1e-6 of the rim; steepest incidence {max_incidence:.3}°"
+                            "{hits} surface pixels = Lambert of their hit (rel. err ≤ {worst:.1e}, dimmest {smallest_lit:.2e}), {misses} background 0, {uncertain} within 1e-6 of the rim; steepest incidence {max_incidence:.3}°"
                         ),
                     );
                 }
