@@ -68,8 +68,10 @@
 //!
 //! # Determinism
 //! The random stream of a path is a pure function of (seed, path index): path `k` uses the
-//! sampler of "pixel" `k` (independent sampler) or of group `k / 16`, sample `k mod 16` (the
-//! stratified sampler: every group of 16 consecutive paths is stratified in each dimension).
+//! sampler of "pixel" `k` (independent sampler), of group `k / 16`, sample `k mod 16` (the
+//! stratified sampler: every group of 16 consecutive paths is stratified in each dimension), or
+//! of group `k / 65536`, sample `k mod 65536` (Sobol': consecutive paths are one scrambled
+//! sequence).
 //! Paths are traced in fixed chunks of [`CHUNK_PATHS`]; each chunk appends its splats to its own
 //! buffer, and the buffers are merged into an f64 film in chunk order, so the image is
 //! bit-identical at any thread count. Chunks are traced in batches of a few per thread and each
@@ -113,6 +115,9 @@ pub const CHUNK_PATHS: u64 = 1 << 12;
 
 /// Consecutive paths stratified together by the stratified sampler.
 const STRATUM_PATHS: u64 = 16;
+
+/// Consecutive paths that share one Sobol' sequence (one "pixel" of the sampler).
+const SOBOL_PATHS: u64 = 1 << 16;
 
 /// Chunks traced per batch, per worker thread: enough to keep every thread busy until the end
 /// of a batch, few enough to bound the splat buffers alive at once (a chunk's buffer holds about
@@ -338,6 +343,9 @@ impl Tracer<'_> {
                 (index % STRATUM_PATHS) as u32,
                 STRATUM_PATHS as u32,
             ),
+            SamplerKind::Sobol => {
+                Sampler::new(self.sampler, self.seed, index / SOBOL_PATHS, (index % SOBOL_PATHS) as u32, 0)
+            }
         }
     }
 

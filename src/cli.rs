@@ -100,8 +100,8 @@ pub struct RenderArgs {
     /// Trace wavelengths: auto (when the scene disperses and the method simulates it), on, off.
     #[arg(long, value_parser = ["auto", "on", "off"])]
     pub spectral: Option<String>,
-    /// Sample distribution: stratified or independent.
-    #[arg(long, value_parser = ["stratified", "independent"])]
+    /// Sample distribution: sobol (Owen-scrambled, progressive), stratified or independent.
+    #[arg(long, value_parser = ["sobol", "stratified", "independent"])]
     pub sampler: Option<String>,
     /// ssaa: adaptive corner subdivision or a regular grid.
     #[arg(long, value_parser = ["adaptive", "grid"])]
@@ -577,6 +577,8 @@ fn noise_basis(integrator: &str, opts: &RenderOptions, out: &RenderOutput) -> St
     let n = out.spp;
     if integrator == "light" {
         format!("spread of {n} light-path batches (one per sample index, w·h paths each)")
+    } else if opts.sampler == SamplerKind::Sobol {
+        format!("variance of {n} Sobol' samples per pixel: an upper bound (stratification not credited)")
     } else if opts.sampler == SamplerKind::Stratified && matches!(opts.budget, Budget::Samples(_)) {
         format!("variance of {n} stratified samples per pixel: an upper bound (stratification not credited)")
     } else {

@@ -105,6 +105,30 @@ pub fn transmittance(
 ) -> Vec3 {
     let dir = (target - from.p).normalize();
     let mut origin = spawn_origin(from, dir);
+    // Whether a hit on `primitive` at distance `t` of `remaining` is the light itself: reaching
+    // it ends the ray; meeting it well before the target does not (a point on the far side of
+    // an emissive ball is hidden by its near side), unless the target is inside the light (a
+    // sphere's centre, its stand-in for the deterministic methods), which the ray reaches
+    // where it meets the light's surface.
+    let reaches_light = |primitive: u32, t: f32, remaining: f32| {
+        light.is_some_and(|l| {
+            scene.light_of(primitive) == Some(l)
+                && (t >= remaining * (1.0 - 1e-3) || scene.lights[l as usize].encloses(target))
+        })
+    };
+    let ShadowMode::ThroughGlass { reflectance } = shadow.mode else {
+        // Opaque: pure visibility, an occlusion query that stops at the first blocker.
+        rays.shadow += 1;
+        let remaining = (target - origin).dot(dir);
+        if remaining <= 0.0 {
+            return Vec3::ONE;
+        }
+        let mut ray = Ray::new(origin, dir);
+        ray.time = shadow.time;
+        let blocked = scene
+            .occluded(&ray, remaining * (1.0 - 1e-5), |primitive, t| !reaches_light(primitive, t, remaining));
+        return if blocked { Vec3::ZERO } else { Vec3::ONE };
+    };
     let mut t = Vec3::ONE;
     // The medium around the starting point is unknown unless we entered it through glass.
     let mut medium: Option<&Medium> = None;
@@ -124,18 +148,9 @@ pub fn transmittance(
         let Some(hit) = hit else {
             return t;
         };
-        // Reaching the light itself ends the ray; meeting it well before the target does not (a
-        // point on the far side of an emissive ball is hidden by its near side), unless the
-        // target is inside the light (a sphere's centre, its stand-in for the deterministic
-        // methods), which the ray reaches where it meets the light's surface.
-        if let Some(index) = light.filter(|&l| scene.light_of(hit.primitive) == Some(l)) {
-            if hit.hit.t >= remaining * (1.0 - 1e-3) || scene.lights[index as usize].encloses(target) {
-                return t;
-            }
+        if reaches_light(hit.primitive, hit.hit.t, remaining) {
+            return t;
         }
-        let ShadowMode::ThroughGlass { reflectance } = shadow.mode else {
-            return Vec3::ZERO;
-        };
         let bsdf = &scene.material_of(hit.primitive).bsdf;
         let Some(c) = crossing(bsdf, dir, hit.hit.n, shadow.lambda) else {
             return Vec3::ZERO;

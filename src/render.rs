@@ -13,12 +13,14 @@
 //! ranges `0..a` and then `a..b` gives the very bits of adding `0..b` at once. A progressive
 //! render reports the image after N samples without re-rendering anything, and that image *is*
 //! the plain N-sample render:
-//! - Stratification needs the sample count in advance, so progressive passes (like the passes
-//!   of a time budget) draw independent samples. A checkpoint at N ≥ 2 samples equals, bit for
-//!   bit, a plain N-sample render with the independent sampler (`--sampler independent`); a plain
-//!   1-sample render traces the pixel centres, a progressive first pass random points in them.
+//! - The Sobol' sampler (the default) and the independent one do not depend on the sample count,
+//!   so a checkpoint at N ≥ 2 samples equals, bit for bit, a plain N-sample render with the same
+//!   sampler; a plain 1-sample render traces the pixel centres, a progressive first pass a
+//!   sampled point in them. The stratified sampler needs the count in advance: its progressive
+//!   passes (like the passes of a time budget) draw independent samples, and equal plain renders
+//!   with `--sampler independent`.
 //! - Light tracing's path streams do not depend on the count: its checkpoints equal plain renders
-//!   with either sampler.
+//!   with any sampler.
 //!
 //! Which methods grow ([`Integrator::progression`]): the camera-pass methods (`raycast`,
 //! `whitted`, `distributed`, `path`; the deterministic ones converge to their own antialiased
@@ -34,9 +36,10 @@
 //! after a stop (the first Ctrl-C of `vitrum render`) the render returns the whole passes done,
 //! at least one, so `spp` is the whole number of samples every pixel got. That image equals,
 //! bit for bit:
-//! - for light tracing, a plain render with that many samples (either sampler);
-//! - for the camera pass with the independent sampler, or a time budget, a plain render with
-//!   that many samples and `--sampler independent` (for 2 samples or more, as above);
+//! - for light tracing, a plain render with that many samples (any sampler);
+//! - for the camera pass with the Sobol' or the independent sampler, a plain render with that
+//!   many samples and the same sampler (for 2 samples or more, as above), time budgets included
+//!   (with the stratified sampler a time budget draws independent samples);
 //! - for the camera pass with the stratified sampler, the first `spp` sample indices of the
 //!   planned n-sample pattern: an unbiased estimate (each pixel's strata are assigned to sample
 //!   indices by a random permutation), but not what a plain `spp`-sample stratified render draws.
@@ -48,10 +51,10 @@
 //! The variance of a pixel's estimate (its squared standard error) is s²/n, with s² the unbiased
 //! variance of its n per-sample estimates: the camera samples of the pixel, or for light tracing
 //! the n images made by one sample index's `w·h` paths each (batches, independent of each other
-//! up to the 16-path strata of the stratified sampler that may straddle two batches). With the
-//! stratified camera sampler the samples of a pixel are not independent and s²/n overestimates
-//! the error (the gain of stratification is not seen): a conservative estimate. With fewer than
-//! two samples there is no estimate.
+//! up to the 16-path strata of the stratified sampler, and the sequences of the Sobol' one, that
+//! span batches). With the Sobol' or stratified camera sampler the samples of a pixel are not
+//! independent and s²/n overestimates the error (the gain of stratification is not seen): a
+//! conservative estimate. With fewer than two samples there is no estimate.
 
 use crate::camera::Camera;
 use crate::image::Image;
@@ -638,7 +641,7 @@ impl<'a> Progressive<'a> {
     }
 
     /// A progressive render whose every checkpoint is a fresh render with the options' own
-    /// sampler (stratified when the scene says so), for methods that could also grow.
+    /// sampler, for methods that could also grow.
     pub fn fresh(scene: &'a Scene, integrator: &'a dyn Integrator, opts: &RenderOptions) -> Progressive<'a> {
         let mut p = Progressive::new(scene, integrator, opts);
         if p.growth == Growth::Incremental {

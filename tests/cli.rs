@@ -688,8 +688,13 @@ fn unknown_ssaa_mode_and_sizes() {
 fn unknown_spectral_mode_and_sampler() {
     let text = edited(&[("spp = 1", "spp = 1\nspectral = \"maybe\"")], "");
     assert_scene_error_at(&text, line_of(&text, "spectral"), "render.spectral", &["auto, on, off"]);
-    let text = edited(&[("spp = 1", "spp = 1\nsampler = \"sobol\"")], "");
-    assert_scene_error_at(&text, line_of(&text, "sampler"), "render.sampler", &["stratified, independent"]);
+    let text = edited(&[("spp = 1", "spp = 1\nsampler = \"halton\"")], "");
+    assert_scene_error_at(
+        &text,
+        line_of(&text, "sampler"),
+        "render.sampler",
+        &["sobol, stratified, independent"],
+    );
 }
 
 #[test]

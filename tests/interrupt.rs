@@ -132,11 +132,17 @@ fn fresh(dir: &Path, args: &[&str], spp: u32) -> Image {
 #[test]
 fn sigint_writes_the_samples_done_equal_to_a_fresh_render_of_that_many() {
     let _serial = serial();
-    let dir = tempfile::tempdir().unwrap();
-    let args = ["-i", "path", "--sampler", "independent", "--spp", "1000000"];
-    let (spp, image) = check_interrupted(dir.path(), &args, Some(1_000_000));
-    let again = fresh(dir.path(), &["-i", "path", "--sampler", "independent"], spp);
-    assert!(bits(&image) == bits(&again), "the {spp} samples done equal a fresh {spp}-sample render");
+    // The default (Sobol') and the independent sampler: neither depends on the planned count.
+    for sampler in ["sobol", "independent"] {
+        let dir = tempfile::tempdir().unwrap();
+        let args = ["-i", "path", "--sampler", sampler, "--spp", "1000000"];
+        let (spp, image) = check_interrupted(dir.path(), &args, Some(1_000_000));
+        let again = fresh(dir.path(), &["-i", "path", "--sampler", sampler], spp);
+        assert!(
+            bits(&image) == bits(&again),
+            "{sampler}: the {spp} samples done equal a fresh {spp}-sample render"
+        );
+    }
 }
 
 #[test]
@@ -153,14 +159,15 @@ fn sigint_stops_light_tracing_between_sample_indices() {
 fn sigint_stops_time_budgets_and_stratified_renders() {
     let _serial = serial();
     let dir = tempfile::tempdir().unwrap();
-    // Time budgets draw independent samples: the result is a plain independent render.
+    // A time budget with the default sampler (Sobol'): the samples done are a plain render.
     let (spp, image) = check_interrupted(dir.path(), &["-i", "path", "--time", "60"], None);
-    let again = fresh(dir.path(), &["-i", "path", "--sampler", "independent"], spp);
+    let again = fresh(dir.path(), &["-i", "path"], spp);
     assert!(bits(&image) == bits(&again), "{spp} samples of a time budget");
 
     // The stratified sampler: the first samples of the planned pattern (valid, finite, counted).
     let dir = tempfile::tempdir().unwrap();
-    let (spp, image) = check_interrupted(dir.path(), &["-i", "path", "--spp", "1000000"], Some(1_000_000));
+    let args = ["-i", "path", "--sampler", "stratified", "--spp", "1000000"];
+    let (spp, image) = check_interrupted(dir.path(), &args, Some(1_000_000));
     // Its mean brightness agrees with an independent render of as many samples.
     let independent = fresh(dir.path(), &["-i", "path", "--sampler", "independent"], spp);
     let mean =

@@ -12,9 +12,10 @@
 //! `converge.json` (the reference, the budget, how each method's checkpoints were made and its
 //! fitted slopes) and with `--exr` the image of every checkpoint, `METHOD-Nspp.exr`.
 //!
-//! Progressive checkpoints draw independent samples (see [`crate::render`]); `--fresh` renders
-//! every checkpoint anew with the scene's sampler (stratified by default), and then the seconds
-//! of a row are those of its own render. `ssaa` renders one fixed pattern: one row.
+//! Progressive checkpoints are plain renders with the scene's sampler when it does not depend on
+//! the sample count (Sobol', the default, and independent), and draw independent samples with the
+//! stratified one (see [`crate::render`]); `--fresh` renders every checkpoint anew with the
+//! scene's sampler, and then the seconds of a row are those of its own render. `ssaa` renders one fixed pattern: one row.
 
 use super::SweepArgs;
 use crate::cli::{load_scene, CliError};

@@ -502,7 +502,10 @@ impl Compiler<'_> {
             self.err(&path.key("spectral"), format!("`{}` is not one of auto, on, off", r.spectral))
         })?;
         let sampler = SamplerKind::from_name(&r.sampler).ok_or_else(|| {
-            self.err(&path.key("sampler"), format!("`{}` is not one of stratified, independent", r.sampler))
+            self.err(
+                &path.key("sampler"),
+                format!("`{}` is not one of sobol, stratified, independent", r.sampler),
+            )
         })?;
         let q = path.key("ssaa");
         let adaptive = match r.ssaa.mode.as_str() {

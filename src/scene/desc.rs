@@ -155,7 +155,7 @@ pub struct RenderDesc {
     /// Spectral rendering: `auto` (when the scene disperses), `on` or `off`.
     #[serde(default = "default_auto")]
     pub spectral: String,
-    /// Sample distribution: `stratified` or `independent`.
+    /// Sample distribution: `sobol`, `stratified` or `independent`.
     #[serde(default = "default_sampler")]
     pub sampler: String,
     /// Settings of the supersampling integrator.
@@ -167,7 +167,7 @@ fn default_auto() -> String {
     "auto".into()
 }
 fn default_sampler() -> String {
-    "stratified".into()
+    "sobol".into()
 }
 
 /// Settings of `ssaa` (supersampled antialiasing over Whitted radiance).

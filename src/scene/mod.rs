@@ -231,6 +231,48 @@ impl Scene {
         Some(Intersection { hit, primitive })
     }
 
+    /// Whether `ray` meets, within (0, `tmax`), a primitive that `blocks(primitive, t)` counts as
+    /// a blocker; the search stops at the first one (an occlusion query for shadow rays).
+    pub fn occluded(&self, ray: &Ray, tmax: f32, blocks: impl Fn(u32, f32) -> bool) -> bool {
+        let blocked = |t: Option<f32>, id: usize| t.filter(|&t| blocks(id as u32, t));
+        if self.has_motion {
+            self.any_hit(ray, tmax, |prim, id| {
+                let t = match prim.velocity {
+                    None => prim.shape.intersect(ray, 0.0, tmax),
+                    Some(v) => prim.shape.intersect(&moved(ray, v), 0.0, tmax),
+                };
+                blocked(t, id)
+            })
+        } else {
+            self.any_hit(ray, tmax, |prim, id| blocked(prim.shape.intersect(ray, 0.0, tmax), id))
+        }
+    }
+
+    /// Whether a BVH traversal along `ray` within (0, `tmax`) finds a primitive for which
+    /// `hit(prim, id)` gives a distance; it stops at the first.
+    #[inline]
+    fn any_hit(&self, ray: &Ray, tmax: f32, hit: impl Fn(&Primitive, usize) -> Option<f32>) -> bool {
+        let inv = 1.0 / self.bvh_scale;
+        let bray = self.bvh_ray(ray, tmax);
+        let missed = self.bvh.ray_traverse_miss(bray, |_, id| {
+            hit(&self.primitives[id], id).map_or(f32::INFINITY, |t| t * inv)
+        });
+        !missed
+    }
+
+    /// `ray` in BVH coordinates up to `tmax`, with its direction canonicalised (the CwBvh misses
+    /// rays with a −0.0 component).
+    #[inline]
+    fn bvh_ray(&self, ray: &Ray, tmax: f32) -> obvhs::ray::Ray {
+        let inv = 1.0 / self.bvh_scale;
+        obvhs::ray::Ray::new(
+            Vec3A::from(ray.origin * inv),
+            Vec3A::from(ray.dir) + Vec3A::ZERO,
+            0.0,
+            tmax * inv,
+        )
+    }
+
     /// The closest (distance, primitive) of a BVH traversal along `ray` within (0, `tmax`),
     /// where `hit(prim, limit)` is the primitive's hit distance below `limit`. Ties go to the
     /// primitive compiled first (the BVH tests them in its own order and keeps the first).
@@ -242,12 +284,7 @@ impl Scene {
         hit: impl Fn(&Primitive, f32) -> Option<f32>,
     ) -> Option<(f32, usize)> {
         let inv = 1.0 / self.bvh_scale;
-        let bray = obvhs::ray::Ray::new(
-            Vec3A::from(ray.origin * inv),
-            Vec3A::from(ray.dir) + Vec3A::ZERO,
-            0.0,
-            tmax * inv,
-        );
+        let bray = self.bvh_ray(ray, tmax);
         let source = &self.bvh.primitive_indices;
         let mut best: Option<(f32, usize)> = None;
         let mut ignored = RayHit::none();
