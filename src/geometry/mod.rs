@@ -17,9 +17,10 @@ pub use disk::Disk;
 pub use polygon::Polygon;
 pub use quad::Quad;
 pub use sphere::Sphere;
-pub use triangle::Triangle;
+pub use triangle::{ShearedRay, Triangle};
 
 use glam::{Vec2, Vec3};
+use std::cell::OnceCell;
 
 /// A ray with a unit-length direction.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -161,6 +162,24 @@ impl Shape {
             Shape::Quad(s) => s.intersect(ray, tmin, tmax),
             Shape::Polygon(s) => s.intersect(ray, tmin, tmax),
             Shape::Triangle(s) => s.intersect(ray, tmin, tmax),
+        }
+    }
+
+    /// [`Shape::intersect`] with `ray`'s watertight-test constants computed once, at the first
+    /// triangle, for all the triangles it meets (`sheared` starts empty for each ray).
+    #[inline]
+    pub fn intersect_sheared(
+        &self,
+        ray: &Ray,
+        sheared: &OnceCell<Option<ShearedRay>>,
+        tmin: f32,
+        tmax: f32,
+    ) -> Option<f32> {
+        match self {
+            Shape::Triangle(s) => {
+                s.intersect_sheared(sheared.get_or_init(|| ShearedRay::new(ray)).as_ref()?, ray, tmin, tmax)
+            }
+            other => other.intersect(ray, tmin, tmax),
         }
     }
 

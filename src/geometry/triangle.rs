@@ -12,6 +12,46 @@ pub struct Triangle {
     normal: Vec3,
 }
 
+/// The per-ray constants of the watertight triangle test: the axis permutation that makes the
+/// dominant direction component z, and the shear that turns the direction into +z.
+#[derive(Clone, Copy, Debug)]
+pub struct ShearedRay {
+    /// Source axes of the permuted x, y and z.
+    axes: [usize; 3],
+    /// −d_x/d_z, −d_y/d_z and 1/d_z of the permuted direction.
+    shear: Vec3,
+    origin: Vec3,
+}
+
+impl ShearedRay {
+    /// The constants for `ray`; `None` for a zero direction.
+    #[inline]
+    pub fn new(ray: &Ray) -> Option<ShearedRay> {
+        let kz = ray.dir.abs().max_position();
+        if ray.dir[kz] == 0.0 {
+            return None;
+        }
+        let kx = (kz + 1) % 3;
+        let ky = (kx + 1) % 3;
+        let d = ray.dir.to_array();
+        let (dx, dy, dz) = (d[kx], d[ky], d[kz]);
+        Some(ShearedRay {
+            axes: [kx, ky, kz],
+            shear: Vec3::new(-dx / dz, -dy / dz, 1.0 / dz),
+            origin: ray.origin,
+        })
+    }
+
+    /// A vertex relative to the origin, permuted and sheared.
+    #[inline]
+    fn transform(&self, v: Vec3) -> Vec3 {
+        let v = (v - self.origin).to_array();
+        let [kx, ky, kz] = self.axes;
+        let (x, y, z) = (v[kx], v[ky], v[kz]);
+        Vec3::new(x + self.shear.x * z, y + self.shear.y * z, z * self.shear.z)
+    }
+}
+
 impl Triangle {
     /// Triangle through the three vertices.
     pub fn new(p0: Vec3, p1: Vec3, p2: Vec3) -> Triangle {
@@ -34,21 +74,16 @@ impl Triangle {
     /// edge's two (sheared) vertices, so shared edges never leave a crack.
     #[inline]
     fn watertight(&self, ray: &Ray, tmax: f32) -> Option<(f32, [f32; 3])> {
-        // Permute so that the dominant direction component is z, then shear the direction to +z.
-        let kz = ray.dir.abs().max_position();
-        if ray.dir[kz] == 0.0 {
-            return None;
-        }
-        let kx = (kz + 1) % 3;
-        let ky = (kx + 1) % 3;
-        let permute = |v: Vec3| Vec3::new(v[kx], v[ky], v[kz]);
-        let d = permute(ray.dir);
-        let (sx, sy, sz) = (-d.x / d.z, -d.y / d.z, 1.0 / d.z);
-        let shear = |v: Vec3| {
-            let v = permute(v - ray.origin);
-            Vec3::new(v.x + sx * v.z, v.y + sy * v.z, v.z * sz)
-        };
-        let [a, b, c] = self.p.map(shear);
+        self.watertight_sheared(&ShearedRay::new(ray)?, ray, tmax)
+    }
+
+    /// [`Triangle::watertight`] with the ray's permutation and shear computed once
+    /// ([`ShearedRay`]), as scene queries do for all the triangles a ray meets.
+    #[inline]
+    fn watertight_sheared(&self, sheared: &ShearedRay, ray: &Ray, tmax: f32) -> Option<(f32, [f32; 3])> {
+        // (Not `self.p.map(..)`: that compiles to an out-of-line call.)
+        let (a, b, c) =
+            (sheared.transform(self.p[0]), sheared.transform(self.p[1]), sheared.transform(self.p[2]));
 
         // Edge functions: plain products (no FMA) so that the edge shared by two triangles gets
         // exactly negated values; exact zeros are re-evaluated in f64, where the products are
@@ -113,7 +148,13 @@ impl Triangle {
     /// Nearest hit distance in the open interval (`tmin`, `tmax`), watertight across shared edges.
     #[inline]
     pub fn intersect(&self, ray: &Ray, tmin: f32, tmax: f32) -> Option<f32> {
-        let (t, _) = self.watertight(ray, tmax)?;
+        self.intersect_sheared(&ShearedRay::new(ray)?, ray, tmin, tmax)
+    }
+
+    /// [`Triangle::intersect`] with the ray's shear precomputed (`sheared` must be `ray`'s).
+    #[inline]
+    pub fn intersect_sheared(&self, sheared: &ShearedRay, ray: &Ray, tmin: f32, tmax: f32) -> Option<f32> {
+        let (t, _) = self.watertight_sheared(sheared, ray, tmax)?;
         (t > tmin && t < tmax).then_some(t)
     }
 

@@ -21,6 +21,7 @@ use crate::sampler::SamplerKind;
 use glam::{Vec3, Vec3A};
 use obvhs::cwbvh::CwBvh;
 use obvhs::ray::RayHit;
+use std::cell::OnceCell;
 
 /// The text of the embedded default scene (the thesis's Cornell box with glass bodies).
 pub const DEFAULT_SCENE: &str = include_str!("../../scenes/cornell-glass.toml");
@@ -194,6 +195,7 @@ pub struct Scene {
     bvh: CwBvh,
     /// Whether any primitive moves (only then does traversal look at velocities).
     has_motion: bool,
+
     /// World = BVH coordinates × `bvh_scale` (a power of two, so the mapping is exact). The
     /// CwBvh culls boxes closer than a fixed 1e-4 along the ray; normalising the scene to a size
     /// of about 1000 makes that distance negligible at any scene scale.
@@ -214,7 +216,8 @@ impl Scene {
                 Some(v) => prim.shape.intersect(&moved(ray, v), 0.0, limit),
             })
         } else {
-            self.closest(ray, tmax, |prim, limit| prim.shape.intersect(ray, 0.0, limit))
+            let sheared = OnceCell::new();
+            self.closest(ray, tmax, |prim, limit| prim.shape.intersect_sheared(ray, &sheared, 0.0, limit))
         }?;
         let primitive = primitive as u32;
         let prim = &prims[primitive as usize];
@@ -244,7 +247,10 @@ impl Scene {
                 blocked(t, id)
             })
         } else {
-            self.any_hit(ray, tmax, |prim, id| blocked(prim.shape.intersect(ray, 0.0, tmax), id))
+            let sheared = OnceCell::new();
+            self.any_hit(ray, tmax, |prim, id| {
+                blocked(prim.shape.intersect_sheared(ray, &sheared, 0.0, tmax), id)
+            })
         }
     }
 
