@@ -4,9 +4,11 @@
 //! analytic shipped scenes; and the build: vitrum's whole scene load (OBJ parse, compile, BVH)
 //! next to obvhs's CwBvh build alone.
 //!
-//! Run with `cargo bench --bench bvh`; `python3 scripts/perf/bvh_ratios.py` turns criterion's
-//! estimates into the table of ratios (vitrum ÷ raw obvhs) that the README quotes. One thread:
-//! the queries are what a render thread does.
+//! Run with `cargo bench --bench bvh`; `python3 scripts/perf/bench_table.py` turns criterion's
+//! estimates into tables. One thread: the queries are what a render thread does. Because this
+//! machine's speed drifts over a run, the ratios vitrum ÷ obvhs are also measured side by side in
+//! alternating pairs after each mesh's criterion measurements (the `bvh-ratio:` lines, the
+//! figures the README quotes).
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use glam::{Vec3, Vec3A};
@@ -110,6 +112,84 @@ fn queries(
     group.finish();
 }
 
+/// The ratio of times of `a` and `b`, measured in alternating pairs (so that the machine's
+/// drift over a run affects both alike): the median and the range over `rounds` pairs.
+fn paired_ratio(rounds: usize, mut a: impl FnMut(), mut b: impl FnMut()) -> (f64, f64, f64) {
+    let time = |f: &mut dyn FnMut()| {
+        let start = std::time::Instant::now();
+        f();
+        start.elapsed().as_secs_f64()
+    };
+    let mut ratios: Vec<f64> = (0..rounds)
+        .map(|k| {
+            // Alternate which goes first.
+            let (ta, tb) = if k % 2 == 0 {
+                let ta = time(&mut a);
+                (ta, time(&mut b))
+            } else {
+                let tb = time(&mut b);
+                (time(&mut a), tb)
+            };
+            ta / tb
+        })
+        .collect();
+    ratios.sort_by(f64::total_cmp);
+    (ratios[rounds / 2], ratios[0], ratios[rounds - 1])
+}
+
+/// Paired ratios of vitrum's queries to raw obvhs on `rays`, printed as `bvh-ratio:` lines
+/// (criterion measures each query alone; these compare them side by side).
+fn print_ratios(
+    label: &str,
+    scene: &Scene,
+    rays: &[Ray],
+    lengths: &[f32],
+    raw: &(obvhs::cwbvh::CwBvh, Vec<RawTriangle>),
+) {
+    if std::env::args().any(|a| a == "--test" || a == "--list") {
+        return;
+    }
+    let (bvh, tris) = raw;
+    let (median, lo, hi) = paired_ratio(
+        15,
+        || {
+            black_box(rays.iter().filter(|r| scene.intersect(r, f32::INFINITY).is_some()).count());
+        },
+        || {
+            black_box(
+                rays.iter()
+                    .filter(|r| {
+                        let mut hit = RayHit::none();
+                        bvh.ray_traverse(raw_ray(r, f32::INFINITY), &mut hit, |ray, id| {
+                            tris[id].intersect(ray)
+                        })
+                    })
+                    .count(),
+            );
+        },
+    );
+    println!("bvh-ratio: {label} closest: vitrum / obvhs = {median:.2} (median of 15 pairs, range {lo:.2}..{hi:.2})");
+    let (median, lo, hi) = paired_ratio(
+        15,
+        || {
+            black_box(
+                rays.iter().zip(lengths).filter(|(r, &t)| scene.occluded(r, 0.75 * t, |_, _| true)).count(),
+            );
+        },
+        || {
+            black_box(
+                rays.iter()
+                    .zip(lengths)
+                    .filter(|(r, &t)| {
+                        !bvh.ray_traverse_miss(raw_ray(r, 0.75 * t), |ray, id| tris[id].intersect(ray))
+                    })
+                    .count(),
+            );
+        },
+    );
+    println!("bvh-ratio: {label} occlusion: vitrum / obvhs = {median:.2} (median of 15 pairs, range {lo:.2}..{hi:.2})");
+}
+
 fn meshes(c: &mut Criterion) {
     let dir = tempfile::tempdir().unwrap();
     for triangles in TRIANGLES {
@@ -148,7 +228,11 @@ fn meshes(c: &mut Criterion) {
         let ordered: Vec<RawTriangle> = bvh.primitive_indices.iter().map(|&i| raw_tris[i as usize]).collect();
         let (lo, hi) = scene.bvh_stats.bounds;
         let rays = random_rays(lo, hi, 7);
-        queries(c, "mesh", &parameter, &scene, &rays, Some(&(bvh, ordered)));
+        let raw = (bvh, ordered);
+        queries(c, "mesh", &parameter, &scene, &rays, Some(&raw));
+        let lengths: Vec<f32> =
+            rays.iter().map(|r| scene.intersect(r, f32::INFINITY).map_or(1.0, |h| h.hit.t)).collect();
+        print_ratios(&format!("mesh {parameter} triangles"), &scene, &rays, &lengths, &raw);
     }
 }
 

@@ -134,17 +134,19 @@ pub fn spawn_origin(hit: &SurfaceHit, w: Vec3) -> Vec3 {
     po
 }
 
-/// A geometric primitive the BVH holds: one analytic surface or one triangle.
+/// A geometric primitive the BVH holds: one analytic surface or one triangle. The analytic
+/// shapes are boxed, so that the enum is the size of a triangle: meshes, which can have millions
+/// of primitives, stay compact in memory and in the caches during traversal.
 #[derive(Clone, Debug)]
 pub enum Shape {
     /// Full sphere, or a sphere clipped by a plane (a bowl's hemisphere).
-    Sphere(Sphere),
+    Sphere(Box<Sphere>),
     /// Open cylinder wall (caps are separate disks).
-    Cylinder(Cylinder),
+    Cylinder(Box<Cylinder>),
     /// Disk or annulus.
-    Disk(Disk),
+    Disk(Box<Disk>),
     /// Parallelogram.
-    Quad(Quad),
+    Quad(Box<Quad>),
     /// Planar convex polygon.
     Polygon(Box<Polygon>),
     /// Triangle (from a mesh).

@@ -8,8 +8,6 @@ use super::{bounds_of, gamma, point_error, unit_or, Bounds, Ray, SurfaceHit, MAC
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Triangle {
     p: [Vec3; 3],
-    /// Unit geometric normal (zero for an exactly degenerate triangle).
-    normal: Vec3,
 }
 
 /// The per-ray constants of the watertight triangle test: the axis permutation that makes the
@@ -55,7 +53,15 @@ impl ShearedRay {
 impl Triangle {
     /// Triangle through the three vertices.
     pub fn new(p0: Vec3, p1: Vec3, p2: Vec3) -> Triangle {
-        Triangle { p: [p0, p1, p2], normal: unit_or((p1 - p0).cross(p2 - p0), Vec3::ZERO) }
+        Triangle { p: [p0, p1, p2] }
+    }
+
+    /// Unit geometric normal (zero for an exactly degenerate triangle). Computed when asked (for
+    /// a hit record), not stored: a mesh's triangles stay small for traversal.
+    #[inline]
+    pub fn normal(&self) -> Vec3 {
+        let [p0, p1, p2] = self.p;
+        unit_or((p1 - p0).cross(p2 - p0), Vec3::ZERO)
     }
 
     /// True when the area is zero or indistinguishable from zero: `|e0 × e1|` at most 8 ulps of
@@ -160,7 +166,8 @@ impl Triangle {
 
     /// Full hit record for a hit at `t`; uv = barycentrics (b1, b2).
     pub fn surface(&self, ray: &Ray, t: f32) -> SurfaceHit {
-        let n = if self.normal == Vec3::ZERO { -ray.dir } else { self.normal };
+        let normal = self.normal();
+        let n = if normal == Vec3::ZERO { -ray.dir } else { normal };
         let [p0, p1, p2] = self.p;
         match self.watertight(ray, f32::INFINITY) {
             Some((_, [b0, b1, b2])) => {

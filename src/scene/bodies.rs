@@ -13,10 +13,10 @@ pub type BodySurface = (Shape, bool);
 
 /// A finite cylinder: the wall plus, when `caps`, a bottom disk (normal −axis) and a top disk.
 pub fn cylinder(base: Vec3, axis: Vec3, radius: f32, height: f32, caps: bool) -> Vec<BodySurface> {
-    let mut s = vec![(Shape::Cylinder(Cylinder::new(base, axis, radius, height)), false)];
+    let mut s = vec![(Shape::Cylinder(Box::new(Cylinder::new(base, axis, radius, height))), false)];
     if caps {
-        s.push((Shape::Disk(Disk::new(base, -axis, radius, 0.0)), false));
-        s.push((Shape::Disk(Disk::new(base + axis * height, axis, radius, 0.0)), false));
+        s.push((Shape::Disk(Box::new(Disk::new(base, -axis, radius, 0.0))), false));
+        s.push((Shape::Disk(Box::new(Disk::new(base + axis * height, axis, radius, 0.0))), false));
     }
     s
 }
@@ -24,8 +24,8 @@ pub fn cylinder(base: Vec3, axis: Vec3, radius: f32, height: f32, caps: bool) ->
 /// A hollow sphere: the outer sphere as written, the inner one with the interface swapped.
 pub fn hollow_sphere(center: Vec3, radius: f32, inner_radius: f32) -> Vec<BodySurface> {
     vec![
-        (Shape::Sphere(Sphere::new(center, radius)), false),
-        (Shape::Sphere(Sphere::new(center, inner_radius)), true),
+        (Shape::Sphere(Box::new(Sphere::new(center, radius))), false),
+        (Shape::Sphere(Box::new(Sphere::new(center, inner_radius))), true),
     ]
 }
 
@@ -34,9 +34,9 @@ pub fn hollow_sphere(center: Vec3, radius: f32, inner_radius: f32) -> Vec<BodySu
 pub fn bowl(center: Vec3, axis: Vec3, radius: f32, thickness: f32) -> Vec<BodySurface> {
     let inner = radius - thickness;
     vec![
-        (Shape::Sphere(Sphere::clipped(center, radius, axis, 0.0)), false),
-        (Shape::Sphere(Sphere::clipped(center, inner, axis, 0.0)), true),
-        (Shape::Disk(Disk::new(center, axis, radius, inner)), false),
+        (Shape::Sphere(Box::new(Sphere::clipped(center, radius, axis, 0.0))), false),
+        (Shape::Sphere(Box::new(Sphere::clipped(center, inner, axis, 0.0))), true),
+        (Shape::Disk(Box::new(Disk::new(center, axis, radius, inner))), false),
     ]
 }
 
@@ -53,10 +53,10 @@ pub fn drinking_glass(
     let inner = radius - wall;
     let floor = base + axis * bottom;
     vec![
-        (Shape::Cylinder(Cylinder::new(base, axis, radius, height)), false),
-        (Shape::Disk(Disk::new(base, -axis, radius, 0.0)), false),
-        (Shape::Cylinder(Cylinder::new(floor, axis, inner, height - bottom)), true),
-        (Shape::Disk(Disk::new(floor, axis, inner, 0.0)), false),
-        (Shape::Disk(Disk::new(base + axis * height, axis, radius, inner)), false),
+        (Shape::Cylinder(Box::new(Cylinder::new(base, axis, radius, height))), false),
+        (Shape::Disk(Box::new(Disk::new(base, -axis, radius, 0.0))), false),
+        (Shape::Cylinder(Box::new(Cylinder::new(floor, axis, inner, height - bottom))), true),
+        (Shape::Disk(Box::new(Disk::new(floor, axis, inner, 0.0))), false),
+        (Shape::Disk(Box::new(Disk::new(base + axis * height, axis, radius, inner))), false),
     ]
 }

@@ -372,10 +372,10 @@ impl Compiler<'_> {
                     None
                 }
                 Light::Quad { corner, u, v, .. } => {
-                    Some((Shape::Quad(Quad::new(corner, u, v)), "quad light"))
+                    Some((Shape::Quad(Box::new(Quad::new(corner, u, v))), "quad light"))
                 }
                 Light::Sphere { center, radius, .. } => {
-                    Some((Shape::Sphere(Sphere::new(center, radius)), "sphere light"))
+                    Some((Shape::Sphere(Box::new(Sphere::new(center, radius))), "sphere light"))
                 }
             };
             if let Some((shape, kind)) = emitter {
@@ -655,7 +655,7 @@ impl Compiler<'_> {
         Ok(match shape {
             ShapeDesc::Sphere { center, radius } => {
                 let r = self.positive(&path.key("radius"), *radius)?;
-                vec![(Shape::Sphere(Sphere::new(v(*center), r)), false)]
+                vec![(Shape::Sphere(Box::new(Sphere::new(v(*center), r))), false)]
             }
             ShapeDesc::Cylinder { base, axis, radius, height, caps } => {
                 let axis = self.direction(&path.key("axis"), *axis)?;
@@ -673,7 +673,7 @@ impl Compiler<'_> {
                         format!("must be smaller than radius {r} (got {ri})"),
                     ));
                 }
-                vec![(Shape::Disk(Disk::new(v(*center), n, r, ri)), false)]
+                vec![(Shape::Disk(Box::new(Disk::new(v(*center), n, r, ri))), false)]
             }
             ShapeDesc::Quad { corner, u, v: edge_v } => {
                 let (u, ev) = (v(*u), v(*edge_v));
@@ -683,7 +683,7 @@ impl Compiler<'_> {
                         "u and v must be non-zero and not parallel (the quad has no area)",
                     ));
                 }
-                vec![(Shape::Quad(Quad::new(v(*corner), u, ev)), false)]
+                vec![(Shape::Quad(Box::new(Quad::new(v(*corner), u, ev))), false)]
             }
             ShapeDesc::Polygon { vertices } => {
                 let verts = vertices.iter().map(|p| v(*p)).collect();
@@ -951,8 +951,8 @@ fn build_bvh(
         .collect();
     let mut core = Duration::ZERO;
     let bvh = build_cwbvh(&aabbs, BvhBuildParams::medium_build(), &mut core);
-    let ordered: Vec<Primitive> =
-        bvh.primitive_indices.iter().map(|&i| primitives[i as usize].clone()).collect();
+    let mut ordered = primitives;
+    permute_in_place(&mut ordered, &bvh.primitive_indices);
     let stats = BvhStats {
         nodes: bvh.nodes.len(),
         primitives: ordered.len(),
@@ -962,6 +962,29 @@ fn build_bvh(
         scale,
     };
     (ordered, bvh, stats)
+}
+
+/// Reorder `items` so that `items[k]` becomes the old `items[order[k]]`, without a copy of the
+/// list (a mesh of a million triangles would need another 80 MB): `order` must be a permutation.
+fn permute_in_place<T>(items: &mut [T], order: &[u32]) {
+    assert_eq!(items.len(), order.len(), "the BVH holds every primitive once");
+    let mut placed = vec![false; items.len()];
+    for start in 0..items.len() {
+        if placed[start] {
+            continue;
+        }
+        // Follow the cycle through `start`: slot k receives the item at order[k].
+        let mut k = start;
+        loop {
+            placed[k] = true;
+            let from = order[k] as usize;
+            if from == start {
+                break;
+            }
+            items.swap(k, from);
+            k = from;
+        }
+    }
 }
 
 /// Depth of a CwBvh's node tree.
@@ -987,4 +1010,29 @@ fn cwbvh_depth(bvh: &obvhs::cwbvh::CwBvh) -> usize {
         }
     }
     depth
+}
+
+#[cfg(test)]
+mod tests {
+    use super::permute_in_place;
+
+    #[test]
+    fn permuting_in_place_matches_gathering() {
+        let mut state = 12345u64;
+        for n in [0usize, 1, 2, 7, 100, 1000] {
+            // A random permutation (Fisher–Yates with a xorshift).
+            let mut order: Vec<u32> = (0..n as u32).collect();
+            for i in (1..n).rev() {
+                state ^= state << 13;
+                state ^= state >> 7;
+                state ^= state << 17;
+                order.swap(i, (state % (i as u64 + 1)) as usize);
+            }
+            let items: Vec<String> = (0..n).map(|i| format!("item {i}")).collect();
+            let gathered: Vec<String> = order.iter().map(|&i| items[i as usize].clone()).collect();
+            let mut permuted = items;
+            permute_in_place(&mut permuted, &order);
+            assert_eq!(permuted, gathered, "n = {n}");
+        }
+    }
 }

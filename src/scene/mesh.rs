@@ -7,7 +7,8 @@ use std::path::Path;
 /// Triangles of an OBJ file after `scale` then `translate`, with the count of degenerate
 /// triangles that were skipped.
 pub fn load_obj(path: &Path, scale: f32, translate: Vec3) -> Result<(Vec<Triangle>, usize), String> {
-    let options = tobj::LoadOptions { triangulate: true, single_index: true, ..Default::default() };
+    // Positions only: separate index lists (no merging of position/normal/uv tuples) are faster.
+    let options = tobj::LoadOptions { triangulate: true, single_index: false, ..Default::default() };
     let (models, _) = tobj::load_obj(path, &options)
         .map_err(|e| format!("cannot load OBJ file {}: {e}", path.display()))?;
     let mut triangles = Vec::new();
