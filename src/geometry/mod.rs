@@ -177,11 +177,33 @@ impl Shape {
         tmin: f32,
         tmax: f32,
     ) -> Option<f32> {
+        self.hit_sheared(ray, sheared, tmin, tmax).map(|(t, _)| t)
+    }
+
+    /// [`Shape::intersect_sheared`] with a triangle's barycentrics (for
+    /// [`Shape::surface_with`], which then need not find them again).
+    #[inline]
+    pub fn hit_sheared(
+        &self,
+        ray: &Ray,
+        sheared: &OnceCell<Option<ShearedRay>>,
+        tmin: f32,
+        tmax: f32,
+    ) -> Option<(f32, Option<[f32; 3]>)> {
         match self {
-            Shape::Triangle(s) => {
-                s.intersect_sheared(sheared.get_or_init(|| ShearedRay::new(ray)).as_ref()?, ray, tmin, tmax)
-            }
-            other => other.intersect(ray, tmin, tmax),
+            Shape::Triangle(s) => s
+                .hit_sheared(sheared.get_or_init(|| ShearedRay::new(ray)).as_ref()?, ray, tmin, tmax)
+                .map(|(t, bary)| (t, Some(bary))),
+            other => other.intersect(ray, tmin, tmax).map(|t| (t, None)),
+        }
+    }
+
+    /// [`Shape::surface`], with the barycentrics [`Shape::hit_sheared`] found for a triangle.
+    #[inline]
+    pub fn surface_with(&self, ray: &Ray, t: f32, bary: Option<[f32; 3]>) -> SurfaceHit {
+        match (self, bary) {
+            (Shape::Triangle(s), Some(bary)) => s.surface_at(ray, t, bary),
+            _ => self.surface(ray, t),
         }
     }
 

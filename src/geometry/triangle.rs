@@ -160,8 +160,33 @@ impl Triangle {
     /// [`Triangle::intersect`] with the ray's shear precomputed (`sheared` must be `ray`'s).
     #[inline]
     pub fn intersect_sheared(&self, sheared: &ShearedRay, ray: &Ray, tmin: f32, tmax: f32) -> Option<f32> {
-        let (t, _) = self.watertight_sheared(sheared, ray, tmax)?;
-        (t > tmin && t < tmax).then_some(t)
+        self.hit_sheared(sheared, ray, tmin, tmax).map(|(t, _)| t)
+    }
+
+    /// [`Triangle::intersect_sheared`] with the hit's barycentrics, for [`Triangle::surface_at`].
+    #[inline]
+    pub fn hit_sheared(
+        &self,
+        sheared: &ShearedRay,
+        ray: &Ray,
+        tmin: f32,
+        tmax: f32,
+    ) -> Option<(f32, [f32; 3])> {
+        let (t, bary) = self.watertight_sheared(sheared, ray, tmax)?;
+        (t > tmin && t < tmax).then_some((t, bary))
+    }
+
+    /// Full hit record for the hit at `t` with barycentrics `[b0, b1, b2]` (as
+    /// [`Triangle::hit_sheared`] found it); uv = (b1, b2).
+    #[inline]
+    pub fn surface_at(&self, ray: &Ray, t: f32, [b0, b1, b2]: [f32; 3]) -> SurfaceHit {
+        let normal = self.normal();
+        let n = if normal == Vec3::ZERO { -ray.dir } else { normal };
+        let [p0, p1, p2] = self.p;
+        let p = b0 * p0 + b1 * p1 + b2 * p2;
+        // pbrt-v4's bound for a barycentric interpolation: γ(7)·Σ|b_i·p_i|.
+        let abs_sum = (b0 * p0).abs() + (b1 * p1).abs() + (b2 * p2).abs();
+        SurfaceHit { t, p, n, uv: Vec2::new(b1, b2), p_error: gamma(7) * abs_sum.max_element() }
     }
 
     /// Full hit record for a hit at `t`; uv = barycentrics (b1, b2).
@@ -170,12 +195,7 @@ impl Triangle {
         let n = if normal == Vec3::ZERO { -ray.dir } else { normal };
         let [p0, p1, p2] = self.p;
         match self.watertight(ray, f32::INFINITY) {
-            Some((_, [b0, b1, b2])) => {
-                let p = b0 * p0 + b1 * p1 + b2 * p2;
-                // pbrt-v4's bound for a barycentric interpolation: γ(7)·Σ|b_i·p_i|.
-                let abs_sum = (b0 * p0).abs() + (b1 * p1).abs() + (b2 * p2).abs();
-                SurfaceHit { t, p, n, uv: Vec2::new(b1, b2), p_error: gamma(7) * abs_sum.max_element() }
-            }
+            Some((_, bary)) => self.surface_at(ray, t, bary),
             // Only reachable for a `t` that intersect() did not produce: use the ray point, with
             // the roundoff of o + t·d on magnitudes up to the largest vertex coordinate.
             None => {

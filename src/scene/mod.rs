@@ -210,19 +210,22 @@ impl Scene {
     pub fn intersect(&self, ray: &Ray, tmax: f32) -> Option<Intersection> {
         let prims = &self.primitives;
         // A static scene pays nothing for motion blur: its traversal never looks at velocities.
-        let (t, primitive) = if self.has_motion {
-            self.closest(ray, tmax, |prim, limit| match prim.velocity {
-                None => prim.shape.intersect(ray, 0.0, limit),
-                Some(v) => prim.shape.intersect(&moved(ray, v), 0.0, limit),
+        let (t, primitive, bary) = if self.has_motion {
+            self.closest(ray, tmax, |prim, limit| {
+                match prim.velocity {
+                    None => prim.shape.intersect(ray, 0.0, limit),
+                    Some(v) => prim.shape.intersect(&moved(ray, v), 0.0, limit),
+                }
+                .map(|t| (t, None))
             })
         } else {
             let sheared = OnceCell::new();
-            self.closest(ray, tmax, |prim, limit| prim.shape.intersect_sheared(ray, &sheared, 0.0, limit))
+            self.closest(ray, tmax, |prim, limit| prim.shape.hit_sheared(ray, &sheared, 0.0, limit))
         }?;
         let primitive = primitive as u32;
         let prim = &prims[primitive as usize];
         let hit = match prim.velocity {
-            None => prim.shape.surface(ray, t),
+            None => prim.shape.surface_with(ray, t, bary),
             Some(v) => {
                 let mut h = prim.shape.surface(&moved(ray, v), t);
                 let shift = v * ray.time;
@@ -279,31 +282,32 @@ impl Scene {
         )
     }
 
-    /// The closest (distance, primitive) of a BVH traversal along `ray` within (0, `tmax`),
-    /// where `hit(prim, limit)` is the primitive's hit distance below `limit`. Ties go to the
-    /// primitive compiled first (the BVH tests them in its own order and keeps the first).
+    /// The closest (distance, primitive, extra) of a BVH traversal along `ray` within
+    /// (0, `tmax`), where `hit(prim, limit)` is the primitive's hit distance below `limit` with
+    /// whatever `extra` the hit record will need. Ties go to the primitive compiled first (the
+    /// BVH tests them in its own order and keeps the first).
     #[inline]
-    fn closest(
+    fn closest<E: Copy>(
         &self,
         ray: &Ray,
         tmax: f32,
-        hit: impl Fn(&Primitive, f32) -> Option<f32>,
-    ) -> Option<(f32, usize)> {
+        hit: impl Fn(&Primitive, f32) -> Option<(f32, E)>,
+    ) -> Option<(f32, usize, E)> {
         let inv = 1.0 / self.bvh_scale;
         let bray = self.bvh_ray(ray, tmax);
         let source = &self.bvh.primitive_indices;
-        let mut best: Option<(f32, usize)> = None;
+        let mut best: Option<(f32, usize, E)> = None;
         let mut ignored = RayHit::none();
         self.bvh.ray_traverse(bray, &mut ignored, |_, id| {
             // Up to and including the best distance so far, to see ties.
-            let limit = best.map_or(tmax, |(t, _)| t.next_up());
-            let Some(t) = hit(&self.primitives[id], limit) else { return f32::INFINITY };
-            if let Some((best_t, best_id)) = best {
+            let limit = best.map_or(tmax, |(t, _, _)| t.next_up());
+            let Some((t, extra)) = hit(&self.primitives[id], limit) else { return f32::INFINITY };
+            if let Some((best_t, best_id, _)) = best {
                 if t == best_t && source[id] > source[best_id] {
                     return f32::INFINITY;
                 }
             }
-            best = Some((t, id));
+            best = Some((t, id, extra));
             // World to BVH units by a power of two: exact, so the culling distance is `t`.
             t * inv
         });
