@@ -96,7 +96,7 @@ fn main() {
             println!("cost-growth: {} {n} triangles: {us:.3} µs per sample", s.name);
         }
     }
-    let title = format!("time per sample against triangles ({SIDE}×{SIDE}, {SPP} spp, all threads)");
+    let title = format!("time per sample ({SIDE}×{SIDE}, {SPP} spp, all cores)");
     let plot = LogLogPlot { title: &title, x_label: "triangles", y_label: "µs per sample", series: &series };
     let dir = criterion_dir();
     write_loglog(&plot, &dir.join("cost-growth.svg"), &dir.join("cost-growth.png")).unwrap();

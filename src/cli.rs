@@ -6,6 +6,7 @@
 //! [`crate::interrupt`]): the first Ctrl-C writes the samples done, a second one aborts
 //! without writing anything.
 
+use crate::commands::parts;
 use crate::integrators::{self, Integrator, RenderParams};
 use crate::interrupt;
 use crate::output::exr::{stage_exr_with_notes, variance_channels, ExrMetadata};
@@ -48,6 +49,8 @@ pub enum Command {
     Converge(Box<crate::commands::converge::ConvergeArgs>),
     /// Render with several methods at equal time (or samples): a figure and a table.
     Compare(Box<crate::commands::compare::CompareArgs>),
+    /// Combine render parts (shards, checkpoints) of one render into one image.
+    Merge(crate::commands::merge::MergeArgs),
 }
 
 /// Options of `vitrum render`.
@@ -79,9 +82,9 @@ pub struct RenderArgs {
     /// Constant dielectric reflectance instead of exact Fresnel (the thesis used 0.06).
     #[arg(long, allow_negative_numbers = true)]
     pub reflectance: Option<f32>,
-    /// Output EXR file.
-    #[arg(short, long, default_value = "render.exr")]
-    pub output: PathBuf,
+    /// Output EXR file (default `render.exr`; with --resume, the file resumed).
+    #[arg(short, long)]
+    pub output: Option<PathBuf>,
     /// Also write a tone-mapped sRGB PNG preview.
     #[arg(long)]
     pub png: Option<PathBuf>,
@@ -118,6 +121,23 @@ pub struct RenderArgs {
     /// Write the number of camera samples per pixel as a grey-scale PNG (white = the most).
     #[arg(long)]
     pub density_map: Option<PathBuf>,
+    /// Also write the render so far to the output every this many seconds (0: after every
+    /// sample pass), with the sums that `--resume` continues from.
+    #[arg(long, allow_negative_numbers = true)]
+    pub checkpoint: Option<f64>,
+    /// Continue the render part in this EXR file (a checkpoint, an interrupted or a finished
+    /// part) to its target, or to a larger --spp; its settings are the defaults, and the output
+    /// defaults to it. The result equals an uninterrupted render bit for bit.
+    #[arg(long, conflicts_with_all = ["samples", "shard"])]
+    pub resume: Option<PathBuf>,
+    /// Render only the sample indices A..B of the render (of --spp samples; default B), keeping
+    /// the sums in the output for `vitrum merge`.
+    #[arg(long, conflicts_with_all = ["shard", "time"], value_parser = crate::parts::parse_sample_range)]
+    pub samples: Option<std::ops::Range<u32>>,
+    /// Render shard I of N (0-based) of the --spp samples: the sample indices spp·I/N to
+    /// spp·(I+1)/N, keeping the sums in the output for `vitrum merge`.
+    #[arg(long, conflicts_with = "time", value_parser = crate::parts::Shard::parse)]
+    pub shard: Option<crate::parts::Shard>,
     /// Add the variance of each pixel's estimate (`variance.R`, `variance.G`, `variance.B`) and
     /// its sample count (`samples`) as extra EXR channels; needs at least 2 samples per pixel.
     #[arg(long)]
@@ -213,6 +233,7 @@ pub fn main() -> i32 {
         Command::Diff(args) => crate::commands::diff::run(&args),
         Command::Converge(args) => crate::commands::converge::run(&args),
         Command::Compare(args) => crate::commands::compare::run(&args),
+        Command::Merge(args) => crate::commands::merge::run(&args),
         Command::Integrators => {
             for i in integrators::all() {
                 println!("{:<12} {}", i.name(), i.description());
@@ -364,17 +385,35 @@ pub fn render_options(
         },
         spectral: args.spectral.as_deref().and_then(SpectralMode::from_name).unwrap_or(s.spectral),
         sampler: args.sampler.as_deref().and_then(SamplerKind::from_name).unwrap_or(s.sampler),
+        planned_spp: None,
     })
 }
 
 fn run_render(args: &RenderArgs) -> Result<(), CliError> {
+    // A resumed part's settings are the defaults of every option.
+    let resumed = args.resume.as_deref().map(parts::read_resumed).transpose()?;
+    if let Some(file) = resumed.as_ref().filter(|f| parts::nothing_to_resume(args, f)) {
+        let part = &file.part;
+        eprintln!(
+            "vitrum: {} already holds all its samples {}..{}: nothing to render (give a larger --spp or --time to continue)",
+            args.resume.as_deref().expect("resuming").display(),
+            part.info.target.start,
+            part.info.target.end
+        );
+        return Ok(());
+    }
+    let args = &match &resumed {
+        Some(file) => parts::resume_defaults(args, file)?,
+        None => args.clone(),
+    };
+    let output = args.output.clone().unwrap_or_else(|| PathBuf::from("render.exr"));
     let scene = load_scene(args.scene.as_deref())?;
     for w in &scene.warnings {
         eprintln!("vitrum: warning: {w}");
     }
     let integrator = integrator_named(args.integrator.as_deref().unwrap_or(&scene.settings.integrator))?;
-    let opts = render_options(&scene, integrator.as_ref(), args)?;
-    check_output_path(&args.output, "exr")?;
+    let mut opts = render_options(&scene, integrator.as_ref(), args)?;
+    check_output_path(&output, "exr")?;
     for png in [&args.png, &args.density_map].into_iter().flatten() {
         check_output_path(png, "png")?;
     }
@@ -390,6 +429,8 @@ fn run_render(args: &RenderArgs) -> Result<(), CliError> {
             return Err(CliError::BadInput("--variance needs at least 2 samples per pixel (--spp 2)".into()));
         }
     }
+    // A render part (a shard, a resumed or checkpointed render) keeps its sums in the output.
+    let mut part = parts::plan(args, &scene, integrator.as_ref(), &mut opts, resumed)?;
     let pool = thread_pool(args.threads)?;
 
     let bar = (!args.quiet && std::io::stderr().is_terminal()).then(|| {
@@ -414,22 +455,24 @@ fn run_render(args: &RenderArgs) -> Result<(), CliError> {
     if let Err(e) = interrupt::install_handler() {
         eprintln!("vitrum: warning: cannot catch Ctrl-C ({e}): an interrupted render would be lost");
     }
-    let out = pool.install(|| render::render(&scene, integrator.as_ref(), &opts, &progress));
+    let out = match &mut part {
+        Some(part) => {
+            let meta = |film: &render::Film| {
+                exr_metadata(&scene, integrator.name(), opts.seed, (film.samples, film.seconds, film.rays))
+            };
+            let mut checkpoints = parts::Checkpoints::new(&output, args.checkpoint, part, &meta);
+            pool.install(|| {
+                parts::render(&scene, integrator.as_ref(), &opts, part, &progress, &mut checkpoints)
+            })
+        }
+        None => pool.install(|| render::render(&scene, integrator.as_ref(), &opts, &progress)),
+    };
     if let Some(b) = bar {
         b.finish_and_clear();
     }
     let interrupted = interrupt::stop_requested().then(|| interruption(integrator.as_ref(), &opts, &out));
 
-    let meta = ExrMetadata {
-        version: crate::VERSION.to_string(),
-        integrator: integrator.name().to_string(),
-        spp: out.spp,
-        seed: opts.seed,
-        render_time_seconds: out.seconds,
-        rays: out.rays,
-        scene: format!("{} ({})", scene.origin.name, scene.origin.hash),
-        effects: scene.effects.names(),
-    };
+    let meta = exr_metadata(&scene, integrator.name(), opts.seed, (out.spp, out.seconds, out.rays));
     // Encode every output first and publish them together: a failure leaves none behind.
     let failure = |e: crate::output::OutputError| CliError::Failure(e.to_string());
     let extra = match (&out.variance, args.variance) {
@@ -449,8 +492,11 @@ fn run_render(args: &RenderArgs) -> Result<(), CliError> {
     };
     let notes: Vec<(String, String)> =
         interrupted.iter().map(|what| ("vitrum:interrupted".to_string(), what.clone())).collect();
-    let mut staged =
-        vec![stage_exr_with_notes(&args.output, &out.image, &meta, &extra, &notes).map_err(failure)?];
+    let exr = match &part {
+        Some(part) => crate::output::film::stage_part(&output, &part.film, &part.info, &meta, &extra, &notes),
+        None => stage_exr_with_notes(&output, &out.image, &meta, &extra, &notes),
+    };
+    let mut staged = vec![exr.map_err(failure)?];
     if let Some(png) = &args.png {
         let exposure = args.exposure.unwrap_or(scene.settings.exposure);
         staged.push(stage_png(png, &out.image, exposure).map_err(failure)?);
@@ -465,10 +511,30 @@ fn run_render(args: &RenderArgs) -> Result<(), CliError> {
         eprintln!("vitrum: warning: {} sample(s) were NaN or infinite", out.non_finite_samples);
     }
     if let Some(what) = &interrupted {
-        eprintln!("vitrum: warning: interrupted: {what}; written to {}", args.output.display());
+        eprintln!("vitrum: warning: interrupted: {what}; written to {}", output.display());
     }
-    report(args, &scene, integrator.name(), &opts, &out);
+    report(args, &output, &scene, integrator.name(), &opts, &out);
     Ok(())
+}
+
+/// The EXR header metadata of a render of `scene` by `integrator` with `seed` that took
+/// (samples per pixel, seconds, rays).
+fn exr_metadata(
+    scene: &Scene,
+    integrator: &str,
+    seed: u64,
+    (spp, seconds, rays): (u32, f64, crate::stats::RayCounts),
+) -> ExrMetadata {
+    ExrMetadata {
+        version: crate::VERSION.to_string(),
+        integrator: integrator.to_string(),
+        spp,
+        seed,
+        render_time_seconds: seconds,
+        rays,
+        scene: format!("{} ({})", scene.origin.name, scene.origin.hash),
+        effects: scene.effects.names(),
+    }
 }
 
 /// What an interrupted render did, for the warning and the `vitrum:interrupted` attribute.
@@ -499,7 +565,14 @@ fn stage_density_map(path: &Path, out: &RenderOutput) -> Result<Staged, crate::o
 }
 
 /// Print the one-line summary (or the JSON object).
-fn report(args: &RenderArgs, scene: &Scene, integrator: &str, opts: &RenderOptions, out: &RenderOutput) {
+fn report(
+    args: &RenderArgs,
+    output: &Path,
+    scene: &Scene,
+    integrator: &str,
+    opts: &RenderOptions,
+    out: &RenderOutput,
+) {
     let mrays = out.rays.total() as f64 / out.seconds.max(1e-9) / 1e6;
     let noise = out.noise();
     if args.json {
@@ -537,7 +610,7 @@ fn report(args: &RenderArgs, scene: &Scene, integrator: &str, opts: &RenderOptio
                 "non_finite_pixels": n.non_finite,
                 "basis": noise_basis(integrator, opts, out),
             })),
-            "output": args.output,
+            "output": output,
             "png": args.png,
             // Whether Ctrl-C stopped the render (`spp` is then the samples done), and the
             // sample count asked for.
@@ -567,7 +640,7 @@ fn report(args: &RenderArgs, scene: &Scene, integrator: &str, opts: &RenderOptio
                 Some(n) => format!("std error {:.3e}", n.std_error),
                 None => "std error n/a".to_string(),
             },
-            args.output.display()
+            output.display()
         );
     }
 }

@@ -93,6 +93,10 @@ pub struct RenderOptions {
     pub spectral: SpectralMode,
     /// Sample distribution.
     pub sampler: SamplerKind,
+    /// The sample count the sampler plans for when this render is one part of a larger one (a
+    /// shard, a resumed range): sample `s` is drawn as sample `s` of this many. `None`: the
+    /// budget's own count.
+    pub planned_spp: Option<u32>,
 }
 
 impl RenderOptions {
@@ -111,6 +115,7 @@ impl RenderOptions {
             },
             spectral: s.spectral,
             sampler: s.sampler,
+            planned_spp: None,
         }
     }
 }
@@ -180,7 +185,10 @@ pub struct Film {
     pub sum: Vec<DVec3>,
     /// Per pixel, the sum of their squares.
     pub sum_sq: Vec<DVec3>,
-    /// Sample indices added so far (the driver advances it after each addition).
+    /// The first sample index of the film (0 but for a part of a larger render: a shard).
+    pub first: u32,
+    /// Sample indices added so far, `first..first + samples` (the driver advances it after
+    /// each addition).
     pub samples: u32,
     /// A pixel's estimate is `sum / (samples · norm)`: 1 for the camera pass, the film area for
     /// light tracing.
@@ -211,6 +219,7 @@ impl Film {
             height,
             sum: vec![DVec3::ZERO; width * height],
             sum_sq: vec![DVec3::ZERO; width * height],
+            first: 0,
             samples: 0,
             norm,
             rays: RayCounts::default(),
@@ -219,6 +228,16 @@ impl Film {
             spectral,
             seconds: 0.0,
         }
+    }
+
+    /// The sample index the next addition starts at.
+    pub fn next_sample(&self) -> u32 {
+        self.first + self.samples
+    }
+
+    /// The sample indices added so far.
+    pub fn sample_range(&self) -> Range<u32> {
+        self.first..self.next_sample()
     }
 
     /// The mean per pixel (black before the first sample).
@@ -264,7 +283,7 @@ impl Film {
 pub trait Accumulate: Sync {
     /// An empty film for rendering `scene` with `opts`.
     fn film(&self, scene: &Scene, opts: &RenderOptions) -> Film;
-    /// Add the sample indices `samples` (from `film.samples` on) to `film`, each sample index
+    /// Add the sample indices `samples` (from [`Film::next_sample`] on) to `film`, each sample index
     /// adding one term to every pixel's sum and sum of squares; the caller then advances
     /// `film.samples` and its time. `progress` gets (work done, work total) of this call.
     fn add_samples(
@@ -480,54 +499,72 @@ type AddSamples<'f> = dyn FnMut(&mut Film, Range<u32>, u32, &(dyn Fn(u64, u64) +
 
 /// Spend `budget` on `film` in sample passes, checking `stop()` between passes: after a stop
 /// the film holds the whole passes done (at least one), a whole number of samples per pixel.
-/// `progress` gets (done, total) of the whole render: thousandths of a sample per pixel for a
-/// sample budget, milliseconds for a time budget.
+/// `after_pass` sees the film after every pass (checkpoints). `progress` gets (done, total) of
+/// the whole render: thousandths of a sample per pixel for a sample budget, milliseconds for a
+/// time budget.
 ///
-/// A sample budget of `n` adds `0..n` in passes of adaptive size (see [`next_pass_size`]), each
-/// with `total = n`. Films sum every pixel's samples in index order whatever the ranges asked
-/// for, so the passes change no bit of the result, and the timing that sizes them cannot either.
+/// A sample budget of `n` adds the sample indices from the film's next one up to `n`, in passes
+/// of adaptive size (see [`next_pass_size`]), each with `total` = `planned` (or `n`). Films sum
+/// every pixel's samples in index order whatever the ranges asked for, so the passes change no
+/// bit of the result, and the timing that sizes them cannot either. A time budget adds 1-sample
+/// passes until the film's seconds have grown by the limit. Only the passes count as render
+/// time, not what `after_pass` does.
 fn run_budget(
     film: &mut Film,
     budget: Budget,
+    planned: Option<u32>,
     stop: &dyn Fn() -> bool,
     progress: &(dyn Fn(u64, u64) + Sync),
     add: &mut AddSamples<'_>,
+    after_pass: &mut dyn FnMut(&Film),
 ) {
-    let start = Instant::now();
+    let mut rendered = 0.0f64;
     match budget {
         Budget::Samples(n) => {
+            let (first, total) = (film.next_sample().min(n), planned.unwrap_or(n));
+            let span = (n - first) as u64 * 1000;
             let mut size = 1u32;
-            while film.samples < n {
-                let (from, to) = (film.samples, film.samples + size.min(n - film.samples));
+            while film.next_sample() < n {
+                let from = film.next_sample();
+                let to = from + size.min(n - from);
                 let pass_start = Instant::now();
                 // Thousandths of a sample per pixel over the whole render.
                 let pass_progress = |done: u64, of: u64| {
                     let within = (to - from) as u128 * 1000 * done as u128 / of.max(1) as u128;
-                    progress((from as u64 * 1000 + within as u64).min(n as u64 * 1000), n as u64 * 1000)
+                    progress(((from - first) as u64 * 1000 + within as u64).min(span), span)
                 };
-                add(film, from..to, n, &pass_progress);
-                film.samples = to;
+                add(film, from..to, total, &pass_progress);
+                film.samples += to - from;
+                let took = pass_start.elapsed();
+                film.seconds += took.as_secs_f64();
+                after_pass(film);
                 if stop() {
                     break;
                 }
-                size = next_pass_size(size, pass_start.elapsed());
+                size = next_pass_size(size, took);
             }
         }
         // The sample count is unknown in advance: no stratification across passes.
         Budget::Time(limit) => {
             let total = (limit.as_millis() as u64).max(1);
-            let timed = |_: u64, _: u64| progress((start.elapsed().as_millis() as u64).min(total), total);
+            let limit = limit.as_secs_f64();
             loop {
-                let s = film.samples;
+                let (s, pass_start) = (film.next_sample(), Instant::now());
+                let timed = |_: u64, _: u64| {
+                    let ms = ((rendered + pass_start.elapsed().as_secs_f64()) * 1000.0) as u64;
+                    progress(ms.min(total), total)
+                };
                 add(film, s..s + 1, 0, &timed);
-                film.samples = s + 1;
-                if start.elapsed() >= limit || stop() {
+                film.samples += 1;
+                let took = pass_start.elapsed().as_secs_f64();
+                (rendered, film.seconds) = (rendered + took, film.seconds + took);
+                after_pass(film);
+                if rendered >= limit || stop() || film.next_sample() == u32::MAX {
                     break;
                 }
             }
         }
     }
-    film.seconds += start.elapsed().as_secs_f64();
 }
 
 /// Render `scene` with `integrator`; `progress` is called with (work done, work total) of the
@@ -559,9 +596,11 @@ pub fn camera_pass(
     run_budget(
         &mut film,
         opts.budget,
+        opts.planned_spp,
         &crate::interrupt::stop_requested,
         progress,
         &mut |film, samples, total, p| pass.add(film, samples, total, p),
+        &mut |_| {},
     );
     (film.output(), film.requests)
 }
@@ -579,11 +618,66 @@ pub fn render_accumulated(
     run_budget(
         &mut film,
         opts.budget,
+        opts.planned_spp,
         &crate::interrupt::stop_requested,
         progress,
         &mut |film, samples, _, p| method.add_samples(scene, opts, samples, film, p),
+        &mut |_| {},
     );
     film.output()
+}
+
+/// An empty film for a render of `scene` by `integrator` whose sample indices start at `first`
+/// (a shard of a larger render, see [`render_part`]); `Err` with the reason for a method that
+/// cannot grow an image by sample indices (`ssaa`'s one fixed pattern).
+pub fn part_film(
+    scene: &Scene,
+    integrator: &dyn Integrator,
+    opts: &RenderOptions,
+    first: u32,
+) -> Result<Film, &'static str> {
+    let mut film = match integrator.progression() {
+        Progression::CameraPass => Pass::new(scene, integrator, opts).film(),
+        Progression::Own(method) => method.film(scene, opts),
+        Progression::Fresh(why) | Progression::Fixed(why) => return Err(why),
+    };
+    film.first = first;
+    Ok(film)
+}
+
+/// Continue `film` (new from [`part_film`], or read back from a checkpoint) under
+/// `opts.budget`: a sample budget of `n` adds the sample indices from [`Film::next_sample`] up
+/// to `n` (sample `s` drawn as sample `s` of `opts.planned_spp`, or of `n`), a time budget adds
+/// 1-sample passes for that long. `after_pass` sees the film after every pass (to write
+/// checkpoints); a stop request ([`crate::interrupt`]) ends the render at a pass boundary. The
+/// sums are continued in index order, so a film rendered `a..k`, written, read back and
+/// continued `k..b` holds the bits of one render of `a..b`. `Err` as for [`part_film`].
+pub fn render_part(
+    scene: &Scene,
+    integrator: &dyn Integrator,
+    opts: &RenderOptions,
+    film: &mut Film,
+    progress: &(dyn Fn(u64, u64) + Sync),
+    after_pass: &mut dyn FnMut(&Film),
+) -> Result<(), &'static str> {
+    let stop = &crate::interrupt::stop_requested;
+    match integrator.progression() {
+        Progression::CameraPass => {
+            let pass = Pass::new(scene, integrator, opts);
+            let add = &mut |film: &mut Film, samples, total, p: &(dyn Fn(u64, u64) + Sync)| {
+                pass.add(film, samples, total, p)
+            };
+            run_budget(film, opts.budget, opts.planned_spp, stop, progress, add, after_pass);
+        }
+        Progression::Own(method) => {
+            let add = &mut |film: &mut Film, samples, _, p: &(dyn Fn(u64, u64) + Sync)| {
+                method.add_samples(scene, opts, samples, film, p)
+            };
+            run_budget(film, opts.budget, opts.planned_spp, stop, progress, add, after_pass);
+        }
+        Progression::Fresh(why) | Progression::Fixed(why) => return Err(why),
+    }
+    Ok(())
 }
 
 /// How the checkpoints of a progressive render are made.
@@ -836,11 +930,19 @@ mod tests {
         add_values(&mut whole, 0..40);
         let mut passes = Vec::new();
         let mut film = Film::new(3, 2, 1.0, false);
-        run_budget(&mut film, Budget::Samples(40), &|| false, &|_, _| {}, &mut |f, samples, total, _| {
-            assert_eq!(total, 40, "every pass draws from the planned pattern");
-            passes.push(samples.clone());
-            add_values(f, samples);
-        });
+        run_budget(
+            &mut film,
+            Budget::Samples(40),
+            None,
+            &|| false,
+            &|_, _| {},
+            &mut |f, samples, total, _| {
+                assert_eq!(total, 40, "every pass draws from the planned pattern");
+                passes.push(samples.clone());
+                add_values(f, samples);
+            },
+            &mut |_| {},
+        );
         assert_eq!(film.samples, 40);
         assert_eq!((film.sum.clone(), film.sum_sq.clone()), (whole.sum.clone(), whole.sum_sq.clone()));
         assert_eq!(passes.first(), Some(&(0..1)), "the first pass is one sample");
@@ -851,11 +953,19 @@ mod tests {
         let mut film = Film::new(3, 2, 1.0, false);
         let stop = || calls.get() >= 3;
         let mut ends = Vec::new();
-        run_budget(&mut film, Budget::Samples(40), &stop, &|_, _| {}, &mut |f, samples, _, _| {
-            calls.set(calls.get() + 1);
-            ends.push(samples.end);
-            add_values(f, samples);
-        });
+        run_budget(
+            &mut film,
+            Budget::Samples(40),
+            None,
+            &stop,
+            &|_, _| {},
+            &mut |f, samples, _, _| {
+                calls.set(calls.get() + 1);
+                ends.push(samples.end);
+                add_values(f, samples);
+            },
+            &mut |_| {},
+        );
         assert_eq!(film.samples, *ends.last().unwrap());
         assert_eq!(ends.len(), 3);
         let mut expected = Film::new(3, 2, 1.0, false);
@@ -867,11 +977,48 @@ mod tests {
         // A stop requested before the render: one pass all the same; time budgets stop too.
         for budget in [Budget::Samples(40), Budget::Time(Duration::from_secs(3600))] {
             let mut film = Film::new(3, 2, 1.0, false);
-            run_budget(&mut film, budget, &|| true, &|_, _| {}, &mut |f, samples, _, _| {
-                add_values(f, samples)
-            });
+            run_budget(
+                &mut film,
+                budget,
+                None,
+                &|| true,
+                &|_, _| {},
+                &mut |f, samples, _, _| add_values(f, samples),
+                &mut |_| {},
+            );
             assert_eq!(film.samples, 1, "{budget:?}");
         }
+    }
+
+    #[test]
+    fn a_part_adds_its_own_range_from_the_planned_pattern_and_resumes_bit_for_bit() {
+        let mut whole = Film::new(3, 2, 1.0, false);
+        add_values(&mut whole, 5..30);
+        // Sample indices 5..30 of a 40-sample plan, stopped after a few passes, then resumed.
+        let calls = std::cell::Cell::new(0);
+        let (mut film, mut seen) = (Film::new(3, 2, 1.0, false), Vec::new());
+        film.first = 5;
+        let mut add = |f: &mut Film, samples: Range<u32>, total: u32, _: &(dyn Fn(u64, u64) + Sync)| {
+            assert_eq!(total, 40, "drawn as samples of the plan");
+            calls.set(calls.get() + 1);
+            add_values(f, samples)
+        };
+        let mut after = |f: &Film| seen.push(f.sample_range());
+        run_budget(
+            &mut film,
+            Budget::Samples(30),
+            Some(40),
+            &|| calls.get() >= 2,
+            &|_, _| {},
+            &mut add,
+            &mut after,
+        );
+        assert!(film.next_sample() < 30 && film.first == 5, "{:?}", film.sample_range());
+        run_budget(&mut film, Budget::Samples(30), Some(40), &|| false, &|_, _| {}, &mut add, &mut after);
+        assert_eq!(film.sample_range(), 5..30);
+        assert_eq!((film.sum.clone(), film.sum_sq.clone()), (whole.sum, whole.sum_sq));
+        assert_eq!(seen.first(), Some(&(5..6)), "after every pass, from the first index");
+        assert_eq!(seen.last(), Some(&(5..30)));
     }
 
     #[test]
@@ -879,11 +1026,19 @@ mod tests {
         let seen = std::sync::Mutex::new(Vec::new());
         let mut film = Film::new(1, 1, 1.0, false);
         let progress = |done: u64, total: u64| seen.lock().unwrap().push((done, total));
-        run_budget(&mut film, Budget::Samples(10), &|| false, &progress, &mut |f, samples, _, p| {
-            p(1, 2);
-            p(2, 2);
-            add_values(f, samples);
-        });
+        run_budget(
+            &mut film,
+            Budget::Samples(10),
+            None,
+            &|| false,
+            &progress,
+            &mut |f, samples, _, p| {
+                p(1, 2);
+                p(2, 2);
+                add_values(f, samples);
+            },
+            &mut |_| {},
+        );
         let seen = seen.into_inner().unwrap();
         assert!(seen.iter().all(|&(_, total)| total == 10_000), "{seen:?}");
         assert!(seen.windows(2).all(|w| w[0].0 <= w[1].0), "{seen:?}");

@@ -6,6 +6,8 @@
 //! The tests drive the real binary and send real signals (`kill -INT`, `Child::kill`). They take
 //! a lock so that they run one at a time: the SIGKILL test times its kills from a reference run.
 
+mod common;
+use common::entries;
 use std::path::Path;
 use std::process::{Child, Command, ExitStatus, Stdio};
 use std::sync::Mutex;
@@ -70,16 +72,6 @@ fn interrupted_render(dir: &Path, args: &[&str], delay: Duration) -> (ExitStatus
 /// Pixels as raw bits (NaN and -0.0 compare exactly).
 fn bits(image: &Image) -> Vec<[u32; 3]> {
     image.pixels.iter().map(|p| p.to_array().map(f32::to_bits)).collect()
-}
-
-/// The names in `dir`, sorted.
-fn entries(dir: &Path) -> Vec<String> {
-    let mut names: Vec<String> = std::fs::read_dir(dir)
-        .unwrap()
-        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-        .collect();
-    names.sort();
-    names
 }
 
 /// The samples per pixel of an EXR written by vitrum.

@@ -71,6 +71,10 @@ pub struct CompareArgs {
     /// No progress bars and no summary (warnings still go to stderr).
     #[arg(long)]
     pub quiet: bool,
+    /// Lay out these renders instead of rendering (EXR files of the scene, one per method, e.g.
+    /// merged shards from a cluster); their size is the first file's unless --resolution is given.
+    #[arg(long, num_args = 1.., value_name = "EXR", conflicts_with_all = ["time", "spp"])]
+    pub renders: Vec<PathBuf>,
 }
 
 /// Parses a positive, finite number of seconds.
@@ -109,6 +113,8 @@ struct Plan {
     exposure: f32,
     reference: ReferenceSource,
     out: PathBuf,
+    /// The renders laid out instead of rendering (`--renders`), in the order of `methods`.
+    renders: Option<Vec<super::RenderFile>>,
 }
 
 /// One method's render and its errors.
@@ -139,7 +145,34 @@ impl Plan {
             None => "cornell-glass (embedded default)".into(),
         };
         let camera = render::camera_for(&scene, args.render.resolution);
-        let size = (camera.width as usize, camera.height as usize);
+        let mut size = (camera.width as usize, camera.height as usize);
+        let renders = match args.renders.first() {
+            None => None,
+            Some(first) => {
+                if args.render.resolution.is_none() {
+                    let (image, _) = read_exr(first).map_err(|e| bad(format!("--renders: {e}")))?;
+                    size = (image.width, image.height);
+                }
+                let renders = super::read_renders(&args.renders, &scene, size)?;
+                for (i, r) in renders.iter().enumerate() {
+                    if let Some(other) = renders[..i].iter().find(|o| o.method.name() == r.method.name()) {
+                        return Err(bad(format!(
+                            "--renders: {} and {} are both `{}` renders; give one per method",
+                            other.path.display(),
+                            r.path.display(),
+                            r.method.name()
+                        )));
+                    }
+                }
+                Some(renders)
+            }
+        };
+        let methods = match &renders {
+            Some(renders) => {
+                renders.iter().map(|r| crate::integrators::create(r.method.name()).expect("known")).collect()
+            }
+            None => methods,
+        };
         let crop = args.crop.map(|c| Crop { x: c.x, y: c.y, width: c.width, height: c.height });
         if let Some(c) = crop {
             if c.x + c.width > size.0 || c.y + c.height > size.1 {
@@ -214,11 +247,15 @@ impl Plan {
             exposure,
             reference,
             out: args.out.clone(),
+            renders,
         })
     }
 
     /// "equal time, 10 s per method" or "equal samples, 64 spp".
     fn budget_text(&self) -> String {
+        if self.renders.is_some() {
+            return "precomputed renders".to_string();
+        }
         match self.budget {
             Budget::Samples(n) => format!("equal samples: {n} spp per method"),
             Budget::Time(t) => {
@@ -325,7 +362,14 @@ pub fn run(args: &CompareArgs) -> Result<(), CliError> {
     };
 
     let mut rows = Vec::new();
-    for method in &plan.methods {
+    for (index, method) in plan.methods.iter().enumerate() {
+        if let Some(renders) = &plan.renders {
+            let r = &renders[index];
+            let metrics = metrics::compare(&r.out.image, &reference, None)
+                .map_err(|e| CliError::Failure(format!("{}: {e}", r.path.display())))?;
+            rows.push(Row { method: method.name(), out: r.out.clone(), metrics, seed: r.seed });
+            continue;
+        }
         let opts = args.render.options(&plan.scene, method.as_ref(), plan.budget);
         crate::cli::check_effects(&plan.scene, method.as_ref(), &opts, false)?;
         let bar = bars.render(method.name(), plan.budget);
@@ -494,9 +538,10 @@ fn markdown_table(plan: &Plan, rows: &[Row], reference: &str) -> String {
         "{} ({}); {}x{} pixels; reference: {}. MSE and relMSE over the whole image \
          (DESIGN.md definitions); efficiency = 1/(MSE·seconds).\n",
         plan.budget_text(),
-        match plan.budget {
-            Budget::Time(_) => "whole passes, at least one",
-            Budget::Samples(_) => "the same samples for every method",
+        match (&plan.renders, plan.budget) {
+            (Some(_), _) => "read from files; seconds of merged parts are summed",
+            (None, Budget::Time(_)) => "whole passes, at least one",
+            (None, Budget::Samples(_)) => "the same samples for every method",
         },
         plan.size.0,
         plan.size.1,

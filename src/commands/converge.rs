@@ -81,7 +81,15 @@ pub struct ConvergeArgs {
     /// No progress bars and no summary (warnings still go to stderr).
     #[arg(long)]
     pub quiet: bool,
+    /// Measure these renders instead of rendering (EXR files of the scene, e.g. merged shards
+    /// from a cluster): one row per file, the methods those of the files; their size is the
+    /// first file's unless --resolution is given.
+    #[arg(long, num_args = 1.., value_name = "EXR", conflicts_with_all = ["spp_max", "time", "fresh"])]
+    pub renders: Vec<PathBuf>,
 }
+
+/// How the rows of `--renders` were made.
+const PRECOMPUTED: &str = "precomputed renders read from files (--renders)";
 
 /// Where the reference comes from.
 enum ReferenceSource {
@@ -99,6 +107,8 @@ struct Plan {
     reference: ReferenceSource,
     width: usize,
     height: usize,
+    /// The renders to measure instead of rendering (`--renders`).
+    renders: Option<Vec<super::RenderFile>>,
 }
 
 /// One checkpoint of one integrator.
@@ -144,7 +154,7 @@ impl Row {
 /// Check everything that can be checked before rendering.
 fn plan(args: &ConvergeArgs) -> Result<Plan, CliError> {
     let bad = CliError::BadInput;
-    let methods = super::parse_integrators(&args.integrators)?;
+    let mut methods = super::parse_integrators(&args.integrators)?;
     let scene = load_scene(args.scene.as_deref())?;
     let budget = match (args.spp_max, args.time) {
         (_, Some(t)) if !(t.is_finite() && t > 0.0) => {
@@ -157,7 +167,22 @@ fn plan(args: &ConvergeArgs) -> Result<Plan, CliError> {
         (n, None) => Budget::Samples(n.unwrap_or(DEFAULT_SPP_MAX)),
     };
     let camera = render::camera_for(&scene, args.render.resolution);
-    let (width, height) = (camera.width as usize, camera.height as usize);
+    let (mut width, mut height) = (camera.width as usize, camera.height as usize);
+    let renders = match args.renders.first() {
+        None => None,
+        Some(first) => {
+            if args.render.resolution.is_none() {
+                let (image, _) = read_exr(first).map_err(|e| bad(format!("--renders: {e}")))?;
+                (width, height) = (image.width, image.height);
+            }
+            let renders = super::read_renders(&args.renders, &scene, (width, height))?;
+            methods = crate::integrators::all()
+                .into_iter()
+                .filter(|m| renders.iter().any(|r| r.method.name() == m.name()))
+                .collect();
+            Some(renders)
+        }
+    };
     let reference = match &args.reference {
         Some(path) => {
             let (image, _) = read_exr(path).map_err(|e| bad(format!("--reference: {e}")))?;
@@ -189,7 +214,7 @@ fn plan(args: &ConvergeArgs) -> Result<Plan, CliError> {
     if args.out.exists() && !args.out.is_dir() {
         return Err(bad(format!("--out {}: is not a folder", args.out.display())));
     }
-    Ok(Plan { scene, methods, budget, reference, width, height })
+    Ok(Plan { scene, methods, budget, reference, width, height, renders })
 }
 
 /// Progress bars on stderr when it is a terminal: the whole run and the current render.
@@ -293,6 +318,45 @@ fn measure(
     })
 }
 
+/// Render `method` (the `index`-th) progressively and measure every checkpoint against `reference`.
+fn render_rows(
+    args: &ConvergeArgs,
+    plan: &Plan,
+    bars: &Bars,
+    pool: &rayon::ThreadPool,
+    (index, method): (usize, &dyn Integrator),
+    reference: &Image,
+) -> Result<(Growth, Vec<Row>), CliError> {
+    let scene = &plan.scene;
+    let cached = matches!(plan.reference, ReferenceSource::Cached(..));
+    let opts = args.render.options(scene, method, plan.budget);
+    crate::cli::check_effects(scene, method, &opts, false)?;
+    let unit = match plan.budget {
+        Budget::Samples(_) => "samples",
+        Budget::Time(_) => "time",
+    };
+    let bar = bars.render(method.name(), unit);
+    let step = index as u64 + cached as u64;
+    let progress = |done: u64, total: u64| bars.update(&bar, step, done, total);
+    let mut error: Option<CliError> = None;
+    let mut rows: Vec<Row> = Vec::new();
+    let mut checkpoint = |out: &RenderOutput| {
+        if error.is_none() {
+            match measure(args, scene, method, opts.seed, reference, out) {
+                Ok(row) => rows.push(row),
+                Err(e) => error = Some(e),
+            }
+        }
+    };
+    let growth = pool
+        .install(|| render::render_progressive(scene, method, &opts, args.fresh, &progress, &mut checkpoint));
+    bar.finish_and_clear();
+    match error {
+        Some(e) => Err(e),
+        None => Ok((growth, rows)),
+    }
+}
+
 /// Runs `vitrum converge`.
 pub fn run(args: &ConvergeArgs) -> Result<(), CliError> {
     let plan = plan(args)?;
@@ -347,32 +411,19 @@ pub fn run(args: &ConvergeArgs) -> Result<(), CliError> {
     let mut summaries = Vec::new();
     let csv_path = args.out.join("converge.csv");
     for (index, method) in plan.methods.iter().enumerate() {
-        let opts = args.render.options(scene, method.as_ref(), plan.budget);
-        crate::cli::check_effects(scene, method.as_ref(), &opts, false)?;
-        let unit = match plan.budget {
-            Budget::Samples(_) => "samples",
-            Budget::Time(_) => "time",
-        };
-        let bar = bars.render(method.name(), unit);
-        let step = index as u64 + cached as u64;
-        let progress = |done: u64, total: u64| bars.update(&bar, step, done, total);
-        let mut error: Option<CliError> = None;
-        let mut method_rows: Vec<Row> = Vec::new();
-        let mut checkpoint = |out: &RenderOutput| {
-            if error.is_none() {
-                match measure(args, scene, method.as_ref(), opts.seed, &reference, out) {
-                    Ok(row) => method_rows.push(row),
-                    Err(e) => error = Some(e),
-                }
+        let (growth, method_rows) = match &plan.renders {
+            Some(renders) => {
+                let mut mine: Vec<&super::RenderFile> =
+                    renders.iter().filter(|r| r.method.name() == method.name()).collect();
+                mine.sort_by_key(|r| r.out.spp);
+                let rows = mine
+                    .iter()
+                    .map(|r| measure(args, scene, method.as_ref(), r.seed, &reference, &r.out))
+                    .collect::<Result<Vec<Row>, CliError>>()?;
+                (Growth::Fresh(PRECOMPUTED), rows)
             }
+            None => render_rows(args, &plan, &bars, &pool, (index, method.as_ref()), &reference)?,
         };
-        let growth = pool.install(|| {
-            render::render_progressive(scene, method.as_ref(), &opts, args.fresh, &progress, &mut checkpoint)
-        });
-        bar.finish_and_clear();
-        if let Some(e) = error {
-            return Err(e);
-        }
         let points = |x: fn(&Row) -> f64| -> Vec<(f64, f64)> {
             method_rows.iter().map(|r| (x(r), r.metrics.rel_mse)).collect()
         };

@@ -1,16 +1,22 @@
 //! The research commands beyond `render`: `diff` (error metrics), `converge` (error against samples
-//! and seconds) and `compare` (equal-time figures and tables). Each lives in its own module with
+//! and seconds), `compare` (equal-time figures and tables) and `merge` (render parts into one
+//! image), and `render`'s parts (shards, checkpoints, resume). Each lives in its own module with
 //! its clap arguments and a `run` function; [`crate::cli`] dispatches to them.
 
 pub mod compare;
 pub mod converge;
 pub mod diff;
+pub mod merge;
+pub mod parts;
 
 use crate::cli::{integrator_named, CliError};
 use crate::integrators::{self, Integrator, RenderParams};
-use crate::render::{Budget, RenderOptions};
+use crate::output::exr::{parse_rays, read_exr};
+use crate::output::film::read_part;
+use crate::render::{Budget, RenderOptions, RenderOutput};
 use crate::scene::compile::{MAX_DEPTH, MAX_PIXELS};
 use crate::scene::Scene;
+use std::path::PathBuf;
 
 /// Render options shared by the sweeps (`converge`, `compare`); the scene file gives the rest.
 #[derive(clap::Args, Debug, Clone, Default)]
@@ -44,6 +50,7 @@ impl SweepArgs {
             },
             spectral: s.spectral,
             sampler: s.sampler,
+            planned_spp: None,
         }
     }
 
@@ -66,6 +73,76 @@ pub fn parse_integrators(list: &str) -> Result<Vec<Box<dyn Integrator>>, CliErro
         )));
     }
     names.into_iter().map(integrator_named).collect()
+}
+
+/// A render read back from its EXR file: a result computed elsewhere (merged shards of a
+/// cluster job, say) for `converge --renders` and `compare --renders`.
+pub struct RenderFile {
+    /// The file.
+    pub path: PathBuf,
+    /// The integrator that rendered it (`vitrum:integrator`).
+    pub method: Box<dyn Integrator>,
+    /// Its seed (`vitrum:seed`).
+    pub seed: u64,
+    /// The render: image, samples (`vitrum:spp`), seconds (`renderTimeSeconds`: for merged
+    /// parts the sum of the parts' render times) and rays; with the per-pixel variance when
+    /// the file is a render part (it keeps its sums, [`crate::output::film`]).
+    pub out: RenderOutput,
+}
+
+/// Read the renders `files` of `scene`: each must be a vitrum EXR of that scene (the content
+/// hash in `vitrum:scene`), of `size`, by a known integrator.
+pub fn read_renders(
+    files: &[PathBuf],
+    scene: &Scene,
+    size: (usize, usize),
+) -> Result<Vec<RenderFile>, CliError> {
+    let mut renders = Vec::with_capacity(files.len());
+    for path in files {
+        let bad = |what: String| CliError::BadInput(format!("--renders {}: {what}", path.display()));
+        let (image, attributes) =
+            read_exr(path).map_err(|e| CliError::BadInput(format!("--renders: {e}")))?;
+        let attribute = |name: &str| {
+            attributes.get(name).ok_or_else(|| bad(format!("no {name} attribute: not a vitrum render")))
+        };
+        let hash = attribute("vitrum:scene")?.rsplit_once(" (").map(|(_, h)| h.trim_end_matches(')'));
+        if hash != Some(scene.origin.hash.as_str()) {
+            return Err(bad(format!(
+                "rendered from another scene ({}), not {} ({})",
+                attribute("vitrum:scene")?,
+                scene.origin.name,
+                scene.origin.hash
+            )));
+        }
+        if (image.width, image.height) != size {
+            return Err(bad(format!(
+                "{}x{}, not the {}x{} of the reference",
+                image.width, image.height, size.0, size.1
+            )));
+        }
+        let name = attribute("vitrum:integrator")?;
+        let method = integrators::create(name).ok_or_else(|| bad(format!("unknown integrator `{name}`")))?;
+        let seed =
+            attribute("vitrum:seed")?.parse().map_err(|_| bad("vitrum:seed is not a number".into()))?;
+        let out = match read_part(path) {
+            Ok(file) => file.part.film.output(),
+            Err(_) => RenderOutput {
+                image,
+                spp: attribute("vitrum:spp")?
+                    .parse()
+                    .map_err(|_| bad("vitrum:spp is not a number".into()))?,
+                seconds: attribute("renderTimeSeconds")?.parse().unwrap_or(0.0),
+                rays: parse_rays(attribute("vitrum:rays")?)
+                    .ok_or_else(|| bad("vitrum:rays: not ray counts".into()))?,
+                non_finite_samples: 0,
+                spectral: false,
+                samples_per_pixel: None,
+                variance: None,
+            },
+        };
+        renders.push(RenderFile { path: path.clone(), method, seed, out });
+    }
+    Ok(renders)
 }
 
 /// A crop rectangle `X,Y,W,H` in pixels from the top-left corner.

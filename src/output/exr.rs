@@ -56,6 +56,23 @@ fn rays_text(rays: &RayCounts) -> String {
     )
 }
 
+/// The ray counts of a `vitrum:rays` text (what [`rays_text`] writes).
+pub fn parse_rays(text: &str) -> Option<RayCounts> {
+    let mut rays = RayCounts::default();
+    for item in text.split_whitespace() {
+        let (k, v) = item.split_once('=')?;
+        let v: u64 = v.parse().ok()?;
+        match k {
+            "primary" => rays.primary = v,
+            "reflected" => rays.reflected = v,
+            "refracted" => rays.refracted = v,
+            "shadow" => rays.shadow = v,
+            _ => return None,
+        }
+    }
+    Some(rays)
+}
+
 /// The custom header attributes for `meta` (see DESIGN.md, "EXR files").
 fn metadata_attributes(
     path: &Path,
@@ -188,10 +205,45 @@ pub fn stage_exr_with_notes(
     extra: &[ExtraChannel],
     notes: &[(String, String)],
 ) -> Result<Staged, OutputError> {
-    use exr::prelude::{AnyChannel, AnyChannels, FlatSamples, SmallVec};
     if extra.is_empty() {
         return stage_rgb_exr(path, image, meta, notes);
     }
+    stage_layers(path, image, meta, extra, notes, None)
+}
+
+/// A second layer of 32-bit unsigned integer channels (the film state of a render part, see
+/// [`crate::output::film`]), one value per pixel each in row-major order.
+#[derive(Clone, Debug, PartialEq)]
+pub struct U32Layer {
+    /// Layer name.
+    pub name: String,
+    /// Channels (name, `width * height` values).
+    pub channels: Vec<(String, Vec<u32>)>,
+}
+
+/// Like [`stage_exr_with_notes`], with the layer `second` after the beauty layer (its values
+/// move into the encoder: a large film is not copied).
+pub fn stage_exr_with_layer(
+    path: &Path,
+    image: &Image,
+    meta: &ExrMetadata,
+    extra: &[ExtraChannel],
+    notes: &[(String, String)],
+    second: U32Layer,
+) -> Result<Staged, OutputError> {
+    stage_layers(path, image, meta, extra, notes, Some(second))
+}
+
+/// The beauty layer (R, G, B and the `extra` channels, float32) and an optional second layer.
+fn stage_layers(
+    path: &Path,
+    image: &Image,
+    meta: &ExrMetadata,
+    extra: &[ExtraChannel],
+    notes: &[(String, String)],
+    second: Option<U32Layer>,
+) -> Result<Staged, OutputError> {
+    use exr::prelude::{AnyChannel, AnyChannels, FlatSamples, SmallVec};
     check_pixel_count(path, image)?;
     for c in extra {
         if c.values.len() != image.pixels.len() {
@@ -215,10 +267,79 @@ pub fn stage_exr_with_notes(
     for c in extra {
         list.push(AnyChannel::new(text(&c.name), FlatSamples::F32(c.values.clone())));
     }
-    let channels = AnyChannels::sort(SmallVec::from_vec(list));
-    let layer = Layer::new((image.width, image.height), attributes, Encoding::SMALL_LOSSLESS, channels);
-    let file = exr::image::Image::from_layer(layer);
+    let size = (image.width, image.height);
+    let beauty =
+        Layer::new(size, attributes, Encoding::SMALL_LOSSLESS, AnyChannels::sort(SmallVec::from_vec(list)));
+    let Some(second) = second else {
+        let file = exr::image::Image::from_layer(beauty);
+        return encode_and_stage(path, |bytes| file.write().to_buffered(bytes));
+    };
+    if second.channels.iter().any(|(_, v)| v.len() != image.pixels.len()) {
+        return Err(OutputError::format(
+            path,
+            format!("layer {} does not match the image size", second.name),
+        ));
+    }
+    let list = second
+        .channels
+        .into_iter()
+        .map(|(name, values)| AnyChannel::new(text(&name), FlatSamples::U32(values)))
+        .collect();
+    let layer = Layer::new(
+        size,
+        LayerAttributes::named(text(&second.name)),
+        Encoding::SMALL_LOSSLESS,
+        AnyChannels::sort(SmallVec::from_vec(list)),
+    );
+    let file = exr::image::Image::from_layers(
+        exr::meta::header::ImageAttributes::with_size(size),
+        vec![beauty, layer],
+    );
     encode_and_stage(path, |bytes| file.write().to_buffered(bytes))
+}
+
+/// An EXR image of every layer and channel, full resolution, any sample type.
+type FlatImage = exr::image::Image<exr::image::Layers<exr::image::AnyChannels<exr::image::FlatSamples>>>;
+
+/// Every layer and channel (any sample type) of the EXR file `bytes` read from `path`.
+fn decode_all_layers(path: &Path, bytes: &[u8]) -> Result<FlatImage, OutputError> {
+    read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .all_channels()
+        .all_layers()
+        .all_attributes()
+        .from_buffered(Cursor::new(bytes))
+        .map_err(|e| exr_error(path, e))
+}
+
+/// The layer called `name` of an EXR file, when it has one and all its channels are 32-bit
+/// unsigned integers of the layer's full size.
+pub fn read_u32_layer(path: &Path, name: &str) -> Result<Option<U32Layer>, OutputError> {
+    use exr::prelude::FlatSamples;
+    let bytes = std::fs::read(path).map_err(|e| OutputError::io(path, e))?;
+    let file = decode_all_layers(path, &bytes)?;
+    let Some(layer) =
+        file.layer_data.iter().find(|l| l.attributes.layer_name.as_ref().is_some_and(|n| n.eq(name)))
+    else {
+        return Ok(None);
+    };
+    let pixels = layer.size.area();
+    let mut channels = Vec::new();
+    for c in &layer.channel_data.list {
+        let FlatSamples::U32(values) = &c.sample_data else {
+            let what = format!(
+                "channel {} of layer {name} is not a 32-bit unsigned integer",
+                utf8(c.name.as_slice())
+            );
+            return Err(OutputError::format(path, what));
+        };
+        if values.len() != pixels {
+            return Err(OutputError::format(path, format!("layer {name} is subsampled")));
+        }
+        channels.push((utf8(c.name.as_slice()), values.clone()));
+    }
+    Ok(Some(U32Layer { name: name.to_string(), channels }))
 }
 
 /// Every channel of an EXR file's first layer.
@@ -256,14 +377,7 @@ pub fn read_exr_channels(path: &Path) -> Result<ExrChannels, OutputError> {
 pub fn read_exr(path: &Path) -> Result<(Image, BTreeMap<String, String>), OutputError> {
     // Read once and decode twice (pixels, then the raw headers), so both come from the same file version.
     let bytes = std::fs::read(path).map_err(|e| OutputError::io(path, e))?;
-    let file = read()
-        .no_deep_data()
-        .largest_resolution_level()
-        .all_channels()
-        .all_layers()
-        .all_attributes()
-        .from_buffered(Cursor::new(&bytes))
-        .map_err(|e| exr_error(path, e))?;
+    let file = decode_all_layers(path, &bytes)?;
     let meta = MetaData::read_from_buffered(Cursor::new(&bytes), false).map_err(|e| exr_error(path, e))?;
     let (Some(layer), Some(header)) = (file.layer_data.first(), meta.headers.first()) else {
         return Err(OutputError::format(path, "the EXR file has no layers"));

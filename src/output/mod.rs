@@ -8,6 +8,7 @@
 //! file `.{name}.tmp-{pid}-{n}`; the next write of the same output removes it (see [`stage`]).
 
 pub mod exr;
+pub mod film;
 pub mod png;
 
 use crate::image::Image;

@@ -1,0 +1,192 @@
+//! A render part in its EXR file ([`crate::parts`]): the beauty layer as in every render, plus
+//! the state to resume and merge it, exactly.
+//!
+//! - A second layer `film` holds per pixel the f64 sums of the per-sample estimates and of
+//!   their squares, each f64 as two 32-bit unsigned integer channels of its bits (`sum.R.hi`,
+//!   `sum.R.lo`, …, `sum_sq.B.lo`): EXR has no f64 channels, and f32 would lose the bits that
+//!   make a resumed render equal an uninterrupted one. Viewers show the beauty layer (the first);
+//!   the film layer is opaque data.
+//! - Header attributes of the beauty layer: `vitrum:samples` (the sample indices held, as
+//!   `A..B` ranges), `vitrum:sample-target` (the range asked for), `vitrum:spp-planned`,
+//!   `vitrum:settings` (the [`Identity`]), `vitrum:film-norm`, `vitrum:non-finite`, and the
+//!   usual render metadata (whose `vitrum:spp` is the count of samples held).
+
+use super::exr::{
+    parse_rays, read_exr, read_u32_layer, stage_exr_with_layer, ExrMetadata, ExtraChannel, U32Layer,
+};
+use super::{OutputError, Staged};
+use crate::parts::{parse_sample_range, Identity, Part, PartInfo, SampleSet};
+use crate::render::Film;
+use glam::DVec3;
+use std::collections::BTreeMap;
+use std::path::Path;
+
+/// The name of the layer that holds the sums.
+pub const FILM_LAYER: &str = "film";
+
+/// The film layer's channels for `film`, in a fixed order.
+fn film_layer(film: &Film) -> U32Layer {
+    let mut channels = Vec::with_capacity(12);
+    for (name, values) in [("sum", &film.sum), ("sum_sq", &film.sum_sq)] {
+        for (axis, pick) in [("R", 0usize), ("G", 1), ("B", 2)] {
+            let bits: Vec<u64> = values.iter().map(|v| v.to_array()[pick].to_bits()).collect();
+            channels.push((format!("{name}.{axis}.hi"), bits.iter().map(|b| (b >> 32) as u32).collect()));
+            channels.push((format!("{name}.{axis}.lo"), bits.iter().map(|&b| b as u32).collect()));
+        }
+    }
+    U32Layer { name: FILM_LAYER.to_string(), channels }
+}
+
+/// The text attributes that describe a part with `film` and `info`.
+fn part_notes(film: &Film, info: &PartInfo) -> Vec<(String, String)> {
+    let target = format!("{}..{}", info.target.start, info.target.end);
+    [
+        ("vitrum:samples", info.samples.to_string()),
+        ("vitrum:sample-target", target),
+        ("vitrum:spp-planned", info.planned.to_string()),
+        ("vitrum:settings", info.identity.to_string()),
+        // Rust prints the shortest text that reads back as the same f64.
+        ("vitrum:film-norm", film.norm.to_string()),
+        ("vitrum:non-finite", film.non_finite.to_string()),
+    ]
+    .into_iter()
+    .map(|(k, v)| (k.to_string(), v))
+    .collect()
+}
+
+/// Stage the part with `film` and `info` as the EXR `path` (published with
+/// [`Staged::commit`]): its image, the `extra` float channels and `notes` in the beauty layer,
+/// its sums in the film layer.
+pub fn stage_part(
+    path: &Path,
+    film: &Film,
+    info: &PartInfo,
+    meta: &ExrMetadata,
+    extra: &[ExtraChannel],
+    notes: &[(String, String)],
+) -> Result<Staged, OutputError> {
+    let mut all = part_notes(film, info);
+    all.extend_from_slice(notes);
+    stage_exr_with_layer(path, &film.image(), meta, extra, &all, film_layer(film))
+}
+
+/// A part read back from its EXR file, with all the file's header attributes.
+pub struct PartFile {
+    /// The part.
+    pub part: Part,
+    /// Every header attribute of the beauty layer, as text.
+    pub attributes: BTreeMap<String, String>,
+}
+
+/// Read the part written by [`stage_part`] from `path`; an EXR without the film layer or its
+/// attributes (a plain render) is refused with a message that says how to make one.
+pub fn read_part(path: &Path) -> Result<PartFile, OutputError> {
+    let (image, attributes) = read_exr(path)?;
+    let not_a_part = |what: &str| {
+        OutputError::format(
+            path,
+            format!(
+                "not a render part ({what}): render it with --samples, --shard or --checkpoint, which keep the \
+                 sums needed to resume and merge"
+            ),
+        )
+    };
+    let Some(layer) = read_u32_layer(path, FILM_LAYER)? else {
+        return Err(not_a_part("it has no `film` layer"));
+    };
+    let attr =
+        |name: &str| attributes.get(name).ok_or_else(|| not_a_part(&format!("it has no {name} attribute")));
+    let bad = |name: &str, e: String| OutputError::format(path, format!("attribute {name}: {e}"));
+    let samples = SampleSet::parse(attr("vitrum:samples")?).map_err(|e| bad("vitrum:samples", e))?;
+    let target =
+        parse_sample_range(attr("vitrum:sample-target")?).map_err(|e| bad("vitrum:sample-target", e))?;
+    let number = |name: &str| -> Result<u64, OutputError> {
+        attr(name)?.parse().map_err(|_| bad(name, "not a whole number".into()))
+    };
+    let planned = u32::try_from(number("vitrum:spp-planned")?)
+        .map_err(|_| bad("vitrum:spp-planned", "too big".into()))?;
+    let non_finite = number("vitrum:non-finite")?;
+    let identity = Identity::parse(attr("vitrum:settings")?).map_err(|e| bad("vitrum:settings", e))?;
+    let norm: f64 =
+        attr("vitrum:film-norm")?.parse().map_err(|_| bad("vitrum:film-norm", "not a number".into()))?;
+    let rays = parse_rays(attr("vitrum:rays")?).ok_or_else(|| bad("vitrum:rays", "not ray counts".into()))?;
+    let seconds: f64 = attr("renderTimeSeconds")?.parse().unwrap_or(0.0);
+    let count = u32::try_from(samples.count()).map_err(|_| bad("vitrum:samples", "too many".into()))?;
+
+    let (w, h) = (image.width, image.height);
+    let channel = |name: &str| -> Result<&Vec<u32>, OutputError> {
+        layer
+            .channels
+            .iter()
+            .find(|(n, _)| n == name)
+            .map(|(_, v)| v)
+            .filter(|v| v.len() == w * h)
+            .ok_or_else(|| not_a_part(&format!("its film layer has no full-size {name} channel")))
+    };
+    let mut film = Film::new(w, h, norm, identity.get("wavelengths") == Some("yes"));
+    for (name, values) in [("sum", &mut film.sum), ("sum_sq", &mut film.sum_sq)] {
+        for (axis, pick) in [("R", 0usize), ("G", 1), ("B", 2)] {
+            let (hi, lo) = (channel(&format!("{name}.{axis}.hi"))?, channel(&format!("{name}.{axis}.lo"))?);
+            for (v, (&hi, &lo)) in values.iter_mut().zip(hi.iter().zip(lo)) {
+                let mut a = v.to_array();
+                a[pick] = f64::from_bits((hi as u64) << 32 | lo as u64);
+                *v = DVec3::from_array(a);
+            }
+        }
+    }
+    film.first = samples.ranges().first().map_or(target.start, |r| r.start);
+    film.samples = count;
+    film.rays = rays;
+    film.non_finite = non_finite;
+    film.seconds = seconds;
+    Ok(PartFile { part: Part { film, info: PartInfo { identity, samples, target, planned } }, attributes })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::stats::RayCounts;
+
+    #[test]
+    fn a_part_round_trips_bit_for_bit() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("part.exr");
+        let mut film = Film::new(5, 3, 0.37, true);
+        for (i, (s, q)) in film.sum.iter_mut().zip(film.sum_sq.iter_mut()).enumerate() {
+            *s = DVec3::new(i as f64 * 0.1 + 1e-17, -(i as f64).sqrt() / 3.0, f64::MIN_POSITIVE);
+            *q = DVec3::new(f64::NAN, f64::INFINITY, 1.0 / (i as f64 + 7.0));
+        }
+        film.first = 16;
+        film.samples = 8;
+        film.rays = RayCounts { primary: 120, reflected: 3, refracted: 4, shadow: 5 };
+        film.non_finite = 2;
+        let identity = Identity::parse("version=0.1.0; seed=7; sampler=sobol; wavelengths=yes").unwrap();
+        let info = PartInfo { identity, samples: SampleSet::of(16..24), target: 16..32, planned: 64 };
+        let part = Part { film, info };
+        let meta =
+            ExrMetadata { spp: 8, rays: part.film.rays, render_time_seconds: 1.5, ..Default::default() };
+        stage_part(&path, &part.film, &part.info, &meta, &[], &[]).unwrap().commit().unwrap();
+
+        let back = read_part(&path).unwrap().part;
+        let bits = |v: &[DVec3]| v.iter().flat_map(|d| d.to_array().map(f64::to_bits)).collect::<Vec<u64>>();
+        assert_eq!(bits(&back.film.sum), bits(&part.film.sum));
+        assert_eq!(bits(&back.film.sum_sq), bits(&part.film.sum_sq));
+        assert_eq!((back.film.first, back.film.samples, back.film.norm), (16, 8, 0.37));
+        assert_eq!((back.film.rays, back.film.non_finite, back.film.spectral), (part.film.rays, 2, true));
+        assert_eq!((back.info.samples, back.info.target, back.info.planned), (part.info.samples, 16..32, 64));
+        assert_eq!(back.info.identity, part.info.identity);
+        // The beauty layer is the image, as in any render.
+        let (image, _) = read_exr(&path).unwrap();
+        assert_eq!(image.pixels, part.film.image().pixels);
+    }
+
+    #[test]
+    fn a_plain_render_is_not_a_part() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("plain.exr");
+        super::super::exr::write_exr(&path, &crate::image::Image::new(2, 2), &ExrMetadata::default())
+            .unwrap();
+        let err = read_part(&path).err().unwrap().to_string();
+        assert!(err.contains("not a render part") && err.contains("--shard"), "{err}");
+    }
+}

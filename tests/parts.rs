@@ -1,0 +1,447 @@
+//! Renders in parts, against the real binary: a render killed outright (SIGKILL) at any moment
+//! leaves only complete checkpoints, and resuming one gives the bits of the uninterrupted
+//! render; shards rendered by separate processes in parallel (`xargs -P`) merge into the single
+//! render; parts of different renders are refused.
+//!
+//! The tests take a lock so that they run one at a time: the kill test times its kills from a
+//! reference run.
+
+mod common;
+use common::entries;
+use std::path::Path;
+use std::process::{Command, Output, Stdio};
+use std::sync::Mutex;
+use std::thread::sleep;
+use std::time::Instant;
+use vitrum::image::Image;
+use vitrum::output::exr::read_exr;
+use vitrum::output::film::read_part;
+
+/// One test at a time (each spawns renders that use both cores).
+static SERIAL: Mutex<()> = Mutex::new(());
+
+fn serial() -> std::sync::MutexGuard<'static, ()> {
+    SERIAL.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+/// `vitrum ARGS` in `dir`.
+fn vitrum(dir: &Path, args: &[&str]) -> Command {
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_vitrum"));
+    cmd.current_dir(dir).args(args).stdout(Stdio::piped()).stderr(Stdio::piped());
+    cmd
+}
+
+/// Run `vitrum ARGS` in `dir` to the end.
+fn run(dir: &Path, args: &[&str]) -> Output {
+    vitrum(dir, args).output().unwrap()
+}
+
+/// Run `vitrum ARGS` in `dir`; panics unless it succeeds.
+fn ok(dir: &Path, args: &[&str]) {
+    let out = run(dir, args);
+    assert!(out.status.success(), "vitrum {args:?}: {}", String::from_utf8_lossy(&out.stderr));
+}
+
+/// Pixels as raw bits (NaN and -0.0 compare exactly).
+fn bits(image: &Image) -> Vec<[u32; 3]> {
+    image.pixels.iter().map(|p| p.to_array().map(f32::to_bits)).collect()
+}
+
+/// The beauty image of an EXR in `dir`.
+fn image(dir: &Path, name: &str) -> Image {
+    read_exr(&dir.join(name)).unwrap_or_else(|e| panic!("{name}: {e}")).0
+}
+
+/// The render every test splits: the default scene, small, fixed seed.
+const BASE: [&str; 6] = ["render", "--resolution", "128x128", "--seed", "11", "--quiet"];
+
+fn with_base<'a>(args: &[&'a str]) -> Vec<&'a str> {
+    BASE.iter().copied().chain(args.iter().copied()).collect()
+}
+
+#[test]
+fn resume_after_sigkill_at_any_moment_equals_the_uninterrupted_render() {
+    let _serial = serial();
+    for method in ["path", "light"] {
+        let dir = tempfile::tempdir().unwrap();
+        let dir = dir.path();
+        let spp = "160";
+        let start = Instant::now();
+        ok(dir, &with_base(&["-i", method, "--spp", spp, "-o", "full.exr"]));
+        let full_time = start.elapsed();
+        let full = bits(&image(dir, "full.exr"));
+
+        let args = with_base(&["-i", method, "--spp", spp, "-o", "out.exr", "--checkpoint", "0"]);
+        let (mut cut_short, mut killed) = (0, Vec::new());
+        for fraction in [0.05, 0.2, 0.35, 0.5, 0.65, 0.8, 0.95] {
+            let _ = std::fs::remove_file(dir.join("out.exr"));
+            let mut child = vitrum(dir, &args).spawn().unwrap();
+            killed.push(child.id());
+            sleep(full_time.mul_f64(fraction));
+            child.kill().unwrap(); // SIGKILL (no effect if it has already finished)
+            child.wait().unwrap();
+            // Beside the output, at most the temporary files of killed renders.
+            for name in entries(dir) {
+                let pid = name.strip_prefix(".out.exr.tmp-").and_then(|r| r.split_once('-')).map(|(p, _)| p);
+                let ours = pid.and_then(|p| p.parse().ok()).is_some_and(|p: u32| killed.contains(&p));
+                assert!(
+                    ["full.exr", "out.exr"].contains(&name.as_str()) || ours,
+                    "{method}: stray file {name}"
+                );
+            }
+            if !dir.join("out.exr").exists() {
+                continue; // killed before its first checkpoint
+            }
+            // A checkpoint is always a complete, valid part of the render.
+            let part = read_part(&dir.join("out.exr"))
+                .unwrap_or_else(|e| panic!("{method}, kill at {fraction}: corrupt checkpoint: {e}"))
+                .part;
+            let done = part.info.samples.as_range().expect("one range");
+            assert_eq!((done.start, part.info.target.clone()), (0, 0..160), "{method}");
+            if done.end < 160 {
+                cut_short += 1;
+                ok(dir, &["render", "--resume", "out.exr", "--quiet"]);
+            }
+            assert!(
+                bits(&image(dir, "out.exr")) == full,
+                "{method}: resumed after {} of 160 samples, the image differs from the uninterrupted one",
+                done.end
+            );
+        }
+        assert!(cut_short >= 2, "{method}: at least two kills cut the render short ({cut_short})");
+    }
+}
+
+/// Largest relative difference between two images' channels.
+fn max_relative_difference(a: &Image, b: &Image) -> f64 {
+    let rel = |x: f32, y: f32| ((x - y).abs() as f64) / (y.abs() as f64).max(1e-30);
+    a.pixels
+        .iter()
+        .zip(&b.pixels)
+        .flat_map(|(p, q)| [rel(p.x, q.x), rel(p.y, q.y), rel(p.z, q.z)])
+        .fold(0.0, f64::max)
+}
+
+#[test]
+fn shards_rendered_by_parallel_processes_merge_into_the_single_render() {
+    let _serial = serial();
+    let binary = env!("CARGO_BIN_EXE_vitrum");
+    for method in ["path", "light"] {
+        let dir = tempfile::tempdir().unwrap();
+        let dir = dir.path();
+        // 10 samples in 4 shards: 2, 3, 2, 3 samples (uneven, so the weights matter).
+        ok(dir, &with_base(&["-i", method, "--spp", "10", "-o", "single.exr"]));
+        let script = format!(
+            "seq 0 3 | xargs -P 4 -I{{}} '{binary}' render --resolution 128x128 --seed 11 --quiet -i {method} \
+             --spp 10 --shard {{}}/4 -o part-{{}}.exr"
+        );
+        let status = Command::new("sh").arg("-c").arg(&script).current_dir(dir).status().unwrap();
+        assert!(status.success(), "{script}");
+        let parts: Vec<String> = (0..4).map(|i| format!("part-{i}.exr")).collect();
+        for (i, p) in parts.iter().enumerate() {
+            let samples = read_part(&dir.join(p)).unwrap().part.info.samples.to_string();
+            assert_eq!(samples, ["0..2", "2..5", "5..7", "7..10"][i], "{method} {p}");
+        }
+        let mut merge: Vec<&str> = vec!["merge"];
+        merge.extend(parts.iter().rev().map(String::as_str)); // any order
+        merge.extend(["-o", "merged.exr"]);
+        ok(dir, &merge);
+
+        let (merged, merged_meta) = read_exr(&dir.join("merged.exr")).unwrap();
+        let (single, single_meta) = read_exr(&dir.join("single.exr")).unwrap();
+        assert_eq!(merged_meta["vitrum:spp"], "10");
+        assert_eq!(merged_meta["vitrum:samples"], "0..10");
+        assert_eq!(
+            merged_meta["vitrum:rays"], single_meta["vitrum:rays"],
+            "{method}: the same rays were traced"
+        );
+        // Partial sums round differently from one running sum (see `vitrum::parts`): equal
+        // within f64 summation rounding, far below an f32 ulp of most pixels.
+        let worst = max_relative_difference(&merged, &single);
+        let same = bits(&merged).iter().zip(bits(&single)).filter(|(a, b)| **a == *b).count();
+        eprintln!(
+            "{method}: {same} of {} pixels bit-identical, worst relative difference {worst:e}",
+            single.pixels.len()
+        );
+        assert!(worst <= 1e-6, "{method}: merged differs from the single render by {worst:e}");
+        assert!(merged.pixels.iter().any(|p| p.max_element() > 0.0), "not a black image");
+    }
+}
+
+#[test]
+fn parts_of_different_renders_are_refused() {
+    let _serial = serial();
+    let dir = tempfile::tempdir().unwrap();
+    let dir = dir.path();
+    let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/soft-shadows.toml");
+    // Shard settings (24x24, seed 1, 4 spp) unless `extra` gives its own.
+    let part = |name: &str, extra: &[&str]| {
+        let mut args = vec!["render", "--quiet", "-o", name];
+        for (option, value) in [("--resolution", "24x24"), ("--seed", "1"), ("--spp", "4")] {
+            if !extra.contains(&option) {
+                args.extend([option, value]);
+            }
+        }
+        args.extend_from_slice(extra);
+        ok(dir, &args);
+    };
+    part("a.exr", &["--shard", "0/2"]);
+    part("seed.exr", &["--shard", "1/2", "--seed", "2"]);
+    part("integrator.exr", &["--shard", "1/2", "-i", "light"]);
+    part("resolution.exr", &["--shard", "1/2", "--resolution", "16x16"]);
+    part("scene.exr", &[scene, "--shard", "1/2"]);
+    part("depth.exr", &["--shard", "1/2", "--max-depth", "3"]);
+    part("sampler.exr", &["--shard", "1/2", "--sampler", "independent"]);
+    part("overlap.exr", &["--samples", "1..3"]);
+    part("plain.exr", &[]);
+    part("strat-a.exr", &["--shard", "0/2", "--sampler", "stratified"]);
+    part("strat-b.exr", &["--samples", "2..4", "--spp", "9", "--sampler", "stratified"]);
+    let cases = [
+        (["a.exr", "seed.exr"], "its seed is 2, not 1"),
+        (["a.exr", "integrator.exr"], "its integrator is light, not whitted"),
+        (["a.exr", "resolution.exr"], "its resolution is 16x16, not 24x24"),
+        (["a.exr", "scene.exr"], "its scene is"),
+        (["a.exr", "depth.exr"], "its max-depth is 3"),
+        (["a.exr", "sampler.exr"], "its sampler is independent, not sobol"),
+        (["a.exr", "overlap.exr"], "holds the sample indices 1..2"),
+        (["a.exr", "plain.exr"], "not a render part"),
+        (["strat-a.exr", "strat-b.exr"], "plan"),
+    ];
+    for (files, expected) in cases {
+        let out = run(dir, &["merge", files[0], files[1], "-o", "merged.exr"]);
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{files:?}: {stderr}");
+        assert!(stderr.contains(expected) && stderr.contains(files[1]), "{files:?}: {stderr}");
+        assert!(!dir.join("merged.exr").exists(), "{files:?}: no output written");
+    }
+    // The right pair merges; a resume with other settings is refused as well.
+    part("b.exr", &["--shard", "1/2"]);
+    ok(dir, &["merge", "a.exr", "b.exr", "-o", "x.exr"]);
+    let out = run(dir, &["render", "--resume", "a.exr", "--seed", "3", "--spp", "8"]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert!(stderr.contains("rendered with seed 1; these options give 3"), "{stderr}");
+    assert!(entries(dir).iter().all(|n| !n.starts_with('.')), "no temporary files: {:?}", entries(dir));
+}
+
+#[test]
+fn render_parts_refuse_bad_input_with_exit_code_2() {
+    let _serial = serial();
+    let dir = tempfile::tempdir().unwrap();
+    let dir = dir.path();
+    let cases: [(&[&str], &str); 6] = [
+        (&["-i", "ssaa", "--shard", "0/2"], "`ssaa` cannot be rendered in parts"),
+        (&["--spp", "3", "--shard", "0/4"], "--shard 0/4: empty"),
+        (&["--shard", "2/2"], "expected I/N"),
+        (&["--samples", "4..2"], "expected a sample range"),
+        (&["--samples", "0..9", "--spp", "8"], "beyond the --spp 8 samples"),
+        (&["--checkpoint", "-1"], "--checkpoint -1"),
+    ];
+    for (args, expected) in cases {
+        let mut all = vec!["render", "--resolution", "16x16", "--quiet", "-o", "out.exr"];
+        all.extend_from_slice(args);
+        let out = run(dir, &all);
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {stderr}");
+        assert!(stderr.contains(expected), "{args:?}: {stderr}");
+        assert!(entries(dir).is_empty(), "{args:?}: nothing written");
+    }
+    // A finished part resumed without a larger --spp has nothing to do, successfully (a
+    // cluster job restarted after it finished), and is left as it was.
+    ok(dir, &["render", "--resolution", "16x16", "--quiet", "-o", "out.exr", "--samples", "0..2"]);
+    let before = std::fs::read(dir.join("out.exr")).unwrap();
+    let out = run(dir, &["render", "--resume", "out.exr"]);
+    assert_eq!(out.status.code(), Some(0));
+    assert!(String::from_utf8_lossy(&out.stderr)
+        .contains("already holds all its samples 0..2: nothing to render"));
+    assert!(std::fs::read(dir.join("out.exr")).unwrap() == before);
+    // More samples than it holds but fewer than asked for earlier are no resume.
+    let out = run(dir, &["render", "--resume", "out.exr", "--spp", "2"]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("asks for no more"));
+}
+
+#[test]
+fn converge_and_compare_measure_precomputed_shard_results() {
+    let _serial = serial();
+    let dir = tempfile::tempdir().unwrap();
+    let dir = dir.path();
+    fn with<'a>(extra: &[&'a str]) -> Vec<&'a str> {
+        ["render", "--resolution", "32x32", "--quiet"].into_iter().chain(extra.iter().copied()).collect()
+    }
+    // The reference from two shards, the renders from other processes.
+    for shard in ["0/2", "1/2"] {
+        let name = format!("ref-{}.exr", &shard[..1]);
+        ok(dir, &with(&["-i", "path", "--spp", "64", "--shard", shard, "-o", &name]));
+    }
+    ok(dir, &["merge", "ref-0.exr", "ref-1.exr", "-o", "ref.exr"]);
+    for (method, spp) in [("path", "2"), ("path", "8"), ("light", "8")] {
+        let name = format!("{method}-{spp}.exr");
+        ok(dir, &with(&["-i", method, "--spp", spp, "--seed", "3", "-o", &name]));
+    }
+    let renders = ["--renders", "path-8.exr", "path-2.exr", "light-8.exr"];
+    let mut converge = vec!["converge", "--reference", "ref.exr", "--out", "cv", "--quiet"];
+    converge.extend(renders);
+    ok(dir, &converge);
+    let csv = std::fs::read_to_string(dir.join("cv/converge.csv")).unwrap();
+    let rows: Vec<Vec<&str>> = csv.lines().skip(1).map(|l| l.split(',').collect()).collect();
+    let keys: Vec<(&str, &str)> = rows.iter().map(|r| (r[0], r[1])).collect();
+    assert_eq!(keys, [("path", "2"), ("path", "8"), ("light", "8")], "{csv}");
+    // Each row's relMSE is what `vitrum diff` measures for that file.
+    for row in &rows {
+        let file = format!("{}-{}.exr", row[0], row[1]);
+        let out = run(dir, &["diff", &file, "ref.exr", "--json"]);
+        let diff: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        let rel_mse: f64 = row[6].parse().unwrap();
+        assert_eq!(rel_mse, diff["rel_mse"].as_f64().unwrap(), "{file}");
+    }
+    ok(
+        dir,
+        &[
+            "compare",
+            "--reference",
+            "ref.exr",
+            "--out",
+            "cmp",
+            "--quiet",
+            "--renders",
+            "path-8.exr",
+            "light-8.exr",
+        ],
+    );
+    let table = std::fs::read_to_string(dir.join("cmp/compare.csv")).unwrap();
+    assert_eq!(table.lines().count(), 3, "a header and one row per method:\n{table}");
+    assert!(dir.join("cmp/compare.png").exists());
+    // A render of another scene is refused.
+    let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/soft-shadows.toml");
+    ok(dir, &with(&[scene, "-i", "path", "--spp", "2", "-o", "other.exr"]));
+    let out = run(dir, &["converge", "--reference", "ref.exr", "--out", "cv2", "--renders", "other.exr"]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("rendered from another scene"));
+}
+
+#[test]
+fn the_slurm_array_script_renders_resumes_and_merges_the_shards() {
+    let _serial = serial();
+    let dir = tempfile::tempdir().unwrap();
+    let dir = dir.path();
+    let scripts = concat!(env!("CARGO_MANIFEST_DIR"), "/scripts/slurm");
+    let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/soft-shadows.toml");
+    let options = ["-i", "light", "--spp", "7", "--resolution", "32x32", "--seed", "2"];
+    // What Slurm runs for array task `index` of 3 (the #SBATCH lines are comments to bash).
+    let task = |index: u32| {
+        let mut cmd = Command::new("bash");
+        cmd.arg(format!("{scripts}/render-shard.sbatch")).arg(scene).arg("parts").args(options);
+        cmd.current_dir(dir).env("VITRUM", env!("CARGO_BIN_EXE_vitrum"));
+        cmd.env("SLURM_ARRAY_TASK_ID", index.to_string()).env("SLURM_ARRAY_TASK_COUNT", "3");
+        cmd.env("SLURM_ARRAY_TASK_MIN", "0").stdout(Stdio::piped()).stderr(Stdio::piped());
+        cmd
+    };
+    let tasks: Vec<_> = (0..3).map(|i| task(i).spawn().unwrap()).collect();
+    for t in tasks {
+        let out = t.wait_with_output().unwrap();
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    }
+    // A requeued task whose shard is done does nothing, and succeeds.
+    let before = std::fs::read(dir.join("parts/part-1-of-3.exr")).unwrap();
+    let out = task(1).output().unwrap();
+    assert!(out.status.success() && String::from_utf8_lossy(&out.stderr).contains("nothing to render"));
+    assert!(std::fs::read(dir.join("parts/part-1-of-3.exr")).unwrap() == before);
+
+    let merge = Command::new("bash")
+        .arg(format!("{scripts}/merge.sbatch"))
+        .args(["parts", "merged.exr"])
+        .current_dir(dir)
+        .env("VITRUM", env!("CARGO_BIN_EXE_vitrum"))
+        .output()
+        .unwrap();
+    assert!(merge.status.success(), "{}", String::from_utf8_lossy(&merge.stderr));
+    let mut single = vec!["render", scene, "-o", "single.exr", "--quiet"];
+    single.extend(options);
+    ok(dir, &single);
+    let (merged, meta) = read_exr(&dir.join("merged.exr")).unwrap();
+    assert_eq!(meta["vitrum:samples"], "0..7");
+    let worst = max_relative_difference(&merged, &image(dir, "single.exr"));
+    assert!(worst <= 1e-6, "merged differs from the single render by {worst:e}");
+}
+
+/// The shell script of the container named `container` in a Kubernetes manifest: the block
+/// scalar under its `args:` (`- |`), dedented, or the one-line `args` item.
+fn container_script(manifest: &str, container: &str) -> String {
+    let start = manifest.find(&format!("- name: {container}")).expect("the container");
+    let rest = &manifest[start..];
+    let args = rest.find("args:").expect("args");
+    let mut lines = rest[args..].lines().skip(1);
+    let first = lines.next().expect("an args item");
+    if let Some(one_line) = first.trim().strip_prefix("- ").filter(|l| *l != "|") {
+        return one_line.to_string();
+    }
+    let body: Vec<&str> =
+        lines.take_while(|l| l.starts_with("              ") || l.trim().is_empty()).collect();
+    body.iter().map(|l| l.get(14..).unwrap_or("")).collect::<Vec<_>>().join("\n")
+}
+
+#[test]
+fn the_kubernetes_indexed_job_commands_render_resume_and_merge() {
+    let _serial = serial();
+    let dir = tempfile::tempdir().unwrap();
+    let dir = dir.path();
+    let k8s = concat!(env!("CARGO_MANIFEST_DIR"), "/scripts/kubernetes");
+    let scenes = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes");
+    let results = dir.join("results");
+    // The manifests' commands, with the volume and image paths pointed here and the render made
+    // small (the options' structure is left as written).
+    let local = |script: String| {
+        script
+            .replace("/results", results.to_str().unwrap())
+            .replace("/vitrum/scenes", scenes)
+            .replace("--spp 65536", "--spp 32 --resolution 24x24")
+    };
+    let render = local(container_script(
+        &std::fs::read_to_string(format!("{k8s}/render-shards.yaml")).unwrap(),
+        "render",
+    ));
+    let merge =
+        local(container_script(&std::fs::read_to_string(format!("{k8s}/merge.yaml")).unwrap(), "merge"));
+    assert!(
+        render.contains("--shard \"$JOB_COMPLETION_INDEX/16\"") && render.contains("--resume"),
+        "{render}"
+    );
+    let bin_dir = Path::new(env!("CARGO_BIN_EXE_vitrum")).parent().unwrap().to_str().unwrap().to_string();
+    let path = format!("{bin_dir}:{}", std::env::var("PATH").unwrap_or_default());
+    let pod = |index: u32| {
+        let out = Command::new("sh")
+            .arg("-c")
+            .arg(&render)
+            .env("JOB_COMPLETION_INDEX", index.to_string())
+            .env("PATH", &path)
+            .output()
+            .unwrap();
+        assert!(out.status.success(), "pod {index}: {}", String::from_utf8_lossy(&out.stderr));
+        out
+    };
+    for index in 0..16 {
+        pod(index);
+    }
+    // A restarted pod finds its finished part and does nothing.
+    assert!(String::from_utf8_lossy(&pod(7).stderr).contains("nothing to render"));
+    let out = Command::new("sh").arg("-c").arg(&merge).env("PATH", &path).output().unwrap();
+    assert!(out.status.success(), "merge: {}", String::from_utf8_lossy(&out.stderr));
+    let merged = results.join("cornell-glass-path-65536.exr");
+    let (image, meta) = read_exr(&merged).unwrap();
+    assert_eq!(meta["vitrum:samples"], "0..32");
+    let single = [
+        "render",
+        &format!("{scenes}/cornell-glass.toml"),
+        "-i",
+        "path",
+        "--spp",
+        "32",
+        "--resolution",
+        "24x24",
+    ];
+    let mut single = single.to_vec();
+    single.extend(["-o", "single.exr", "--quiet"]);
+    ok(dir, &single);
+    assert!(max_relative_difference(&image, &self::image(dir, "single.exr")) <= 1e-6);
+}
