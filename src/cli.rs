@@ -122,12 +122,14 @@ pub struct RenderArgs {
     #[arg(long)]
     pub density_map: Option<PathBuf>,
     /// Also write the render so far to the output every this many seconds (0: after every
-    /// sample pass), with the sums that `--resume` continues from.
+    /// sample pass), with the sums that `--resume` continues from. Render time (and a --time
+    /// budget) counts the sample passes, not the writes.
     #[arg(long, allow_negative_numbers = true)]
     pub checkpoint: Option<f64>,
     /// Continue the render part in this EXR file (a checkpoint, an interrupted or a finished
-    /// part) to its target, or to a larger --spp; its settings are the defaults, and the output
-    /// defaults to it. The result equals an uninterrupted render bit for bit.
+    /// part) to its target samples or time budget, to a larger --spp, or for --time more
+    /// seconds; its settings are the defaults, and the output defaults to it. The result equals
+    /// an uninterrupted render bit for bit.
     #[arg(long, conflicts_with_all = ["samples", "shard"])]
     pub resume: Option<PathBuf>,
     /// Render only the sample indices A..B of the render (of --spp samples; default B), keeping
@@ -392,16 +394,10 @@ pub fn render_options(
 fn run_render(args: &RenderArgs) -> Result<(), CliError> {
     // A resumed part's settings are the defaults of every option.
     let resumed = args.resume.as_deref().map(parts::read_resumed).transpose()?;
-    if let Some(file) = resumed.as_ref().filter(|f| parts::nothing_to_resume(args, f)) {
-        let part = &file.part;
-        eprintln!(
-            "vitrum: {} already holds all its samples {}..{}: nothing to render (give a larger --spp or --time to continue)",
-            args.resume.as_deref().expect("resuming").display(),
-            part.info.target.start,
-            part.info.target.end
-        );
-        return Ok(());
-    }
+    // Resuming a finished part into itself (a cluster job restarted after it finished) has
+    // nothing to do, once its settings are checked.
+    let finished =
+        resumed.as_ref().is_some_and(|f| parts::finished(f) && args.spp.is_none() && args.time.is_none());
     let args = &match &resumed {
         Some(file) => parts::resume_defaults(args, file)?,
         None => args.clone(),
@@ -431,6 +427,16 @@ fn run_render(args: &RenderArgs) -> Result<(), CliError> {
     }
     // A render part (a shard, a resumed or checkpointed render) keeps its sums in the output.
     let mut part = parts::plan(args, &scene, integrator.as_ref(), &mut opts, resumed)?;
+    if let (true, Some(p), Some(resumed)) = (finished, &part, &args.resume) {
+        if same_file(resumed, &output) {
+            let done = &p.info.samples;
+            eprintln!(
+                "vitrum: {} already holds all its samples {done}: nothing to render (give a larger --spp or --time to continue)",
+                resumed.display()
+            );
+            return Ok(());
+        }
+    }
     let pool = thread_pool(args.threads)?;
 
     let bar = (!args.quiet && std::io::stderr().is_terminal()).then(|| {
@@ -470,7 +476,14 @@ fn run_render(args: &RenderArgs) -> Result<(), CliError> {
     if let Some(b) = bar {
         b.finish_and_clear();
     }
-    let interrupted = interrupt::stop_requested().then(|| interruption(integrator.as_ref(), &opts, &out));
+    let interrupted = interrupt::stop_requested().then(|| match &part {
+        // A part: which of its sample indices are done (`vitrum render --resume` continues).
+        Some(p) => format!(
+            "SIGINT after the samples {} of {}..{}",
+            p.info.samples, p.info.target.start, p.info.target.end
+        ),
+        None => interruption(integrator.as_ref(), &opts, &out),
+    });
 
     let meta = exr_metadata(&scene, integrator.name(), opts.seed, (out.spp, out.seconds, out.rays));
     // Encode every output first and publish them together: a failure leaves none behind.
@@ -515,6 +528,14 @@ fn run_render(args: &RenderArgs) -> Result<(), CliError> {
     }
     report(args, &output, &scene, integrator.name(), &opts, &out);
     Ok(())
+}
+
+/// Whether `a` and `b` name the same file (or the same path, when they do not exist).
+fn same_file(a: &Path, b: &Path) -> bool {
+    match (std::fs::canonicalize(a), std::fs::canonicalize(b)) {
+        (Ok(a), Ok(b)) => a == b,
+        _ => a == b,
+    }
 }
 
 /// The EXR header metadata of a render of `scene` by `integrator` with `seed` that took

@@ -15,9 +15,9 @@
 //!   same way: every part's estimate is its sum over (its samples · the film area), the merge
 //!   divides the summed sums by the summed sample counts.
 
-use crate::render::{Film, RenderOptions};
+use crate::render::{Film, Progression, RenderOptions};
 use crate::sampler::SamplerKind;
-use crate::scene::{Scene, SpectralMode};
+use crate::scene::Scene;
 use std::fmt;
 use std::ops::Range;
 
@@ -141,11 +141,6 @@ impl Identity {
         (width, height): (usize, usize),
         wavelengths: bool,
     ) -> Identity {
-        let spectral = match opts.spectral {
-            SpectralMode::Auto => "auto",
-            SpectralMode::On => "on",
-            SpectralMode::Off => "off",
-        };
         let fields = [
             ("version", crate::VERSION.to_string()),
             ("scene", scene.origin.hash.clone()),
@@ -154,7 +149,6 @@ impl Identity {
             ("resolution", format!("{width}x{height}")),
             ("sampler", opts.sampler.name().to_string()),
             ("max-depth", opts.params.max_depth.to_string()),
-            ("spectral", spectral.to_string()),
             ("wavelengths", if wavelengths { "yes" } else { "no" }.to_string()),
             ("reflectance", opts.params.reflectance.map_or("fresnel".to_string(), |r| r.to_string())),
         ];
@@ -224,15 +218,28 @@ pub struct PartInfo {
     pub samples: SampleSet,
     /// The sample indices the part was asked to render (a resume renders the rest of them).
     pub target: Range<u32>,
-    /// The sample count its sampler planned for (sample `s` was drawn as sample `s` of this).
+    /// The sample count its sampler planned for (sample `s` was drawn as sample `s` of this; 0:
+    /// no plan, a time budget).
     pub planned: u32,
+    /// For a time budget, the render seconds it was given in all (a resume renders the rest).
+    pub time_budget: Option<f64>,
+    /// The scene file it was rendered from, absolute (or the embedded default scene's name):
+    /// where `--resume` reads the scene.
+    pub scene_file: String,
 }
 
 impl PartInfo {
-    /// Whether the sample count planned for changes the samples drawn: with the stratified
-    /// sampler (strata of the planned count), and for a plan of one sample (the pixel centre).
+    /// Whether the sample count planned for changes the samples drawn: for the camera pass
+    /// with the stratified sampler (strata of the planned count) and a plan of one sample (the
+    /// pixel centre); light tracing's paths never depend on it.
     pub fn plan_matters(&self) -> bool {
-        self.identity.get("sampler") == Some(SamplerKind::Stratified.name()) || self.planned == 1
+        let camera_pass = self
+            .identity
+            .get("integrator")
+            .and_then(crate::integrators::create)
+            .is_some_and(|i| matches!(i.progression(), Progression::CameraPass));
+        camera_pass
+            && (self.identity.get("sampler") == Some(SamplerKind::Stratified.name()) || self.planned == 1)
     }
 }
 
@@ -282,10 +289,15 @@ pub fn merge(parts: &[(String, Part)]) -> Result<Part, String> {
     film.first = hull.start;
     film.samples = count;
     let planned = order.iter().map(|(_, p)| p.info.planned).max().unwrap_or(0);
-    Ok(Part {
-        film,
-        info: PartInfo { identity: first.info.identity.clone(), samples, target: hull, planned },
-    })
+    let info = PartInfo {
+        identity: first.info.identity.clone(),
+        samples,
+        target: hull,
+        planned,
+        time_budget: None,
+        scene_file: first.info.scene_file.clone(),
+    };
+    Ok(Part { film, info })
 }
 
 /// Add `other`'s sums and counters to `film` (same size).
@@ -346,10 +358,12 @@ mod tests {
         film.sum_sq = vec![glam::DVec3::splat(values * values); 2];
         film.first = samples.start;
         film.samples = samples.end - samples.start;
-        let identity = Identity(vec![("seed".into(), seed.into()), ("sampler".into(), "sobol".into())]);
+        let fields = [("seed", seed), ("sampler", "sobol"), ("integrator", "path")];
+        let identity = Identity(fields.iter().map(|(k, v)| (k.to_string(), v.to_string())).collect());
         let name = format!("part {}..{}", samples.start, samples.end);
+        let (set, scene_file) = (SampleSet::of(samples.clone()), "s.toml".to_string());
         let info =
-            PartInfo { identity, samples: SampleSet::of(samples.clone()), target: samples, planned: 12 };
+            PartInfo { identity, samples: set, target: samples, planned: 12, time_budget: None, scene_file };
         (name, Part { film, info })
     }
 

@@ -217,10 +217,21 @@ fn parts_of_different_renders_are_refused() {
     // The right pair merges; a resume with other settings is refused as well.
     part("b.exr", &["--shard", "1/2"]);
     ok(dir, &["merge", "a.exr", "b.exr", "-o", "x.exr"]);
-    let out = run(dir, &["render", "--resume", "a.exr", "--seed", "3", "--spp", "8"]);
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(2), "{stderr}");
-    assert!(stderr.contains("rendered with seed 1; these options give 3"), "{stderr}");
+    let refused = |args: &[&str], expected: &str| {
+        let out = run(dir, args);
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {stderr}");
+        assert!(stderr.contains(expected), "{args:?}: {stderr}");
+    };
+    refused(&["render", "--resume", "a.exr", "--seed", "3"], "rendered with seed 1; these options give 3");
+    // A shard cannot grow into its neighbours' samples.
+    refused(&["render", "--resume", "a.exr", "--spp", "8"], "it is the shard 0..2 of a 4-sample render");
+    // Parts that differ only in the spectral mode, not in whether wavelengths are traced (the
+    // default scene does not disperse: `auto` traces none), are parts of one render.
+    part("off.exr", &["--shard", "1/2", "--spectral", "off"]);
+    ok(dir, &["merge", "a.exr", "off.exr", "-o", "y.exr"]);
+    part("on.exr", &["--shard", "1/2", "--spectral", "on"]);
+    refused(&["merge", "a.exr", "on.exr", "-o", "z.exr"], "its wavelengths is yes, not no");
     assert!(entries(dir).iter().all(|n| !n.starts_with('.')), "no temporary files: {:?}", entries(dir));
 }
 
@@ -331,13 +342,16 @@ fn the_slurm_array_script_renders_resumes_and_merges_the_shards() {
     // What Slurm runs for array task `index` of 3 (the #SBATCH lines are comments to bash).
     let task = |index: u32| {
         let mut cmd = Command::new("bash");
-        cmd.arg(format!("{scripts}/render-shard.sbatch")).arg(scene).arg("parts").args(options);
+        cmd.arg(format!("{scripts}/render-shard.sbatch")).args(["3", scene, "parts"]).args(options);
         cmd.current_dir(dir).env("VITRUM", env!("CARGO_BIN_EXE_vitrum"));
         cmd.env("SLURM_ARRAY_TASK_ID", index.to_string()).env("SLURM_ARRAY_TASK_COUNT", "3");
         cmd.env("SLURM_ARRAY_TASK_MIN", "0").stdout(Stdio::piped()).stderr(Stdio::piped());
         cmd
     };
-    let tasks: Vec<_> = (0..3).map(|i| task(i).spawn().unwrap()).collect();
+    // Task 2 rerun alone (`sbatch --array=2`): Slurm counts 1 task in that submission.
+    let mut rerun = task(2);
+    rerun.env("SLURM_ARRAY_TASK_COUNT", "1").env("SLURM_ARRAY_TASK_MIN", "2");
+    let tasks: Vec<_> = [task(0).spawn().unwrap(), task(1).spawn().unwrap(), rerun.spawn().unwrap()].into();
     for t in tasks {
         let out = t.wait_with_output().unwrap();
         assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
@@ -350,7 +364,7 @@ fn the_slurm_array_script_renders_resumes_and_merges_the_shards() {
 
     let merge = Command::new("bash")
         .arg(format!("{scripts}/merge.sbatch"))
-        .args(["parts", "merged.exr"])
+        .args(["3", "parts", "merged.exr"])
         .current_dir(dir)
         .env("VITRUM", env!("CARGO_BIN_EXE_vitrum"))
         .output()
@@ -444,4 +458,145 @@ fn the_kubernetes_indexed_job_commands_render_resume_and_merge() {
     single.extend(["-o", "single.exr", "--quiet"]);
     ok(dir, &single);
     assert!(max_relative_difference(&image, &self::image(dir, "single.exr")) <= 1e-6);
+}
+
+#[test]
+fn a_part_stopped_by_sigint_resumes_to_a_larger_spp_equal_to_a_plain_render_of_it() {
+    let _serial = serial();
+    let dir = tempfile::tempdir().unwrap();
+    let dir = dir.path();
+    let base = ["render", "--resolution", "32x32", "--seed", "4", "-i", "path", "--quiet"];
+    let mut args = base.to_vec();
+    args.extend(["--spp", "1000000", "--checkpoint", "60", "-o", "part.exr"]);
+    let child = vitrum(dir, &args).spawn().unwrap();
+    sleep(std::time::Duration::from_millis(700));
+    assert!(Command::new("kill").args(["-INT", &child.id().to_string()]).status().unwrap().success());
+    let out = child.wait_with_output().unwrap();
+    assert_eq!(out.status.code(), Some(130), "{}", String::from_utf8_lossy(&out.stderr));
+    let file = read_part(&dir.join("part.exr")).unwrap();
+    let done = file.part.info.samples.as_range().unwrap();
+    assert!(done.start == 0 && done.end >= 2 && done.end < 1_000_000, "{done:?}");
+    let note = &file.attributes["vitrum:interrupted"];
+    assert_eq!(note, &format!("SIGINT after the samples 0..{} of 0..1000000", done.end));
+    // Continue to a few more samples than were done: a plain render of that many, bit for bit
+    // (the Sobol' sampler does not depend on the planned count).
+    let spp = (done.end + 3).to_string();
+    ok(dir, &["render", "--resume", "part.exr", "--spp", &spp, "--quiet"]);
+    let mut plain = base.to_vec();
+    plain.extend(["--spp", &spp, "-o", "plain.exr"]);
+    ok(dir, &plain);
+    assert!(bits(&image(dir, "part.exr")) == bits(&image(dir, "plain.exr")));
+    let resumed = read_part(&dir.join("part.exr")).unwrap();
+    assert_eq!(resumed.part.info.samples.to_string(), format!("0..{spp}"));
+    assert!(!resumed.attributes.contains_key("vitrum:interrupted"));
+}
+
+#[test]
+fn an_edited_mesh_is_another_scene_and_a_resume_finds_its_scene_from_any_folder() {
+    let _serial = serial();
+    let dir = tempfile::tempdir().unwrap();
+    let dir = dir.path();
+    let scenes = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes");
+    let work = dir.join("scene");
+    std::fs::create_dir_all(work.join("meshes")).unwrap();
+    std::fs::copy(format!("{scenes}/shapes-gallery.toml"), work.join("gallery.toml")).unwrap();
+    for e in std::fs::read_dir(format!("{scenes}/meshes")).unwrap() {
+        let e = e.unwrap();
+        std::fs::copy(e.path(), work.join("meshes").join(e.file_name())).unwrap();
+    }
+    let shard = |i: &str| {
+        let out = format!("../s{}.exr", &i[..1]);
+        ok(
+            &work,
+            &[
+                "render",
+                "gallery.toml",
+                "--resolution",
+                "24x24",
+                "--spp",
+                "4",
+                "--shard",
+                i,
+                "-o",
+                &out,
+                "--quiet",
+            ],
+        );
+    };
+    shard("0/2");
+    // Move one vertex of every mesh the scene reads (the TOML text stays the same).
+    for e in std::fs::read_dir(work.join("meshes")).unwrap() {
+        let path = e.unwrap().path();
+        let text = std::fs::read_to_string(&path).unwrap();
+        let mut moved = false;
+        let lines: Vec<String> = text
+            .lines()
+            .map(|l| match l.strip_prefix("v ") {
+                Some(xyz) if !moved => {
+                    moved = true;
+                    let mut c: Vec<f64> = xyz.split_whitespace().map(|v| v.parse().unwrap()).collect();
+                    c[0] += 0.01;
+                    format!("v {} {} {}", c[0], c[1], c[2])
+                }
+                _ => l.to_string(),
+            })
+            .collect();
+        assert!(moved, "{}: no vertex", path.display());
+        std::fs::write(&path, lines.join("\n") + "\n").unwrap();
+    }
+    shard("1/2");
+    let out = run(dir, &["merge", "s0.exr", "s1.exr", "-o", "m.exr"]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(
+        String::from_utf8_lossy(&out.stderr).contains("its scene is"),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    // The part was rendered from `scene/gallery.toml` relative to `scene/`; resumed from `dir`
+    // (with the meshes restored) it finds the scene by its recorded absolute path.
+    for e in std::fs::read_dir(format!("{scenes}/meshes")).unwrap() {
+        let e = e.unwrap();
+        std::fs::copy(e.path(), work.join("meshes").join(e.file_name())).unwrap();
+    }
+    let out = run(dir, &["render", "--resume", "s0.exr", "--quiet"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+}
+
+#[test]
+fn a_time_budget_killed_mid_way_resumes_the_rest_of_its_time() {
+    let _serial = serial();
+    let dir = tempfile::tempdir().unwrap();
+    let dir = dir.path();
+    let args = [
+        "render",
+        "--resolution",
+        "32x32",
+        "-i",
+        "path",
+        "--time",
+        "2",
+        "--checkpoint",
+        "0.05",
+        "-o",
+        "t.exr",
+        "--quiet",
+    ];
+    let mut child = vitrum(dir, &args).spawn().unwrap();
+    sleep(std::time::Duration::from_millis(700));
+    child.kill().unwrap();
+    child.wait().unwrap();
+    let before = read_part(&dir.join("t.exr")).expect("a checkpoint after 0.7 s");
+    assert_eq!(before.part.info.time_budget, Some(2.0));
+    assert!(before.part.film.seconds < 2.0, "killed before its budget was spent");
+    ok(dir, &["render", "--resume", "t.exr", "--quiet"]);
+    let after = read_part(&dir.join("t.exr")).unwrap();
+    assert!(
+        after.part.film.seconds >= 2.0,
+        "the rest of the budget was rendered: {}",
+        after.part.film.seconds
+    );
+    assert!(after.part.film.samples > before.part.film.samples);
+    // Spent: resuming again does nothing.
+    let out = run(dir, &["render", "--resume", "t.exr"]);
+    assert!(out.status.success() && String::from_utf8_lossy(&out.stderr).contains("nothing to render"));
 }

@@ -14,6 +14,7 @@ out=$3
 shift 3
 here=$(cd "$(dirname "$0")" && pwd)
 parts="${out%.exr}.parts"
-array=$(sbatch --parsable --array="0-$((count - 1))" "$here/render-shard.sbatch" "$scene" "$parts" "$@")
-sbatch --dependency="afterok:$array" "$here/merge.sbatch" "$parts" "$out"
+array=$(sbatch --parsable --array="0-$((count - 1))" "$here/render-shard.sbatch" "$count" "$scene" "$parts" "$@")
+array=${array%%;*} # --parsable prints "id" or "id;cluster"
+sbatch --dependency="afterok:$array" "$here/merge.sbatch" "$count" "$parts" "$out"
 echo "submitted: $count shards (job $array) and their merge into $out"

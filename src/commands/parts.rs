@@ -20,21 +20,22 @@ pub fn read_resumed(path: &Path) -> Result<PartFile, CliError> {
     read_part(path).map_err(|e| CliError::BadInput(format!("--resume: {e}")))
 }
 
-/// Whether resuming `file` with `args` has nothing to do: the part holds all its target samples
-/// and neither a larger `--spp` nor `--time` asks for more (a job restarted after it finished).
-pub fn nothing_to_resume(args: &RenderArgs, file: &PartFile) -> bool {
-    let part = &file.part;
-    let done = part
-        .info
-        .samples
-        .as_range()
-        .is_some_and(|r| r.start == part.info.target.start && r.end >= part.info.target.end);
-    done && args.spp.is_none() && args.time.is_none()
+/// Whether the resumed part `file` is finished: it holds all its target samples, or a time
+/// budget's render time is spent.
+pub fn finished(file: &PartFile) -> bool {
+    let (film, info) = (&file.part.film, &file.part.info);
+    match info.time_budget {
+        Some(t) => film.seconds >= t,
+        None => {
+            info.samples.as_range().is_some_and(|r| r.start == info.target.start && r.end >= info.target.end)
+        }
+    }
 }
 
 /// `args` with every render setting it leaves open taken from the resumed part `file` (the
 /// scene file it was rendered from, the integrator, seed, resolution, sampler, maximum depth,
-/// spectral mode and reflectance), and the output defaulting to the resumed file.
+/// whether it traced wavelengths and the reflectance), and the output defaulting to the
+/// resumed file.
 pub fn resume_defaults(args: &RenderArgs, file: &PartFile) -> Result<RenderArgs, CliError> {
     let path = args.resume.clone().expect("called for --resume");
     let id = &file.part.info.identity;
@@ -43,12 +44,8 @@ pub fn resume_defaults(args: &RenderArgs, file: &PartFile) -> Result<RenderArgs,
     };
     let field = |name: &str| id.get(name).ok_or_else(|| bad(name));
     let mut a = args.clone();
-    if a.scene.is_none() {
-        let scene = file.attributes.get("vitrum:scene").ok_or_else(|| bad("vitrum:scene"))?;
-        let name = scene.rsplit_once(" (").map_or(scene.as_str(), |(name, _)| name);
-        if name != DEFAULT_SCENE_NAME {
-            a.scene = Some(PathBuf::from(name));
-        }
+    if a.scene.is_none() && file.part.info.scene_file != DEFAULT_SCENE_NAME {
+        a.scene = Some(PathBuf::from(&file.part.info.scene_file));
     }
     a.integrator.get_or_insert(field("integrator")?.to_string());
     if a.seed.is_none() {
@@ -62,7 +59,8 @@ pub fn resume_defaults(args: &RenderArgs, file: &PartFile) -> Result<RenderArgs,
     if a.max_depth.is_none() {
         a.max_depth = Some(field("max-depth")?.parse().map_err(|_| bad("max-depth"))?);
     }
-    a.spectral.get_or_insert(field("spectral")?.to_string());
+    let wavelengths = if field("wavelengths")? == "yes" { "on" } else { "off" };
+    a.spectral.get_or_insert(wavelengths.to_string());
     if a.reflectance.is_none() {
         a.reflectance = match field("reflectance")? {
             "fresnel" => None,
@@ -73,10 +71,27 @@ pub fn resume_defaults(args: &RenderArgs, file: &PartFile) -> Result<RenderArgs,
     Ok(a)
 }
 
+/// The scene file as a part records it: its absolute path (so that `--resume` finds it from
+/// any folder), or the name of the embedded default scene.
+fn scene_file(args: &RenderArgs) -> String {
+    match &args.scene {
+        Some(p) => std::fs::canonicalize(p).unwrap_or_else(|_| p.clone()).display().to_string(),
+        None => DEFAULT_SCENE_NAME.to_string(),
+    }
+}
+
+/// What a part is asked to render: its sample indices, the sample count they are drawn as
+/// samples of, and for a time budget its render seconds in all.
+struct Target {
+    samples: Range<u32>,
+    planned: u32,
+    time_budget: Option<f64>,
+}
+
 /// The render part that `args` ask for, with `opts` set to render it (the budget up to the
-/// part's last sample index, the sampler's plan), or `None` for a plain render: a shard, a
-/// resumed part (checked to be a part of the render these options describe) or a checkpointed
-/// render.
+/// part's last sample index or the time left, the sampler's plan), or `None` for a plain
+/// render: a shard, a resumed part (checked to be a part of the render these options describe)
+/// or a checkpointed render.
 pub fn plan(
     args: &RenderArgs,
     scene: &Scene,
@@ -102,9 +117,8 @@ pub fn plan(
     if let Progression::Fixed(why) | Progression::Fresh(why) = integrator.progression() {
         return bad(format!("{option}: `{}` cannot be rendered in parts: {why}", integrator.name()));
     }
-    // The sample indices asked for, and the sample count they are drawn as samples of.
-    let (target, planned) = match (&resumed, args.samples.clone(), args.shard, opts.budget) {
-        (Some(file), ..) => resumed_target(args, file, opts.budget)?,
+    let target = match (&resumed, args.samples.clone(), args.shard, opts.budget) {
+        (Some(file), ..) => resumed_target(args, file, opts)?,
         (None, Some(r), _, Budget::Samples(n)) => {
             let planned = if args.spp.is_some() { n } else { r.end };
             if r.end > planned {
@@ -113,7 +127,7 @@ pub fn plan(
                     r.start, r.end
                 ));
             }
-            (r, planned)
+            Target { samples: r, planned, time_budget: None }
         }
         (None, None, Some(shard), Budget::Samples(n)) => {
             let r = shard.range(n);
@@ -123,24 +137,26 @@ pub fn plan(
                     shard.index, shard.count
                 ));
             }
-            (r, n)
+            Target { samples: r, planned: n, time_budget: None }
         }
-        (None, None, None, Budget::Samples(n)) => (0..n, n),
+        (None, None, None, Budget::Samples(n)) => Target { samples: 0..n, planned: n, time_budget: None },
         // A time budget: its samples are open-ended and drawn without a plan.
-        (None, _, _, Budget::Time(_)) => (0..0, 0),
+        (None, _, _, Budget::Time(t)) => {
+            Target { samples: 0..0, planned: 0, time_budget: Some(t.as_secs_f64()) }
+        }
     };
     if let Budget::Samples(_) = opts.budget {
-        opts.budget = Budget::Samples(target.end);
+        opts.budget = Budget::Samples(target.samples.end);
     }
-    opts.planned_spp = (planned > 0).then_some(planned);
-    let fresh = render::part_film(scene, integrator, opts, target.start).map_err(|why| {
+    opts.planned_spp = (target.planned > 0).then_some(target.planned);
+    let fresh = render::part_film(scene, integrator, opts, target.samples.start).map_err(|why| {
         CliError::BadInput(format!("{option}: `{}` cannot be rendered in parts: {why}", integrator.name()))
     })?;
     let identity = Identity::new(scene, integrator.name(), opts, (fresh.width, fresh.height), fresh.spectral);
     let film = match resumed {
         Some(file) => {
+            let path = args.resume.as_deref().expect("resuming").display();
             if let Some((field, was, now)) = file.part.info.identity.difference(&identity) {
-                let path = args.resume.as_deref().expect("resuming").display();
                 return bad(format!(
                     "--resume {path}: it was rendered with {field} {was}; these options give {now}"
                 ));
@@ -148,52 +164,78 @@ pub fn plan(
             if (file.part.film.width, file.part.film.height, file.part.film.norm)
                 != (fresh.width, fresh.height, fresh.norm)
             {
-                let path = args.resume.as_deref().expect("resuming").display();
                 return bad(format!("--resume {path}: its film does not match this render's"));
             }
             file.part.film
         }
         None => fresh,
     };
-    let samples = SampleSet::of(film.sample_range());
-    Ok(Some(Part { film, info: PartInfo { identity, samples, target, planned } }))
+    let info = PartInfo {
+        identity,
+        samples: SampleSet::of(film.sample_range()),
+        target: target.samples,
+        planned: target.planned,
+        time_budget: target.time_budget,
+        scene_file: scene_file(args),
+    };
+    Ok(Some(Part { film, info }))
 }
 
-/// The target and plan of resuming `file` under `budget`: the rest of its target, up to a
-/// larger `--spp`, or `--time` more seconds; checked against the options' identity.
-fn resumed_target(args: &RenderArgs, file: &PartFile, budget: Budget) -> Result<(Range<u32>, u32), CliError> {
+/// The target of resuming `file`, setting `opts.budget`: the rest of its target samples or of
+/// its time budget, up to a larger `--spp`, or `--time` more seconds.
+fn resumed_target(args: &RenderArgs, file: &PartFile, opts: &mut RenderOptions) -> Result<Target, CliError> {
     let path = args.resume.as_deref().expect("resuming").display();
-    let part = &file.part;
+    let (film, info) = (&file.part.film, &file.part.info);
     let bad = |message: String| Err(CliError::BadInput(format!("--resume {path}: {message}")));
-    let Some(done) =
-        part.info.samples.as_range().filter(|r| r.is_empty() || r.start == part.info.target.start)
-    else {
+    let Some(done) = info.samples.as_range().filter(|r| r.is_empty() || r.start == info.target.start) else {
         return bad(format!(
             "it holds the samples {}, not one range from {}: only a single part can be resumed",
-            part.info.samples, part.info.target.start
+            info.samples, info.target.start
         ));
     };
-    match (budget, args.spp) {
-        (Budget::Time(_), _) => Ok((part.info.target.start..done.end, 0)),
-        (Budget::Samples(n), Some(_)) => {
+    let so_far = info.target.start..done.end;
+    match (opts.budget, args.spp, args.time) {
+        (Budget::Time(t), ..) => {
+            let total = film.seconds + t.as_secs_f64();
+            Ok(Target { samples: so_far, planned: 0, time_budget: Some(total) })
+        }
+        (Budget::Samples(n), Some(_), _) => {
             if n <= done.end {
                 return bad(format!(
                     "it already holds the samples {}; --spp {n} asks for no more",
-                    part.info.samples
+                    info.samples
                 ));
             }
-            if part.info.plan_matters() && n != part.info.planned {
+            if info.target.end < info.planned {
+                return bad(format!(
+                    "it is the shard {}..{} of a {}-sample render: a larger --spp would take the samples of \
+                     other shards; render more shards instead",
+                    info.target.start, info.target.end, info.planned
+                ));
+            }
+            if info.plan_matters() && n != info.planned {
                 return bad(format!(
                     "its samples were drawn from a {}-sample plan ({} sampler), which cannot grow: resume with \
                      --spp {} or render anew",
-                    part.info.planned,
-                    part.info.identity.get("sampler").unwrap_or("?"),
-                    part.info.planned
+                    info.planned,
+                    info.identity.get("sampler").unwrap_or("?"),
+                    info.planned
                 ));
             }
-            Ok((part.info.target.start..n, part.info.planned.max(n)))
+            Ok(Target { samples: info.target.start..n, planned: info.planned.max(n), time_budget: None })
         }
-        (Budget::Samples(_), None) => Ok((part.info.target.clone(), part.info.planned)),
+        // The rest of a time budget (nothing when it is spent).
+        (Budget::Samples(_), None, None) if info.time_budget.is_some() => {
+            let left = info.time_budget.unwrap_or(0.0) - film.seconds;
+            opts.budget = match Duration::try_from_secs_f64(left) {
+                Ok(left) if left > Duration::ZERO => Budget::Time(left),
+                _ => Budget::Samples(done.end),
+            };
+            Ok(Target { samples: so_far, planned: 0, time_budget: info.time_budget })
+        }
+        (Budget::Samples(_), None, _) => {
+            Ok(Target { samples: info.target.clone(), planned: info.planned, time_budget: None })
+        }
     }
 }
 

@@ -313,12 +313,10 @@ fn decode_all_layers(path: &Path, bytes: &[u8]) -> Result<FlatImage, OutputError
         .map_err(|e| exr_error(path, e))
 }
 
-/// The layer called `name` of an EXR file, when it has one and all its channels are 32-bit
-/// unsigned integers of the layer's full size.
-pub fn read_u32_layer(path: &Path, name: &str) -> Result<Option<U32Layer>, OutputError> {
+/// The layer called `name` of the decoded `file`, when it has one; an error unless all its
+/// channels are 32-bit unsigned integers of the layer's full size.
+fn find_u32_layer(path: &Path, file: &FlatImage, name: &str) -> Result<Option<U32Layer>, OutputError> {
     use exr::prelude::FlatSamples;
-    let bytes = std::fs::read(path).map_err(|e| OutputError::io(path, e))?;
-    let file = decode_all_layers(path, &bytes)?;
     let Some(layer) =
         file.layer_data.iter().find(|l| l.attributes.layer_name.as_ref().is_some_and(|n| n.eq(name)))
     else {
@@ -378,6 +376,30 @@ pub fn read_exr(path: &Path) -> Result<(Image, BTreeMap<String, String>), Output
     // Read once and decode twice (pixels, then the raw headers), so both come from the same file version.
     let bytes = std::fs::read(path).map_err(|e| OutputError::io(path, e))?;
     let file = decode_all_layers(path, &bytes)?;
+    decode_rgb(path, &bytes, &file)
+}
+
+/// [`read_exr`] and the layer called `layer` ([`U32Layer`]: all its channels 32-bit unsigned
+/// integers of full size), when the file has one, from one read of the file: both come from the
+/// same version of a file that is being replaced (a live checkpoint).
+#[allow(clippy::type_complexity)]
+pub fn read_exr_with_layer(
+    path: &Path,
+    layer: &str,
+) -> Result<(Image, BTreeMap<String, String>, Option<U32Layer>), OutputError> {
+    let bytes = std::fs::read(path).map_err(|e| OutputError::io(path, e))?;
+    let file = decode_all_layers(path, &bytes)?;
+    let (image, attributes) = decode_rgb(path, &bytes, &file)?;
+    Ok((image, attributes, find_u32_layer(path, &file, layer)?))
+}
+
+/// The first layer's R, G, B channels of the decoded `file` and the header attributes of its
+/// `bytes`.
+fn decode_rgb(
+    path: &Path,
+    bytes: &[u8],
+    file: &FlatImage,
+) -> Result<(Image, BTreeMap<String, String>), OutputError> {
     let meta = MetaData::read_from_buffered(Cursor::new(&bytes), false).map_err(|e| exr_error(path, e))?;
     let (Some(layer), Some(header)) = (file.layer_data.first(), meta.headers.first()) else {
         return Err(OutputError::format(path, "the EXR file has no layers"));

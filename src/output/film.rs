@@ -8,11 +8,12 @@
 //!   the film layer is opaque data.
 //! - Header attributes of the beauty layer: `vitrum:samples` (the sample indices held, as
 //!   `A..B` ranges), `vitrum:sample-target` (the range asked for), `vitrum:spp-planned`,
-//!   `vitrum:settings` (the [`Identity`]), `vitrum:film-norm`, `vitrum:non-finite`, and the
+//!   `vitrum:settings` (the [`Identity`]), `vitrum:film-norm`, `vitrum:non-finite`,
+//!   `vitrum:scene-file`, `vitrum:render-seconds`, `vitrum:time-budget` (time budgets), and the
 //!   usual render metadata (whose `vitrum:spp` is the count of samples held).
 
 use super::exr::{
-    parse_rays, read_exr, read_u32_layer, stage_exr_with_layer, ExrMetadata, ExtraChannel, U32Layer,
+    parse_rays, read_exr_with_layer, stage_exr_with_layer, ExrMetadata, ExtraChannel, U32Layer,
 };
 use super::{OutputError, Staged};
 use crate::parts::{parse_sample_range, Identity, Part, PartInfo, SampleSet};
@@ -48,8 +49,13 @@ fn part_notes(film: &Film, info: &PartInfo) -> Vec<(String, String)> {
         // Rust prints the shortest text that reads back as the same f64.
         ("vitrum:film-norm", film.norm.to_string()),
         ("vitrum:non-finite", film.non_finite.to_string()),
+        ("vitrum:scene-file", info.scene_file.clone()),
+        // The render seconds exactly (`renderTimeSeconds` is an f32), for time budgets.
+        ("vitrum:render-seconds", film.seconds.to_string()),
+        ("vitrum:time-budget", info.time_budget.map_or(String::new(), |t| t.to_string())),
     ]
     .into_iter()
+    .filter(|(_, v)| !v.is_empty())
     .map(|(k, v)| (k.to_string(), v))
     .collect()
 }
@@ -81,7 +87,8 @@ pub struct PartFile {
 /// Read the part written by [`stage_part`] from `path`; an EXR without the film layer or its
 /// attributes (a plain render) is refused with a message that says how to make one.
 pub fn read_part(path: &Path) -> Result<PartFile, OutputError> {
-    let (image, attributes) = read_exr(path)?;
+    // One read: a checkpoint replaced meanwhile cannot mix two versions.
+    let (image, attributes, layer) = read_exr_with_layer(path, FILM_LAYER)?;
     let not_a_part = |what: &str| {
         OutputError::format(
             path,
@@ -91,7 +98,7 @@ pub fn read_part(path: &Path) -> Result<PartFile, OutputError> {
             ),
         )
     };
-    let Some(layer) = read_u32_layer(path, FILM_LAYER)? else {
+    let Some(layer) = layer else {
         return Err(not_a_part("it has no `film` layer"));
     };
     let attr =
@@ -110,7 +117,14 @@ pub fn read_part(path: &Path) -> Result<PartFile, OutputError> {
     let norm: f64 =
         attr("vitrum:film-norm")?.parse().map_err(|_| bad("vitrum:film-norm", "not a number".into()))?;
     let rays = parse_rays(attr("vitrum:rays")?).ok_or_else(|| bad("vitrum:rays", "not ray counts".into()))?;
-    let seconds: f64 = attr("renderTimeSeconds")?.parse().unwrap_or(0.0);
+    let seconds: f64 = attr("vitrum:render-seconds")?
+        .parse()
+        .map_err(|_| bad("vitrum:render-seconds", "not a number of seconds".into()))?;
+    let time_budget = match attributes.get("vitrum:time-budget") {
+        Some(t) => Some(t.parse().map_err(|_| bad("vitrum:time-budget", "not a number of seconds".into()))?),
+        None => None,
+    };
+    let scene_file = attr("vitrum:scene-file")?.clone();
     let count = u32::try_from(samples.count()).map_err(|_| bad("vitrum:samples", "too many".into()))?;
 
     let (w, h) = (image.width, image.height);
@@ -139,11 +153,13 @@ pub fn read_part(path: &Path) -> Result<PartFile, OutputError> {
     film.rays = rays;
     film.non_finite = non_finite;
     film.seconds = seconds;
-    Ok(PartFile { part: Part { film, info: PartInfo { identity, samples, target, planned } }, attributes })
+    let info = PartInfo { identity, samples, target, planned, time_budget, scene_file };
+    Ok(PartFile { part: Part { film, info }, attributes })
 }
 
 #[cfg(test)]
 mod tests {
+    use super::super::exr::read_exr;
     use super::*;
     use crate::stats::RayCounts;
 
@@ -160,8 +176,10 @@ mod tests {
         film.samples = 8;
         film.rays = RayCounts { primary: 120, reflected: 3, refracted: 4, shadow: 5 };
         film.non_finite = 2;
+        film.seconds = 1.234_567_890_123;
         let identity = Identity::parse("version=0.1.0; seed=7; sampler=sobol; wavelengths=yes").unwrap();
-        let info = PartInfo { identity, samples: SampleSet::of(16..24), target: 16..32, planned: 64 };
+        let (samples, target, scene_file) = (SampleSet::of(16..24), 16..32, "/s/ü.toml".to_string());
+        let info = PartInfo { identity, samples, target, planned: 64, time_budget: Some(2.5), scene_file };
         let part = Part { film, info };
         let meta =
             ExrMetadata { spp: 8, rays: part.film.rays, render_time_seconds: 1.5, ..Default::default() };
@@ -173,8 +191,8 @@ mod tests {
         assert_eq!(bits(&back.film.sum_sq), bits(&part.film.sum_sq));
         assert_eq!((back.film.first, back.film.samples, back.film.norm), (16, 8, 0.37));
         assert_eq!((back.film.rays, back.film.non_finite, back.film.spectral), (part.film.rays, 2, true));
-        assert_eq!((back.info.samples, back.info.target, back.info.planned), (part.info.samples, 16..32, 64));
-        assert_eq!(back.info.identity, part.info.identity);
+        assert_eq!(back.info, part.info);
+        assert_eq!(back.film.seconds, 1.234_567_890_123, "render seconds exactly");
         // The beauty layer is the image, as in any render.
         let (image, _) = read_exr(&path).unwrap();
         assert_eq!(image.pixels, part.film.image().pixels);

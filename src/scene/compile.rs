@@ -185,8 +185,21 @@ fn serde_unexpected(value: &toml_edit::Value) -> Option<String> {
 
 /// 64-bit FNV-1a of a text, in hex.
 pub fn content_hash(text: &str) -> String {
+    content_hash_bytes(text.as_bytes())
+}
+
+/// The hash of a scene: of its text alone, or with the content hashes of the files it reads.
+fn scene_hash(text: &str, inputs: &[String]) -> String {
+    if inputs.is_empty() {
+        return content_hash(text);
+    }
+    content_hash(&format!("{text}\n{}", inputs.join("\n")))
+}
+
+/// 64-bit FNV-1a of bytes, in hex.
+pub fn content_hash_bytes(bytes: &[u8]) -> String {
     let mut h: u64 = 0xcbf2_9ce4_8422_2325;
-    for b in text.bytes() {
+    for &b in bytes {
         h ^= b as u64;
         h = h.wrapping_mul(0x0100_0000_01b3);
     }
@@ -251,6 +264,8 @@ impl Compiler<'_> {
         let mut primitives = Vec::new();
         let mut objects = Vec::new();
         let mut warnings = Vec::new();
+        // The content hashes of the files the scene reads besides its own text (meshes).
+        let mut inputs = Vec::new();
         let mut lights = Vec::new();
         for (i, object) in desc.objects.iter().enumerate() {
             let path = FieldPath::from("objects").index(i);
@@ -266,7 +281,7 @@ impl Compiler<'_> {
                 ));
             };
             let kind = shape_kind(&object.shape);
-            let surfaces = self.shape(&path, &object.shape, &mut warnings)?;
+            let surfaces = self.shape(&path, &object.shape, &mut warnings, &mut inputs)?;
             if surfaces.iter().any(|(s, _)| !within_extent(s.bounds())) {
                 // Only a mesh (vertices × scale) can get here: every other number is checked.
                 let at = match object.shape {
@@ -421,7 +436,8 @@ impl Compiler<'_> {
             settings,
             effects,
             objects,
-            origin: SceneOrigin { name: self.source.name.clone(), hash: content_hash(text) },
+            // The scene text and every mesh it reads: an edited OBJ file is another scene.
+            origin: SceneOrigin { name: self.source.name.clone(), hash: scene_hash(text, &inputs) },
             bvh_scale: bvh_stats.scale,
             has_motion,
             bvh_stats,
@@ -650,6 +666,7 @@ impl Compiler<'_> {
         path: &FieldPath,
         shape: &ShapeDesc,
         warnings: &mut Vec<String>,
+        inputs: &mut Vec<String>,
     ) -> Result<Vec<BodySurface>, SceneError> {
         let v = Vec3::from_array;
         Ok(match shape {
@@ -710,8 +727,10 @@ impl Compiler<'_> {
                             .err(&path.key("file"), format!("cannot read OBJ file {}: {e}", full.display())))
                     }
                 }
-                let (triangles, degenerate) = super::mesh::load_obj(&full, scale, v(*translate))
+                let mesh = super::mesh::load_obj(&full, scale, v(*translate))
                     .map_err(|e| self.err(&path.key("file"), e))?;
+                let (triangles, degenerate) = (mesh.triangles, mesh.degenerate);
+                inputs.push(mesh.hash);
                 if degenerate > 0 {
                     warnings.push(format!(
                         "{path}: skipped {degenerate} degenerate triangle(s) in {}",

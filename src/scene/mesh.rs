@@ -4,13 +4,26 @@ use crate::geometry::Triangle;
 use glam::Vec3;
 use std::path::Path;
 
-/// Triangles of an OBJ file after `scale` then `translate`, with the count of degenerate
-/// triangles that were skipped.
-pub fn load_obj(path: &Path, scale: f32, translate: Vec3) -> Result<(Vec<Triangle>, usize), String> {
+/// An OBJ file's triangles.
+pub struct ObjMesh {
+    /// The triangles after `scale` then `translate`.
+    pub triangles: Vec<Triangle>,
+    /// Degenerate triangles skipped.
+    pub degenerate: usize,
+    /// The content hash of the file's bytes (part of the scene's hash).
+    pub hash: String,
+}
+
+/// The triangles of an OBJ file after `scale` then `translate` (materials are not read).
+pub fn load_obj(path: &Path, scale: f32, translate: Vec3) -> Result<ObjMesh, String> {
+    let cannot = |e: &dyn std::fmt::Display| format!("cannot load OBJ file {}: {e}", path.display());
+    let bytes = std::fs::read(path).map_err(|e| cannot(&e))?;
+    let hash = super::compile::content_hash_bytes(&bytes);
     // Positions only: separate index lists (no merging of position/normal/uv tuples) are faster.
     let options = tobj::LoadOptions { triangulate: true, single_index: false, ..Default::default() };
-    let (models, _) = tobj::load_obj(path, &options)
-        .map_err(|e| format!("cannot load OBJ file {}: {e}", path.display()))?;
+    let no_materials = |_: &Path| Err(tobj::LoadError::OpenFileFailed);
+    let (models, _) = tobj::load_obj_buf(&mut std::io::Cursor::new(&bytes), &options, no_materials)
+        .map_err(|e| cannot(&e))?;
     let mut triangles = Vec::new();
     let mut degenerate = 0;
     for model in &models {
@@ -38,5 +51,5 @@ pub fn load_obj(path: &Path, scale: f32, translate: Vec3) -> Result<(Vec<Triangl
     if triangles.is_empty() {
         return Err(format!("{}: the mesh has no (non-degenerate) triangles", path.display()));
     }
-    Ok((triangles, degenerate))
+    Ok(ObjMesh { triangles, degenerate, hash })
 }

@@ -144,12 +144,12 @@ pub struct ObjectSummary {
     pub primitives: usize,
 }
 
-/// Where the scene came from: its display name and a hash of its text.
+/// Where the scene came from: its display name and a hash of its text and meshes.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SceneOrigin {
     /// File path, or `<embedded default scene>`.
     pub name: String,
-    /// 64-bit FNV-1a hash of the scene text, in hex.
+    /// 64-bit FNV-1a hash of the scene text (and of the mesh files it reads), in hex.
     pub hash: String,
 }
 
