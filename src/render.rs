@@ -567,6 +567,38 @@ fn run_budget(
     }
 }
 
+/// Spend `pass`'s budget on `film` with the shared camera pass, stopping on a stop request.
+fn run_camera_pass(
+    pass: &Pass<'_>,
+    film: &mut Film,
+    progress: &(dyn Fn(u64, u64) + Sync),
+    after_pass: &mut dyn FnMut(&Film),
+) {
+    let opts = &pass.opts;
+    let add = &mut |film: &mut Film, samples, total, p: &(dyn Fn(u64, u64) + Sync)| {
+        pass.add(film, samples, total, p)
+    };
+    let stop = &crate::interrupt::stop_requested;
+    run_budget(film, opts.budget, opts.planned_spp, stop, progress, add, after_pass);
+}
+
+/// Spend `opts.budget` on `film` with a method that adds sample indices itself, stopping on a
+/// stop request.
+fn run_accumulated(
+    scene: &Scene,
+    method: &dyn Accumulate,
+    opts: &RenderOptions,
+    film: &mut Film,
+    progress: &(dyn Fn(u64, u64) + Sync),
+    after_pass: &mut dyn FnMut(&Film),
+) {
+    let add = &mut |film: &mut Film, samples, _, p: &(dyn Fn(u64, u64) + Sync)| {
+        method.add_samples(scene, opts, samples, film, p)
+    };
+    let stop = &crate::interrupt::stop_requested;
+    run_budget(film, opts.budget, opts.planned_spp, stop, progress, add, after_pass);
+}
+
 /// Render `scene` with `integrator`; `progress` is called with (work done, work total) of the
 /// whole render, from worker threads. After a stop request ([`crate::interrupt`]) the render
 /// ends at its next pass boundary and returns the samples done (`spp` counts them); methods with
@@ -593,15 +625,7 @@ pub fn camera_pass(
 ) -> (RenderOutput, DimensionRequests) {
     let pass = Pass::new(scene, integrator, opts);
     let mut film = pass.film();
-    run_budget(
-        &mut film,
-        opts.budget,
-        opts.planned_spp,
-        &crate::interrupt::stop_requested,
-        progress,
-        &mut |film, samples, total, p| pass.add(film, samples, total, p),
-        &mut |_| {},
-    );
+    run_camera_pass(&pass, &mut film, progress, &mut |_| {});
     (film.output(), film.requests)
 }
 
@@ -615,15 +639,7 @@ pub fn render_accumulated(
     progress: &(dyn Fn(u64, u64) + Sync),
 ) -> RenderOutput {
     let mut film = method.film(scene, opts);
-    run_budget(
-        &mut film,
-        opts.budget,
-        opts.planned_spp,
-        &crate::interrupt::stop_requested,
-        progress,
-        &mut |film, samples, _, p| method.add_samples(scene, opts, samples, film, p),
-        &mut |_| {},
-    );
+    run_accumulated(scene, method, opts, &mut film, progress, &mut |_| {});
     film.output()
 }
 
@@ -660,21 +676,11 @@ pub fn render_part(
     progress: &(dyn Fn(u64, u64) + Sync),
     after_pass: &mut dyn FnMut(&Film),
 ) -> Result<(), &'static str> {
-    let stop = &crate::interrupt::stop_requested;
     match integrator.progression() {
         Progression::CameraPass => {
-            let pass = Pass::new(scene, integrator, opts);
-            let add = &mut |film: &mut Film, samples, total, p: &(dyn Fn(u64, u64) + Sync)| {
-                pass.add(film, samples, total, p)
-            };
-            run_budget(film, opts.budget, opts.planned_spp, stop, progress, add, after_pass);
+            run_camera_pass(&Pass::new(scene, integrator, opts), film, progress, after_pass)
         }
-        Progression::Own(method) => {
-            let add = &mut |film: &mut Film, samples, _, p: &(dyn Fn(u64, u64) + Sync)| {
-                method.add_samples(scene, opts, samples, film, p)
-            };
-            run_budget(film, opts.budget, opts.planned_spp, stop, progress, add, after_pass);
-        }
+        Progression::Own(method) => run_accumulated(scene, method, opts, film, progress, after_pass),
         Progression::Fresh(why) | Progression::Fixed(why) => return Err(why),
     }
     Ok(())
