@@ -285,7 +285,17 @@ fn converge_and_compare_measure_precomputed_shard_results() {
         let name = format!("ref-{}.exr", &shard[..1]);
         ok(dir, &with(&["-i", "path", "--spp", "64", "--shard", shard, "-o", &name]));
     }
-    ok(dir, &["merge", "ref-0.exr", "ref-1.exr", "-o", "ref.exr"]);
+    let out = run(
+        dir,
+        &["merge", "ref-0.exr", "ref-1.exr", "-o", "ref.exr", "--variance", "--json", "--png", "ref.png"],
+    );
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let summary: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!((summary["spp"].as_u64(), summary["samples"].as_str()), (Some(64), Some("0..64")));
+    let channels = vitrum::output::exr::read_exr_channels(&dir.join("ref.exr")).unwrap().channels;
+    assert!(channels["variance.R"].iter().all(|v| v.is_finite() && *v >= 0.0), "variance channels");
+    assert!(channels["samples"].iter().all(|&n| n == 64.0));
+    assert_eq!(::image::open(dir.join("ref.png")).unwrap().width(), 32);
     for (method, spp) in [("path", "2"), ("path", "8"), ("light", "8")] {
         let name = format!("{method}-{spp}.exr");
         ok(dir, &with(&["-i", method, "--spp", spp, "--seed", "3", "-o", &name]));
@@ -323,6 +333,20 @@ fn converge_and_compare_measure_precomputed_shard_results() {
     let table = std::fs::read_to_string(dir.join("cmp/compare.csv")).unwrap();
     assert_eq!(table.lines().count(), 3, "a header and one row per method:\n{table}");
     assert!(dir.join("cmp/compare.png").exists());
+    // Two renders of one method, or of another size, are refused.
+    let out = run(
+        dir,
+        &["compare", "--reference", "ref.exr", "--out", "cmp2", "--renders", "path-8.exr", "path-2.exr"],
+    );
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("are both `path` renders"));
+    ok(dir, &["render", "--resolution", "16x16", "--quiet", "-i", "path", "--spp", "2", "-o", "small.exr"]);
+    let out = run(
+        dir,
+        &["converge", "--reference", "ref.exr", "--out", "cv3", "--renders", "path-8.exr", "small.exr"],
+    );
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("16x16, not the 32x32"));
     // A render of another scene is refused.
     let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/soft-shadows.toml");
     ok(dir, &with(&[scene, "-i", "path", "--spp", "2", "-o", "other.exr"]));

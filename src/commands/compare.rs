@@ -146,26 +146,23 @@ impl Plan {
         };
         let camera = render::camera_for(&scene, args.render.resolution);
         let mut size = (camera.width as usize, camera.height as usize);
-        let renders = match args.renders.first() {
-            None => None,
-            Some(first) => {
-                if args.render.resolution.is_none() {
-                    let (image, _) = read_exr(first).map_err(|e| bad(format!("--renders: {e}")))?;
-                    size = (image.width, image.height);
+        let renders = if args.renders.is_empty() {
+            None
+        } else {
+            let (renders, read_size) =
+                super::read_renders(&args.renders, &scene, args.render.resolution.map(|_| size))?;
+            size = read_size;
+            for (i, r) in renders.iter().enumerate() {
+                if let Some(other) = renders[..i].iter().find(|o| o.method.name() == r.method.name()) {
+                    return Err(bad(format!(
+                        "--renders: {} and {} are both `{}` renders; give one per method",
+                        other.path.display(),
+                        r.path.display(),
+                        r.method.name()
+                    )));
                 }
-                let renders = super::read_renders(&args.renders, &scene, size)?;
-                for (i, r) in renders.iter().enumerate() {
-                    if let Some(other) = renders[..i].iter().find(|o| o.method.name() == r.method.name()) {
-                        return Err(bad(format!(
-                            "--renders: {} and {} are both `{}` renders; give one per method",
-                            other.path.display(),
-                            r.path.display(),
-                            r.method.name()
-                        )));
-                    }
-                }
-                Some(renders)
             }
+            Some(renders)
         };
         let methods = match &renders {
             Some(renders) => {

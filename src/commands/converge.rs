@@ -168,20 +168,17 @@ fn plan(args: &ConvergeArgs) -> Result<Plan, CliError> {
     };
     let camera = render::camera_for(&scene, args.render.resolution);
     let (mut width, mut height) = (camera.width as usize, camera.height as usize);
-    let renders = match args.renders.first() {
-        None => None,
-        Some(first) => {
-            if args.render.resolution.is_none() {
-                let (image, _) = read_exr(first).map_err(|e| bad(format!("--renders: {e}")))?;
-                (width, height) = (image.width, image.height);
-            }
-            let renders = super::read_renders(&args.renders, &scene, (width, height))?;
-            methods = crate::integrators::all()
-                .into_iter()
-                .filter(|m| renders.iter().any(|r| r.method.name() == m.name()))
-                .collect();
-            Some(renders)
-        }
+    let renders = if args.renders.is_empty() {
+        None
+    } else {
+        let size = args.render.resolution.map(|_| (width, height));
+        let (renders, read_size) = super::read_renders(&args.renders, &scene, size)?;
+        (width, height) = read_size;
+        methods = crate::integrators::all()
+            .into_iter()
+            .filter(|m| renders.iter().any(|r| r.method.name() == m.name()))
+            .collect();
+        Some(renders)
     };
     let reference = match &args.reference {
         Some(path) => {

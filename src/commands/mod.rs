@@ -11,8 +11,8 @@ pub mod parts;
 
 use crate::cli::{integrator_named, CliError};
 use crate::integrators::{self, Integrator, RenderParams};
-use crate::output::exr::{parse_rays, read_exr};
-use crate::output::film::read_part;
+use crate::output::exr::parse_rays;
+use crate::output::film::read_render;
 use crate::render::{Budget, RenderOptions, RenderOutput};
 use crate::scene::compile::{MAX_DEPTH, MAX_PIXELS};
 use crate::scene::Scene;
@@ -90,20 +90,21 @@ pub struct RenderFile {
     pub out: RenderOutput,
 }
 
-/// Read the renders `files` of `scene`: each must be a vitrum EXR of that scene (the content
-/// hash in `vitrum:scene`), of `size`, by a known integrator.
+/// Read the renders `files` of `scene`, with their size: each must be a vitrum EXR of that scene
+/// (the content hash in `vitrum:scene`), of `size` (default: the first file's), by a known
+/// integrator. Each file is read once.
 pub fn read_renders(
     files: &[PathBuf],
     scene: &Scene,
-    size: (usize, usize),
-) -> Result<Vec<RenderFile>, CliError> {
+    size: Option<(usize, usize)>,
+) -> Result<(Vec<RenderFile>, (usize, usize)), CliError> {
     let mut renders = Vec::with_capacity(files.len());
+    let mut size = size;
     for path in files {
         let bad = |what: String| CliError::BadInput(format!("--renders {}: {what}", path.display()));
-        let (image, attributes) =
-            read_exr(path).map_err(|e| CliError::BadInput(format!("--renders: {e}")))?;
+        let read = read_render(path).map_err(|e| CliError::BadInput(format!("--renders: {e}")))?;
         let attribute = |name: &str| {
-            attributes.get(name).ok_or_else(|| bad(format!("no {name} attribute: not a vitrum render")))
+            read.attributes.get(name).ok_or_else(|| bad(format!("no {name} attribute: not a vitrum render")))
         };
         let hash = attribute("vitrum:scene")?.rsplit_once(" (").map(|(_, h)| h.trim_end_matches(')'));
         if hash != Some(scene.origin.hash.as_str()) {
@@ -114,20 +115,21 @@ pub fn read_renders(
                 scene.origin.hash
             )));
         }
-        if (image.width, image.height) != size {
+        let (w, h) = *size.get_or_insert((read.image.width, read.image.height));
+        if (read.image.width, read.image.height) != (w, h) {
             return Err(bad(format!(
-                "{}x{}, not the {}x{} of the reference",
-                image.width, image.height, size.0, size.1
+                "{}x{}, not the {w}x{h} of the reference and the other renders",
+                read.image.width, read.image.height
             )));
         }
         let name = attribute("vitrum:integrator")?;
         let method = integrators::create(name).ok_or_else(|| bad(format!("unknown integrator `{name}`")))?;
         let seed =
             attribute("vitrum:seed")?.parse().map_err(|_| bad("vitrum:seed is not a number".into()))?;
-        let out = match read_part(path) {
-            Ok(file) => file.part.film.output(),
-            Err(_) => RenderOutput {
-                image,
+        let out = match &read.part {
+            Some(part) => part.film.output(),
+            None => RenderOutput {
+                image: read.image.clone(),
                 spp: attribute("vitrum:spp")?
                     .parse()
                     .map_err(|_| bad("vitrum:spp is not a number".into()))?,
@@ -142,7 +144,7 @@ pub fn read_renders(
         };
         renders.push(RenderFile { path: path.clone(), method, seed, out });
     }
-    Ok(renders)
+    Ok((renders, size.unwrap_or((0, 0))))
 }
 
 /// A crop rectangle `X,Y,W,H` in pixels from the top-left corner.

@@ -16,6 +16,7 @@ use super::exr::{
     parse_rays, read_exr_with_layer, stage_exr_with_layer, ExrMetadata, ExtraChannel, U32Layer,
 };
 use super::{OutputError, Staged};
+use crate::image::Image;
 use crate::parts::{parse_sample_range, Identity, Part, PartInfo, SampleSet};
 use crate::render::Film;
 use glam::DVec3;
@@ -84,23 +85,58 @@ pub struct PartFile {
     pub attributes: BTreeMap<String, String>,
 }
 
+/// An EXR render read back in one go: its beauty image and header attributes, and its part
+/// when it is one (it has the film layer).
+pub struct RenderRead {
+    /// The beauty layer's R, G, B.
+    pub image: Image,
+    /// Every header attribute of the beauty layer, as text.
+    pub attributes: BTreeMap<String, String>,
+    /// The part, for a file written by [`stage_part`].
+    pub part: Option<Part>,
+}
+
+/// The error for a file at `path` that is not a render part, and why.
+fn not_a_part(path: &Path, what: &str) -> OutputError {
+    OutputError::format(
+        path,
+        format!(
+            "not a render part ({what}): render it with --samples, --shard or --checkpoint, which keep the \
+             sums needed to resume and merge"
+        ),
+    )
+}
+
+/// Read a render (a part or a plain one) from `path` with one read of the file: a checkpoint
+/// replaced meanwhile cannot mix two versions. A film layer with missing or malformed
+/// attributes is an error, not a plain render.
+pub fn read_render(path: &Path) -> Result<RenderRead, OutputError> {
+    let (image, attributes, layer) = read_exr_with_layer(path, FILM_LAYER)?;
+    let part = match layer {
+        Some(layer) => Some(decode_part(path, &image, &attributes, &layer)?),
+        None => None,
+    };
+    Ok(RenderRead { image, attributes, part })
+}
+
 /// Read the part written by [`stage_part`] from `path`; an EXR without the film layer or its
 /// attributes (a plain render) is refused with a message that says how to make one.
 pub fn read_part(path: &Path) -> Result<PartFile, OutputError> {
-    // One read: a checkpoint replaced meanwhile cannot mix two versions.
-    let (image, attributes, layer) = read_exr_with_layer(path, FILM_LAYER)?;
-    let not_a_part = |what: &str| {
-        OutputError::format(
-            path,
-            format!(
-                "not a render part ({what}): render it with --samples, --shard or --checkpoint, which keep the \
-                 sums needed to resume and merge"
-            ),
-        )
-    };
-    let Some(layer) = layer else {
-        return Err(not_a_part("it has no `film` layer"));
-    };
+    let read = read_render(path)?;
+    match read.part {
+        Some(part) => Ok(PartFile { part, attributes: read.attributes }),
+        None => Err(not_a_part(path, "it has no `film` layer")),
+    }
+}
+
+/// The part in `image`, `attributes` and the film `layer` of the file `path`.
+fn decode_part(
+    path: &Path,
+    image: &Image,
+    attributes: &BTreeMap<String, String>,
+    layer: &U32Layer,
+) -> Result<Part, OutputError> {
+    let not_a_part = |what: &str| not_a_part(path, what);
     let attr =
         |name: &str| attributes.get(name).ok_or_else(|| not_a_part(&format!("it has no {name} attribute")));
     let bad = |name: &str, e: String| OutputError::format(path, format!("attribute {name}: {e}"));
@@ -154,7 +190,7 @@ pub fn read_part(path: &Path) -> Result<PartFile, OutputError> {
     film.non_finite = non_finite;
     film.seconds = seconds;
     let info = PartInfo { identity, samples, target, planned, time_budget, scene_file };
-    Ok(PartFile { part: Part { film, info }, attributes })
+    Ok(Part { film, info })
 }
 
 #[cfg(test)]
@@ -206,5 +242,27 @@ mod tests {
             .unwrap();
         let err = read_part(&path).err().unwrap().to_string();
         assert!(err.contains("not a render part") && err.contains("--shard"), "{err}");
+        assert!(read_render(&path).unwrap().part.is_none(), "a plain render reads as one");
+    }
+
+    #[test]
+    fn a_film_layer_without_its_attributes_is_an_error_not_a_plain_render() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("odd.exr");
+        let film = Film::new(2, 2, 1.0, false);
+        let image = film.image();
+        super::super::exr::stage_exr_with_layer(
+            &path,
+            &image,
+            &ExrMetadata::default(),
+            &[],
+            &[],
+            film_layer(&film),
+        )
+        .unwrap()
+        .commit()
+        .unwrap();
+        let err = read_render(&path).err().expect("refused").to_string();
+        assert!(err.contains("no vitrum:samples attribute"), "{err}");
     }
 }
