@@ -89,6 +89,8 @@ pub struct Sampler {
     pixel_key: u64,
     sample_key: u64,
     sample: u32,
+    /// `sample.reverse_bits()`, the form the Sobol' index shuffle starts from.
+    reversed_sample: u32,
     samples_per_pixel: u32,
     /// What the stream draws: stratified only with a known count above 1.
     mode: Mode,
@@ -181,6 +183,7 @@ impl Sampler {
             pixel_key,
             sample_key,
             sample,
+            reversed_sample: sample.reverse_bits(),
             samples_per_pixel,
             mode,
             grid_side: if m * m == samples_per_pixel { m } else { 0 },
@@ -228,7 +231,8 @@ impl Sampler {
             }
             Mode::Sobol => {
                 let (shuffle, x, _) = self.sobol_seeds(d);
-                sobol::to_unit(sobol::scrambled_dim0(sobol::shuffle(self.sample, shuffle), x))
+                let index = sobol::shuffle_reversed(self.reversed_sample, shuffle).reverse_bits();
+                sobol::to_unit(sobol::scrambled_dim0(index, x))
             }
         }
     }
@@ -257,10 +261,12 @@ impl Sampler {
             }
             Mode::Sobol => {
                 let (shuffle, x, y) = self.sobol_seeds(d);
-                let index = sobol::shuffle(self.sample, shuffle);
+                // The shuffled index is kept bit-reversed too: the second coordinate needs only
+                // that form (three bit reversals per request instead of five).
+                let reversed_index = sobol::shuffle_reversed(self.reversed_sample, shuffle);
                 Vec2::new(
-                    sobol::to_unit(sobol::scrambled_dim0(index, x)),
-                    sobol::to_unit(sobol::scrambled_dim1(index, y)),
+                    sobol::to_unit(sobol::scrambled_dim0(reversed_index.reverse_bits(), x)),
+                    sobol::to_unit(sobol::scrambled_dim1_reversed(reversed_index, y)),
                 )
             }
         }

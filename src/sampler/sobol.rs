@@ -38,16 +38,25 @@ pub fn shuffle(index: u32, seed: u32) -> u32 {
     owen_scramble(index, seed)
 }
 
-/// Direction numbers of the second Sobol' dimension (primitive polynomial x + 1):
-/// v₀ = 2³¹, v_{b+1} = v_b ⊕ (v_b ≫ 1); their XOR over the set bits of each byte of the index.
-const SOBOL_DIM1_BYTES: [[u32; 256]; 4] = dim1_byte_tables();
+/// [`shuffle`] in bit-reversed form: `shuffle(index, seed).reverse_bits()` from
+/// `index.reverse_bits()`, without reversing (a sampler reverses its fixed index once).
+#[inline]
+pub fn shuffle_reversed(reversed_index: u32, seed: u32) -> u32 {
+    lk_permute(reversed_index, seed)
+}
 
-const fn dim1_byte_tables() -> [[u32; 256]; 4] {
+/// Direction numbers of the second Sobol' dimension (primitive polynomial x + 1):
+/// v₀ = 2³¹, v_{b+1} = v_b ⊕ (v_b ≫ 1), bit-reversed and stored by bit 31 − b, so that the XOR
+/// over the set bits of each byte of a *reversed* index is the *reversed* coordinate.
+const SOBOL_DIM1_REVERSED_BYTES: [[u32; 256]; 4] = dim1_reversed_byte_tables();
+
+const fn dim1_reversed_byte_tables() -> [[u32; 256]; 4] {
     let mut v = [0u32; 32];
     let mut d = 1u32 << 31;
     let mut b = 0;
     while b < 32 {
-        v[b] = d;
+        // Bit b of the index is bit 31 − b of the reversed index.
+        v[31 - b] = d.reverse_bits();
         d ^= d >> 1;
         b += 1;
     }
@@ -72,14 +81,21 @@ const fn dim1_byte_tables() -> [[u32; 256]; 4] {
     tables
 }
 
+/// The second coordinate of Sobol' point `index`, bit-reversed, from the bit-reversed index:
+/// `sobol_dim1(r.reverse_bits()).reverse_bits()` (XOR is linear, so reversal commutes with it).
+#[inline]
+fn sobol_dim1_reversed(reversed_index: u32) -> u32 {
+    let t = &SOBOL_DIM1_REVERSED_BYTES;
+    t[0][(reversed_index & 0xff) as usize]
+        ^ t[1][((reversed_index >> 8) & 0xff) as usize]
+        ^ t[2][((reversed_index >> 16) & 0xff) as usize]
+        ^ t[3][(reversed_index >> 24) as usize]
+}
+
 /// The second coordinate of Sobol' point `index` (the first is `index.reverse_bits()`).
 #[inline]
 pub fn sobol_dim1(index: u32) -> u32 {
-    let t = &SOBOL_DIM1_BYTES;
-    t[0][(index & 0xff) as usize]
-        ^ t[1][((index >> 8) & 0xff) as usize]
-        ^ t[2][((index >> 16) & 0xff) as usize]
-        ^ t[3][(index >> 24) as usize]
+    sobol_dim1_reversed(index.reverse_bits()).reverse_bits()
 }
 
 /// Owen-scrambled first coordinate of Sobol' point `index`: `owen_scramble(index.reverse_bits())`.
@@ -91,7 +107,13 @@ pub fn scrambled_dim0(index: u32, seed: u32) -> u32 {
 /// Owen-scrambled second coordinate of Sobol' point `index`.
 #[inline]
 pub fn scrambled_dim1(index: u32, seed: u32) -> u32 {
-    owen_scramble(sobol_dim1(index), seed)
+    scrambled_dim1_reversed(index.reverse_bits(), seed)
+}
+
+/// [`scrambled_dim1`] of the point whose index is given bit-reversed (one reversal, not three).
+#[inline]
+pub fn scrambled_dim1_reversed(reversed_index: u32, seed: u32) -> u32 {
+    lk_permute(sobol_dim1_reversed(reversed_index), seed).reverse_bits()
 }
 
 /// A fixed-point number as an f32 in [0, 1): its top 24 bits, exactly.
@@ -123,6 +145,18 @@ mod tests {
         assert_eq!(m, [1, 3, 5, 15, 17, 51]);
         for index in (0..u32::MAX).step_by(99_991).chain([u32::MAX, 1 << 24, 0xabcd_ef01]) {
             assert_eq!(sobol_dim1(index), dim1_reference(index), "index {index:#x}");
+        }
+    }
+
+    #[test]
+    fn reversed_forms_equal_the_plain_ones() {
+        for seed in [0u32, 7, 0x9e37_79b9, u32::MAX] {
+            for index in (0..u32::MAX).step_by(1_000_003).chain([0, 1, u32::MAX]) {
+                let r = index.reverse_bits();
+                assert_eq!(shuffle_reversed(r, seed), shuffle(index, seed).reverse_bits());
+                assert_eq!(scrambled_dim1_reversed(r, seed), scrambled_dim1(index, seed));
+                assert_eq!(scrambled_dim1(index, seed), owen_scramble(dim1_reference(index), seed));
+            }
         }
     }
 
