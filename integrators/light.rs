@@ -87,7 +87,7 @@
 //! lands between sample indices: the image of the `k` indices done is, bit for bit, a plain
 //! `k`-sample render.
 
-use super::{Integrator, PathContext, RenderParams, DEFAULT_PATH_DEPTH};
+use super::{pick_light, sample_bsdf, Integrator, PathContext, RenderParams, DEFAULT_PATH_DEPTH};
 use crate::bsdf::lambert::cosine_hemisphere;
 use crate::bsdf::{Frame, Scattering, TransportMode};
 use crate::camera::{concentric_disk, Camera};
@@ -363,8 +363,7 @@ impl Tracer<'_> {
         }
         // The same dimensions for every light, so that stratification lines up across paths.
         let n = self.lights.len();
-        let choice = ctx.sampler.get_1d(Dim::Light);
-        let light = &scene.lights[self.lights[((choice * n as f32) as usize).min(n - 1)]];
+        let light = &scene.lights[self.lights[pick_light(n, &mut ctx.sampler)]];
         let side = ctx.sampler.get_1d(Dim::Light);
         let u_point = ctx.sampler.get_2d(Dim::Light);
         let u_dir = ctx.sampler.get_2d(Dim::Light);
@@ -419,9 +418,9 @@ impl Tracer<'_> {
             if depth >= self.params.max_depth {
                 break;
             }
-            let uc = ctx.sampler.get_1d(Dim::Bsdf);
-            let u = ctx.sampler.get_2d(Dim::Bsdf);
-            let Some(s) = bsdf.sample(wo_local, uc, u, TransportMode::Importance) else { break };
+            let Some(s) = sample_bsdf(&bsdf, wo_local, TransportMode::Importance, &mut ctx.sampler) else {
+                break;
+            };
             if s.pdf <= 0.0 || s.f == Vec3::ZERO {
                 break;
             }

@@ -14,13 +14,39 @@ pub use raycast::RayCast;
 pub use ssaa::{Ssaa, SsaaParams};
 pub use whitted::Whitted;
 
+use crate::bsdf::{BsdfSample, Scattering, TransportMode};
 use crate::geometry::Ray;
 use crate::render::{Progression, RenderOptions, RenderOutput};
-use crate::sampler::Sampler;
+use crate::sampler::{Dim, Sampler};
 use crate::scene::effects::Support;
 use crate::scene::{Effect, Scene};
 use crate::stats::RayCounts;
 use glam::Vec3;
+
+/// A sample of `bsdf` for the local direction `wo`, drawing from `sampler` only the numbers it
+/// uses: a lobe choice only where the model has lobes to choose between, then the direction.
+#[inline]
+pub(crate) fn sample_bsdf(
+    bsdf: &Scattering,
+    wo: Vec3,
+    mode: TransportMode,
+    sampler: &mut Sampler,
+) -> Option<BsdfSample> {
+    let uc = if bsdf.chooses_lobe() { sampler.get_1d(Dim::Bsdf) } else { 0.0 };
+    let u = sampler.get_2d(Dim::Bsdf);
+    bsdf.sample(wo, uc, u, mode)
+}
+
+/// One of `count` (at least one) lights, chosen uniformly with the numbers of `sampler`; a
+/// scene with a single light draws none.
+#[inline]
+pub(crate) fn pick_light(count: usize, sampler: &mut Sampler) -> usize {
+    if count == 1 {
+        return 0;
+    }
+    let choice = sampler.get_1d(Dim::Light);
+    ((choice * count as f32) as usize).min(count - 1)
+}
 
 /// Per-render parameters an integrator reads (scene settings after command-line overrides).
 #[derive(Clone, Debug, PartialEq)]
@@ -109,4 +135,58 @@ pub fn create(name: &str) -> Option<Box<dyn Integrator>> {
 /// The registered names.
 pub fn names() -> Vec<&'static str> {
     all().iter().map(|i| i.name()).collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::bsdf::{Lambert, RoughDielectric, TrowbridgeReitz};
+    use crate::sampler::SamplerKind;
+
+    fn sampler(sample: u32) -> Sampler {
+        Sampler::new(SamplerKind::Sobol, 5, 17, sample, 0)
+    }
+
+    #[test]
+    fn a_single_light_is_picked_without_a_random_number() {
+        let mut s = sampler(0);
+        assert_eq!(pick_light(1, &mut s), 0);
+        assert_eq!(s.requests(Dim::Light), 0);
+    }
+
+    #[test]
+    fn lights_are_picked_uniformly() {
+        // 3 lights, 3000 picks from one pixel's Sobol' stream: χ²(2) below its 99.9% quantile 13.8.
+        let mut counts = [0u32; 3];
+        for sample in 0..3000 {
+            let mut s = sampler(sample);
+            counts[pick_light(3, &mut s)] += 1;
+            assert_eq!(s.requests(Dim::Light), 1);
+        }
+        let chi2: f64 = counts.iter().map(|&c| (c as f64 - 1000.0).powi(2) / 1000.0).sum();
+        assert!(chi2 < 13.8, "{counts:?}");
+    }
+
+    #[test]
+    fn bsdf_samples_draw_a_lobe_choice_only_for_glass() {
+        let wo = Vec3::new(0.3, 0.1, 0.9).normalize();
+        let diffuse = Scattering::Diffuse(Lambert { albedo: Vec3::splat(0.5) });
+        let glass = Scattering::Dielectric(RoughDielectric::new(1.5, TrowbridgeReitz::from_roughness(0.0)));
+        let mut s = sampler(0);
+        assert!(sample_bsdf(&diffuse, wo, TransportMode::Radiance, &mut s).is_some());
+        assert_eq!(s.requests(Dim::Bsdf), 1, "diffuse: the direction only");
+        // Glass uses its lobe choice: over many samples both reflection and refraction occur.
+        let (mut reflected, mut refracted) = (0, 0);
+        for sample in 0..256 {
+            let mut s = sampler(sample);
+            let b = sample_bsdf(&glass, wo, TransportMode::Radiance, &mut s).expect("glass scatters");
+            assert_eq!(s.requests(Dim::Bsdf), 2, "glass: lobe choice and direction");
+            if b.is_transmission {
+                refracted += 1;
+            } else {
+                reflected += 1;
+            }
+        }
+        assert!(reflected > 0 && refracted > reflected, "reflected {reflected}, refracted {refracted}");
+    }
 }

@@ -12,7 +12,7 @@
 //! light inside glass is not killed early. Media absorb by Beer–Lambert's law, and dispersive
 //! glass refracts each camera sample's wavelength.
 
-use super::{Integrator, PathContext, RenderParams};
+use super::{pick_light, sample_bsdf, Integrator, PathContext, RenderParams};
 use crate::bsdf::{Frame, Scattering, TransportMode};
 use crate::geometry::{spawn_origin, Ray, SurfaceHit};
 use crate::lighting::{crossing, transmittance, ShadowMode, ShadowRays};
@@ -119,9 +119,9 @@ impl Integrator for Path {
             if !bsdf.is_delta() && !scene.lights.is_empty() {
                 l += beta * next_event(scene, &bsdf, &frame, wo_local, &hit, ray.time, light_pick, ctx);
             }
-            let uc = ctx.sampler.get_1d(Dim::Bsdf);
-            let u = ctx.sampler.get_2d(Dim::Bsdf);
-            let Some(s) = bsdf.sample(wo_local, uc, u, TransportMode::Radiance) else { break };
+            let Some(s) = sample_bsdf(&bsdf, wo_local, TransportMode::Radiance, &mut ctx.sampler) else {
+                break;
+            };
             if s.pdf <= 0.0 || s.f == Vec3::ZERO {
                 break;
             }
@@ -182,8 +182,7 @@ fn next_event(
     light_pick: f32,
     ctx: &mut PathContext,
 ) -> Vec3 {
-    let choice = ctx.sampler.get_1d(Dim::Light);
-    let index = ((choice * scene.lights.len() as f32) as usize).min(scene.lights.len() - 1);
+    let index = pick_light(scene.lights.len(), &mut ctx.sampler);
     let light = &scene.lights[index];
     let u = ctx.sampler.get_2d(Dim::Light);
     let Some(ls) = light.sample_li(hit.p, u) else { return Vec3::ZERO };

@@ -77,6 +77,12 @@ impl Scattering {
         }
     }
 
+    /// Whether [`Scattering::sample`] uses its `uc`: only glass chooses between lobes
+    /// (reflection or refraction); the other models draw a direction from `u` alone.
+    pub fn chooses_lobe(&self) -> bool {
+        matches!(self, Scattering::Dielectric(_))
+    }
+
     /// A scattered direction for `wo` from the uniforms `uc`, `u`.
     pub fn sample(&self, wo: Vec3, uc: f32, u: Vec2, mode: TransportMode) -> Option<BsdfSample> {
         match self {
