@@ -41,6 +41,7 @@ pub(crate) fn sample_bsdf(
 /// scene with a single light draws none.
 #[inline]
 pub(crate) fn pick_light(count: usize, sampler: &mut Sampler) -> usize {
+    debug_assert!(count > 0, "a light is picked only in a scene with lights");
     if count == 1 {
         return 0;
     }
@@ -165,6 +166,36 @@ mod tests {
         }
         let chi2: f64 = counts.iter().map(|&c| (c as f64 - 1000.0).powi(2) / 1000.0).sum();
         assert!(chi2 < 13.8, "{counts:?}");
+    }
+
+    #[test]
+    fn models_that_choose_no_lobe_ignore_the_lobe_number() {
+        use crate::bsdf::RoughConductor;
+        let wo = Vec3::new(0.3, 0.1, 0.9).normalize();
+        let models = [
+            Scattering::Diffuse(Lambert { albedo: Vec3::splat(0.5) }),
+            Scattering::Conductor(RoughConductor::new(
+                Vec3::splat(0.9),
+                TrowbridgeReitz::from_roughness(0.0),
+            )),
+            Scattering::Conductor(RoughConductor::new(
+                Vec3::splat(0.9),
+                TrowbridgeReitz::from_roughness(0.3),
+            )),
+            Scattering::Dielectric(RoughDielectric::new(1.5, TrowbridgeReitz::from_roughness(0.0))),
+            Scattering::Dielectric(RoughDielectric::new(1.5, TrowbridgeReitz::from_roughness(0.3))),
+        ];
+        for model in models {
+            let mut differs = false;
+            for k in 0..64 {
+                let u = glam::Vec2::new((k % 8) as f32 / 8.0 + 0.03, (k / 8) as f32 / 8.0 + 0.05);
+                let sample =
+                    |uc| model.sample(wo, uc, u, TransportMode::Radiance).map(|s| (s.wi, s.f, s.pdf));
+                differs |= sample(0.0) != sample(0.999);
+            }
+            // A model that uses its lobe number must say so, or it would always get 0.
+            assert_eq!(differs, model.chooses_lobe(), "{model:?}");
+        }
     }
 
     #[test]

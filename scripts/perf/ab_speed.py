@@ -2,11 +2,11 @@
 """Two vitrum binaries side by side: samples per second of every method, in alternating runs.
 
     python3 scripts/perf/ab_speed.py OLD_VITRUM NEW_VITRUM [--scenes a.toml,b.toml] [--spp 4]
-                                     [--resolution 800] [--rounds 3] [--integrators path,light]
+                                     [--resolution 800] [--rounds 4] [--integrators path,light]
 
 For a performance change: build the commit before it and the commit after it, then compare them
 here in one run. Each round renders every (scene, method) once with OLD and once with NEW, in
-alternating order, so that drift of the machine's speed over the run falls on both alike. Timed:
+alternating order (which goes first alternates over rounds and pairs), so that drift of the machine's speed over the run falls on both alike. Timed:
 vitrum's own render seconds (`--json`); images go to a temporary folder and are checked to be
 bit-identical between the two binaries (a change that should not alter images must not). Printed:
 the median samples per second of each and the ratio NEW / OLD, as a Markdown table.
@@ -38,8 +38,11 @@ def render(vitrum, scene, method, args, out):
 
 
 def identical(vitrum, a, b):
-    """Whether two EXR renders have the same pixels (vitrum diff: MSE 0, no non-finite pixels)."""
+    """Whether two EXR renders have the same pixels: `vitrum diff` MSE 0 and no non-finite pixel
+    in either (an image with NaN or Inf counts as differing; +0 and -0 count as equal)."""
     p = subprocess.run([vitrum, "diff", a, b, "--json"], capture_output=True, text=True)
+    if p.returncode != 0:
+        sys.exit(f"vitrum diff {a} {b} failed ({p.returncode}): {p.stderr.strip()}")
     d = json.loads(p.stdout)
     return d["mse"] == 0.0 and d["non_finite_test"] == 0 and d["non_finite_reference"] == 0
 
@@ -53,26 +56,25 @@ def main():
     ap.add_argument("--integrators", default=",".join(METHODS))
     ap.add_argument("--spp", type=int, default=4)
     ap.add_argument("--resolution", type=int, default=800)
-    ap.add_argument("--rounds", type=int, default=3)
+    ap.add_argument("--rounds", type=int, default=4)
     args = ap.parse_args()
     scenes = args.scenes.split(",")
     methods = args.integrators.split(",")
     rates = {}
     with tempfile.TemporaryDirectory() as tmp:
         for r in range(args.rounds):
-            for scene in scenes:
-                for method in methods:
-                    key = (os.path.basename(scene), method)
-                    order = [("old", args.old), ("new", args.new)]
-                    if r % 2:
-                        order.reverse()
-                    files = {}
-                    for which, vitrum in order:
-                        rate, files[which] = render(vitrum, scene, method, args,
-                                                    os.path.join(tmp, f"{which}.exr"))
-                        rates.setdefault(key, {"old": [], "new": []})[which].append(rate)
-                    if not identical(args.new, files["new"], files["old"]):
-                        rates[key]["differs"] = True
+            for pair, (scene, method) in enumerate((s, m) for s in scenes for m in methods):
+                key = (os.path.basename(scene), method)
+                order = [("old", args.old), ("new", args.new)]
+                if (r + pair) % 2:  # each binary first equally often over rounds and pairs
+                    order.reverse()
+                files = {}
+                for which, vitrum in order:
+                    rate, files[which] = render(vitrum, scene, method, args,
+                                                os.path.join(tmp, f"{which}.exr"))
+                    rates.setdefault(key, {"old": [], "new": []})[which].append(rate)
+                if not identical(args.new, files["new"], files["old"]):
+                    rates[key]["differs"] = True
     print(f"{args.resolution}x{args.resolution}, {args.spp} spp, {args.rounds} alternating rounds; "
           f"median Msamples/s")
     print("| scene | method | old | new | new / old | images |")

@@ -80,7 +80,11 @@ impl Scattering {
     /// Whether [`Scattering::sample`] uses its `uc`: only glass chooses between lobes
     /// (reflection or refraction); the other models draw a direction from `u` alone.
     pub fn chooses_lobe(&self) -> bool {
-        matches!(self, Scattering::Dielectric(_))
+        // Every variant named: a new model must say whether it uses `uc`.
+        match self {
+            Scattering::Diffuse(_) | Scattering::Conductor(_) => false,
+            Scattering::Dielectric(_) => true,
+        }
     }
 
     /// A scattered direction for `wo` from the uniforms `uc`, `u`.

@@ -83,6 +83,17 @@ pub fn legend_label(series: &Series) -> String {
     }
 }
 
+/// Where the legend covers no data: upper right when the series fall (errors against samples),
+/// upper left when they rise (cost against scene size), judged by their mean fitted slope.
+pub fn legend_position(plot: &LogLogPlot) -> SeriesLabelPosition {
+    let slopes: Vec<f64> = plot.series.iter().filter_map(|s| fit_slope(&s.points)).collect();
+    if !slopes.is_empty() && slopes.iter().sum::<f64>() > 0.0 {
+        SeriesLabelPosition::UpperLeft
+    } else {
+        SeriesLabelPosition::UpperRight
+    }
+}
+
 /// Writes the plot as an SVG and a PNG file, atomically.
 pub fn write_loglog(plot: &LogLogPlot, svg: &Path, png: &Path) -> Result<(), OutputError> {
     register_font().map_err(|m| OutputError::format(svg, m))?;
@@ -210,7 +221,7 @@ fn draw<DB: DrawingBackend>(
     if !plot.series.is_empty() {
         chart
             .configure_series_labels()
-            .position(SeriesLabelPosition::UpperRight)
+            .position(legend_position(plot))
             .margin(12)
             .legend_area_size(34)
             .label_font((FAMILY, 18))
@@ -364,6 +375,16 @@ mod tests {
         assert_eq!(fit_slope(&[(1.0, 1.0), (0.0, 3.0)]), None);
         assert_eq!(fit_slope(&[(2.0, 1.0), (2.0, 3.0)]), None);
         assert_eq!(fit_slope(&[]), None);
+    }
+
+    #[test]
+    fn the_legend_sits_where_the_curves_are_not() {
+        let series = |points: Vec<(f64, f64)>| [Series { name: "s".into(), points }];
+        let plot = |series| LogLogPlot { title: "t", x_label: "x", y_label: "y", series };
+        let falling = series(vec![(1.0, 1.0), (10.0, 0.1), (100.0, 0.01)]);
+        let rising = series(vec![(1.0, 0.1), (10.0, 0.2), (100.0, 0.4)]);
+        assert!(matches!(legend_position(&plot(&falling)), SeriesLabelPosition::UpperRight));
+        assert!(matches!(legend_position(&plot(&rising)), SeriesLabelPosition::UpperLeft));
     }
 
     #[test]

@@ -39,7 +39,7 @@ pub enum Dim {
     Light = 4,
     /// Choice of a scattering direction.
     Bsdf = 5,
-    /// Anything else (Russian roulette, lobe selection, …).
+    /// Anything else (Russian roulette, …).
     Other = 6,
 }
 
@@ -266,7 +266,7 @@ impl Sampler {
                 let reversed_index = sobol::shuffle_reversed(self.reversed_sample, shuffle);
                 Vec2::new(
                     sobol::to_unit(sobol::scrambled_dim0(reversed_index.reverse_bits(), x)),
-                    sobol::to_unit(sobol::scrambled_dim1_reversed(reversed_index, y)),
+                    sobol::to_unit(sobol::scrambled_dim1_of_reversed(reversed_index, y)),
                 )
             }
         }
@@ -456,6 +456,25 @@ mod tests {
         };
         let (strat, sobol) = (mean_sq_err(SamplerKind::Stratified), mean_sq_err(SamplerKind::Sobol));
         assert!(sobol < strat, "stratified {strat}, sobol {sobol}");
+    }
+
+    #[test]
+    fn sobol_values_follow_the_plain_definition() {
+        // Pins the stream: each request is the Owen-scrambled Sobol' point at the shuffled index,
+        // with the seeds of its dimension (computed here by the plain, reversal-heavy forms).
+        for (pixel, sample) in [(0u64, 0u32), (5, 3), (123_456, 1000), (7, u32::MAX)] {
+            let mut smp = Sampler::new(SamplerKind::Sobol, 42, pixel, sample, 0);
+            let reference = Sampler::new(SamplerKind::Sobol, 42, pixel, sample, 0);
+            let v1 = smp.get_1d(Dim::Light);
+            let v2 = smp.get_2d(Dim::Bsdf);
+            let (shuffle, x, _) = reference.sobol_seeds(0);
+            let index = sobol::shuffle(sample, shuffle);
+            assert_eq!(v1, sobol::to_unit(sobol::owen_scramble(index.reverse_bits(), x)));
+            let (shuffle, x, y) = reference.sobol_seeds(1);
+            let index = sobol::shuffle(sample, shuffle);
+            assert_eq!(v2.x, sobol::to_unit(sobol::owen_scramble(index.reverse_bits(), x)));
+            assert_eq!(v2.y, sobol::to_unit(sobol::owen_scramble(sobol::sobol_dim1(index), y)));
+        }
     }
 
     #[test]

@@ -32,7 +32,8 @@ pub fn owen_scramble(x: u32, seed: u32) -> u32 {
 }
 
 /// The sample index `index` shuffled by `seed`: a nested scramble of its bits from the most
-/// significant down, so that indices below 2^m go to one aligned block of 2^m indices.
+/// significant down, so that indices below 2^m go to one aligned block of 2^m indices. (The
+/// sampler uses [`shuffle_reversed`]; this plain form is the definition the tests check.)
 #[inline]
 pub fn shuffle(index: u32, seed: u32) -> u32 {
     owen_scramble(index, seed)
@@ -92,7 +93,8 @@ fn sobol_dim1_reversed(reversed_index: u32) -> u32 {
         ^ t[3][(reversed_index >> 24) as usize]
 }
 
-/// The second coordinate of Sobol' point `index` (the first is `index.reverse_bits()`).
+/// The second coordinate of Sobol' point `index` (the first is `index.reverse_bits()`); the
+/// plain form of what the sampler computes bit-reversed.
 #[inline]
 pub fn sobol_dim1(index: u32) -> u32 {
     sobol_dim1_reversed(index.reverse_bits()).reverse_bits()
@@ -104,15 +106,17 @@ pub fn scrambled_dim0(index: u32, seed: u32) -> u32 {
     lk_permute(index, seed).reverse_bits()
 }
 
-/// Owen-scrambled second coordinate of Sobol' point `index`.
+/// Owen-scrambled second coordinate of Sobol' point `index` (the plain form of
+/// [`scrambled_dim1_of_reversed`]).
 #[inline]
 pub fn scrambled_dim1(index: u32, seed: u32) -> u32 {
-    scrambled_dim1_reversed(index.reverse_bits(), seed)
+    scrambled_dim1_of_reversed(index.reverse_bits(), seed)
 }
 
-/// [`scrambled_dim1`] of the point whose index is given bit-reversed (one reversal, not three).
+/// [`scrambled_dim1`] of the point whose index is given bit-reversed (one reversal, not three);
+/// the coordinate itself is returned in plain form.
 #[inline]
-pub fn scrambled_dim1_reversed(reversed_index: u32, seed: u32) -> u32 {
+pub fn scrambled_dim1_of_reversed(reversed_index: u32, seed: u32) -> u32 {
     lk_permute(sobol_dim1_reversed(reversed_index), seed).reverse_bits()
 }
 
@@ -154,7 +158,7 @@ mod tests {
             for index in (0..u32::MAX).step_by(1_000_003).chain([0, 1, u32::MAX]) {
                 let r = index.reverse_bits();
                 assert_eq!(shuffle_reversed(r, seed), shuffle(index, seed).reverse_bits());
-                assert_eq!(scrambled_dim1_reversed(r, seed), scrambled_dim1(index, seed));
+                assert_eq!(scrambled_dim1_of_reversed(r, seed), scrambled_dim1(index, seed));
                 assert_eq!(scrambled_dim1(index, seed), owen_scramble(dim1_reference(index), seed));
             }
         }
