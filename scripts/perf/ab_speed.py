@@ -5,11 +5,11 @@
                                      [--resolution 800] [--rounds 4] [--integrators path,light]
 
 For a performance change: build the commit before it and the commit after it, then compare them
-here in one run. Each round renders every (scene, method) once with OLD and once with NEW, in
-alternating order (which goes first alternates over rounds and pairs), so that drift of the machine's speed over the run falls on both alike. Timed:
-vitrum's own render seconds (`--json`); images go to a temporary folder and are checked to be
-bit-identical between the two binaries (a change that should not alter images must not). Printed:
-the median samples per second of each and the ratio NEW / OLD, as a Markdown table.
+here in one run. Each round renders every (scene, method) once with OLD and once with NEW; which
+goes first alternates over rounds and pairs, so that drift of the machine's speed over the run
+falls on both alike. Timed: vitrum's own render seconds (`--json`). Images go to a temporary
+folder and are compared between the two binaries (a change that should not alter images must
+not). Printed: the median samples per second of each and the ratio NEW / OLD, as a Markdown table.
 """
 
 import argparse
