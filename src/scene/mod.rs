@@ -7,6 +7,7 @@ pub mod desc;
 pub mod effects;
 pub mod mesh;
 pub mod source;
+mod traversal;
 
 pub use compile::{load, load_default, load_str};
 pub use effects::{Effect, EffectUse, Effects};
@@ -20,7 +21,6 @@ use crate::material::Material;
 use crate::sampler::SamplerKind;
 use glam::{Vec3, Vec3A};
 use obvhs::cwbvh::CwBvh;
-use obvhs::ray::RayHit;
 use std::cell::OnceCell;
 
 /// The text of the embedded default scene (the thesis's Cornell box with glass bodies).
@@ -263,10 +263,9 @@ impl Scene {
     fn any_hit(&self, ray: &Ray, tmax: f32, hit: impl Fn(&Primitive, usize) -> Option<f32>) -> bool {
         let inv = 1.0 / self.bvh_scale;
         let bray = self.bvh_ray(ray, tmax);
-        let missed = self.bvh.ray_traverse_miss(bray, |_, id| {
+        traversal::any(&self.bvh, bray, |_, id| {
             hit(&self.primitives[id], id).map_or(f32::INFINITY, |t| t * inv)
-        });
-        !missed
+        })
     }
 
     /// `ray` in BVH coordinates up to `tmax`, with its direction canonicalised (the CwBvh misses
@@ -297,8 +296,7 @@ impl Scene {
         let bray = self.bvh_ray(ray, tmax);
         let source = &self.bvh.primitive_indices;
         let mut best: Option<(f32, usize, E)> = None;
-        let mut ignored = RayHit::none();
-        self.bvh.ray_traverse(bray, &mut ignored, |_, id| {
+        traversal::closest(&self.bvh, bray, |_, id| {
             // Up to and including the best distance so far, to see ties.
             let limit = best.map_or(tmax, |(t, _, _)| t.next_up());
             let Some((t, extra)) = hit(&self.primitives[id], limit) else { return f32::INFINITY };
