@@ -100,7 +100,7 @@ use crate::render::{
 use crate::sampler::{Dim, Sampler, SamplerKind};
 use crate::scene::effects::Support;
 use crate::scene::{Effect, Scene};
-use crate::spectrum::sample_wavelength;
+use crate::spectrum::{Channels, Wavelengths};
 use crate::stats::RayCounts;
 use glam::{DVec3, Vec2, Vec3};
 use rand::SeedableRng;
@@ -140,7 +140,7 @@ impl Integrator for LightTracer {
     }
 
     fn support(&self, effect: Effect) -> Support {
-        // Dispersion (one wavelength per path), absorption, motion blur (one time per path), depth
+        // Dispersion (three wavelengths per path, see `crate::spectrum`), absorption, motion blur (one time per path), depth
         // of field (connections to a sampled lens point), area lights, glossy surfaces, textures
         // and meshes are simulated. Specular surfaces seen directly are not an effect of the
         // list; the module documentation and the description state that they render black.
@@ -355,11 +355,8 @@ impl Tracer<'_> {
         let mut ctx = PathContext::new(self.path_sampler(index));
         let (open, close) = self.camera.shutter;
         let time = if self.dims.time { open + (close - open) * ctx.sampler.get_1d(Dim::Time) } else { open };
-        let mut weight = Vec3::ONE;
         if self.dims.wavelength {
-            let w = sample_wavelength(ctx.sampler.get_1d(Dim::Wavelength));
-            ctx.lambda = Some(w.lambda);
-            weight = w.weight;
+            ctx.channels = Channels::Spectral(Wavelengths::sample(ctx.sampler.get_1d(Dim::Wavelength)));
         }
         // The same dimensions for every light, so that stratification lines up across paths.
         let n = self.lights.len();
@@ -368,16 +365,17 @@ impl Tracer<'_> {
         let u_point = ctx.sampler.get_2d(Dim::Light);
         let u_dir = ctx.sampler.get_2d(Dim::Light);
         let Some(emission) = emit(light, 1.0 / n as f32, side, u_point, u_dir) else { return };
-        let shadow = ShadowRays { mode: ShadowMode::Opaque, lambda: ctx.lambda, time };
+        let shadow = ShadowRays { mode: ShadowMode::Opaque, channels: ctx.channels, time };
 
         // Vertex 0: the emission point of an area light, seen directly.
         if let Some((origin, inv_pdf)) = emission.origin {
+            let channels = ctx.channels;
             self.connect(&origin, &mut ctx, shadow, out, |wc| {
-                weight * light.emitted(origin.n, wc) * (wc.dot(origin.n).abs() * inv_pdf)
+                channels.colour(light.emitted(origin.n, wc)) * (wc.dot(origin.n).abs() * inv_pdf)
             });
         }
 
-        let beta0 = weight * emission.beta;
+        let mut beta0 = ctx.channels.colour(emission.beta);
         // Product of f·|cos|/pdf and absorption since emission (what Russian roulette looks at).
         let mut throughput = Vec3::ONE;
         let mut ray = emission.ray;
@@ -394,7 +392,8 @@ impl Tracer<'_> {
             }
             depth += 1;
             let material = scene.material_of(isect.primitive);
-            let bsdf = Scattering::at(material, hit.p, ctx.lambda);
+            beta0 *= ctx.end_secondaries_at(&material.bsdf);
+            let bsdf = Scattering::at(material, hit.p, &ctx.channels);
             let frame = Frame::from_normal(hit.n);
             // Importance mode: `wo` leads back towards the light, `wi` on towards the camera.
             let wo_local = frame.to_local(-ray.dir);
@@ -426,9 +425,9 @@ impl Tracer<'_> {
             }
             let wi = frame.to_world(s.wi);
             throughput *= s.f * (s.wi.z.abs() / s.pdf);
-            if let Some(c) = crossing(&material.bsdf, ray.dir, hit.n, ctx.lambda) {
+            if let Some(c) = crossing(&material.bsdf, ray.dir, hit.n, ctx.channels.hero()) {
                 let medium = if s.is_transmission { c.transmitted } else { c.incident };
-                absorption = medium.absorption;
+                absorption = ctx.channels.colour(medium.absorption);
             }
             if s.is_transmission {
                 ctx.rays.refracted += 1;
@@ -503,7 +502,7 @@ impl Tracer<'_> {
             return;
         }
         // dω = |cos_v| dA / d² and dA_film = dω / cos³θ (see the module documentation).
-        let c = v * visible / (dist2 * cos_cam * cos_cam * cos_cam);
+        let c = ctx.channels.to_rgb(v * visible) / (dist2 * cos_cam * cos_cam * cos_cam);
         if !c.is_finite() {
             out.non_finite += 1;
         }

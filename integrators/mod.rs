@@ -16,10 +16,12 @@ pub use whitted::Whitted;
 
 use crate::bsdf::{BsdfSample, Scattering, TransportMode};
 use crate::geometry::Ray;
+use crate::material::Bsdf;
 use crate::render::{Progression, RenderOptions, RenderOutput};
 use crate::sampler::{Dim, Sampler};
 use crate::scene::effects::Support;
 use crate::scene::{Effect, Scene};
+use crate::spectrum::{Channels, HERO_ONLY};
 use crate::stats::RayCounts;
 use glam::Vec3;
 
@@ -74,15 +76,36 @@ pub struct PathContext {
     pub sampler: Sampler,
     /// Rays traced so far, by kind.
     pub rays: RayCounts,
-    /// The sample's wavelength in nm when rendering spectrally.
-    pub lambda: Option<f32>,
+    /// What the channels of the sample's radiance hold: RGB, or its wavelengths.
+    pub channels: Channels,
+    /// Whether the path has ended its secondary wavelengths (at a dispersive interface).
+    pub hero_only: bool,
 }
 
 impl PathContext {
     /// A context for the given stream, in RGB mode.
     pub fn new(sampler: Sampler) -> PathContext {
-        PathContext { sampler, rays: RayCounts::default(), lambda: None }
+        PathContext { sampler, rays: RayCounts::default(), channels: Channels::Rgb, hero_only: false }
     }
+
+    /// The factor a spectral path's throughput takes at a surface of `bsdf`: [`HERO_ONLY`] the
+    /// first time it meets a dispersive interface (where its wavelengths would part), 1 otherwise.
+    #[inline]
+    pub fn end_secondaries_at(&mut self, bsdf: &Bsdf) -> Vec3 {
+        if ends_secondaries(&self.channels, self.hero_only, bsdf) {
+            self.hero_only = true;
+            HERO_ONLY
+        } else {
+            Vec3::ONE
+        }
+    }
+}
+
+/// Whether a path with these `channels`, its secondaries already ended or not (`hero_only`),
+/// ends them at a surface of `bsdf`: in spectral mode, at its first dispersive interface.
+#[inline]
+pub(crate) fn ends_secondaries(channels: &Channels, hero_only: bool, bsdf: &Bsdf) -> bool {
+    channels.is_spectral() && !hero_only && bsdf.is_dispersive()
 }
 
 /// A rendering method.

@@ -9,8 +9,9 @@
 //! between several microfacets (which `eval` does not cover) is, like a delta lobe, reached only by
 //! BSDF sampling and never weighted by MIS. Russian roulette starts after
 //! three bounces and uses the path weight with the η² radiance scaling of refraction undone, so
-//! light inside glass is not killed early. Media absorb by Beer–Lambert's law, and dispersive
-//! glass refracts each camera sample's wavelength.
+//! light inside glass is not killed early. Media absorb by Beer–Lambert's law. In spectral mode
+//! the path carries three wavelengths (see [`crate::spectrum`]); at its first dispersive
+//! interface it ends the secondary ones and refracts the hero wavelength alone.
 
 use super::{pick_light, sample_bsdf, Integrator, PathContext, RenderParams};
 use crate::bsdf::{Frame, Scattering, TransportMode};
@@ -87,7 +88,7 @@ impl Integrator for Path {
         loop {
             let Some(isect) = scene.intersect(&ray, f32::INFINITY) else {
                 if absorption == Vec3::ZERO {
-                    l += beta * escaped(scene, skip_mis, bsdf_pdf, light_pick);
+                    l += beta * ctx.channels.colour(escaped(scene, skip_mis, bsdf_pdf, light_pick));
                 }
                 break;
             };
@@ -106,14 +107,15 @@ impl Integrator for Path {
                     } else {
                         power_heuristic(bsdf_pdf, light_pick * light.pdf_li(ray.origin, hit.p, hit.n))
                     };
-                    l += beta * le * w;
+                    l += beta * ctx.channels.colour(le) * w;
                 }
             }
             if depth >= params.max_depth {
                 break;
             }
             let material = scene.material_of(isect.primitive);
-            let bsdf = Scattering::at(material, hit.p, ctx.lambda);
+            beta *= ctx.end_secondaries_at(&material.bsdf);
+            let bsdf = Scattering::at(material, hit.p, &ctx.channels);
             let frame = Frame::from_normal(hit.n);
             let wo_local = frame.to_local(wo);
             if !bsdf.is_delta() && !scene.lights.is_empty() {
@@ -129,9 +131,9 @@ impl Integrator for Path {
             beta *= s.f * (s.wi.z.abs() / s.pdf);
             skip_mis = !s.is_evaluable();
             bsdf_pdf = s.pdf;
-            if let Some(c) = crossing(&material.bsdf, ray.dir, hit.n, ctx.lambda) {
+            if let Some(c) = crossing(&material.bsdf, ray.dir, hit.n, ctx.channels.hero()) {
                 let medium = if s.is_transmission { c.transmitted } else { c.incident };
-                absorption = medium.absorption;
+                absorption = ctx.channels.colour(medium.absorption);
             }
             if s.is_transmission {
                 eta_scale *= s.eta * s.eta;
@@ -191,7 +193,7 @@ fn next_event(
     if f == Vec3::ZERO {
         return Vec3::ZERO;
     }
-    let shadow = ShadowRays { mode: ShadowMode::Opaque, lambda: ctx.lambda, time };
+    let shadow = ShadowRays { mode: ShadowMode::Opaque, channels: ctx.channels, time };
     let target =
         if ls.distance.is_finite() { ls.position } else { hit.p + ls.wi * far_distance(scene, hit.p) };
     let visible = transmittance(scene, hit, target, Some(index as u32), shadow, &mut ctx.rays);
@@ -200,7 +202,7 @@ fn next_event(
     }
     let pdf = light_pick * ls.pdf;
     let w = if ls.delta { 1.0 } else { power_heuristic(pdf, bsdf.pdf(wo_local, wi_local)) };
-    f * ls.radiance * visible * (w / pdf)
+    f * ctx.channels.colour(ls.radiance) * visible * (w / pdf)
 }
 
 /// A distance from `p` beyond every object of the scene (for shadow rays to the environment).

@@ -39,12 +39,12 @@ impl Integrator for RayCast {
 
     fn radiance(&self, scene: &Scene, _: &RenderParams, ray: &Ray, ctx: &mut PathContext) -> Vec3 {
         let Some(isect) = scene.intersect(ray, f32::INFINITY) else {
-            return scene.settings.background;
+            return ctx.channels.colour(scene.settings.background);
         };
         let wo = -ray.dir;
         let material = scene.material_of(isect.primitive);
-        let shadow = ShadowRays { mode: ShadowMode::Opaque, lambda: ctx.lambda, time: ray.time };
-        emitted(scene, isect.primitive, &isect.hit, wo)
+        let shadow = ShadowRays { mode: ShadowMode::Opaque, channels: ctx.channels, time: ray.time };
+        ctx.channels.colour(emitted(scene, isect.primitive, &isect.hit, wo))
             + phong_local(scene, material, material.phong, &isect.hit, wo, shadow, &mut ctx.rays, |l, p| {
                 l.as_point_from(p)
             })

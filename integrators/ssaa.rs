@@ -61,7 +61,12 @@ impl Integrator for Ssaa {
     }
 
     fn support(&self, effect: Effect) -> Support {
-        deterministic_support(effect)
+        match effect {
+            Effect::Dispersion => Support::Approximates(
+                "refracts at the nominal index n_d: its fixed sample pattern has no wavelength to sample (--spectral is ignored)",
+            ),
+            _ => deterministic_support(effect),
+        }
     }
 
     fn radiance(&self, scene: &Scene, params: &RenderParams, ray: &Ray, ctx: &mut PathContext) -> Vec3 {

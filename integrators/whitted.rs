@@ -11,7 +11,7 @@
 //! Whitted's algorithm with the rays *distributed*: light points, glossy directions, lens
 //! positions and times are sampled instead of fixed ([`Sampling::Distributed`]).
 
-use super::{Integrator, PathContext, RenderParams};
+use super::{ends_secondaries, Integrator, PathContext, RenderParams};
 use crate::bsdf::microfacet::TrowbridgeReitz;
 use crate::bsdf::rough_conductor::RoughConductor;
 use crate::bsdf::rough_dielectric::{RoughDielectric, TransportMode};
@@ -23,6 +23,7 @@ use crate::optics::{reflect, refract};
 use crate::sampler::Dim;
 use crate::scene::effects::Support;
 use crate::scene::{Effect, Scene};
+use crate::spectrum::HERO_ONLY;
 use glam::Vec3;
 
 /// Recursive reflection and refraction with Fresnel weights.
@@ -56,7 +57,7 @@ pub(super) fn deterministic_support(effect: Effect) -> Support {
         ),
         Effect::Glossy => Support::Approximates("rough surfaces are traced as smooth ones"),
         Effect::Dispersion => Support::Approximates(
-            "refracts at the nominal index n_d unless --spectral on (one wavelength per sample)",
+            "refracts at the nominal index n_d unless --spectral on (three wavelengths per sample, the hero alone past dispersive glass)",
         ),
         Effect::DepthOfField => Support::Ignores("renders through a pinhole"),
         Effect::MotionBlur => Support::Ignores("renders the scene at the shutter's opening time"),
@@ -84,6 +85,8 @@ pub(super) struct Segment {
     count_emission: bool,
     /// Largest channel of the product of the weights since the camera.
     weight: f32,
+    /// Whether the path has ended its secondary wavelengths (spectral mode, after dispersion).
+    hero_only: bool,
 }
 
 /// Rays whose weight since the camera falls below this are not traced (adaptive depth control,
@@ -94,10 +97,11 @@ pub(super) const MIN_PATH_WEIGHT: f32 = 1e-4;
 impl Segment {
     /// A camera ray (in a clear medium).
     pub(super) fn camera() -> Segment {
-        Segment { depth: 0, absorption: Vec3::ZERO, count_emission: true, weight: 1.0 }
+        Segment { depth: 0, absorption: Vec3::ZERO, count_emission: true, weight: 1.0, hero_only: false }
     }
 
-    /// The segment after a bounce with weight `weight`, or `None` if it is not worth tracing.
+    /// The segment after a bounce with weight `weight` into a medium of `absorption` (in the
+    /// path's channels), or `None` if it is not worth tracing.
     fn next(self, weight: Vec3, absorption: Vec3, count_emission: bool) -> Option<Segment> {
         let weight = self.weight * weight.max_element();
         (weight >= MIN_PATH_WEIGHT).then_some(Segment {
@@ -105,6 +109,7 @@ impl Segment {
             absorption,
             count_emission,
             weight,
+            hero_only: self.hero_only,
         })
     }
 }
@@ -120,20 +125,29 @@ pub(super) fn trace(
 ) -> Vec3 {
     let Some(isect) = scene.intersect(ray, f32::INFINITY) else {
         let survives = seg.absorption == Vec3::ZERO;
-        return if survives { scene.settings.background } else { Vec3::ZERO };
+        return if survives { ctx.channels.colour(scene.settings.background) } else { Vec3::ZERO };
     };
     let hit = &isect.hit;
     let attenuation = if seg.absorption == Vec3::ZERO { Vec3::ONE } else { (-seg.absorption * hit.t).exp() };
     let wo = -ray.dir;
     let material = scene.material_of(isect.primitive);
+    // A dispersive interface parts the wavelengths: from here on the hero goes alone.
+    let hero_only = ends_secondaries(&ctx.channels, seg.hero_only, &material.bsdf);
+    let seg = Segment { hero_only: seg.hero_only || hero_only, ..seg };
+    let attenuation = if hero_only { attenuation * HERO_ONLY } else { attenuation };
+    let channels = ctx.channels;
     let shadow = ShadowRays {
         mode: ShadowMode::ThroughGlass { reflectance: params.reflectance },
-        lambda: ctx.lambda,
+        channels,
         time: ray.time,
     };
     let glossy = sampling == Sampling::Distributed && material.bsdf.roughness() > 0.0;
 
-    let mut l = if seg.count_emission { emitted(scene, isect.primitive, hit, wo) } else { Vec3::ZERO };
+    let mut l = if seg.count_emission {
+        channels.colour(emitted(scene, isect.primitive, hit, wo))
+    } else {
+        Vec3::ZERO
+    };
     l += local(scene, material, hit, wo, shadow, sampling, glossy, ctx);
     if seg.depth >= params.max_depth {
         return attenuation * l;
@@ -156,7 +170,7 @@ pub(super) fn trace(
         Bsdf::Mirror { color, roughness } if glossy => {
             let frame = Frame::from_normal(n);
             let lobe = RoughConductor {
-                reflectance: *color,
+                reflectance: channels.colour(*color),
                 distribution: TrowbridgeReitz::from_roughness(*roughness),
             };
             let u = ctx.sampler.get_2d(Dim::Bsdf);
@@ -166,10 +180,11 @@ pub(super) fn trace(
             }
         }
         Bsdf::Mirror { color, .. } => {
-            l += follow(reflect(wo, n), *color, seg.absorption, true, ctx);
+            l += follow(reflect(wo, n), channels.colour(*color), seg.absorption, true, ctx);
         }
         Bsdf::Dielectric { roughness, .. } => {
-            let c = crossing(&material.bsdf, ray.dir, hit.n, ctx.lambda).expect("a dielectric has two sides");
+            let c = crossing(&material.bsdf, ray.dir, hit.n, channels.hero())
+                .expect("a dielectric has two sides");
             if glossy {
                 // Local frame on the outward normal: eta = n_inside / n_outside.
                 let frame = Frame::from_normal(hit.n);
@@ -184,7 +199,8 @@ pub(super) fn trace(
                 {
                     let wi = frame.to_world(s.wi);
                     let medium = if s.is_transmission { c.transmitted } else { c.incident };
-                    l += follow(wi, s.f * (s.wi.z.abs() / s.pdf), medium.absorption, !s.is_evaluable(), ctx);
+                    let absorption = channels.colour(medium.absorption);
+                    l += follow(wi, s.f * (s.wi.z.abs() / s.pdf), absorption, !s.is_evaluable(), ctx);
                 }
             } else {
                 let transmitted = refract(wo, n, c.n_t / c.n_i);
@@ -192,9 +208,11 @@ pub(super) fn trace(
                     Some(_) => dielectric_reflectance(wo.dot(n), c.n_i, c.n_t, params.reflectance),
                     None => 1.0,
                 };
-                l += follow(reflect(wo, n), Vec3::splat(r), c.incident.absorption, true, ctx);
+                l +=
+                    follow(reflect(wo, n), Vec3::splat(r), channels.colour(c.incident.absorption), true, ctx);
                 if let Some(wt) = transmitted {
-                    l += follow(wt, Vec3::splat(1.0 - r), c.transmitted.absorption, true, ctx);
+                    let absorption = channels.colour(c.transmitted.absorption);
+                    l += follow(wt, Vec3::splat(1.0 - r), absorption, true, ctx);
                 }
             }
         }
@@ -264,12 +282,12 @@ fn glossy_direct(
         let wi_local = frame.to_local(wi);
         let f = match &material.bsdf {
             Bsdf::Mirror { color, roughness } => RoughConductor {
-                reflectance: *color,
+                reflectance: shadow.channels.colour(*color),
                 distribution: TrowbridgeReitz::from_roughness(*roughness),
             }
             .eval(wo_local, wi_local),
             Bsdf::Dielectric { inside, outside, roughness } => RoughDielectric {
-                eta: inside.ior_at(ctx.lambda) / outside.ior_at(ctx.lambda),
+                eta: inside.ior_at(shadow.channels.hero()) / outside.ior_at(shadow.channels.hero()),
                 distribution: TrowbridgeReitz::from_roughness(*roughness),
             }
             .eval(wo_local, wi_local, TransportMode::Radiance),
@@ -286,7 +304,7 @@ fn glossy_direct(
             shadow,
             &mut ctx.rays,
         );
-        l += f * vis * source.intensity * (wi_local.z.abs() / dist2);
+        l += f * vis * shadow.channels.colour(source.intensity) * (wi_local.z.abs() / dist2);
     }
     l
 }

@@ -6,6 +6,7 @@ use crate::light::PointIllumination;
 use crate::material::{Bsdf, Material, Medium, Phong};
 use crate::optics::fresnel_dielectric;
 use crate::scene::Scene;
+use crate::spectrum::Channels;
 use crate::stats::RayCounts;
 use glam::Vec3;
 use std::f32::consts::PI;
@@ -32,8 +33,8 @@ pub enum ShadowMode {
 pub struct ShadowRays {
     /// How dielectrics are treated.
     pub mode: ShadowMode,
-    /// Wavelength (nm) in spectral mode, for the refractive indices.
-    pub lambda: Option<f32>,
+    /// What the path's channels hold (for indices at the hero wavelength and absorption spectra).
+    pub channels: Channels,
     /// Time of the path (moving objects).
     pub time: f32,
 }
@@ -143,7 +144,7 @@ pub fn transmittance(
         let hit = scene.intersect(&ray, remaining * (1.0 - 1e-5));
         let travelled = hit.as_ref().map_or(remaining, |h| h.hit.t);
         if let Some(m) = medium {
-            t *= m.transmittance(travelled);
+            t *= m.transmittance(travelled, &shadow.channels);
         }
         let Some(hit) = hit else {
             return t;
@@ -152,7 +153,7 @@ pub fn transmittance(
             return t;
         }
         let bsdf = &scene.material_of(hit.primitive).bsdf;
-        let Some(c) = crossing(bsdf, dir, hit.hit.n, shadow.lambda) else {
+        let Some(c) = crossing(bsdf, dir, hit.hit.n, shadow.channels.hero()) else {
             return Vec3::ZERO;
         };
         t *= 1.0 - straight_crossing_reflectance(dir.dot(hit.hit.n).abs(), c.n_i, c.n_t, reflectance);
@@ -182,8 +183,9 @@ pub fn phong_local(
     rays: &mut RayCounts,
     mut illumination: impl FnMut(&crate::light::Light, Vec3) -> PointIllumination,
 ) -> Vec3 {
-    let color = material.phong_color(hit.p);
-    let mut l = ph.ambient * color * scene.settings.ambient;
+    let channels = &shadow.channels;
+    let color = channels.colour(material.phong_color(hit.p));
+    let mut l = ph.ambient * color * channels.colour(scene.settings.ambient);
     // A mirror or glass already sees an area light's surface through its reflected ray: its
     // highlight stands in only for point lights, which have no surface to be seen.
     let specular_surface = !matches!(material.bsdf, Bsdf::Diffuse(_));
@@ -205,7 +207,7 @@ pub fn phong_local(
         if vis == Vec3::ZERO {
             continue;
         }
-        let irradiance = source.intensity * vis * (cos / dist2);
+        let irradiance = channels.colour(source.intensity) * vis * (cos / dist2);
         let mut f = ph.diffuse * color / PI;
         if ph.specular > 0.0 && !(specular_surface && light.is_area()) {
             let r = crate::optics::reflect(wi, n);
@@ -217,7 +219,7 @@ pub fn phong_local(
     l
 }
 
-/// Radiance emitted by the primitive of `hit` towards `wo`, if it is a light's emitting side.
+/// Radiance emitted by the primitive of `hit` towards `wo`, if it is a light's emitting side (RGB).
 pub fn emitted(scene: &Scene, primitive: u32, hit: &SurfaceHit, wo: Vec3) -> Vec3 {
     match scene.light_of(primitive) {
         Some(i) => scene.lights[i as usize].emitted(hit.n, wo),

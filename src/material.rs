@@ -1,6 +1,7 @@
 //! Materials: the physical description and the empirical Phong terms of ray casting and Whitted.
 
 use crate::dispersion::Ior;
+use crate::spectrum::Channels;
 use glam::Vec3;
 
 /// How a diffuse albedo varies over a surface.
@@ -80,13 +81,13 @@ impl Medium {
         }
     }
 
-    /// Fraction of light surviving `distance` through the medium.
+    /// Fraction of light surviving `distance` through the medium, in the path's `channels`.
     #[inline]
-    pub fn transmittance(&self, distance: f32) -> Vec3 {
+    pub fn transmittance(&self, distance: f32, channels: &Channels) -> Vec3 {
         if self.absorption == Vec3::ZERO {
             Vec3::ONE
         } else {
-            (-self.absorption * distance).exp()
+            (-channels.colour(self.absorption) * distance).exp()
         }
     }
 }
@@ -115,6 +116,12 @@ pub enum Bsdf {
 }
 
 impl Bsdf {
+    /// Whether the surface is an interface whose index varies with wavelength on either side.
+    pub fn is_dispersive(&self) -> bool {
+        matches!(self, Bsdf::Dielectric { inside, outside, .. }
+            if inside.ior.is_dispersive() || outside.ior.is_dispersive())
+    }
+
     /// The surface's roughness (0 for diffuse and smooth surfaces).
     pub fn roughness(&self) -> f32 {
         match self {
@@ -206,7 +213,7 @@ mod tests {
     #[test]
     fn beer_lambert_transmittance() {
         let m = Medium { ior: Ior::Constant(1.5), absorption: Vec3::new(0.0, 1.0, 2.0) };
-        let t = m.transmittance(0.5);
+        let t = m.transmittance(0.5, &Channels::Rgb);
         assert_eq!(t.x, 1.0);
         assert!((t.y - (-0.5f32).exp()).abs() < 1e-7 && (t.z - (-1.0f32).exp()).abs() < 1e-7);
     }

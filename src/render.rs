@@ -62,7 +62,7 @@ use crate::integrators::{Integrator, PathContext, RenderParams};
 use crate::sampler::{Dim, Sampler, SamplerKind, DIM_PURPOSES};
 use crate::scene::effects::Support;
 use crate::scene::{Effect, Scene, SpectralMode};
-use crate::spectrum::sample_wavelength;
+use crate::spectrum::{Channels, Wavelengths};
 use crate::stats::RayCounts;
 use glam::{DVec3, Vec2, Vec3};
 use rayon::prelude::*;
@@ -396,15 +396,13 @@ impl<'a> Pass<'a> {
         let (open, close) = self.camera.shutter;
         let time = if self.dims.time { open + (close - open) * sampler.get_1d(Dim::Time) } else { open };
         let mut ctx = PathContext::new(sampler);
-        let mut weight = Vec3::ONE;
         if self.dims.wavelength {
-            let w = sample_wavelength(ctx.sampler.get_1d(Dim::Wavelength));
-            ctx.lambda = Some(w.lambda);
-            weight = w.weight;
+            ctx.channels = Channels::Spectral(Wavelengths::sample(ctx.sampler.get_1d(Dim::Wavelength)));
         }
         let ray = self.camera.generate_ray_lens(Vec2::new(x as f32, y as f32) + offset, lens, time);
         ctx.rays.primary += 1;
-        let l = weight * self.integrator.radiance(self.scene, &self.opts.params, &ray, &mut ctx);
+        let radiance = self.integrator.radiance(self.scene, &self.opts.params, &ray, &mut ctx);
+        let l = ctx.channels.to_rgb(radiance);
         row.rays += ctx.rays;
         for (total, d) in row.requests.iter_mut().zip(ALL_DIMS) {
             *total += ctx.sampler.requests(d) as u64;

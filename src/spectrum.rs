@@ -1,27 +1,51 @@
-//! Spectral sampling for an RGB renderer: CIE 1931 colour matching, wavelength sampling, and the
-//! RGB weight that turns a single-wavelength path back into an unbiased RGB estimate.
+//! Spectral transport for an RGB scene: colour matching, hero-wavelength sampling and the
+//! upsampling of RGB colours to spectra.
 //!
-//! The renderer stays RGB everywhere (albedos, emission, radiance). In spectral mode each camera
-//! sample draws one wavelength λ with [`sample_wavelength`], traces its path with refractive
-//! indices evaluated at λ (so refraction separates the colours), and multiplies the path's RGB
-//! radiance `L` component-wise by [`WavelengthSample::weight`] = w(λ) / p(λ):
+//! Scenes are written in RGB. In spectral mode every camera (or light) sample carries
+//! [`HERO_WAVELENGTHS`] = 3 wavelengths along its whole path (hero-wavelength sampling, Wilkie
+//! et al. 2014), and the three channels of every radiance and throughput the integrators
+//! compute hold the spectrum at those three wavelengths instead of red, green and blue
+//! ([`Channels`]). Refractive indices are taken at the first, the *hero* wavelength.
 //!
-//! - w(λ) ([`rgb_weight`]) is the linear-sRGB colour of monochromatic light of wavelength λ
-//!   (CIE 1931 2° colour-matching functions → XYZ → linear sRGB with the D65 matrix), scaled per
-//!   channel so that ∫ w(λ) dλ over [[`LAMBDA_MIN`], [`LAMBDA_MAX`]] = (1, 1, 1) exactly for the
-//!   colour-matching approximation used here. Hence E_λ[w(λ)/p(λ)] = (1, 1, 1): a path whose
-//!   radiance does not depend on λ has the same expected RGB as in RGB mode (non-dispersive scenes
-//!   render the same image within noise; white stays white), and an equal-energy spectrum maps to
-//!   RGB (1, 1, 1), the renderer's white. The per-channel scaling is a white balance on the
-//!   equal-energy illuminant, not a colorimetric transform of the spectrum.
-//! - w(λ) has **negative lobes**: monochromatic light lies outside the sRGB gamut, so every channel
-//!   is negative somewhere (red between about 460 and 553 nm, green below 467 nm and between 608
-//!   and 681 nm, blue above 515 nm; the values there are small). Individual samples can therefore
-//!   carry negative channels; they average out in the pixel estimate. Film and any sample clamping
-//!   must not clip per-sample values to zero, or spectral mode becomes biased.
-//! - p(λ) ([`wavelength_pdf`]) is pbrt-v4's visible-wavelength density, ∝ 1 / cosh²(0.0072 (λ − 538)),
-//!   renormalised to [[`LAMBDA_MIN`], [`LAMBDA_MAX`]] and sampled through its closed-form inverse
-//!   CDF; it roughly follows the luminance curve ȳ, which keeps the weights' variance low.
+//! - **Sampling** ([`Wavelengths::sample`]): one number u gives u, u + ⅓ and u + ⅔ (mod 1),
+//!   each mapped through the inverse CDF of [`wavelength_pdf`], so the three are stratified over
+//!   the visible range and each alone is distributed by the density. The density is
+//!   piecewise constant in 1 nm bins, ∝ ‖w(λ)‖^0.7 (Euclidean norm of the colour weights w
+//!   below): it follows the visual response of all three channels (the blue one too, which
+//!   pbrt-v4's luminance-like density 1/cosh² starves); ‖w‖ itself would minimise the summed
+//!   channel variance of a flat spectrum, and the exponent 0.7 flattens it so that saturated
+//!   colours, whose spectra are not flat, lose less. Measured on the white spectrum, the
+//!   per-channel variance of the three-wavelength estimate is 0.033 (averaged over R, G, B)
+//!   against 0.31 with pbrt-v4's density, 3.0 for the hero alone and 4.2 for the single
+//!   wavelength of vitrum's first spectral mode. Measured on `path` over `soft-shadows`
+//!   (160×160, 64 spp, against a 1024-spp RGB reference), exponents 0.5, 0.7 and 1.0 gave
+//!   1.24×, 1.25× and 1.47× the MSE of RGB mode, and the summed |w|^0.7 1.29×.
+//! - **Back to RGB** ([`Wavelengths::to_rgb`]): a spectral radiance L at λ₁, λ₂, λ₃ becomes
+//!   RGB = Σᵢ L(λᵢ) w(λᵢ) / (3 p(λᵢ)), an unbiased estimate of ∫ L(λ) w(λ) dλ.
+//!   w(λ) ([`rgb_weight`]) is the linear-sRGB colour of monochromatic light (CIE 1931 2°
+//!   colour-matching functions → XYZ → linear sRGB with the D65 matrix), scaled per channel so
+//!   that ∫ w dλ = (1, 1, 1): an equal-energy spectrum is the renderer's white (a white balance
+//!   on the equal-energy illuminant). w has negative lobes (monochromatic light is outside the
+//!   sRGB gamut), so single samples can carry negative channels; they average out, and the
+//!   film never clips them.
+//! - **RGB to spectrum** ([`Wavelengths::colour`]): every colour of the scene (albedos, mirror
+//!   tints, emission, the background, absorption coefficients) becomes the smooth spectrum
+//!   S(λ) = r B_r(λ) + g B_g(λ) + b B_b(λ), a linear *spectral primary decomposition* (after
+//!   Mallett and Yuksel 2019) with basis spectra of our own: the softmax of two cubic
+//!   polynomials ([`basis`]). By construction B_r + B_g + B_b = 1 and 0 < B_c < 1, so white and
+//!   every grey stay flat spectra, a reflectance in [0, 1]³ stays in [0, 1] at every
+//!   wavelength (no energy is created), and emission and absorption stay non-negative. The
+//!   cubics' coefficients were fitted (by `scripts/spectral/fit_basis.py`) so that
+//!   ∫ B_c w_c' dλ = δ_cc': under a white light every colour reflects exactly its RGB.
+//!   Jakob and Hanika's (2019) sigmoid spectra are smoother for saturated colours but need a
+//!   precomputed coefficient table per colour and are not linear; linearity lets a path
+//!   project each colour with one 3×3 product at its wavelengths.
+//! - **Dispersion** ([`HERO_ONLY`]): where a path meets a dispersive interface, the directions
+//!   of the three wavelengths part. vitrum then ends the two secondary wavelengths and carries
+//!   the hero alone with weight 3, as pbrt-v4 does (`TerminateSecondary`); with smooth glass a
+//!   hero-MIS (Wilkie et al.) would weight them by a zero density anyway. What the path gathered
+//!   before keeps all three, so only light that passed dispersive glass pays the colour noise
+//!   of a single wavelength.
 
 use glam::{DMat3, DVec3, Vec3};
 use std::sync::OnceLock;
@@ -31,10 +55,24 @@ pub const LAMBDA_MIN: f32 = 380.0;
 /// Longest sampled wavelength, in nanometres.
 pub const LAMBDA_MAX: f32 = 780.0;
 
-/// Rate of pbrt-v4's visible-wavelength density 1 / cosh²(K (λ − C)), per nanometre.
-const PDF_K: f64 = 0.0072;
-/// Centre of that density, in nanometres.
-const PDF_C: f64 = 538.0;
+/// Wavelengths carried by one spectral sample: the hero and two secondaries, one per channel.
+pub const HERO_WAVELENGTHS: usize = 3;
+
+/// The factor that ends a path's secondary wavelengths: the hero alone, weighted by their count.
+pub const HERO_ONLY: Vec3 = Vec3::new(HERO_WAVELENGTHS as f32, 0.0, 0.0);
+
+/// Bins of the tabulated wavelength density, 1 nm each.
+const DENSITY_BINS: usize = (LAMBDA_MAX - LAMBDA_MIN) as usize;
+
+/// Exponent of the norm of the colour weights in the wavelength density (chosen by measurement, see
+/// the module documentation).
+const DENSITY_EXPONENT: f64 = 0.7;
+
+/// Coefficients (constant term first) of the cubics in x = (λ − 580 nm)/200 nm whose softmax
+/// with 0 (green) gives the red and blue basis spectra; fitted by `scripts/spectral/fit_basis.py`.
+const BASIS_RED: [f32; 4] = [-1.832_042_7, 38.105_357, 63.913_065, -2.797_717_6];
+/// See [`BASIS_RED`].
+const BASIS_BLUE: [f32; 4] = [-3.740_165, 2.914_904_7, 15.536_159, -16.887_395];
 
 /// One asymmetric ("piecewise") Gaussian lobe with reciprocal widths below and above its centre.
 #[inline]
@@ -68,14 +106,14 @@ fn xyz_to_srgb_matrix() -> DMat3 {
     DMat3::from_cols_array_2d(&XYZ_TO_SRGB).transpose()
 }
 
-/// Constants derived once from the colour-matching fit and the wavelength density.
+/// Constants derived once from the colour-matching fit.
 struct Derived {
     /// Per-channel factors making ∫ w(λ) dλ = (1, 1, 1): 1 / ∫ srgb(xyz(λ)) dλ.
     rgb_scale: DVec3,
-    /// tanh(K (LAMBDA_MIN − C)): the unnormalised CDF of the density at LAMBDA_MIN.
-    tanh_min: f64,
-    /// tanh(K (LAMBDA_MAX − C)) − tanh(K (LAMBDA_MIN − C)): the density's normaliser.
-    tanh_range: f64,
+    /// The wavelength density in each 1 nm bin (per nm; they sum to 1).
+    density: Vec<f64>,
+    /// Its cumulative distribution at the bin edges: `cdf[0] = 0`, `cdf[DENSITY_BINS] = 1`.
+    cdf: Vec<f64>,
 }
 
 /// Composite Simpson integration of `f` over [a, b], split at the lobe centres (where the fit's
@@ -101,12 +139,24 @@ fn integrate_piecewise(a: f64, b: f64, f: impl Fn(f64) -> DVec3) -> DVec3 {
 fn derived() -> &'static Derived {
     static DERIVED: OnceLock<Derived> = OnceLock::new();
     DERIVED.get_or_init(|| {
-        let (a, b) = (LAMBDA_MIN as f64, LAMBDA_MAX as f64);
-        let xyz_integral = integrate_piecewise(a, b, cie_xyz_f64);
-        let rgb_integral = xyz_to_srgb_matrix() * xyz_integral;
-        let tanh_min = (PDF_K * (a - PDF_C)).tanh();
-        let tanh_max = (PDF_K * (b - PDF_C)).tanh();
-        Derived { rgb_scale: DVec3::ONE / rgb_integral, tanh_min, tanh_range: tanh_max - tanh_min }
+        let xyz_integral = integrate_piecewise(LAMBDA_MIN as f64, LAMBDA_MAX as f64, cie_xyz_f64);
+        let rgb_scale = DVec3::ONE / (xyz_to_srgb_matrix() * xyz_integral);
+        let mut density: Vec<f64> = (0..DENSITY_BINS)
+            .map(|k| {
+                let centre = LAMBDA_MIN as f64 + k as f64 + 0.5;
+                let w = xyz_to_srgb_matrix() * cie_xyz_f64(centre) * rgb_scale;
+                w.length().powf(DENSITY_EXPONENT)
+            })
+            .collect();
+        let total: f64 = density.iter().sum();
+        density.iter_mut().for_each(|d| *d /= total);
+        let mut cdf = Vec::with_capacity(DENSITY_BINS + 1);
+        cdf.push(0.0);
+        for d in &density {
+            cdf.push(cdf.last().unwrap() + d);
+        }
+        *cdf.last_mut().unwrap() = 1.0;
+        Derived { rgb_scale, density, cdf }
     })
 }
 
@@ -120,26 +170,6 @@ pub fn xyz_to_linear_srgb(xyz: Vec3) -> Vec3 {
     (xyz_to_srgb_matrix() * xyz.as_dvec3()).as_vec3()
 }
 
-/// A sampled wavelength and the RGB weight to multiply the path radiance by (w(λ)/p(λ)).
-#[derive(Clone, Copy, Debug)]
-pub struct WavelengthSample {
-    /// The wavelength in nanometres, in [`LAMBDA_MIN`, `LAMBDA_MAX`].
-    pub lambda: f32,
-    /// w(λ)/p(λ): per-channel RGB factor for the path's radiance; may have negative channels.
-    pub weight: Vec3,
-}
-
-/// Draws λ from [`wavelength_pdf`] by its inverse CDF at `u` ∈ [0, 1] (clamped; NaN counts as 0).
-pub fn sample_wavelength(u: f32) -> WavelengthSample {
-    let d = derived();
-    // `u > 0.0` is false for NaN, so a NaN input maps to the first wavelength, never to NaN.
-    let u = if u > 0.0 { u.min(1.0) as f64 } else { 0.0 };
-    let t = (d.tanh_min + u * d.tanh_range).clamp(-1.0, 1.0);
-    let lambda = ((PDF_C + t.atanh() / PDF_K) as f32).clamp(LAMBDA_MIN, LAMBDA_MAX);
-    let weight = rgb_weight(lambda) / wavelength_pdf(lambda);
-    WavelengthSample { lambda, weight }
-}
-
 /// w(λ): linear sRGB of monochromatic light at `lambda` nm, scaled so ∫ w dλ = (1, 1, 1); 0 outside.
 pub fn rgb_weight(lambda: f32) -> Vec3 {
     if !(LAMBDA_MIN..=LAMBDA_MAX).contains(&lambda) {
@@ -149,21 +179,132 @@ pub fn rgb_weight(lambda: f32) -> Vec3 {
     (rgb * derived().rgb_scale).as_vec3()
 }
 
-/// p(λ) per nm of [`sample_wavelength`]: ∝ 1/cosh²(0.0072 (λ − 538)) on the sampled range, 0 outside.
+/// The bin of the density that holds `lambda` (clamped to the range).
+fn density_bin(lambda: f32) -> usize {
+    ((lambda - LAMBDA_MIN) as usize).min(DENSITY_BINS - 1)
+}
+
+/// p(λ) per nm of one sampled wavelength (every one of a sample's three has it): piecewise
+/// constant in 1 nm bins, ∝ ‖w(λ)‖^0.7 at the bin's centre; 0 outside the range.
 pub fn wavelength_pdf(lambda: f32) -> f32 {
     if !(LAMBDA_MIN..=LAMBDA_MAX).contains(&lambda) {
         return 0.0;
     }
-    let c = (PDF_K * (lambda as f64 - PDF_C)).cosh();
-    (PDF_K / (c * c) / derived().tanh_range) as f32
+    derived().density[density_bin(lambda)] as f32
 }
 
-/// The CDF of [`wavelength_pdf`] (for tests: [`sample_wavelength`] is its inverse).
-#[cfg(test)]
-fn wavelength_cdf(lambda: f32) -> f64 {
+/// The wavelength at cumulative probability `u` ∈ [0, 1] of [`wavelength_pdf`] (clamped; NaN
+/// counts as 0), by its inverse CDF: linear within a bin.
+pub fn wavelength_at(u: f32) -> f32 {
     let d = derived();
-    let l = (lambda as f64).clamp(LAMBDA_MIN as f64, LAMBDA_MAX as f64);
-    (((PDF_K * (l - PDF_C)).tanh() - d.tanh_min) / d.tanh_range).clamp(0.0, 1.0)
+    // `u > 0.0` is false for NaN, so a NaN input maps to the first wavelength, never to NaN.
+    let u = if u > 0.0 { u.min(1.0) as f64 } else { 0.0 };
+    let k = (d.cdf.partition_point(|&c| c <= u) - 1).min(DENSITY_BINS - 1);
+    let t = ((u - d.cdf[k]) / d.density[k]).clamp(0.0, 1.0);
+    (LAMBDA_MIN + (k as f64 + t) as f32).clamp(LAMBDA_MIN, LAMBDA_MAX)
+}
+
+/// The basis spectra (B_r, B_g, B_b) at `lambda` nm: softmax of the red and blue cubics and 0.
+/// Each lies in (0, 1) and the three sum to 1.
+pub fn basis(lambda: f32) -> Vec3 {
+    let x = (lambda - 580.0) / 200.0;
+    let cubic = |c: [f32; 4]| c[0] + x * (c[1] + x * (c[2] + x * c[3]));
+    let (r, b) = (cubic(BASIS_RED), cubic(BASIS_BLUE));
+    // Shift by the largest exponent so that no exponential overflows.
+    let m = r.max(b).max(0.0);
+    let e = Vec3::new((r - m).exp(), (-m).exp(), (b - m).exp());
+    e / e.element_sum()
+}
+
+/// The wavelengths one spectral sample carries, with what its path needs of them.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Wavelengths {
+    /// The wavelengths in nm; the first is the hero.
+    pub lambda: [f32; HERO_WAVELENGTHS],
+    /// Row i: the basis spectra at wavelength i (a colour's spectral value there is its dot product).
+    basis: [Vec3; HERO_WAVELENGTHS],
+    /// w(λᵢ) / (3 p(λᵢ)): the RGB that wavelength i's radiance stands for.
+    weights: [Vec3; HERO_WAVELENGTHS],
+}
+
+impl Wavelengths {
+    /// The three stratified wavelengths of `u` ∈ [0, 1]: at cumulative probabilities u, u + ⅓
+    /// and u + ⅔ (mod 1) of [`wavelength_pdf`].
+    pub fn sample(u: f32) -> Wavelengths {
+        let lambda: [f32; HERO_WAVELENGTHS] = std::array::from_fn(|i| {
+            let v = u + i as f32 / HERO_WAVELENGTHS as f32;
+            wavelength_at(if v >= 1.0 { v - 1.0 } else { v })
+        });
+        Wavelengths {
+            lambda,
+            basis: lambda.map(basis),
+            weights: lambda.map(|l| {
+                rgb_weight(l) / (HERO_WAVELENGTHS as f32 * wavelength_pdf(l).max(f32::MIN_POSITIVE))
+            }),
+        }
+    }
+
+    /// The hero wavelength (refractive indices are taken there).
+    #[inline]
+    pub fn hero(&self) -> f32 {
+        self.lambda[0]
+    }
+
+    /// The spectrum of the RGB colour `rgb` at the three wavelengths.
+    #[inline]
+    pub fn colour(&self, rgb: Vec3) -> Vec3 {
+        Vec3::new(self.basis[0].dot(rgb), self.basis[1].dot(rgb), self.basis[2].dot(rgb))
+    }
+
+    /// The RGB estimate of a spectral radiance `l` (one value per wavelength).
+    #[inline]
+    pub fn to_rgb(&self, l: Vec3) -> Vec3 {
+        self.weights[0] * l.x + self.weights[1] * l.y + self.weights[2] * l.z
+    }
+}
+
+/// What the three channels of the radiances and throughputs of a path hold.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Channels {
+    /// Red, green and blue (indices at their nominal n_d).
+    Rgb,
+    /// The spectrum at the sample's three wavelengths.
+    Spectral(Wavelengths),
+}
+
+impl Channels {
+    /// The hero wavelength in spectral mode (for refractive indices); `None` in RGB.
+    #[inline]
+    pub fn hero(&self) -> Option<f32> {
+        match self {
+            Channels::Rgb => None,
+            Channels::Spectral(w) => Some(w.hero()),
+        }
+    }
+
+    /// Whether the channels are wavelengths.
+    #[inline]
+    pub fn is_spectral(&self) -> bool {
+        matches!(self, Channels::Spectral(_))
+    }
+
+    /// A scene colour in these channels: itself, or its spectrum at the wavelengths.
+    #[inline]
+    pub fn colour(&self, rgb: Vec3) -> Vec3 {
+        match self {
+            Channels::Rgb => rgb,
+            Channels::Spectral(w) => w.colour(rgb),
+        }
+    }
+
+    /// A radiance in these channels as RGB.
+    #[inline]
+    pub fn to_rgb(&self, l: Vec3) -> Vec3 {
+        match self {
+            Channels::Rgb => l,
+            Channels::Spectral(w) => w.to_rgb(l),
+        }
+    }
 }
 
 #[cfg(test)]
@@ -187,11 +328,23 @@ mod tests {
         (0..n).map(|i| f((a + (i as f64 + 0.5) * h) as f32)).sum::<DVec3>() * h
     }
 
+    /// Mean and standard error per channel of `f` over `n` independent uniform numbers.
+    fn estimate(seed: u64, n: u64, f: impl Fn(f32) -> Vec3) -> (DVec3, DVec3) {
+        let (mut sum, mut sum2) = (DVec3::ZERO, DVec3::ZERO);
+        for i in 0..n {
+            let v = f(uniform(seed, i) as f32).as_dvec3();
+            sum += v;
+            sum2 += v * v;
+        }
+        let mean = sum / n as f64;
+        let var = (sum2 / n as f64 - mean * mean) * (n as f64 / (n - 1) as f64);
+        (mean, (var / n as f64).map(f64::sqrt))
+    }
+
     #[test]
-    fn weight_integrates_to_one_per_channel() {
+    fn weight_and_density_integrate_to_one() {
         let integral = midpoint(400_000, |l| rgb_weight(l).as_dvec3());
         assert!((integral - DVec3::ONE).abs().max_element() < 1e-4, "∫w = {integral}");
-        // The pdf is normalised the same way.
         let p = midpoint(400_000, |l| DVec3::splat(wavelength_pdf(l) as f64)).x;
         assert!((p - 1.0).abs() < 1e-5, "∫p = {p}");
     }
@@ -211,90 +364,145 @@ mod tests {
     }
 
     #[test]
-    fn monte_carlo_weight_has_unit_mean() {
-        // 200k stratified (jittered) u. The standard error is the ordinary i.i.d. one, s/√N,
-        // which is conservative for stratified sampling (stratification only lowers variance).
-        let n = 200_000u64;
-        let (mut sum, mut sum2) = (DVec3::ZERO, DVec3::ZERO);
-        for i in 0..n {
-            let jitter = uniform(11, i);
-            let u = ((i as f64 + jitter) / n as f64) as f32;
-            let s = sample_wavelength(u);
-            assert!((LAMBDA_MIN..=LAMBDA_MAX).contains(&s.lambda));
-            let w = s.weight.as_dvec3();
-            sum += w;
-            sum2 += w * w;
+    fn basis_spectra_partition_unity_and_keep_their_colour() {
+        for k in 0..=4000 {
+            let l = LAMBDA_MIN + k as f32 * 0.1;
+            let b = basis(l);
+            assert!(b.is_finite() && b.cmpge(Vec3::ZERO).all() && b.cmple(Vec3::ONE).all(), "{l}: {b}");
+            assert!((b.element_sum() - 1.0).abs() < 1e-6, "{l}: {b}");
         }
-        let mean = sum / n as f64;
-        let var = (sum2 / n as f64 - mean * mean) * (n as f64 / (n - 1) as f64);
-        let std_err = (var / n as f64).map(f64::sqrt);
-        let err = (mean - DVec3::ONE).abs();
-        assert!(err.cmplt(3.0 * std_err).all(), "mean {mean}, standard error {std_err}");
-        // Stratification of a smooth integrand is far more accurate than that bound.
-        assert!(err.max_element() < 1e-4, "mean {mean}");
+        // ∫ B_c w_c' dλ = δ_cc': under the equal-energy white every primary reflects itself.
+        for c in 0..3 {
+            let rgb = midpoint(400_000, |l| (rgb_weight(l) * basis(l)[c]).as_dvec3());
+            let expected = DVec3::from_array(std::array::from_fn(|k| (k == c) as u8 as f64));
+            assert!((rgb - expected).abs().max_element() < 2e-5, "primary {c}: {rgb}");
+        }
+        // The basis is smooth: no jump between neighbouring 0.1 nm samples.
+        for k in 0..4000 {
+            let l = LAMBDA_MIN + k as f32 * 0.1;
+            assert!((basis(l + 0.1) - basis(l)).abs().max_element() < 0.01, "{l}");
+        }
     }
 
     #[test]
-    fn sampling_follows_the_pdf_chi_square() {
-        // Independent u; 20 equal-width bins whose probabilities come from integrating
-        // `wavelength_pdf` numerically (not from the closed-form CDF the sampler inverts).
-        const BINS: usize = 20;
-        let n = 200_000u64;
-        let mut counts = [0u64; BINS];
-        let thresholds = [400.0f32, 450.0, 500.0, 538.0, 600.0, 650.0, 700.0, 760.0];
-        let mut below = [0u64; 8];
-        for i in 0..n {
-            let l = sample_wavelength(uniform(5, i) as f32).lambda;
-            assert!((LAMBDA_MIN..=LAMBDA_MAX).contains(&l));
-            let bin = ((l - LAMBDA_MIN) / (LAMBDA_MAX - LAMBDA_MIN) * BINS as f32) as usize;
-            counts[bin.min(BINS - 1)] += 1;
-            for (t, c) in thresholds.iter().zip(below.iter_mut()) {
-                *c += (l < *t) as u64;
+    fn colours_keep_their_rgb_and_white_stays_flat() {
+        let colours = [
+            Vec3::ONE,
+            Vec3::splat(0.18),
+            Vec3::new(0.63, 0.065, 0.05),
+            Vec3::new(0.14, 0.45, 0.091),
+            Vec3::new(0.05, 0.1, 0.8),
+            Vec3::new(12.0, 9.0, 4.0),
+        ];
+        for rgb in colours {
+            // The upsampled spectrum integrates back to its RGB (quadrature, exact up to 2e-5).
+            let back = midpoint(400_000, |l| (rgb_weight(l) * basis(l).dot(rgb)).as_dvec3());
+            let err = (back - rgb.as_dvec3()).abs().max_element();
+            assert!(err < 2e-5 * rgb.max_element() as f64, "{rgb}: {back}");
+            // A grey is the same value at every wavelength.
+            if rgb.x == rgb.y && rgb.y == rgb.z {
+                for k in 0..=40 {
+                    let s = Wavelengths::sample(k as f32 / 40.0).colour(rgb);
+                    assert!(s.abs_diff_eq(Vec3::splat(rgb.x), 1e-6 * rgb.x), "{rgb}: {s}");
+                }
+            }
+            // A reflectance stays a reflectance.
+            if rgb.max_element() <= 1.0 {
+                for k in 0..=400 {
+                    let s = basis(LAMBDA_MIN + k as f32).dot(rgb);
+                    assert!((0.0..=rgb.max_element() + 1e-6).contains(&s), "{rgb} at {k}: {s}");
+                }
             }
         }
+    }
+
+    #[test]
+    fn three_wavelength_estimate_is_unbiased_for_every_colour() {
+        // E[to_rgb(colour(rgb))] = rgb, within 4 standard errors of 200k independent samples.
+        for rgb in [Vec3::ONE, Vec3::new(0.63, 0.065, 0.05), Vec3::new(0.05, 0.1, 0.8)] {
+            let (mean, se) = estimate(7, 200_000, |u| {
+                let w = Wavelengths::sample(u);
+                w.to_rgb(w.colour(rgb))
+            });
+            let err = (mean - rgb.as_dvec3()).abs();
+            assert!(err.cmplt(4.0 * se + 1e-6).all(), "{rgb}: mean {mean}, standard error {se}");
+        }
+    }
+
+    #[test]
+    fn three_wavelengths_are_far_less_noisy_than_one() {
+        // The variance of the white spectrum's estimate (what colour noise a grey scene gets):
+        // three stratified wavelengths against the hero alone (weight 3, as after dispersion).
+        let n = 100_000;
+        let (_, se3) = estimate(3, n, |u| Wavelengths::sample(u).to_rgb(Vec3::ONE));
+        let (_, se1) = estimate(3, n, |u| Wavelengths::sample(u).to_rgb(HERO_ONLY));
+        let (var3, var1) =
+            ((se3 * se3).element_sum() * n as f64 / 3.0, (se1 * se1).element_sum() * n as f64 / 3.0);
+        // Measured: 0.033 and 3.0 (the module documentation's figures).
+        assert!(var3 < 0.04, "three wavelengths: {var3}");
+        assert!(var1 > 20.0 * var3, "one {var1}, three {var3}");
+    }
+
+    #[test]
+    fn every_wavelength_follows_the_density_chi_square() {
+        // Independent u; 20 equal-width bins whose probabilities come from integrating
+        // `wavelength_pdf` numerically (not from the CDF the sampler inverts). Each of the three
+        // wavelengths is checked: the rotation by ⅓ keeps each marginal the same.
+        const BINS: usize = 20;
+        let n = 200_000u64;
         let prob = |lo: f32, hi: f32| -> f64 {
-            let m = 2000;
+            let m = 4000;
             let h = (hi - lo) as f64 / m as f64;
             (0..m).map(|k| wavelength_pdf((lo as f64 + (k as f64 + 0.5) * h) as f32) as f64).sum::<f64>() * h
         };
         let width = (LAMBDA_MAX - LAMBDA_MIN) / BINS as f32;
-        let chi2: f64 = (0..BINS)
-            .map(|k| {
-                let lo = LAMBDA_MIN + k as f32 * width;
-                let expected = prob(lo, lo + width) * n as f64;
-                (counts[k] as f64 - expected).powi(2) / expected
-            })
-            .sum();
-        // 99% quantile of χ² with 19 degrees of freedom (p-value threshold 0.01).
-        assert!(chi2 < 36.191, "chi2 = {chi2}, counts {counts:?}");
-        for (t, c) in thresholds.iter().zip(below) {
-            let p = prob(LAMBDA_MIN, *t);
-            let frac = c as f64 / n as f64;
-            let std_err = (p * (1.0 - p) / n as f64).sqrt();
-            assert!((frac - p).abs() < 3.0 * std_err, "below {t}: {frac} vs {p}");
+        for i in 0..HERO_WAVELENGTHS {
+            let mut counts = [0u64; BINS];
+            for j in 0..n {
+                let l = Wavelengths::sample(uniform(5, j) as f32).lambda[i];
+                assert!((LAMBDA_MIN..=LAMBDA_MAX).contains(&l));
+                let bin = ((l - LAMBDA_MIN) / width) as usize;
+                counts[bin.min(BINS - 1)] += 1;
+            }
+            let chi2: f64 = (0..BINS)
+                .map(|k| {
+                    let lo = LAMBDA_MIN + k as f32 * width;
+                    let expected = prob(lo, lo + width) * n as f64;
+                    (counts[k] as f64 - expected).powi(2) / expected
+                })
+                .sum();
+            // 99.9% quantile of χ² with 19 degrees of freedom (three tests at p = 0.001 each).
+            assert!(chi2 < 43.82, "wavelength {i}: chi2 = {chi2}, counts {counts:?}");
+        }
+    }
+
+    #[test]
+    fn wavelengths_are_stratified_thirds() {
+        let d = derived();
+        let cdf_at = |l: f32| {
+            let k = density_bin(l);
+            d.cdf[k] + d.density[k] * (l - LAMBDA_MIN - k as f32) as f64
+        };
+        for k in 0..300 {
+            let u = (k as f32 + 0.5) / 300.0;
+            let w = Wavelengths::sample(u);
+            for i in 0..HERO_WAVELENGTHS {
+                let expected = (u as f64 + i as f64 / 3.0).fract();
+                assert!((cdf_at(w.lambda[i]) - expected).abs() < 2e-6, "u {u}, wavelength {i}");
+            }
         }
     }
 
     #[test]
     fn sampling_inverts_the_cdf() {
-        for k in 0..=400 {
-            let l = LAMBDA_MIN + k as f32;
-            let back = sample_wavelength(wavelength_cdf(l) as f32).lambda;
-            assert!((back - l).abs() < 2e-3, "{l} -> {back}");
-        }
-        for k in 1..100 {
-            let u = k as f32 / 100.0;
-            let l = sample_wavelength(u).lambda;
-            assert!((wavelength_cdf(l) - u as f64).abs() < 1e-6, "{u} -> {l}");
-        }
-    }
-
-    #[test]
-    fn sample_weight_is_w_over_p() {
-        for k in 0..50 {
-            let s = sample_wavelength((k as f32 + 0.5) / 50.0);
-            let expected = rgb_weight(s.lambda) / wavelength_pdf(s.lambda);
-            assert!(s.weight.abs_diff_eq(expected, 1e-6 * expected.abs().max_element()));
+        let d = derived();
+        for k in 0..DENSITY_BINS {
+            let u = (d.cdf[k] + 0.5 * d.density[k]) as f32;
+            // u is rounded to f32 (half an ulp, ≤ 2⁻²⁵ below 1), which moves the wavelength by
+            // that over the bin's density (per nm); beyond it, 1e-3 nm of arithmetic.
+            let tolerance = 1e-3 + f32::EPSILON as f64 / 4.0 / d.density[k];
+            let l = wavelength_at(u);
+            assert!(((l - (LAMBDA_MIN + k as f32 + 0.5)) as f64).abs() < tolerance, "bin {k}: {l}");
         }
     }
 
@@ -302,18 +510,27 @@ mod tests {
     fn wavelengths_stay_in_range() {
         let edge = [0.0f32, f32::MIN_POSITIVE, 1e-7, 0.5, 1.0 - f32::EPSILON, 1.0, -0.5, 1.5, f32::NAN];
         for u in edge {
-            let s = sample_wavelength(u);
-            assert!((LAMBDA_MIN..=LAMBDA_MAX).contains(&s.lambda), "u {u} -> {}", s.lambda);
-            assert!(s.weight.is_finite(), "u {u}");
+            let w = Wavelengths::sample(u);
+            for l in w.lambda {
+                assert!((LAMBDA_MIN..=LAMBDA_MAX).contains(&l), "u {u} -> {l}");
+            }
+            assert!(w.to_rgb(Vec3::ONE).is_finite(), "u {u}");
         }
-        assert!((sample_wavelength(0.0).lambda - LAMBDA_MIN).abs() < 1e-3);
-        assert!((sample_wavelength(1.0).lambda - LAMBDA_MAX).abs() < 1e-3);
-        for i in 0..10_000 {
-            let l = sample_wavelength(uniform(3, i) as f32).lambda;
-            assert!((LAMBDA_MIN..=LAMBDA_MAX).contains(&l));
-        }
+        assert!((wavelength_at(0.0) - LAMBDA_MIN).abs() < 1e-3);
+        assert!((wavelength_at(1.0) - LAMBDA_MAX).abs() < 1e-3);
         assert_eq!(rgb_weight(LAMBDA_MIN - 1.0), Vec3::ZERO);
         assert_eq!(wavelength_pdf(LAMBDA_MAX + 1.0), 0.0);
+        assert!(wavelength_pdf(LAMBDA_MIN) > 0.0 && wavelength_pdf(LAMBDA_MAX) > 0.0);
+    }
+
+    #[test]
+    fn rgb_channels_pass_colours_through() {
+        let c = Vec3::new(0.3, 0.2, 0.1);
+        assert_eq!(Channels::Rgb.colour(c), c);
+        assert_eq!(Channels::Rgb.to_rgb(c), c);
+        assert_eq!(Channels::Rgb.hero(), None);
+        let w = Wavelengths::sample(0.25);
+        assert_eq!(Channels::Spectral(w).hero(), Some(w.lambda[0]));
     }
 
     #[test]

@@ -1234,7 +1234,11 @@ fn mesh_vertices_and_edges() {
                     break;
                 };
                 let hit = isect.hit;
-                let bsdf = Scattering::at(scene.material_of(isect.primitive), hit.p, None);
+                let bsdf = Scattering::at(
+                    scene.material_of(isect.primitive),
+                    hit.p,
+                    &vitrum::spectrum::Channels::Rgb,
+                );
                 let frame = Frame::from_normal(hit.n);
                 let (uc, u) = (sampler.get_1d(Dim::Bsdf), sampler.get_2d(Dim::Bsdf));
                 let Some(s) = bsdf.sample(frame.to_local(-ray.dir), uc, u, TransportMode::Radiance) else {

@@ -10,6 +10,7 @@ use vitrum::integrators::{create, PathContext, RenderParams};
 use vitrum::render::camera_for;
 use vitrum::sampler::{Sampler, SamplerKind};
 use vitrum::scene;
+use vitrum::spectrum::{Channels, Wavelengths};
 
 /// The system allocator, counting the allocations and reallocations of each thread (the test
 /// harness's own threads allocate while a test runs).
@@ -66,7 +67,7 @@ fn camera_samples_allocate_nothing() {
                 for s in 0..4 {
                     let mut ctx = PathContext::new(Sampler::new(SamplerKind::Sobol, 3, pixel as u64, s, 4));
                     if scene.effects.has(vitrum::scene::Effect::Dispersion) {
-                        ctx.lambda = Some(400.0 + 75.0 * s as f32);
+                        ctx.channels = Channels::Spectral(Wavelengths::sample(0.2 * s as f32 + 0.1));
                     }
                     let film = Vec2::new((pixel % 32) as f32 + 0.5, (pixel / 32) as f32 + 0.5);
                     let ray = camera.generate_ray(film);

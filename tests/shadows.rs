@@ -26,7 +26,11 @@ material = "glass"
 #[test]
 fn glass_sphere_shadow_follows_the_two_crossing_fresnel_profile() {
     let scene = load_str(SPHERE, "sphere", None).unwrap();
-    let shadow = ShadowRays { mode: ShadowMode::ThroughGlass { reflectance: None }, lambda: None, time: 0.0 };
+    let shadow = ShadowRays {
+        mode: ShadowMode::ThroughGlass { reflectance: None },
+        channels: vitrum::spectrum::Channels::Rgb,
+        time: 0.0,
+    };
     let mut rays = RayCounts::default();
     // Floor points at impact parameter b below the sphere, light straight above (far away).
     for k in 0..100 {

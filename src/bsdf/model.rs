@@ -3,6 +3,7 @@
 
 use super::{BsdfSample, Lambert, RoughConductor, RoughDielectric, TransportMode, TrowbridgeReitz};
 use crate::material::{Bsdf, Material};
+use crate::spectrum::Channels;
 use glam::{Vec2, Vec3};
 use rand::Rng;
 
@@ -19,13 +20,14 @@ pub enum Scattering {
 }
 
 impl Scattering {
-    /// The scattering of `material` at world point `p`, with indices at wavelength `lambda`
-    /// (nominal indices in RGB mode).
-    pub fn at(material: &Material, p: Vec3, lambda: Option<f32>) -> Scattering {
+    /// The scattering of `material` at world point `p` in the path's `channels`: colours as
+    /// RGB or as their spectra at the wavelengths, indices nominal or at the hero wavelength.
+    pub fn at(material: &Material, p: Vec3, channels: &Channels) -> Scattering {
+        let lambda = channels.hero();
         match &material.bsdf {
-            Bsdf::Diffuse(t) => Scattering::Diffuse(Lambert { albedo: t.eval(p) }),
+            Bsdf::Diffuse(t) => Scattering::Diffuse(Lambert { albedo: channels.colour(t.eval(p)) }),
             Bsdf::Mirror { color, roughness } => Scattering::Conductor(RoughConductor::new(
-                *color,
+                channels.colour(*color),
                 TrowbridgeReitz::from_roughness(*roughness),
             )),
             Bsdf::Dielectric { inside, outside, roughness } => Scattering::Dielectric(RoughDielectric::new(
