@@ -293,10 +293,20 @@ pub fn check_output_path(path: &Path, extension: &str) -> Result<(), CliError> {
     if path.is_dir() {
         return Err(CliError::BadInput(format!("{}: is a folder, not a file", path.display())));
     }
-    let ext_ok = path.extension().and_then(|e| e.to_str()).is_some_and(|e| e.eq_ignore_ascii_case(extension));
-    if !ext_ok {
+    let ext = path.extension().and_then(|e| e.to_str());
+    if !ext.is_some_and(|e| e.eq_ignore_ascii_case(extension)) {
+        // The image output is always the linear HDR EXR; the tone-mapped preview is its own option.
+        let hint = match ext {
+            Some(e) if extension == "exr" && e.eq_ignore_ascii_case("png") => format!(
+                " (it is written as OpenEXR, linear HDR); for a tone-mapped PNG preview give --png {}, \
+                 beside -o {}",
+                path.display(),
+                path.with_extension("exr").display()
+            ),
+            _ => String::new(),
+        };
         return Err(CliError::BadInput(format!(
-            "{}: the output file must end in .{extension}",
+            "{}: the output file must end in .{extension}{hint}",
             path.display()
         )));
     }
@@ -380,11 +390,7 @@ pub fn render_options(
         budget,
         resolution: args.resolution,
         seed: args.seed.unwrap_or(s.seed),
-        params: RenderParams {
-            max_depth: args.max_depth.or(s.max_depth).unwrap_or(integrator.default_max_depth()),
-            reflectance,
-            ssaa,
-        },
+        params: RenderParams { reflectance, ssaa, ..s.params(integrator, args.max_depth) },
         spectral: args.spectral.as_deref().and_then(SpectralMode::from_name).unwrap_or(s.spectral),
         sampler: args.sampler.as_deref().and_then(SamplerKind::from_name).unwrap_or(s.sampler),
         planned_spp: None,
@@ -596,6 +602,7 @@ fn report(
 ) {
     let mrays = out.rays.total() as f64 / out.seconds.max(1e-9) / 1e6;
     let noise = out.noise();
+    let depth = crate::scene::desc::has_max_depth(integrator).then_some(opts.params.max_depth);
     if args.json {
         let summary = json!({
             "integrator": integrator,
@@ -605,7 +612,8 @@ fn report(
             "height": out.image.height,
             "spp": out.spp,
             "seed": opts.seed,
-            "max_depth": opts.params.max_depth,
+            // The depth the render used (`null` for `raycast`, which has none).
+            "max_depth": depth,
             "seconds": out.seconds,
             "rays": {
                 "primary": out.rays.primary,
@@ -644,10 +652,11 @@ fn report(
         println!("{summary}");
     } else if !args.quiet {
         eprintln!(
-            "{integrator}: {}x{} at {} spp{} in {:.3} s, {} rays ({:.1} per pixel: primary {}, reflected {}, refracted {}, shadow {}), {:.2} Mrays/s, {} -> {}",
+            "{integrator}: {}x{} at {} spp{}{} in {:.3} s, {} rays ({:.1} per pixel: primary {}, reflected {}, refracted {}, shadow {}), {:.2} Mrays/s, {} -> {}",
             out.image.width,
             out.image.height,
             out.spp,
+            depth.map_or(String::new(), |d| format!(", max depth {d}")),
             if out.spectral { " (spectral)" } else { "" },
             out.seconds,
             out.rays.total(),
