@@ -4,7 +4,7 @@
 //! Run with `cargo bench --bench integrators`; throughput is in camera samples (light paths for
 //! `light`), so criterion's `thrpt` is samples per second. Sampling methods render 4 samples per
 //! pixel, `raycast` and `whitted` one (the pixel centre), `ssaa` its adaptive pattern; depths are
-//! those of `vitrum render` (the scene's `max_depth`, else the method's default).
+//! those of `vitrum render` (the scene's `[render.METHOD] max_depth`, else the method's default).
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use std::hint::black_box;
@@ -22,13 +22,12 @@ fn load(name: &str) -> Scene {
 }
 
 /// The options of a measured render of `scene` by `integrator` at `side`×`side`: those of
-/// `vitrum render SCENE -i INTEGRATOR` (the scene's depth, else the method's default).
+/// `vitrum render SCENE -i INTEGRATOR` (the scene's `[render.METHOD]` depth, else the method's default).
 fn options(scene: &Scene, integrator: &str, side: u32) -> RenderOptions {
     let spp = if matches!(integrator, "raycast" | "whitted" | "ssaa") { 1 } else { 4 };
     let mut opts = RenderOptions::from_scene(scene, spp);
     opts.resolution = Some((side, side));
-    opts.params.max_depth =
-        scene.settings.max_depth.unwrap_or(create(integrator).unwrap().default_max_depth());
+    opts.params = scene.settings.params(create(integrator).unwrap().as_ref(), None);
     opts
 }
 

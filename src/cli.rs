@@ -293,10 +293,20 @@ pub fn check_output_path(path: &Path, extension: &str) -> Result<(), CliError> {
     if path.is_dir() {
         return Err(CliError::BadInput(format!("{}: is a folder, not a file", path.display())));
     }
-    let ext_ok = path.extension().and_then(|e| e.to_str()).is_some_and(|e| e.eq_ignore_ascii_case(extension));
-    if !ext_ok {
+    let ext = path.extension().and_then(|e| e.to_str());
+    if !ext.is_some_and(|e| e.eq_ignore_ascii_case(extension)) {
+        // The image output is always the linear HDR EXR; the tone-mapped preview is its own option.
+        let hint = match ext {
+            Some(e) if extension == "exr" && e.eq_ignore_ascii_case("png") => format!(
+                " (it is written as OpenEXR, linear HDR); for a tone-mapped PNG preview give --png {}, \
+                 beside -o {}",
+                path.display(),
+                path.with_extension("exr").display()
+            ),
+            _ => String::new(),
+        };
         return Err(CliError::BadInput(format!(
-            "{}: the output file must end in .{extension}",
+            "{}: the output file must end in .{extension}{hint}",
             path.display()
         )));
     }
@@ -380,11 +390,7 @@ pub fn render_options(
         budget,
         resolution: args.resolution,
         seed: args.seed.unwrap_or(s.seed),
-        params: RenderParams {
-            max_depth: args.max_depth.or(s.max_depth).unwrap_or(integrator.default_max_depth()),
-            reflectance,
-            ssaa,
-        },
+        params: RenderParams { reflectance, ssaa, ..s.params(integrator, args.max_depth) },
         spectral: args.spectral.as_deref().and_then(SpectralMode::from_name).unwrap_or(s.spectral),
         sampler: args.sampler.as_deref().and_then(SamplerKind::from_name).unwrap_or(s.sampler),
         planned_spp: None,
@@ -441,12 +447,24 @@ fn run_render(args: &RenderArgs) -> Result<(), CliError> {
 
     let bar = (!args.quiet && std::io::stderr().is_terminal()).then(|| {
         let bar = indicatif::ProgressBar::new(1);
+        // indicatif's own {eta} follows a short moving window of the rate: ours is exact for a
+        // time budget and the steady rate since the start for a sample budget (see `eta`).
+        let budget = opts.budget;
+        let eta_key = move |state: &indicatif::ProgressState, w: &mut dyn std::fmt::Write| {
+            let left = eta(budget, state.pos(), state.len().unwrap_or(0), state.elapsed());
+            let _ = w.write_str(&left.map_or_else(|| "?".to_string(), format_eta));
+        };
         bar.set_style(
-            indicatif::ProgressStyle::with_template("{spinner} {msg} [{bar:40}] {percent:>3}%, ETA {eta}")
-                .expect("valid template")
-                .progress_chars("=> "),
+            indicatif::ProgressStyle::with_template(
+                "{spinner} {msg} [{bar:40}] {percent:>3}%, ETA {eta_left}",
+            )
+            .expect("valid template")
+            .with_key("eta_left", eta_key)
+            .progress_chars("=> "),
         );
         bar.set_message(integrator.name());
+        // Redraw between progress reports, so that a time budget's ETA counts down.
+        bar.enable_steady_tick(Duration::from_millis(250));
         bar
     });
     let progress = |done: u64, total: u64| {
@@ -530,6 +548,33 @@ fn run_render(args: &RenderArgs) -> Result<(), CliError> {
     Ok(())
 }
 
+/// The time a render has left after `elapsed`, having done `done` of `total` work units: for a
+/// time budget exactly the budget less the time elapsed; for a sample budget the time left at
+/// the steady rate since the start, elapsed · (total − done) / done (`None` before any work).
+/// The rate of a render is steady after its first pass (the same work per sample), so from
+/// the first tenth on the estimate is close; a short moving window, as indicatif's own, follows
+/// every stall of a pass and of the machine.
+pub fn eta(budget: Budget, done: u64, total: u64, elapsed: Duration) -> Option<Duration> {
+    match budget {
+        Budget::Time(limit) => Some(limit.saturating_sub(elapsed)),
+        Budget::Samples(_) if done == 0 || total == 0 => None,
+        Budget::Samples(_) => {
+            let left = total.saturating_sub(done) as f64 / done as f64;
+            Duration::try_from_secs_f64(elapsed.as_secs_f64() * left).ok()
+        }
+    }
+}
+
+/// A time left as `1h 02m 03s`, `2m 05s` or `12s`.
+pub fn format_eta(left: Duration) -> String {
+    let s = left.as_secs_f64().ceil() as u64;
+    match (s / 3600, s / 60 % 60, s % 60) {
+        (0, 0, sec) => format!("{sec}s"),
+        (0, min, sec) => format!("{min}m {sec:02}s"),
+        (h, min, sec) => format!("{h}h {min:02}m {sec:02}s"),
+    }
+}
+
 /// Whether `a` and `b` name the same file (or the same path, when they do not exist).
 fn same_file(a: &Path, b: &Path) -> bool {
     match (std::fs::canonicalize(a), std::fs::canonicalize(b)) {
@@ -596,6 +641,7 @@ fn report(
 ) {
     let mrays = out.rays.total() as f64 / out.seconds.max(1e-9) / 1e6;
     let noise = out.noise();
+    let depth = crate::scene::desc::has_max_depth(integrator).then_some(opts.params.max_depth);
     if args.json {
         let summary = json!({
             "integrator": integrator,
@@ -605,7 +651,8 @@ fn report(
             "height": out.image.height,
             "spp": out.spp,
             "seed": opts.seed,
-            "max_depth": opts.params.max_depth,
+            // The depth the render used (`null` for `raycast`, which has none).
+            "max_depth": depth,
             "seconds": out.seconds,
             "rays": {
                 "primary": out.rays.primary,
@@ -644,10 +691,11 @@ fn report(
         println!("{summary}");
     } else if !args.quiet {
         eprintln!(
-            "{integrator}: {}x{} at {} spp{} in {:.3} s, {} rays ({:.1} per pixel: primary {}, reflected {}, refracted {}, shadow {}), {:.2} Mrays/s, {} -> {}",
+            "{integrator}: {}x{} at {} spp{}{} in {:.3} s, {} rays ({:.1} per pixel: primary {}, reflected {}, refracted {}, shadow {}), {:.2} Mrays/s, {} -> {}",
             out.image.width,
             out.image.height,
             out.spp,
+            depth.map_or(String::new(), |d| format!(", max depth {d}")),
             if out.spectral { " (spectral)" } else { "" },
             out.seconds,
             out.rays.total(),
@@ -807,4 +855,63 @@ fn run_export(args: &ExportArgs) -> Result<(), CliError> {
         eprintln!("export: Mitsuba 3 scene -> {}{meshes}", args.output.display());
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_time_budget_has_exactly_its_rest_left() {
+        let budget = Budget::Time(Duration::from_secs(60));
+        for (elapsed, left) in [(0.0, 60.0), (12.5, 47.5), (59.9, 0.1), (61.0, 0.0)] {
+            let eta = eta(budget, 1, 2, Duration::from_secs_f64(elapsed)).unwrap();
+            assert!((eta.as_secs_f64() - left).abs() < 1e-9, "{elapsed}: {eta:?}");
+        }
+    }
+
+    #[test]
+    fn a_sample_budget_is_within_a_fifth_after_its_first_tenth() {
+        // A render of 1000 passes whose times vary by ±40% around 10 ms (a pseudo-random
+        // sequence), with a slow first pass (warm-up, 5×): after 10% of the work the
+        // steady-rate estimate is within 20% of the time really left.
+        let times: Vec<f64> = (0..1000u64)
+            .map(|i| {
+                let u = (i.wrapping_mul(0x9e37_79b9_7f4a_7c15) >> 11) as f64 / (1u64 << 53) as f64;
+                let t = 0.010 * (0.6 + 0.8 * u);
+                if i == 0 {
+                    5.0 * t
+                } else {
+                    t
+                }
+            })
+            .collect();
+        let total_time: f64 = times.iter().sum();
+        let mut elapsed = 0.0;
+        let mut worst = 0.0f64;
+        for (i, t) in times.iter().enumerate() {
+            elapsed += t;
+            let done = i as u64 + 1;
+            if done < 100 || done == 1000 {
+                continue;
+            }
+            let estimate = eta(Budget::Samples(1000), done, 1000, Duration::from_secs_f64(elapsed)).unwrap();
+            let truth = total_time - elapsed;
+            worst = worst.max((estimate.as_secs_f64() - truth).abs() / truth);
+        }
+        assert!(worst < 0.2, "worst relative error {worst}");
+        assert_eq!(eta(Budget::Samples(8), 0, 8000, Duration::from_secs(1)), None, "no rate yet");
+        assert_eq!(eta(Budget::Samples(8), 8000, 8000, Duration::from_secs(3)), Some(Duration::ZERO));
+        // A steady rate is estimated exactly.
+        let steady = eta(Budget::Samples(8), 2000, 8000, Duration::from_secs(5)).unwrap();
+        assert!((steady.as_secs_f64() - 15.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn times_left_read_as_hours_minutes_and_seconds() {
+        assert_eq!(format_eta(Duration::from_secs_f64(11.2)), "12s");
+        assert_eq!(format_eta(Duration::from_secs(125)), "2m 05s");
+        assert_eq!(format_eta(Duration::from_secs(3723)), "1h 02m 03s");
+        assert_eq!(format_eta(Duration::ZERO), "0s");
+    }
 }

@@ -65,6 +65,25 @@ impl SampleSet {
         Ok(SampleSet(out))
     }
 
+    /// The indices of `range` that the set does not hold, as ranges.
+    pub fn missing_from(&self, range: Range<u32>) -> SampleSet {
+        let mut missing = Vec::new();
+        let mut at = range.start;
+        for r in &self.0 {
+            if r.start > at {
+                missing.push(at..r.start.min(range.end));
+            }
+            at = at.max(r.end);
+            if at >= range.end {
+                break;
+            }
+        }
+        if at < range.end {
+            missing.push(at..range.end);
+        }
+        SampleSet(missing.into_iter().filter(|r| !r.is_empty()).collect())
+    }
+
     /// Parse the form [`Display`](fmt::Display) writes: `A..B` ranges separated by commas.
     pub fn parse(text: &str) -> Result<SampleSet, String> {
         let mut set = SampleSet::default();
@@ -229,6 +248,12 @@ pub struct PartInfo {
 }
 
 impl PartInfo {
+    /// The sample indices of the target that the part does not hold (after a merge with
+    /// `--allow-gaps`, or of an unfinished part).
+    pub fn missing(&self) -> SampleSet {
+        self.samples.missing_from(self.target.clone())
+    }
+
     /// Whether the sample count planned for changes the samples drawn: for the camera pass
     /// with the stratified sampler (strata of the planned count) and a plan of one sample (the
     /// pixel centre); light tracing's paths never depend on it.
@@ -246,7 +271,13 @@ impl PartInfo {
 /// Merge `parts` (named for the error messages) into one: refused, with a message naming the two
 /// parts and what differs, when their identities, planned sample counts (where the plan matters),
 /// image sizes or film normalisations differ, or when two parts hold the same sample index.
-pub fn merge(parts: &[(String, Part)]) -> Result<Part, String> {
+///
+/// The merged part's target is the whole render, `0..N` with N the largest planned sample count
+/// (for time budgets, which plan none, the last sample held). Unless `allow_gaps`, parts that
+/// leave indices of it unheld (shards 0, 1 and 3 of 4) are refused, naming the missing ranges;
+/// with it, the merged part holds what the parts hold ([`PartInfo::missing`] names the rest) and
+/// its estimate is the mean over the samples held.
+pub fn merge(parts: &[(String, Part)], allow_gaps: bool) -> Result<Part, String> {
     let Some((first_name, first)) = parts.first() else {
         return Err("no parts to merge".into());
     };
@@ -289,10 +320,22 @@ pub fn merge(parts: &[(String, Part)]) -> Result<Part, String> {
     film.first = hull.start;
     film.samples = count;
     let planned = order.iter().map(|(_, p)| p.info.planned).max().unwrap_or(0);
+    let target = 0..planned.max(hull.end);
+    let missing = samples.missing_from(target.clone());
+    if !allow_gaps && missing.count() > 0 {
+        return Err(format!(
+            "the parts leave gaps: the samples {missing} of {}..{} are in none of them ({} of {} held); \
+             render the missing parts, or give --allow-gaps to merge what is there",
+            target.start,
+            target.end,
+            count,
+            target.end - target.start
+        ));
+    }
     let info = PartInfo {
         identity: first.info.identity.clone(),
         samples,
-        target: hull,
+        target,
         planned,
         time_budget: None,
         scene_file: first.info.scene_file.clone(),
@@ -337,6 +380,40 @@ mod tests {
     }
 
     #[test]
+    fn missing_ranges_are_the_target_less_the_set() {
+        let set = SampleSet::parse("2..4,6..8").unwrap();
+        assert_eq!(set.missing_from(0..10).to_string(), "0..2,4..6,8..10");
+        assert_eq!(set.missing_from(2..8).to_string(), "4..6");
+        assert_eq!(set.missing_from(3..4).count(), 0);
+        assert_eq!(SampleSet::default().missing_from(0..5).to_string(), "0..5");
+        assert_eq!(SampleSet::of(0..16).missing_from(0..12).count(), 0);
+    }
+
+    #[test]
+    fn gaps_are_refused_unless_allowed_and_then_the_mean_is_over_the_samples_held() {
+        // Shards 0, 1 and 3 of a 16-sample render (4 samples each, planned 16).
+        let shard = |r: Range<u32>, v: f64| {
+            let (name, mut p) = part(r, "0", v);
+            p.info.planned = 16;
+            (name, p)
+        };
+        let parts = [shard(0..4, 4.0), shard(4..8, 4.0), shard(12..16, 8.0)];
+        let err = merge(&parts, false).unwrap_err();
+        assert!(err.contains("the samples 8..12 of 0..16") && err.contains("--allow-gaps"), "{err}");
+        let merged = merge(&parts, true).unwrap();
+        assert_eq!(merged.info.samples.to_string(), "0..8,12..16");
+        assert_eq!(merged.info.target, 0..16);
+        assert_eq!(merged.info.missing().to_string(), "8..12");
+        assert_eq!(merged.film.samples, 12, "the samples actually held");
+        assert_eq!(merged.film.image().pixels[0].x, (16.0 / (12.0 * 3.0)) as f32);
+        // A missing tail is a gap too; the full set is none.
+        let err = merge(&parts[..2], false).unwrap_err();
+        assert!(err.contains("the samples 8..16 of 0..16"), "{err}");
+        let full = [shard(0..8, 8.0), shard(8..12, 4.0), shard(12..16, 4.0)];
+        assert_eq!(merge(&full, false).unwrap().info.missing().count(), 0);
+    }
+
+    #[test]
     fn shards_cover_the_samples_exactly_once() {
         for (spp, n) in [(12, 5), (64, 8), (7, 7), (1000, 3), (u32::MAX, 6)] {
             let ranges: Vec<Range<u32>> = (0..n).map(|i| Shard { index: i, count: n }.range(spp)).collect();
@@ -369,23 +446,23 @@ mod tests {
 
     #[test]
     fn merge_adds_sums_and_counts_and_refuses_other_renders() {
-        let merged = merge(&[part(4..12, "0", 8.0), part(0..4, "0", 4.0)]).unwrap();
+        let merged = merge(&[part(4..12, "0", 8.0), part(0..4, "0", 4.0)], false).unwrap();
         assert_eq!(merged.info.samples.as_range(), Some(0..12));
         assert_eq!((merged.film.first, merged.film.samples), (0, 12));
         assert_eq!(merged.film.sum[0].x, 12.0);
         // The estimate is the summed sums over the summed counts and the film normalisation.
         assert_eq!(merged.film.image().pixels[0].x, (12.0 / (12.0 * 3.0)) as f32);
 
-        let err = merge(&[part(0..4, "0", 1.0), part(4..8, "1", 1.0)]).unwrap_err();
+        let err = merge(&[part(0..4, "0", 1.0), part(4..8, "1", 1.0)], false).unwrap_err();
         assert!(err.contains("seed is 1, not 0"), "{err}");
-        let err = merge(&[part(0..4, "0", 1.0), part(2..8, "0", 1.0)]).unwrap_err();
+        let err = merge(&[part(0..4, "0", 1.0), part(2..8, "0", 1.0)], false).unwrap_err();
         assert!(err.contains("2..4"), "{err}");
         let (name, mut stratified) = part(4..8, "0", 1.0);
         stratified.info.identity.0[1].1 = "stratified".into();
         let (other_name, mut other) = part(0..4, "0", 1.0);
         other.info.identity = stratified.info.identity.clone();
         other.info.planned = 16;
-        let err = merge(&[(name, stratified), (other_name, other)]).unwrap_err();
+        let err = merge(&[(name, stratified), (other_name, other)], false).unwrap_err();
         assert!(err.contains("plan"), "{err}");
     }
 }

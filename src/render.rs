@@ -100,7 +100,9 @@ pub struct RenderOptions {
 }
 
 impl RenderOptions {
-    /// Options for `spp` samples with the scene's own settings.
+    /// Options for `spp` samples with the scene's own settings for its own integrator
+    /// (`[render] integrator`; for another method, set `params` to
+    /// [`crate::scene::RenderSettings::params`] of it).
     pub fn from_scene(scene: &Scene, spp: u32) -> RenderOptions {
         let s = &scene.settings;
         let integrator = crate::integrators::create(&s.integrator).expect("compile checked the name");
@@ -108,11 +110,7 @@ impl RenderOptions {
             budget: Budget::Samples(spp),
             resolution: None,
             seed: s.seed,
-            params: RenderParams {
-                max_depth: s.max_depth.unwrap_or(integrator.default_max_depth()),
-                reflectance: s.reflectance,
-                ssaa: s.ssaa,
-            },
+            params: s.params(integrator.as_ref(), None),
             spectral: s.spectral,
             sampler: s.sampler,
             planned_spp: None,

@@ -36,7 +36,7 @@ look_at = [0.0, 0.0, 0.0]
 fov = 10.0
 resolution = [9, 9]
 
-[render]
+[render.whitted]
 max_depth = 40
 
 [materials.glass]

@@ -41,6 +41,11 @@ impl Sandbox {
         path
     }
 
+    /// Run the binary with `args` in the sandbox.
+    fn vitrum(&self, args: &[&str]) -> Output {
+        Command::new(env!("CARGO_BIN_EXE_vitrum")).current_dir(self.dir.path()).args(args).output().unwrap()
+    }
+
     /// The names of the files in the output folder.
     fn out_files(&self) -> Vec<String> {
         let mut names: Vec<String> = fs::read_dir(self.out())
@@ -114,14 +119,20 @@ fn assert_refused(sandbox: &Sandbox, out: &Output, needles: &[&str]) {
 /// Render the scene `text` and expect a refusal whose message names `scene.toml:LINE:`, `field`
 /// and every `needles`.
 fn assert_scene_error_at(text: &str, line: usize, field: &str, needles: &[&str]) {
-    let sandbox = Sandbox::new();
-    let scene = sandbox.scene(text);
-    let out = render(&sandbox, Some(&scene), &[]);
     let location = format!("scene.toml:{line}:");
     let field = format!("field `{field}`");
     let mut all = vec![location.as_str(), field.as_str()];
     all.extend_from_slice(needles);
-    assert_refused(&sandbox, &out, &all);
+    assert_scene_refused(text, &all);
+}
+
+/// Render the scene `text` and expect a refusal whose message holds every `needles`; returns
+/// the message.
+fn assert_scene_refused(text: &str, needles: &[&str]) -> String {
+    let sandbox = Sandbox::new();
+    let out = render(&sandbox, Some(&sandbox.scene(text)), &[]);
+    assert_refused(&sandbox, &out, needles);
+    stderr(&out)
 }
 
 /// Replace the line of the Cornell scene starting with `prefix` by `replacement` and expect a
@@ -190,11 +201,8 @@ fn missing_scene_file_names_the_path() {
 #[test]
 fn toml_syntax_error() {
     let (text, line) = with_line("ior = 1.52", "ior = 1.52 ]");
-    let sandbox = Sandbox::new();
-    let out = render(&sandbox, Some(&sandbox.scene(&text)), &[]);
     // A syntax error belongs to no field: the message goes straight after the position.
-    let location = format!("scene.toml:{line}:12: TOML syntax error");
-    assert_refused(&sandbox, &out, &[&location]);
+    assert_scene_refused(&text, &[&format!("scene.toml:{line}:12: TOML syntax error")]);
 }
 
 #[test]
@@ -233,13 +241,18 @@ fn wrong_type_of_sphere_radius() {
         "radius = 0.4",
         r#"radius = "big""#,
         "objects[5].radius",
-        &["invalid type", "\"big\""],
+        &["expected a number, found the string \"big\""],
     );
 }
 
 #[test]
 fn array_given_for_sphere_radius_is_told_apart_from_the_centre_array() {
-    assert_scene_error("radius = 0.4", "radius = [0.4]", "objects[5].radius", &["invalid type: sequence"]);
+    assert_scene_error(
+        "radius = 0.4",
+        "radius = [0.4]",
+        "objects[5].radius",
+        &["expected a number, found a list"],
+    );
 }
 
 #[test]
@@ -254,7 +267,12 @@ fn wrong_type_of_light_intensity_explains_colours() {
 
 #[test]
 fn wrong_type_of_cylinder_flag() {
-    assert_scene_error("caps = true", r#"caps = "yes""#, "objects[6].caps", &["invalid type", "boolean"]);
+    assert_scene_error(
+        "caps = true",
+        r#"caps = "yes""#,
+        "objects[6].caps",
+        &["expected true or false, found the string \"yes\""],
+    );
 }
 
 #[test]
@@ -263,7 +281,7 @@ fn wrong_type_of_material_ior() {
         "ior = 1.52",
         "ior = true",
         "materials.glass.ior",
-        &["invalid type", "refractive index"],
+        &["expected a refractive index", "found true"],
     );
 }
 
@@ -279,12 +297,17 @@ fn unknown_glass_name_lists_the_known_glasses() {
 
 #[test]
 fn wrong_type_of_camera_fov() {
-    assert_scene_error("fov = 39.0", r#"fov = "wide""#, "camera.fov", &["invalid type"]);
+    assert_scene_error("fov = 39.0", r#"fov = "wide""#, "camera.fov", &["expected a number"]);
 }
 
 #[test]
 fn wrong_length_of_sphere_center() {
-    assert_scene_error("center = [-0.42", "center = [0.0, 1.0]", "objects[5].center", &["invalid length 2"]);
+    assert_scene_error(
+        "center = [-0.42",
+        "center = [0.0, 1.0]",
+        "objects[5].center",
+        &["expected a list of three numbers, found a list of 2 values"],
+    );
 }
 
 #[test]
@@ -382,7 +405,7 @@ fn negative_resolution() {
         "resolution = [800, 800]",
         "resolution = [-8, 8]",
         "camera.resolution[0]",
-        &["invalid value"],
+        &["expected a whole number from 0 to 4294967295, found the whole number -8"],
     );
 }
 
@@ -477,13 +500,18 @@ fn resolution_as_a_string() {
         "resolution = [800, 800]",
         r#"resolution = "800x800""#,
         "camera.resolution",
-        &["invalid type: string"],
+        &["expected a list of two whole numbers, found the string \"800x800\""],
     );
 }
 
 #[test]
 fn fractional_samples_per_pixel() {
-    assert_scene_error("spp = 1", "spp = 1.5", "render.spp", &["invalid type: floating point `1.5`"]);
+    assert_scene_error(
+        "spp = 1",
+        "spp = 1.5",
+        "render.spp",
+        &["expected a whole number, found the number 1.5"],
+    );
 }
 
 #[test]
@@ -492,7 +520,7 @@ fn material_name_as_a_number() {
         r#"material = "floor""#,
         "material = 3",
         "objects[0].material",
-        &["invalid type: integer `3`"],
+        &["expected a string, found the whole number 3"],
     );
 }
 
@@ -507,7 +535,7 @@ fn colour_with_two_channels() {
         "color = [0.63, 0.065, 0.05]",
         "color = [0.63, 0.065]",
         "materials.red.color",
-        &["invalid length 2"],
+        &["a colour", "found a list of 2 values"],
     );
 }
 
@@ -517,13 +545,13 @@ fn texture_given_a_number() {
         "texture = {",
         "texture = 5",
         "materials.floor.texture",
-        &["invalid type: integer `5`"],
+        &["expected a table, found the whole number 5"],
     );
 }
 
 #[test]
 fn camera_as_an_array_of_tables() {
-    assert_scene_error("[camera]", "[[camera]]", "camera[0]", &["invalid type"]);
+    assert_scene_error("[camera]", "[[camera]]", "camera[0]", &["found a table"]);
 }
 
 #[test]
@@ -531,8 +559,8 @@ fn negative_max_depth() {
     assert_scene_error(
         "max_depth = 5",
         "max_depth = -1",
-        "render.max_depth",
-        &["invalid value: integer `-1`"],
+        "render.whitted.max_depth",
+        &["expected a whole number from 0 to 4294967295, found the whole number -1"],
     );
 }
 
@@ -543,13 +571,13 @@ fn negative_seed() {
         &text,
         line_of(&text, "seed = -3"),
         "render.seed",
-        &["invalid value: integer `-3`"],
+        &["expected a whole number from 0 to 18446744073709551615, found the whole number -3"],
     );
 }
 
 #[test]
 fn samples_per_pixel_beyond_u32() {
-    assert_scene_error("spp = 1", "spp = 4294967296", "render.spp", &["invalid value: integer `4294967296`"]);
+    assert_scene_error("spp = 1", "spp = 4294967296", "render.spp", &["found the whole number 4294967296"]);
 }
 
 // ---- scene files: values out of range ----------------------------------------------------
@@ -585,7 +613,7 @@ fn zero_samples_per_pixel_in_the_scene_file() {
 
 #[test]
 fn max_depth_too_deep() {
-    assert_scene_error("max_depth = 5", "max_depth = 1000", "render.max_depth", &["at most 256"]);
+    assert_scene_error("max_depth = 5", "max_depth = 1000", "render.whitted.max_depth", &["at most 256"]);
 }
 
 #[test]
@@ -1331,4 +1359,128 @@ fn render_of_a_scene_file_names_it_in_the_metadata() {
     assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
     let (_, meta) = vitrum::output::exr::read_exr(&sandbox.path("out/image.exr")).unwrap();
     assert!(meta["vitrum:scene"].contains("scene.toml"), "{meta:?}");
+}
+
+// ---- per-method settings, depths, error columns ------------------------------------------
+
+#[test]
+fn a_depth_in_render_is_refused_with_where_it_goes_now() {
+    let text = edited(&[("spp = 1", "spp = 1\nmax_depth = 8")], "");
+    assert_scene_error_at(
+        &text,
+        line_of(&text, "max_depth = 8"),
+        "render.max_depth",
+        &["set per method", "[render.whitted] max_depth = 5", "[render.path]"],
+    );
+}
+
+#[test]
+fn per_method_tables_refuse_what_the_method_does_not_have() {
+    assert_extra_error(
+        "[render.path]\nlevels = 2\n",
+        "levels",
+        "render.path.levels",
+        &["unknown field `levels`, expected `max_depth`"],
+    );
+    assert_extra_error(
+        "[render.raycast]\nmax_depth = 2\n",
+        "max_depth = 2",
+        "render.raycast.max_depth",
+        &["[render.raycast] takes no parameters"],
+    );
+    assert_extra_error(
+        "[render.bpt]\nmax_depth = 2\n",
+        "[render.bpt]",
+        "render.bpt",
+        &["unknown method `bpt`", "raycast, whitted, ssaa, distributed, path, light"],
+    );
+    // A misspelt key of [render] is no method, and `max_depth` is not offered.
+    let text = edited(&[("spp = 1", "spp = 1\nsed = 3")], "");
+    let err = assert_scene_refused(&text, &["field `render.sed`: unknown field `sed`, expected one of"]);
+    assert!(!err.contains("`max_depth`"), "{err}");
+}
+
+#[test]
+fn scene_errors_point_at_the_offending_value() {
+    // (line prefix, replacement, the column of the message): the value, or the key that is unknown.
+    let cases = [
+        ("radius = 0.4", r#"radius = "big""#, 10),
+        ("radius = 0.4", "radius = -0.4", 10),
+        ("center = [-0.42", r#"center = [0.0, "a", 1.0]"#, 16),
+        ("fov = 39.0", "fov = 0.0", 7),
+        ("max_depth = 5", "max_depth = 1000", 13),
+        ("radius = 0.4", "radiu = 0.4", 1),
+    ];
+    for (prefix, replacement, column) in cases {
+        let (text, line) = with_line(prefix, replacement);
+        assert_scene_refused(&text, &[&format!("scene.toml:{line}:{column}: field")]);
+    }
+}
+
+#[test]
+fn an_exr_output_named_png_suggests_the_png_option() {
+    let sandbox = Sandbox::new();
+    let out = vitrum(&[
+        "render",
+        "--resolution",
+        "8x8",
+        "--quiet",
+        "-o",
+        &sandbox.out().join("a.png").display().to_string(),
+    ]);
+    assert_refused(&sandbox, &out, &["a.png: the output file must end in .exr", "OpenEXR", "--png"]);
+}
+
+#[test]
+fn the_summary_shows_each_methods_depth() {
+    let sandbox = Sandbox::new();
+    let run = |extra: &[&str]| {
+        let mut args = vec!["render", "--resolution", "8x8", "-o", "out/d.exr"];
+        args.extend_from_slice(extra);
+        let out = sandbox.vitrum(&args);
+        assert!(out.status.success(), "{args:?}: {}", stderr(&out));
+        out
+    };
+    // The embedded scene sets the Whitted depth 5; path traces to its own 256.
+    for (extra, shown) in [
+        (&["-i", "whitted"][..], Some("whitted: 8x8 at 1 spp, max depth 5 in")),
+        (&["-i", "path"], Some("path: 8x8 at 1 spp, max depth 256 in")),
+        (&["-i", "path", "--max-depth", "3"], Some("max depth 3")),
+        (&["-i", "raycast"], None),
+    ] {
+        let err = stderr(&run(extra));
+        match shown {
+            Some(text) => assert!(err.contains(text), "{extra:?}: {err}"),
+            None => assert!(!err.contains("max depth"), "raycast has no depth: {err}"),
+        }
+    }
+    let json: Value = serde_json::from_str(&stdout(&run(&["-i", "path", "--json"]))).unwrap();
+    assert_eq!(json["max_depth"], 256);
+    let json: Value = serde_json::from_str(&stdout(&run(&["-i", "raycast", "--json"]))).unwrap();
+    assert!(json["max_depth"].is_null());
+}
+
+#[test]
+fn the_reference_of_cornell_glass_is_rendered_at_full_depth() {
+    // `converge` of the default scene (Whitted depth 5): its cached `path` reference records
+    // depth 256; with --max-depth the reference follows it.
+    let sandbox = Sandbox::new();
+    let depths = |extra: &[&str]| -> Vec<u64> {
+        let mut args = vec!["converge", "-i", "whitted", "--spp-max", "1", "--reference-spp", "2"];
+        args.extend(["--resolution", "8x8", "--cache", "cache", "--out", "cv", "--quiet"]);
+        args.extend_from_slice(extra);
+        let out = sandbox.vitrum(&args);
+        assert!(out.status.success(), "{}", stderr(&out));
+        let mut depths: Vec<u64> = fs::read_dir(sandbox.path("cache"))
+            .unwrap()
+            .map(|e| e.unwrap().path())
+            .filter(|p| p.extension().is_some_and(|e| e == "json"))
+            .map(|p| serde_json::from_str::<Value>(&fs::read_to_string(p).unwrap()).unwrap())
+            .map(|key| key["max_depth"].as_u64().unwrap())
+            .collect();
+        depths.sort();
+        depths
+    };
+    assert_eq!(depths(&[]), [256]);
+    assert_eq!(depths(&["--max-depth", "4"]), [4, 256]);
 }

@@ -26,7 +26,6 @@ fov = 40.0
 resolution = [{size}, {size}]
 [render]
 integrator = "path"
-max_depth = 4
 [materials.white]
 type = "diffuse"
 color = 0.6

@@ -487,7 +487,6 @@ focus_distance = 3.5
 shutter = [0.0, 1.0]
 
 [render]
-max_depth = 5
 ambient = 0.05
 
 [materials.white]

@@ -9,8 +9,8 @@
 //!   stated allowance for a known model difference, where there is one), and an aggregate check
 //!   (a mean over many pixels) within 4 standard errors of that mean. Seeds are fixed, so a run
 //!   is reproducible.
-//! - `path` and `light` run with their own default depth (256), whatever the scene sets for the
-//!   recursive methods: a scene's `max_depth` is for `whitted` and applies to every method.
+//! - `path` and `light` run with their own default depth (256); the recursive methods with the
+//!   scene's `[render.whitted]` depth (the scenes give `ssaa` and `distributed` the same).
 //! - Every check prints a line `| case | integrator | figures |` (run with `--nocapture`).
 
 mod common;
@@ -91,9 +91,8 @@ fn render_edited(
     opts.resolution = Some(res);
     opts.seed = seed;
     opts.sampler = SamplerKind::Independent;
-    if matches!(integrator, "path" | "light") {
-        opts.params.max_depth = DEFAULT_PATH_DEPTH;
-    }
+    // The method's own settings, as `vitrum render -i METHOD` takes them.
+    opts.params = scene.settings.params(method.as_ref(), None);
     edit(&mut opts);
     let out = render(scene, method.as_ref(), &opts, &|_, _| {});
     assert_eq!(out.non_finite_samples, 0, "{}: {integrator}: non-finite samples", scene.origin.name);
@@ -272,13 +271,15 @@ fn rays_bound(integrator: &str, depth: u32, lights: usize) -> u64 {
     }
 }
 
+/// The depth of `whitted` in `scene` (its `[render.whitted]` table, else its default).
+fn whitted_depth(scene: &Scene) -> u32 {
+    scene.settings.max_depth(integrators::create("whitted").unwrap().as_ref(), None)
+}
+
 /// Asserts the bounded-work property of a render and reports rays per sample.
 fn check_rays(case: &str, scene: &Scene, integrator: &str, out: &RenderOutput) -> f64 {
-    let depth = if matches!(integrator, "path" | "light") {
-        DEFAULT_PATH_DEPTH
-    } else {
-        scene.settings.max_depth.unwrap_or(5)
-    };
+    let depth =
+        if matches!(integrator, "path" | "light") { DEFAULT_PATH_DEPTH } else { whitted_depth(scene) };
     let bound = rays_bound(integrator, depth, scene.lights.len());
     let samples = out.rays.primary.max(1);
     let per_sample = out.rays.total() as f64 / samples as f64;
@@ -553,7 +554,7 @@ fn total_internal_reflection_traps() {
     }
     let (n_trapped, n_free) = (trapped.iter().filter(|&&t| t).count(), free.iter().filter(|&&f| f).count());
     assert!(n_trapped > 50 && n_free > 50, "{n_trapped} trapped, {n_free} free pixels");
-    let depth = scene.settings.max_depth.unwrap() as i32;
+    let depth = whitted_depth(&scene) as i32;
     for integrator in ALL {
         let out = render_with(&scene, integrator, res, spp_for(integrator, 16), 1);
         let per_sample = check_rays(case, &scene, integrator, &out);

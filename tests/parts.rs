@@ -624,3 +624,69 @@ fn a_time_budget_killed_mid_way_resumes_the_rest_of_its_time() {
     let out = run(dir, &["render", "--resume", "t.exr"]);
     assert!(out.status.success() && String::from_utf8_lossy(&out.stderr).contains("nothing to render"));
 }
+
+/// The `column` of the CSV `text`'s data rows, found by its header name.
+fn csv_column(text: &str, column: &str) -> Vec<String> {
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().expect("a header").split(',').collect();
+    let at = header.iter().position(|h| *h == column).unwrap_or_else(|| panic!("no {column}: {text}"));
+    lines.map(|l| l.split(',').nth(at).unwrap().to_string()).collect()
+}
+
+#[test]
+fn a_merge_that_leaves_a_gap_is_refused_and_allow_gaps_records_what_it_holds() {
+    let _serial = serial();
+    let dir = tempfile::tempdir().unwrap();
+    let dir = dir.path();
+    // 16 samples in 4 shards of 4; shard 2 (samples 8..12) is lost.
+    let base = ["render", "--resolution", "24x24", "--seed", "5", "-i", "path", "--spp", "16", "--quiet"];
+    for i in 0..4 {
+        let (shard, name) = (format!("{i}/4"), format!("part-{i}.exr"));
+        let mut args = base.to_vec();
+        args.extend(["--shard", &shard, "-o", &name]);
+        ok(dir, &args);
+    }
+    let out = run(dir, &["merge", "part-0.exr", "part-1.exr", "part-3.exr", "-o", "gap.exr"]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert!(stderr.contains("the samples 8..12 of 0..16") && stderr.contains("--allow-gaps"), "{stderr}");
+    assert!(!dir.join("gap.exr").exists(), "nothing written");
+    // A lost tail is a gap as well.
+    let out = run(dir, &["merge", "part-0.exr", "part-1.exr", "-o", "gap.exr"]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("the samples 8..16 of 0..16"));
+
+    let out = run(
+        dir,
+        &["merge", "part-0.exr", "part-1.exr", "part-3.exr", "-o", "gap.exr", "--allow-gaps", "--json"],
+    );
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert!(stderr.contains("warning: --allow-gaps: the samples 8..12 of 0..16"), "{stderr}");
+    let summary: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!((summary["spp"].as_u64(), summary["missing"].as_str()), (Some(12), Some("8..12")));
+    let (_, meta) = read_exr(&dir.join("gap.exr")).unwrap();
+    assert_eq!(meta["vitrum:spp"], "12", "the samples actually held");
+    assert_eq!(meta["vitrum:samples"], "0..8,12..16");
+    assert_eq!(meta["vitrum:missing-samples"], "8..12");
+    // The lost shard, merged in later, completes the render: the 4-way merge.
+    ok(dir, &["merge", "gap.exr", "part-2.exr", "-o", "late.exr"]);
+    ok(dir, &["merge", "part-0.exr", "part-1.exr", "part-2.exr", "part-3.exr", "-o", "all.exr"]);
+    assert_eq!(read_exr(&dir.join("late.exr")).unwrap().1["vitrum:spp"], "16");
+    assert!(max_relative_difference(&image(dir, "late.exr"), &image(dir, "all.exr")) <= 1e-6);
+
+    // `converge --renders` and `compare --renders` count the samples the render holds.
+    let measured = [
+        ("converge", "converge.csv", &["--reference", "all.exr", "--out", "cv", "--quiet", "--renders"][..]),
+        ("compare", "compare.csv", &["--reference", "all.exr", "--out", "cmp", "--quiet", "--renders"][..]),
+    ];
+    for (command, csv, options) in measured {
+        let mut args = vec![command];
+        args.extend_from_slice(options);
+        args.push("gap.exr");
+        ok(dir, &args);
+        let folder = if command == "converge" { "cv" } else { "cmp" };
+        let text = std::fs::read_to_string(dir.join(folder).join(csv)).unwrap();
+        assert_eq!(csv_column(&text, "spp"), ["12"], "{command}: {text}");
+    }
+}

@@ -107,10 +107,11 @@ impl Spec {
             writeln!(w, "aperture = {:?}\nfocus_distance = {:?}", l(aperture), l(focus)).unwrap();
         }
         writeln!(w, "[render]\nspp = {}", self.spp).unwrap();
-        if let Some(depth) = self.max_depth {
-            writeln!(w, "max_depth = {depth}").unwrap();
-        }
         writeln!(w, "spectral = {:?}\nambient = 0.05", self.spectral).unwrap();
+        if let Some(depth) = self.max_depth {
+            // The scene's integrator (`whitted`) is the one `RenderOptions::from_scene` reads.
+            writeln!(w, "[render.whitted]\nmax_depth = {depth}").unwrap();
+        }
         for (i, m) in self.materials.iter().enumerate() {
             writeln!(w, "[materials.m{i}]").unwrap();
             match m {

@@ -339,7 +339,7 @@ pub fn run(args: &CompareArgs) -> Result<(), CliError> {
         ReferenceSource::File(image, text) => (image.clone(), text.clone()),
         ReferenceSource::Cached(spp, cache) => {
             let path = crate::integrators::create("path").expect("`path` is registered");
-            let opts = args.render.options(&plan.scene, path.as_ref(), Budget::Samples(*spp));
+            let opts = args.render.reference_options(&plan.scene, path.as_ref(), Budget::Samples(*spp));
             let bar = bars.render("reference", Budget::Samples(*spp));
             let progress = |done: u64, total: u64| {
                 bar.set_length(total);

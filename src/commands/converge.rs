@@ -377,7 +377,7 @@ pub fn run(args: &ConvergeArgs) -> Result<(), CliError> {
         ),
         ReferenceSource::Cached(spp, cache) => {
             let path = crate::integrators::create("path").expect("`path` is registered");
-            let opts = args.render.options(scene, path.as_ref(), Budget::Samples(*spp));
+            let opts = args.render.reference_options(scene, path.as_ref(), Budget::Samples(*spp));
             let bar = bars.render("reference", "rows");
             let progress = |done: u64, total: u64| bars.update(&bar, 0, done, total);
             let r = pool.install(|| path_reference(scene, &opts, *spp, cache, &progress));

@@ -1,6 +1,7 @@
 //! `vitrum merge PARTS... -o OUT.exr`: combine the parts of one render (shards, checkpoints,
 //! resumed parts, earlier merges) into one image by their sample counts ([`crate::parts::merge`]),
-//! refusing parts of different renders.
+//! refusing parts of different renders and parts that leave gaps in the render's samples (unless
+//! `--allow-gaps`: then the output holds, and says, only the samples the parts hold).
 
 use crate::cli::{check_output_path, CliError};
 use crate::output::exr::{variance_channels, ExrMetadata};
@@ -29,6 +30,11 @@ pub struct MergeArgs {
     /// Add the per-pixel variance channels (as `vitrum render --variance`).
     #[arg(long)]
     pub variance: bool,
+    /// Merge parts that leave gaps in the render's samples (shards 0, 1 and 3 of 4) instead of
+    /// refusing them: the output holds the samples the parts hold (`vitrum:spp` counts them,
+    /// `vitrum:samples` lists them, `vitrum:missing-samples` the rest), with a warning.
+    #[arg(long)]
+    pub allow_gaps: bool,
     /// Print the summary as one JSON object on stdout.
     #[arg(long)]
     pub json: bool,
@@ -47,7 +53,8 @@ pub fn run(args: &MergeArgs) -> Result<(), CliError> {
         first_attributes.get_or_insert(file.attributes);
         parts.push((path.display().to_string(), file.part));
     }
-    let merged = merge(&parts).map_err(|e| CliError::BadInput(format!("merge: {e}")))?;
+    let merged = merge(&parts, args.allow_gaps).map_err(|e| CliError::BadInput(format!("merge: {e}")))?;
+    let missing = merged.info.missing();
     let attributes = first_attributes.unwrap_or_default();
     let attribute = |name: &str| attributes.get(name).cloned().unwrap_or_default();
     let film = &merged.film;
@@ -74,7 +81,10 @@ pub fn run(args: &MergeArgs) -> Result<(), CliError> {
         }
         (false, _) => Vec::new(),
     };
-    let notes = [("vitrum:merged".to_string(), format!("{} parts", parts.len()))];
+    let mut notes = vec![("vitrum:merged".to_string(), format!("{} parts", parts.len()))];
+    if missing.count() > 0 {
+        notes.push(("vitrum:missing-samples".to_string(), missing.to_string()));
+    }
     let failure = |e: crate::output::OutputError| CliError::Failure(e.to_string());
     let mut staged =
         vec![stage_part(&args.output, &merged.film, &merged.info, &meta, &extra, &notes).map_err(failure)?];
@@ -84,10 +94,24 @@ pub fn run(args: &MergeArgs) -> Result<(), CliError> {
     for file in staged {
         file.commit().map_err(failure)?;
     }
+    if missing.count() > 0 {
+        let target = &merged.info.target;
+        eprintln!(
+            "vitrum: warning: --allow-gaps: the samples {missing} of {}..{} are in none of the parts; {} holds \
+             {} of {} samples per pixel ({})",
+            target.start,
+            target.end,
+            args.output.display(),
+            film.samples,
+            target.end - target.start,
+            merged.info.samples
+        );
+    }
     if args.json {
         let summary = json!({
             "parts": args.parts,
             "samples": merged.info.samples.to_string(),
+            "missing": missing.to_string(),
             "spp": film.samples,
             "seconds": film.seconds,
             "rays": film.rays.total(),

@@ -27,7 +27,8 @@ pub struct SweepArgs {
     /// Seed of the random streams (default from the scene file).
     #[arg(long)]
     pub seed: Option<u64>,
-    /// Maximum depth for every method (default: each method's own, or the scene file's).
+    /// Maximum depth for every method, the reference included (default: the scene's
+    /// `[render.METHOD] max_depth`, else each method's own; references: the method's own).
     #[arg(long, value_parser = clap::value_parser!(u32).range(0..=MAX_DEPTH as i64))]
     pub max_depth: Option<u32>,
     /// Worker threads (default: all cores).
@@ -36,18 +37,36 @@ pub struct SweepArgs {
 }
 
 impl SweepArgs {
-    /// The options for rendering `scene` with `integrator` under `budget`.
+    /// The options for rendering `scene` with `integrator` under `budget`: the depth from
+    /// `--max-depth`, else the scene's `[render.METHOD] max_depth`, else the method's default.
     pub fn options(&self, scene: &Scene, integrator: &dyn Integrator, budget: Budget) -> RenderOptions {
+        self.options_with(scene, scene.settings.params(integrator, self.max_depth), budget)
+    }
+
+    /// The options for rendering the reference of `scene` with the method `reference` under
+    /// `budget`: as [`SweepArgs::options`], but at the method's full default depth unless
+    /// `--max-depth` is given. A scene's depth for a method (`[render.path] max_depth = 8`) is
+    /// a setting of that method's render, which the reference judges: it does not cut the
+    /// reference.
+    pub fn reference_options(
+        &self,
+        scene: &Scene,
+        reference: &dyn Integrator,
+        budget: Budget,
+    ) -> RenderOptions {
+        let max_depth = self.max_depth.unwrap_or_else(|| reference.default_max_depth());
+        let params = RenderParams { max_depth, ..scene.settings.params(reference, None) };
+        self.options_with(scene, params, budget)
+    }
+
+    /// The options for `scene` with the integrator parameters `params` under `budget`.
+    fn options_with(&self, scene: &Scene, params: RenderParams, budget: Budget) -> RenderOptions {
         let s = &scene.settings;
         RenderOptions {
             budget,
             resolution: self.resolution,
             seed: self.seed.unwrap_or(s.seed),
-            params: RenderParams {
-                max_depth: self.max_depth.or(s.max_depth).unwrap_or(integrator.default_max_depth()),
-                reflectance: s.reflectance,
-                ssaa: s.ssaa,
-            },
+            params,
             spectral: s.spectral,
             sampler: s.sampler,
             planned_spp: None,
@@ -186,6 +205,39 @@ mod tests {
         for bad in ["1,2,3", "1,2,0,4", "a,2,3,4", "-1,2,3,4", "1,2,3,4,5"] {
             assert!(parse_crop(bad).is_err(), "{bad}");
         }
+    }
+
+    #[test]
+    fn references_trace_to_the_full_depth_unless_the_command_line_sets_one() {
+        let path = integrators::create("path").unwrap();
+        let whitted = integrators::create("whitted").unwrap();
+        let depth = |args: &SweepArgs, scene: &Scene, reference: bool, method: &dyn Integrator| {
+            let budget = Budget::Samples(4);
+            let opts = if reference {
+                args.reference_options(scene, method, budget)
+            } else {
+                args.options(scene, method, budget)
+            };
+            opts.params.max_depth
+        };
+        // cornell-glass sets the Whitted depth 5: its `path` reference is not cut by it.
+        let cornell = crate::scene::load_default();
+        let args = SweepArgs::default();
+        assert_eq!(depth(&args, &cornell, false, whitted.as_ref()), 5);
+        assert_eq!(depth(&args, &cornell, false, path.as_ref()), 256);
+        assert_eq!(depth(&args, &cornell, true, path.as_ref()), 256);
+        // A scene's `path` depth is the compared `path`'s setting, not the reference's.
+        let text = crate::scene::DEFAULT_SCENE
+            .replace("[render.whitted]", "[render.path]\nmax_depth = 8\n[render.whitted]");
+        let cut = crate::scene::load_str(&text, "cut.toml", None).unwrap();
+        assert_eq!(depth(&args, &cut, false, path.as_ref()), 8);
+        assert_eq!(depth(&args, &cut, true, path.as_ref()), 256);
+        // --max-depth sets every method, the reference included.
+        let args = SweepArgs { max_depth: Some(3), ..SweepArgs::default() };
+        for reference in [false, true] {
+            assert_eq!(depth(&args, &cut, reference, path.as_ref()), 3);
+        }
+        assert_eq!(depth(&args, &cut, false, whitted.as_ref()), 3);
     }
 
     #[test]

@@ -81,13 +81,13 @@ pub struct Options {
 }
 
 impl Options {
-    /// The scene's own settings (samples, depth, resolution) with the `path` integrator; without
-    /// a depth in the scene, the default depth of vitrum's `path`.
+    /// The scene's own settings (samples, depth, resolution) with the `path` integrator: the
+    /// depth of `[render.path] max_depth`, else the default depth of vitrum's `path`.
     pub fn from_scene(scene: &Scene, mesh_folder: &str) -> Options {
-        let path_default = crate::integrators::create("path").map_or(64, |i| i.default_max_depth());
+        let path = crate::integrators::create("path").expect("`path` is registered");
         Options {
             spp: scene.settings.spp,
-            max_depth: scene.settings.max_depth.unwrap_or(path_default),
+            max_depth: scene.settings.max_depth(path.as_ref(), None),
             integrator: MitsubaIntegrator::Path,
             resolution: (scene.camera.width, scene.camera.height),
             mesh_folder: mesh_folder.to_string(),

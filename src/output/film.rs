@@ -10,7 +10,8 @@
 //!   `A..B` ranges), `vitrum:sample-target` (the range asked for), `vitrum:spp-planned`,
 //!   `vitrum:settings` (the [`Identity`]), `vitrum:film-norm`, `vitrum:non-finite`,
 //!   `vitrum:scene-file`, `vitrum:render-seconds`, `vitrum:time-budget` (time budgets), and the
-//!   usual render metadata (whose `vitrum:spp` is the count of samples held).
+//!   usual render metadata (whose `vitrum:spp` is the count of samples held). A merge with
+//!   `--allow-gaps` also writes `vitrum:missing-samples`, the indices of its target it lacks.
 
 use super::exr::{
     parse_rays, read_exr_with_layer, stage_exr_with_layer, ExrMetadata, ExtraChannel, U32Layer,

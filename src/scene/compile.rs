@@ -3,6 +3,7 @@
 use super::bodies::{self, BodySurface};
 use super::desc::{
     IorDesc, LightDesc, MaterialDesc, PhongDesc, Rgb, SceneDesc, ShapeDesc, TextureDesc, IOR_TABLE_ERROR,
+    METHOD_TABLES, MOVED_MAX_DEPTH,
 };
 use super::effects::{Effect, Effects};
 use super::source::{FieldPath, SceneError, Source};
@@ -20,7 +21,7 @@ use glam::{Vec3, Vec3A};
 use obvhs::aabb::Aabb;
 use obvhs::cwbvh::builder::build_cwbvh;
 use obvhs::BvhBuildParams;
-use std::collections::HashMap;
+use std::collections::{BTreeMap, HashMap};
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
@@ -116,8 +117,114 @@ pub fn parse(source: &Source) -> Result<SceneDesc, SceneError> {
                 _ => culprit(source, &found, &message).unwrap_or(range.start),
             }
         });
-        source.error_at_offset(offset, message)
+        let path = source.path_at(offset);
+        // An unknown key is its own culprit; any other error is about the value.
+        let offset = match source.span_of(&path) {
+            Some(span) if !message.starts_with("unknown field") && !path.0.is_empty() => span.start,
+            _ => offset,
+        };
+        source.error_at_offset(offset, plain_message(&message, &path, source.is_table(&path)))
     })
+}
+
+/// A serde error message in the words of the scene format: "expected a number, found the
+/// string "big"" instead of "invalid type: string "big", expected f32"; an unknown
+/// `[render.NAME]` table is an unknown method. `path` is the field the message is about, and
+/// `table` whether it is a table.
+fn plain_message(message: &str, path: &FieldPath, table: bool) -> String {
+    let keys: Vec<&str> = path
+        .0
+        .iter()
+        .map(|s| match s {
+            super::source::Segment::Key(k) => k.as_str(),
+            super::source::Segment::Index(_) => "",
+        })
+        .collect();
+    let whole_numbers = keys.last() == Some(&"resolution");
+    if let Some(rest) = message.strip_prefix("unknown field `") {
+        let name = rest.split('`').next().unwrap_or("");
+        return match keys[..] {
+            ["render", method] if table && method == name => format!(
+                "unknown method `{name}`: a [render.METHOD] table holds the settings of one of {}",
+                METHOD_TABLES.join(", ")
+            ),
+            ["render", "raycast", ..] => format!(
+                "unknown field `{name}`: [render.raycast] takes no parameters (ray casting shades the \
+                 first hit only, so it has no depth)"
+            ),
+            // `[render] max_depth` is read only to refuse it: not an allowed key.
+            ["render", _] => message.replace("`max_depth`, ", ""),
+            _ => message.replace(", there are no fields", ": this table takes no fields"),
+        };
+    }
+    let (kind, rest) = match ["invalid type: ", "invalid value: ", "invalid length "]
+        .iter()
+        .find_map(|p| message.strip_prefix(p).map(|rest| (*p, rest)))
+    {
+        Some(found) => found,
+        None => return message.to_string(),
+    };
+    let Some((found, expected)) = rest.rsplit_once(", expected ") else { return message.to_string() };
+    let found = match kind {
+        "invalid length " => format!("a list of {found} values"),
+        _ => plain_found(found),
+    };
+    let expected = plain_expected(expected, kind == "invalid value: ", whole_numbers);
+    format!("expected {expected}, found {found}")
+}
+
+/// What serde's `Unexpected` text (`string "big"`, `floating point `1.5``) says, in words.
+fn plain_found(found: &str) -> String {
+    let quoted = |prefix: &str| found.strip_prefix(prefix).map(|v| v.trim_matches('`').to_string());
+    if let Some(v) = found.strip_prefix("string ") {
+        format!("the string {v}")
+    } else if let Some(v) = quoted("floating point ") {
+        format!("the number {v}")
+    } else if let Some(v) = quoted("integer ") {
+        format!("the whole number {v}")
+    } else if let Some(v) = quoted("boolean ") {
+        v
+    } else {
+        match found {
+            "sequence" => "a list".into(),
+            "map" => "a table".into(),
+            other => other.into(),
+        }
+    }
+}
+
+/// What serde's expectation (`f32`, `an array of length 3`, `struct CameraDesc`) asks for, in
+/// words; `range`: say the range of a whole number (the value was out of it); `whole`: the list
+/// holds whole numbers (a resolution).
+fn plain_expected(expected: &str, range: bool, whole: bool) -> String {
+    let count = |n: &str| {
+        match n {
+            "2" => "two",
+            "3" => "three",
+            "4" => "four",
+            _ => n,
+        }
+        .to_string()
+    };
+    match expected {
+        "f32" | "f64" => "a number".into(),
+        "u32" if range => format!("a whole number from 0 to {}", u32::MAX),
+        "u64" if range => format!("a whole number from 0 to {}", u64::MAX),
+        "u8" | "u16" | "u32" | "u64" | "usize" | "i32" | "i64" => "a whole number".into(),
+        "a boolean" => "true or false".into(),
+        "a sequence" => "a list".into(),
+        "a map" => "a table".into(),
+        _ => {
+            if let Some(n) = expected.strip_prefix("an array of length ") {
+                let numbers = if whole { "whole numbers" } else { "numbers" };
+                format!("a list of {} {numbers}", count(n))
+            } else if expected.starts_with("struct ") || expected.starts_with("internally tagged enum ") {
+                "a table".into()
+            } else {
+                expected.into()
+            }
+        }
+    }
 }
 
 /// Of several candidate keys (byte offsets) for a serde error, the one whose removal makes the
@@ -494,10 +601,18 @@ impl Compiler<'_> {
         if r.spp == 0 {
             return Err(self.err(&path.key("spp"), "must be at least 1"));
         }
-        if let Some(depth) = r.max_depth.filter(|d| *d > MAX_DEPTH) {
-            return Err(
-                self.err(&path.key("max_depth"), format!("must be at most {MAX_DEPTH} (got {depth})"))
-            );
+        if r.max_depth.is_some() {
+            return Err(self.err(&path.key("max_depth"), MOVED_MAX_DEPTH));
+        }
+        let mut max_depths = BTreeMap::new();
+        for method in METHOD_TABLES {
+            if let Some(depth) = r.max_depth_of(method) {
+                if depth > MAX_DEPTH {
+                    let at = path.key(method).key("max_depth");
+                    return Err(self.err(&at, format!("must be at most {MAX_DEPTH} (got {depth})")));
+                }
+                max_depths.insert(method.to_string(), depth);
+            }
         }
         if crate::integrators::create(&r.integrator).is_none() {
             return Err(self.err(
@@ -542,7 +657,7 @@ impl Compiler<'_> {
             ssaa: SsaaParams { adaptive, grid: r.ssaa.grid, levels: r.ssaa.levels, threshold },
             integrator: r.integrator.clone(),
             spp: r.spp,
-            max_depth: r.max_depth,
+            max_depths,
             seed: r.seed,
             ambient: self.color(&path.key("ambient"), r.ambient)?,
             background: self.color(&path.key("background"), r.background)?,

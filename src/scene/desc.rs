@@ -124,7 +124,8 @@ fn default_resolution() -> [u32; 2] {
     [800, 800]
 }
 
-/// Render defaults stored with the scene.
+/// Render defaults stored with the scene, and each method's own parameters in its
+/// `[render.METHOD]` table.
 #[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct RenderDesc {
@@ -134,9 +135,10 @@ pub struct RenderDesc {
     /// Samples per pixel.
     #[serde(default = "default_spp")]
     pub spp: u32,
-    /// Maximum recursion depth (bounces); default per integrator (5, or 64 for `path`).
+    /// Refused: a depth belongs to one method (`[render.whitted] max_depth = 5`). Read only to
+    /// say so at its line ([`MOVED_MAX_DEPTH`]).
     #[serde(default)]
-    pub max_depth: Option<u32>,
+    pub max_depth: Option<serde::de::IgnoredAny>,
     /// Seed of every random stream.
     #[serde(default)]
     pub seed: u64,
@@ -158,9 +160,52 @@ pub struct RenderDesc {
     /// Sample distribution: `sobol`, `stratified` or `independent`.
     #[serde(default = "default_sampler")]
     pub sampler: String,
-    /// Settings of the supersampling integrator.
+    /// `[render.raycast]`: ray casting has no parameters of its own.
+    #[serde(default)]
+    pub raycast: NoParamsDesc,
+    /// `[render.whitted]`: Whitted ray tracing.
+    #[serde(default)]
+    pub whitted: DepthDesc,
+    /// `[render.ssaa]`: supersampled antialiasing over Whitted radiance.
     #[serde(default)]
     pub ssaa: SsaaDesc,
+    /// `[render.distributed]`: distributed ray tracing.
+    #[serde(default)]
+    pub distributed: DepthDesc,
+    /// `[render.path]`: path tracing.
+    #[serde(default)]
+    pub path: DepthDesc,
+    /// `[render.light]`: light tracing.
+    #[serde(default)]
+    pub light: DepthDesc,
+}
+
+/// The message for a `max_depth` in `[render]`, which no longer applies to every method.
+pub const MOVED_MAX_DEPTH: &str = "a depth is set per method, e.g. `[render.whitted] max_depth = 5` \
+     (likewise [render.ssaa], [render.distributed], [render.path], [render.light]); without one each \
+     method uses its own default (5; 256 for path and light)";
+
+/// The methods with a `[render.METHOD]` table, in the order `vitrum integrators` lists them.
+pub const METHOD_TABLES: [&str; 6] = ["raycast", "whitted", "ssaa", "distributed", "path", "light"];
+
+/// Whether the method `name` has a maximum depth (`[render.NAME] max_depth`): every method
+/// but `raycast`, which shades the first hit only.
+pub fn has_max_depth(name: &str) -> bool {
+    name != "raycast"
+}
+
+/// The table of a method without parameters of its own: it must be empty.
+#[derive(Clone, Copy, Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct NoParamsDesc {}
+
+/// The table of a method whose one parameter is its recursion depth.
+#[derive(Clone, Copy, Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DepthDesc {
+    /// Maximum recursion depth (bounces); default the method's own.
+    #[serde(default)]
+    pub max_depth: Option<u32>,
 }
 
 fn default_auto() -> String {
@@ -174,6 +219,9 @@ fn default_sampler() -> String {
 #[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SsaaDesc {
+    /// Maximum recursion depth of the Whitted radiance of each sample; default `ssaa`'s own.
+    #[serde(default)]
+    pub max_depth: Option<u32>,
     /// `adaptive` (thesis: corners, subdivide on contrast) or `grid` (regular n×n).
     #[serde(default = "default_ssaa_mode")]
     pub mode: String,
@@ -192,6 +240,7 @@ pub struct SsaaDesc {
 impl Default for SsaaDesc {
     fn default() -> Self {
         SsaaDesc {
+            max_depth: None,
             mode: default_ssaa_mode(),
             grid: default_ssaa_grid(),
             levels: default_ssaa_levels(),
@@ -213,6 +262,20 @@ fn default_ssaa_threshold() -> f32 {
     0.1
 }
 
+impl RenderDesc {
+    /// The maximum depth the scene sets for the method `name` in its `[render.NAME]` table.
+    pub fn max_depth_of(&self, name: &str) -> Option<u32> {
+        match name {
+            "whitted" => self.whitted.max_depth,
+            "ssaa" => self.ssaa.max_depth,
+            "distributed" => self.distributed.max_depth,
+            "path" => self.path.max_depth,
+            "light" => self.light.max_depth,
+            _ => None,
+        }
+    }
+}
+
 impl Default for RenderDesc {
     fn default() -> Self {
         RenderDesc {
@@ -226,7 +289,12 @@ impl Default for RenderDesc {
             exposure: 0.0,
             spectral: default_auto(),
             sampler: default_sampler(),
+            raycast: NoParamsDesc::default(),
+            whitted: DepthDesc::default(),
             ssaa: SsaaDesc::default(),
+            distributed: DepthDesc::default(),
+            path: DepthDesc::default(),
+            light: DepthDesc::default(),
         }
     }
 }

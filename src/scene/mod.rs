@@ -15,13 +15,14 @@ pub use source::SceneError;
 
 use crate::camera::Camera;
 use crate::geometry::{Ray, Shape, SurfaceHit};
-use crate::integrators::SsaaParams;
+use crate::integrators::{Integrator, RenderParams, SsaaParams};
 use crate::light::Light;
 use crate::material::Material;
 use crate::sampler::SamplerKind;
 use glam::{Vec3, Vec3A};
 use obvhs::cwbvh::CwBvh;
 use std::cell::OnceCell;
+use std::collections::BTreeMap;
 
 /// The text of the embedded default scene (the thesis's Cornell box with glass bodies).
 pub const DEFAULT_SCENE: &str = include_str!("../../scenes/cornell-glass.toml");
@@ -73,8 +74,8 @@ pub struct RenderSettings {
     pub integrator: String,
     /// Samples per pixel.
     pub spp: u32,
-    /// Maximum recursion depth, if the scene sets one.
-    pub max_depth: Option<u32>,
+    /// The maximum depths the scene sets per method (`[render.METHOD] max_depth`), by name.
+    pub max_depths: BTreeMap<String, u32>,
     /// Seed of the random streams.
     pub seed: u64,
     /// Ambient radiance of the empirical Phong model.
@@ -91,6 +92,25 @@ pub struct RenderSettings {
     pub sampler: SamplerKind,
     /// Settings of the supersampling integrator.
     pub ssaa: SsaaParams,
+}
+
+impl RenderSettings {
+    /// The maximum depth of a render by `integrator`: `cli` (the command line's `--max-depth`),
+    /// else the scene's `[render.METHOD] max_depth`, else the method's own default.
+    pub fn max_depth(&self, integrator: &dyn Integrator, cli: Option<u32>) -> u32 {
+        cli.or_else(|| self.max_depths.get(integrator.name()).copied())
+            .unwrap_or_else(|| integrator.default_max_depth())
+    }
+
+    /// The parameters of a render by `integrator` with the scene's settings, the depth as
+    /// [`RenderSettings::max_depth`] gives it.
+    pub fn params(&self, integrator: &dyn Integrator, cli_depth: Option<u32>) -> RenderParams {
+        RenderParams {
+            max_depth: self.max_depth(integrator, cli_depth),
+            reflectance: self.reflectance,
+            ssaa: self.ssaa,
+        }
+    }
 }
 
 /// When to trace wavelengths instead of RGB.

@@ -124,6 +124,18 @@ fn table_children(t: &Table) -> Vec<(Segment, Node<'_>, Option<Range<usize>>)> {
 }
 
 impl<'a> Node<'a> {
+    /// Whether the node is a value (a number, string, array or inline table), not a table
+    /// written with a header.
+    fn is_value(self) -> bool {
+        matches!(self, Node::Item(Item::Value(_)) | Node::Value(_))
+    }
+
+    /// Whether the node is a table or array of tables written with headers (its parts may lie
+    /// apart in the text).
+    fn is_header_table(self) -> bool {
+        matches!(self, Node::Item(Item::Table(_) | Item::ArrayOfTables(_)) | Node::Table(_))
+    }
+
     fn span(self) -> Option<Range<usize>> {
         match self {
             Node::Item(i) => match i {
@@ -184,7 +196,9 @@ impl<'a> Source<'a> {
         (line, column)
     }
 
-    /// The span of the deepest existing node along `path` (its key where it has one).
+    /// The span of the deepest existing node along `path`: its value for a value (an error
+    /// about `radius = "big"` points at `"big"`), else its key where it has one (a table's
+    /// header key), else the table.
     pub fn span_of(&self, path: &FieldPath) -> Option<Range<usize>> {
         let doc = self.doc.as_ref()?;
         let mut node = Node::Item(doc.as_item());
@@ -193,20 +207,41 @@ impl<'a> Source<'a> {
             let Some((_, child, key_span)) = node.children().into_iter().find(|(s, _, _)| s == seg) else {
                 break;
             };
-            best = key_span.or_else(|| child.span()).or(best);
+            best =
+                if child.is_value() { child.span().or(key_span) } else { key_span.or_else(|| child.span()) }
+                    .or(best);
             node = child;
         }
         best
     }
 
-    /// The path of the deepest node whose key or value contains `offset`. Implicit tables (the
-    /// `materials` of `[materials.glass]`) have no span of their own and are searched through.
+    /// Whether `path` names a table (with a header, or inline).
+    pub fn is_table(&self, path: &FieldPath) -> bool {
+        let Some(doc) = self.doc.as_ref() else { return false };
+        let mut node = Node::Item(doc.as_item());
+        for seg in &path.0 {
+            match node.children().into_iter().find(|(s, _, _)| s == seg) {
+                Some((_, child, _)) => node = child,
+                None => return false,
+            }
+        }
+        match node {
+            Node::Item(Item::Table(_)) | Node::Table(_) => true,
+            Node::Item(Item::Value(v)) | Node::Value(v) => v.is_inline_table(),
+            _ => false,
+        }
+    }
+
+    /// The path of the deepest node whose key or value contains `offset`. Tables written with
+    /// headers are searched through whatever their span: implicit ones (the `materials` of
+    /// `[materials.glass]`) have none, and a table's sub-tables (`[render.whitted]` after
+    /// `[render]`) lie outside its span.
     pub fn path_at(&self, offset: usize) -> FieldPath {
         fn descend(node: Node<'_>, offset: usize, path: &mut FieldPath) -> bool {
             let contains = |r: &Option<Range<usize>>| r.as_ref().is_some_and(|r| r.contains(&offset));
             for (seg, child, key_span) in node.children() {
                 let hit = contains(&key_span) || contains(&child.span());
-                if hit || child.span().is_none() {
+                if hit || child.span().is_none() || child.is_header_table() {
                     path.0.push(seg);
                     if descend(child, offset, path) || hit {
                         return true;

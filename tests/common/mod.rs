@@ -59,7 +59,6 @@ fov = 120.0
 resolution = [12, 12]
 [render]
 integrator = "{integrator}"
-max_depth = 256
 [materials.wall]
 type = "diffuse"
 color = 0.5
