@@ -56,8 +56,14 @@
 //!   judged against a reference whose variance is unknown would otherwise be called biased by
 //!   the reference's noise alone, and a tiny real bias under much noise is still a variance
 //!   problem. A deterministic render (no variance: `ssaa`'s fixed pattern) has V = 0: all its
-//!   error is bias. The efficiency 1/(MSE·s) compares methods whose error is variance; biased
-//!   ones are reported with their bias instead.
+//!   error is bias.
+//! - **Unresolved**: B < −3 standard errors. The variance part is then significantly larger than
+//!   the whole error: the render's variance estimate is conservative (s²/n with the Sobol' or the
+//!   stratified sampler, whose samples are not independent; at 16 spp on `soft-shadows` `path`'s
+//!   V is about twice its MSE), and a bias could hide under it. Render with
+//!   `sampler = "independent"` to resolve it.
+//! - **Unbiased**: neither. The efficiency 1/(MSE·s) compares methods whose error is variance,
+//!   so it is given for unbiased ones only; biased ones are reported with their bias instead.
 
 use crate::image::Image;
 use crate::integrators::Integrator;
@@ -365,6 +371,31 @@ impl Split {
     /// more than [`BIAS_FRACTION`] of the MSE.
     pub fn biased(&self) -> bool {
         self.bias > BIAS_SIGNIFICANCE * self.bias_se && self.bias > BIAS_FRACTION * self.mse
+    }
+
+    /// Whether the variance part is significantly larger than the whole error (B below −3
+    /// standard errors): the render's variance estimate is conservative, as s²/n is for the
+    /// Sobol' and stratified samplers.
+    pub fn variance_overestimated(&self) -> bool {
+        self.bias < -BIAS_SIGNIFICANCE * self.bias_se
+    }
+
+    /// Not biased, and the variance part not above the MSE either: the error is variance. Only
+    /// then does an efficiency 1/(MSE·s) compare like with like.
+    pub fn unbiased(&self) -> bool {
+        !self.biased() && !self.variance_overestimated()
+    }
+
+    /// The verdict: "biased", "unbiased", or "unresolved" (the variance part significantly
+    /// exceeds the MSE, so the variance estimate is conservative and could hide a bias).
+    pub fn status(&self) -> &'static str {
+        if self.biased() {
+            "biased"
+        } else if self.variance_overestimated() {
+            "unresolved"
+        } else {
+            "unbiased"
+        }
     }
 
     /// √B, the root-mean-square bias (0 when B is not positive).
@@ -832,13 +863,19 @@ mod tests {
         assert!(s.bias_se > 0.0 && s.bias_se < b2 / 8.0, "{s:?}");
         assert!((s.variance - f64::from(sigma * sigma)).abs() < 1e-9 && s.variance_se < 1e-9, "{s:?}");
         assert!((s.mse - (s.bias + s.variance + s.reference_variance)).abs() < 1e-12, "{s:?}");
-        assert!(s.biased(), "{s:?}");
+        assert!(s.biased() && s.status() == "biased", "{s:?}");
         assert!(close(s.mse, compare(&test, &reference, None, 0.0).unwrap().mse), "{s:?}");
 
         // No offset: B is zero within 4 standard errors, and not called biased.
         let (test, variance) = noisy(&reference, 0.0, sigma, 2);
         let s = split(&test, Some(&variance), &reference, None, None).unwrap();
-        assert!(s.bias.abs() < 4.0 * s.bias_se && !s.biased(), "{s:?}");
+        assert!(s.bias.abs() < 4.0 * s.bias_se && !s.biased() && s.unbiased(), "{s:?}");
+        assert_eq!(s.status(), "unbiased");
+        // A variance estimate twice too large (as s²/n can be with Sobol' samples): B is some
+        // −60 standard errors, and the verdict is unresolved, not unbiased.
+        let doubled = grey(64, 64, 2.0 * sigma * sigma);
+        let s = split(&test, Some(&doubled), &reference, None, None).unwrap();
+        assert!(s.variance_overestimated() && !s.unbiased() && s.status() == "unresolved", "{s:?}");
 
         // A noisy reference (σr = 0.05, its variance stated): without V_r, B would be off by
         // σr² = 2.5e-3, some 16 standard errors; with it B is the offset's square again.

@@ -61,7 +61,7 @@ pub struct CompareArgs {
     #[arg(long, value_name = "X,Y,W,H", value_parser = parse_crop)]
     pub crop: Option<CropArg>,
     /// Exposure of the figure in stops, the same for every render (default from the scene file).
-    #[arg(long, value_name = "EV", value_parser = parse_exposure, allow_hyphen_values = true)]
+    #[arg(long, value_name = "EV", value_parser = super::diff::parse_exposure, allow_hyphen_values = true)]
     pub exposure: Option<f32>,
     /// Render options shared by every integrator.
     #[command(flatten)]
@@ -85,14 +85,6 @@ fn parse_seconds(s: &str) -> Result<f64, String> {
         return Err(format!("`{s}`: must be a positive, finite number of seconds"));
     }
     Ok(t)
-}
-
-/// Parses a finite exposure in stops.
-fn parse_exposure(s: &str) -> Result<f32, String> {
-    match s.trim().parse::<f32>() {
-        Ok(ev) if ev.is_finite() => Ok(ev),
-        _ => Err(format!("`{s}` is not a finite number of stops")),
-    }
 }
 
 /// Where the reference comes from.
@@ -160,16 +152,12 @@ impl Row {
 
     /// 1/(MSE·seconds), only for a render whose error is variance (split known, not biased).
     fn efficiency(&self) -> Option<f64> {
-        self.split.filter(|s| !s.biased()).map(|_| 1.0 / (self.metrics.mse * self.out.seconds.max(1e-9)))
+        self.split.filter(Split::unbiased).map(|_| 1.0 / (self.metrics.mse * self.out.seconds.max(1e-9)))
     }
 
-    /// "biased", "unbiased" or "unknown" (no variance to split the error with).
+    /// The split's verdict ([`Split::status`]), or "unknown" (no variance to split the error with).
     fn status(&self) -> &'static str {
-        match self.split {
-            Some(s) if s.biased() => "biased",
-            Some(_) => "unbiased",
-            None => "unknown",
-        }
+        self.split.as_ref().map_or("unknown", Split::status)
     }
 }
 
@@ -572,10 +560,12 @@ fn split_text(row: &Row) -> String {
             format_number(s.rms_bias())
         ),
         Some(s) => format!(
-            "unbiased: variance part {}, bias part {} ± {}",
+            "{}: variance part {}, bias part {} ± {}{}",
+            s.status(),
             format_number(s.variance),
             format_number(s.bias),
-            format_number(s.bias_se)
+            format_number(s.bias_se),
+            if s.variance_overestimated() { " (the variance estimate is conservative)" } else { "" }
         ),
         None => "bias unknown (no variance estimate)".to_string(),
     }
@@ -640,8 +630,9 @@ fn markdown_table(plan: &Plan, rows: &[Row], reference: &str, reference_variance
          the HDR values (peak = largest reference value, stated) and on the 8-bit sRGB preview \
          at exposure {} EV (peak 1); SSIM of the preview's luma. MSE = bias part + variance part + \
          the reference's variance part, each ± one standard error; \"biased\" = bias part > {} \
-         standard errors and > {:.0}% of the MSE. Efficiency = 1/(MSE·seconds), given only for \
-         methods whose error is variance. `ssaa`'s spp is its mean camera rays per pixel.\n",
+         standard errors and > {:.0}% of the MSE; \"unresolved\" = bias part < −3 standard errors \
+         (a conservative variance estimate, as with Sobol' samples, that could hide a bias). \
+         Efficiency = 1/(MSE·seconds), given only for unbiased methods, whose error is variance. `ssaa`'s spp is its mean camera rays per pixel.\n",
         plan.budget_text(),
         match (&plan.renders, plan.budget) {
             (Some(_), _) => "read from files; seconds of merged parts are summed",
@@ -666,6 +657,7 @@ fn markdown_table(plan: &Plan, rows: &[Row], reference: &str, reference_variance
         let efficiency = match (r.efficiency(), r.status()) {
             (Some(e), _) => format!("{e:.3e}"),
             (None, "biased") => "biased".to_string(),
+            (None, "unresolved") => "n/a (bias unresolved)".to_string(),
             (None, _) => "n/a (no variance)".to_string(),
         };
         let _ = writeln!(
@@ -702,8 +694,9 @@ mod tests {
         for bad in ["0", "-1", "nan", "inf", "abc", "1e300"] {
             assert!(parse_seconds(bad).is_err(), "{bad}");
         }
-        assert_eq!(parse_exposure("-1.5"), Ok(-1.5));
-        assert!(parse_exposure("nan").is_err() && parse_exposure("inf").is_err());
+        assert_eq!(super::super::diff::parse_exposure("-1.5"), Ok(-1.5));
+        assert!(super::super::diff::parse_exposure("nan").is_err());
+        assert!(super::super::diff::parse_exposure("inf").is_err());
     }
 
     #[test]

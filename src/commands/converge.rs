@@ -149,11 +149,7 @@ impl Row {
         let m = &self.metrics;
         let opt = |v: Option<f64>| v.map_or(String::new(), |v| v.to_string());
         let part = |f: fn(&Split) -> f64| opt(self.split.as_ref().map(f));
-        let status = match self.split {
-            Some(s) if s.biased() => "biased",
-            Some(_) => "unbiased",
-            None => "unknown",
-        };
+        let status = self.split.as_ref().map_or("unknown", Split::status);
         format!(
             "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
             self.integrator,
@@ -347,7 +343,7 @@ impl Regime {
             slope(self.slope_seconds)
         );
         if let Some(p) = &self.plateau {
-            if self.variance_rows > 0 {
+            if self.variance_rows > 1 {
                 text += &format!(" (over {}–{} spp)", rows[0].spp, rows[self.variance_rows - 1].spp);
             }
             text += &format!(

@@ -246,6 +246,12 @@ pub fn verdict(split: &Split) -> String {
             split.bias / split.bias_se,
             format_number(split.rms_bias())
         )
+    } else if split.variance_overestimated() {
+        format!(
+            "unresolved: the bias part is {:.1} standard errors below 0, so the test's variance \
+             estimate is conservative (Sobol' or stratified samples) and could hide a bias",
+            -split.bias / split.bias_se
+        )
     } else {
         format!(
             "not biased: the error is variance (bias part {share:.0}% of the MSE; biased means > {} \
@@ -377,6 +383,7 @@ pub fn split_json(s: &Split) -> serde_json::Value {
         "bias": s.bias,
         "bias_se": s.bias_se,
         "biased": s.biased(),
+        "status": s.status(),
         "pixels": s.pixels,
         "non_finite_variance": s.non_finite_variance,
     })
