@@ -34,7 +34,7 @@ use crate::figure::compose::format_number;
 use crate::figure::plot::{fit_slope, write_loglog, LogLogPlot, Series};
 use crate::image::Image;
 use crate::integrators::Integrator;
-use crate::metrics::{self, Metrics, MetricsError, Split};
+use crate::metrics::{self, split_csv, Metrics, MetricsError, Split};
 use crate::output::exr::{read_variance, stage_exr, ExrMetadata};
 use crate::output::{write_atomically, OutputError};
 use crate::reference::{path_reference, DEFAULT_CACHE_DIR};
@@ -51,9 +51,11 @@ pub const DEFAULT_SPP_MAX: u32 = 64;
 /// Samples per pixel of the cached `path` reference when no `--reference` is given.
 pub const DEFAULT_REFERENCE_SPP: u32 = 1024;
 /// The CSV header.
-pub const CSV_HEADER: &str = "integrator,spp,seconds,rays,mse,rmse,rel_mse,mae,psnr,non_finite,\
-std_error,est_mse,rel_mse_trimmed,psnr_peak,psnr_preview,ssim,variance,variance_se,reference_variance,\
-bias,bias_se,bias_status";
+pub const CSV_HEADER: &str = concat!(
+    "integrator,spp,seconds,rays,mse,rmse,rel_mse,mae,psnr,non_finite,std_error,est_mse,",
+    "rel_mse_trimmed,psnr_peak,psnr_preview,ssim,",
+    "variance,variance_se,reference_variance,bias,bias_se,bias_status"
+);
 
 /// Options of `vitrum converge`.
 #[derive(clap::Args, Debug, Clone)]
@@ -148,10 +150,8 @@ impl Row {
     pub fn csv(&self) -> String {
         let m = &self.metrics;
         let opt = |v: Option<f64>| v.map_or(String::new(), |v| v.to_string());
-        let part = |f: fn(&Split) -> f64| opt(self.split.as_ref().map(f));
-        let status = self.split.as_ref().map_or("unknown", Split::status);
         format!(
-            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
             self.integrator,
             self.spp,
             self.seconds,
@@ -168,12 +168,7 @@ impl Row {
             m.peak,
             m.psnr_preview,
             m.ssim,
-            part(|s| s.variance),
-            part(|s| s.variance_se),
-            part(|s| s.reference_variance),
-            part(|s| s.bias),
-            part(|s| s.bias_se),
-            status,
+            split_csv(self.split.as_ref()),
         )
     }
 }
@@ -721,6 +716,7 @@ mod tests {
         let text = csv(&[path]);
         let lines: Vec<&str> = text.lines().collect();
         assert_eq!(lines[0], CSV_HEADER);
+        assert!(CSV_HEADER.ends_with(metrics::SPLIT_CSV_COLUMNS));
         assert_eq!(lines[1], "path,8,1.5,100,0.25,0.5,0.125,0.4,6,1,,,0.1,1,20,0.5,,,,,,unknown");
         assert_eq!(lines[1].split(',').count(), CSV_HEADER.split(',').count());
         let biased = csv(&[row(8, 0.125, Some(split(0.25, 0.2, 0.01)))]);
