@@ -61,9 +61,10 @@
 //!   the whole error: the render's variance estimate is conservative (s²/n with the Sobol' or the
 //!   stratified sampler, whose samples are not independent; at 16 spp on `soft-shadows` `path`'s
 //!   V is about twice its MSE), and a bias could hide under it. Render with
-//!   `sampler = "independent"` to resolve it.
+//!   `sampler = "independent"` to resolve it. The error is still no more than variance explains.
 //! - **Unbiased**: neither. The efficiency 1/(MSE·s) compares methods whose error is variance,
-//!   so it is given for unbiased ones only; biased ones are reported with their bias instead.
+//!   so it is given for unbiased and unresolved ones only (the latter marked); biased ones are
+//!   reported with their bias instead.
 
 use crate::image::Image;
 use crate::integrators::Integrator;
@@ -380,8 +381,8 @@ impl Split {
         self.bias < -BIAS_SIGNIFICANCE * self.bias_se
     }
 
-    /// Not biased, and the variance part not above the MSE either: the error is variance. Only
-    /// then does an efficiency 1/(MSE·s) compare like with like.
+    /// Not biased, and the variance part not significantly above the MSE either: the error is
+    /// variance, and the variance estimate agrees with it.
     pub fn unbiased(&self) -> bool {
         !self.biased() && !self.variance_overestimated()
     }

@@ -150,9 +150,10 @@ impl Row {
         }
     }
 
-    /// 1/(MSE·seconds), only for a render whose error is variance (split known, not biased).
+    /// 1/(MSE·seconds), only for a render whose error is variance: split known and not biased
+    /// (unbiased, or unresolved: the variance estimate explains more than the whole error).
     fn efficiency(&self) -> Option<f64> {
-        self.split.filter(Split::unbiased).map(|_| 1.0 / (self.metrics.mse * self.out.seconds.max(1e-9)))
+        self.split.filter(|s| !s.biased()).map(|_| 1.0 / (self.metrics.mse * self.out.seconds.max(1e-9)))
     }
 
     /// The split's verdict ([`Split::status`]), or "unknown" (no variance to split the error with).
@@ -628,7 +629,8 @@ fn markdown_table(plan: &Plan, rows: &[Row], reference: &str, reference_variance
          the reference's variance part, each ± one standard error; \"biased\" = bias part > {} \
          standard errors and > {:.0}% of the MSE; \"unresolved\" = bias part < −3 standard errors \
          (a conservative variance estimate, as with Sobol' samples, that could hide a bias). \
-         Efficiency = 1/(MSE·seconds), given only for unbiased methods, whose error is variance. `ssaa`'s spp is its mean camera rays per pixel.\n",
+         Efficiency = 1/(MSE·seconds), given only for methods not biased, whose error is variance \
+         (marked \"unresolved\" where that is so). `ssaa`'s spp is its mean camera rays per pixel.\n",
         plan.budget_text(),
         match (&plan.renders, plan.budget) {
             (Some(_), _) => "read from files; seconds of merged parts are summed",
@@ -651,9 +653,9 @@ fn markdown_table(plan: &Plan, rows: &[Row], reference: &str, reference_variance
     for r in rows {
         let m = &r.metrics;
         let efficiency = match (r.efficiency(), r.status()) {
+            (Some(e), "unresolved") => format!("{e:.3e} (unresolved)"),
             (Some(e), _) => format!("{e:.3e}"),
             (None, "biased") => "biased".to_string(),
-            (None, "unresolved") => "n/a (bias unresolved)".to_string(),
             (None, _) => "n/a (no variance)".to_string(),
         };
         let _ = writeln!(
