@@ -384,15 +384,16 @@ impl Split {
     /// Not biased, and the variance part not significantly above the MSE either: the error is
     /// variance, and the variance estimate agrees with it.
     pub fn unbiased(&self) -> bool {
-        !self.biased() && !self.variance_overestimated()
+        self.status() == "unbiased"
     }
 
     /// The verdict: "biased", "unbiased", or "unresolved" (the variance part significantly
-    /// exceeds the MSE, so the variance estimate is conservative and could hide a bias).
+    /// exceeds the MSE, so the variance estimate is conservative and could hide a bias; or there
+    /// are too few pixels, under two, for a standard error).
     pub fn status(&self) -> &'static str {
         if self.biased() {
             "biased"
-        } else if self.variance_overestimated() {
+        } else if self.variance_overestimated() || !self.bias_se.is_finite() {
             "unresolved"
         } else {
             "unbiased"
@@ -925,6 +926,10 @@ mod tests {
         variance.pixels[1] = Vec3::INFINITY;
         let s = split(&test, Some(&variance), &reference, None, None).unwrap();
         assert_eq!((s.pixels, s.non_finite_variance), (4094, 1));
+        // One pixel: no standard error, no verdict.
+        let one = Crop { x: 5, y: 5, width: 1, height: 1 };
+        let s = split(&test, Some(&variance), &reference, None, Some(one)).unwrap();
+        assert!(s.bias_se.is_nan() && s.status() == "unresolved", "{s:?}");
         let wrong = grey(2, 2, 0.0);
         assert_eq!(
             split(&test, Some(&wrong), &reference, None, None),
