@@ -1,5 +1,5 @@
-//! Error metrics between a test image and a reference, with the one definition of DESIGN.md, and
-//! the split of the MSE into its bias and its variance.
+//! Error metrics between a test image and a reference, with the one definition of the README's
+//! "Metrics" section, and the split of the MSE into its bias and its variance.
 //!
 //! With test image x and reference r, over the compared pixels and their three channels:
 //! MSE = mean((x−r)²), RMSE = √MSE, relMSE = mean((x−r)² / (r² + 0.01)), MAE = mean(|x−r|) and
@@ -161,7 +161,7 @@ pub enum MetricsError {
     },
 }
 
-/// The offset added to r² in the denominator of the relative squared error (DESIGN.md).
+/// The offset added to r² in the denominator of the relative squared error (the README's "Metrics").
 pub const REL_EPSILON: f64 = 0.01;
 
 /// The fraction of pixels, those of largest error, that the trimmed relMSE leaves out: 0.1%.

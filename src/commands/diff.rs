@@ -1,4 +1,5 @@
-//! `vitrum diff`: error metrics of a test image against a reference (DESIGN.md's definitions).
+//! `vitrum diff`: error metrics of a test image against a reference (as [`crate::metrics`]
+//! defines them).
 //!
 //! Prints MSE, RMSE, relMSE and the trimmed relMSE, MAE, the HDR PSNR (with its peak), the PSNR
 //! of the tone-mapped preview (peak 1, at `--exposure`) and SSIM (see [`crate::metrics`]), the
