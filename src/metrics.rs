@@ -1,4 +1,5 @@
-//! Error metrics between a test image and a reference, with the one definition of DESIGN.md.
+//! Error metrics between a test image and a reference, with the one definition of the README's
+//! "Metrics" section, and the split of the MSE into its bias and its variance.
 //!
 //! With test image x and reference r, over the compared pixels and their three channels:
 //! MSE = mean((x−r)²), RMSE = √MSE, relMSE = mean((x−r)² / (r² + 0.01)), MAE = mean(|x−r|) and
@@ -7,14 +8,68 @@
 //! - **Non-finite pixels.** A pixel with a NaN or infinite channel is counted (per image, in
 //!   [`Metrics::non_finite_test`] and [`Metrics::non_finite_reference`]) and left out of every
 //!   mean: one NaN would otherwise turn every metric into NaN. Callers print the counts.
-//! - **The PSNR peak** is the largest reference channel value over the compared pixels (the
+//! - **The HDR PSNR peak** is the largest reference channel value over the compared pixels (the
 //!   brightest thing the reference shows, so PSNR is relative to the image's own range, as for
 //!   HDR renders there is no fixed white). When that value is not positive (a black reference),
-//!   the peak is 1. It is always reported in [`Metrics::peak`].
+//!   the peak is 1. It is always reported in [`Metrics::peak`]. On a scene with a point light's
+//!   hot spot that peak is far above everything else, and the HDR PSNR flatters noisy images:
+//!   read it with [`Metrics::psnr_preview`].
+//! - **Trimmed relMSE** ([`Metrics::rel_mse_trimmed`]), as in the denoising and path-guiding
+//!   literature ("relMSE excluding the 0.1% highest pixel errors", e.g. Rousselle et al. 2012,
+//!   Vogels et al. 2018, Müller et al. 2017): each compared pixel's relative squared error is the
+//!   mean over its three channels of (x−r)²/(r²+0.01); the ⌊n/1000⌋ largest of the n values are
+//!   dropped ([`TRIMMED_FRACTION`]; below 1000 pixels none is) and the rest averaged. A handful of
+//!   fireflies can make the full relMSE; they cannot make the trimmed one.
+//! - **Preview PSNR** ([`Metrics::psnr_preview`]): PSNR with peak 1 on the 8-bit PNG preview of
+//!   both images as `vitrum render --png` writes it ([`crate::output::png::to_srgb8`]: exposure,
+//!   clamp to [0, 1], the sRGB curve, 8 bits), each code divided by 255. It measures what a
+//!   reader sees on the page; the 8-bit codes cap it near 59 dB for images that differ at all.
+//! - **SSIM** ([`Metrics::ssim`], the perceptual metric): Wang, Bovik, Sheikh and Simoncelli
+//!   (2004), on the luma Y′ = 0.2126 R′ + 0.7152 G′ + 0.0722 B′ of the same preview values
+//!   (dynamic range L = 1), with their 11×11 Gaussian window of σ = 1.5 (weights normalised to
+//!   sum 1), C1 = (0.01 L)², C2 = (0.03 L)² and biased (weighted) variances, averaged over every
+//!   window position that lies wholly inside the compared region (no padding, as in the
+//!   authors' `ssim_index.m`); windows touching a non-finite pixel are left out. NaN when the
+//!   region is smaller than 11×11. Why SSIM and not FLIP: the one FLIP crate (`nv-flip` 0.1)
+//!   binds NVIDIA's C++ code through a C++ build, is pre-1.0 with no release since 2023 and
+//!   offers LDR-FLIP only; SSIM is a page of Rust, exactly specified and testable by hand.
 //! - **Degenerate cases.** Identical images give MSE 0 and PSNR +∞; when no pixel is finite in both
 //!   images every mean is NaN (and `pixels` is 0).
+//!
+//! # Bias and variance
+//! [`split`] divides the MSE of a render into the part its noise explains and the rest, its bias.
+//! With x a pixel channel's estimate and v_x the variance of that estimate (the render's
+//! per-pixel variance, s²/n, [`crate::render`]), and the reference's r and v_r (0 when it has no
+//! variance), for independent renders E[(x−r)²] = bias² + var_x + var_r. Per channel term
+//! b = (x−r)² − v_x − v_r is an unbiased estimate of bias², so over the compared pixels
+//!
+//! - variance part V = mean(v_x), reference part V_r = mean(v_r), bias part B = mean(b), and
+//!   MSE = B + V + V_r exactly. B can come out negative by noise (or when v_x overestimates the
+//!   error: with the Sobol' or stratified sampler s²/n ignores the gain of stratification).
+//! - Standard errors: with p_i the mean of a term over pixel i's three channels and N pixels,
+//!   SE = sd(p_i)/√N (the sample standard deviation over pixels). Pixels are independent
+//!   estimates, so under the hypothesis of no bias this is the standard error of B; when there
+//!   is bias it also holds the spread of the bias over the image, so it errs on the large side.
+//!   The same formula gives the (equally conservative) standard errors of V and V_r.
+//! - **Biased**: B > [`BIAS_SIGNIFICANCE`] (3) standard errors *and* B > [`BIAS_FRACTION`] (10%)
+//!   of the MSE. The first says the bias is real, the second that it matters: an unbiased method
+//!   judged against a reference whose variance is unknown would otherwise be called biased by
+//!   the reference's noise alone, and a tiny real bias under much noise is still a variance
+//!   problem. A deterministic render (no variance: `ssaa`'s fixed pattern) has V = 0: all its
+//!   error is bias.
+//! - **Unresolved**: B < −3 standard errors. The variance part is then significantly larger than
+//!   the whole error: the render's variance estimate is conservative (s²/n with the Sobol' or the
+//!   stratified sampler, whose samples are not independent; at 16 spp on `soft-shadows` `path`'s
+//!   V is about twice its MSE), and a bias could hide under it. Render with
+//!   `sampler = "independent"` to resolve it. The error is still no more than variance explains.
+//! - **Unbiased**: neither. The efficiency 1/(MSE·s) compares methods whose error is variance,
+//!   so it is given for unbiased and unresolved ones only (the latter marked); biased ones are
+//!   reported with their bias instead.
 
 use crate::image::Image;
+use crate::integrators::Integrator;
+use crate::output::png::to_srgb8;
+use crate::render::{Progression, RenderOutput};
 
 /// A rectangle of pixels, from the top-left corner.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -38,13 +93,21 @@ pub struct Metrics {
     pub rmse: f64,
     /// mean((x − r)² / (r² + 0.01))
     pub rel_mse: f64,
+    /// relMSE without the ⌊n/1000⌋ pixels of largest relative squared error (module docs).
+    pub rel_mse_trimmed: f64,
     /// mean(|x − r|)
     pub mae: f64,
-    /// 10·log10(peak² / MSE) in dB
+    /// 10·log10(peak² / MSE) in dB, on the linear HDR values
     pub psnr: f64,
     /// The peak used for PSNR: the largest reference channel value over the compared pixels, or 1
     /// when none is positive.
     pub peak: f64,
+    /// PSNR in dB with peak 1 on the 8-bit tone-mapped preview (module docs).
+    pub psnr_preview: f64,
+    /// The exposure in stops of the preview that `psnr_preview` and `ssim` judge.
+    pub exposure_ev: f32,
+    /// SSIM of the preview's luma (module docs); NaN below 11×11 pixels.
+    pub ssim: f64,
     /// Pixels compared (finite in both images).
     pub pixels: usize,
     /// Pixels with a NaN or infinite channel in the test image.
@@ -86,17 +149,52 @@ pub enum MetricsError {
         /// Image height.
         image_height: usize,
     },
+    /// A per-pixel variance of another size than its image.
+    #[error("the {which} variance is {width}x{height}, not the size of its image")]
+    VarianceSize {
+        /// "test" or "reference".
+        which: &'static str,
+        /// Its width.
+        width: usize,
+        /// Its height.
+        height: usize,
+    },
 }
 
-/// The offset added to r² in the denominator of the relative squared error (DESIGN.md).
+/// The offset added to r² in the denominator of the relative squared error (the README's "Metrics").
 pub const REL_EPSILON: f64 = 0.01;
 
-/// The metrics of `test` against `reference`, over `crop` or the whole image.
-pub fn compare(test: &Image, reference: &Image, crop: Option<Crop>) -> Result<Metrics, MetricsError> {
+/// The fraction of pixels, those of largest error, that the trimmed relMSE leaves out: 0.1%.
+pub const TRIMMED_FRACTION: f64 = 0.001;
+
+/// Weights of the luma the SSIM judges (ITU-R BT.709, the sRGB primaries), on encoded values.
+pub const LUMA: [f64; 3] = [0.2126, 0.7152, 0.0722];
+
+/// Side of the SSIM window, in pixels.
+pub const SSIM_WINDOW: usize = 11;
+
+/// Standard deviation of the SSIM window's Gaussian, in pixels.
+pub const SSIM_SIGMA: f64 = 1.5;
+
+/// SSIM's C1 = (K1·L)² with K1 = 0.01 and dynamic range L = 1.
+pub const SSIM_C1: f64 = 0.01 * 0.01;
+
+/// SSIM's C2 = (K2·L)² with K2 = 0.03 and L = 1.
+pub const SSIM_C2: f64 = 0.03 * 0.03;
+
+/// The metrics of `test` against `reference`, over `crop` or the whole image; the preview
+/// metrics judge both images exposed by `exposure_ev` stops.
+pub fn compare(
+    test: &Image,
+    reference: &Image,
+    crop: Option<Crop>,
+    exposure_ev: f32,
+) -> Result<Metrics, MetricsError> {
     check_sizes(test, reference)?;
     let crop = resolve_crop(test, crop)?;
 
-    let (mut sq, mut rel, mut abs) = (0.0f64, 0.0f64, 0.0f64);
+    let (mut sq, mut abs) = (0.0f64, 0.0f64);
+    let mut rel_per_pixel: Vec<f64> = Vec::with_capacity(crop.width * crop.height);
     let mut max_reference = f64::NEG_INFINITY;
     let (mut pixels, mut non_finite_test, mut non_finite_reference) = (0usize, 0usize, 0usize);
     for (x, r) in region_pairs(test, reference, crop) {
@@ -107,6 +205,7 @@ pub fn compare(test: &Image, reference: &Image, crop: Option<Crop>) -> Result<Me
             continue;
         }
         pixels += 1;
+        let mut rel = 0.0;
         for c in 0..3 {
             let (xc, rc) = (f64::from(x[c]), f64::from(r[c]));
             let d = xc - rc;
@@ -115,21 +214,278 @@ pub fn compare(test: &Image, reference: &Image, crop: Option<Crop>) -> Result<Me
             abs += d.abs();
             max_reference = max_reference.max(rc);
         }
+        rel_per_pixel.push(rel / 3.0);
     }
 
     let n = (3 * pixels) as f64;
     let mse = sq / n;
     let peak = if max_reference > 0.0 { max_reference } else { 1.0 };
+    let rel_mse = rel_per_pixel.iter().sum::<f64>() / pixels as f64;
+    let (preview_test, preview_reference) = (preview(test, exposure_ev), preview(reference, exposure_ev));
+    let preview_mse = preview_squared_error(test, reference, &preview_test, &preview_reference, crop);
     Ok(Metrics {
         mse,
         rmse: mse.sqrt(),
-        rel_mse: rel / n,
+        rel_mse,
+        rel_mse_trimmed: trimmed_mean(rel_per_pixel),
         mae: abs / n,
         psnr: 10.0 * (peak * peak / mse).log10(),
         peak,
+        psnr_preview: -10.0 * preview_mse.log10(),
+        exposure_ev,
+        ssim: ssim_of_previews(test, reference, &preview_test, &preview_reference, crop),
         pixels,
         non_finite_test,
         non_finite_reference,
+    })
+}
+
+/// The mean of `values` without their ⌊n·[`TRIMMED_FRACTION`]⌋ largest; NaN when empty.
+pub fn trimmed_mean(mut values: Vec<f64>) -> f64 {
+    let drop = (values.len() as f64 * TRIMMED_FRACTION).floor() as usize;
+    let keep = values.len() - drop;
+    if drop > 0 {
+        values.select_nth_unstable_by(keep, f64::total_cmp);
+    }
+    values[..keep].iter().sum::<f64>() / keep as f64
+}
+
+/// The preview's channel values in [0, 1]: the 8-bit codes of [`to_srgb8`] over 255.
+fn preview(image: &Image, exposure_ev: f32) -> Vec<f64> {
+    to_srgb8(image, exposure_ev).into_iter().map(|c| f64::from(c) / 255.0).collect()
+}
+
+/// The mean squared difference of the previews over the pixels of `crop` finite in both images.
+fn preview_squared_error(test: &Image, reference: &Image, pt: &[f64], pr: &[f64], crop: Crop) -> f64 {
+    let (mut sum, mut count) = (0.0, 0usize);
+    for i in region_indices(test.width, crop) {
+        if test.pixels[i].is_finite() && reference.pixels[i].is_finite() {
+            sum += (0..3).map(|c| (pt[3 * i + c] - pr[3 * i + c]).powi(2)).sum::<f64>();
+            count += 3;
+        }
+    }
+    sum / count as f64
+}
+
+/// The SSIM of the previews' luma over `crop`; windows touching a pixel not finite in either
+/// image are left out.
+fn ssim_of_previews(test: &Image, reference: &Image, pt: &[f64], pr: &[f64], crop: Crop) -> f64 {
+    let luma = |p: &[f64], i: usize| (0..3).map(|c| LUMA[c] * p[3 * i + c]).sum::<f64>();
+    let (mut x, mut y, mut valid) = (Vec::new(), Vec::new(), Vec::new());
+    for i in region_indices(test.width, crop) {
+        x.push(luma(pt, i));
+        y.push(luma(pr, i));
+        valid.push(test.pixels[i].is_finite() && reference.pixels[i].is_finite());
+    }
+    ssim(&x, &y, &valid, crop.width, crop.height)
+}
+
+/// The normalised 1-D weights of the SSIM window: exp(−k²/(2σ²)) for k = −5..=5, over their sum.
+pub fn ssim_weights() -> [f64; SSIM_WINDOW] {
+    let half = (SSIM_WINDOW / 2) as f64;
+    let mut w = [0.0; SSIM_WINDOW];
+    for (i, w) in w.iter_mut().enumerate() {
+        let k = i as f64 - half;
+        *w = (-k * k / (2.0 * SSIM_SIGMA * SSIM_SIGMA)).exp();
+    }
+    let sum: f64 = w.iter().sum();
+    w.map(|v| v / sum)
+}
+
+/// SSIM of the `width`×`height` planes `x` and `y` (row-major, values in [0, 1]): the mean over
+/// the window positions wholly inside the planes of which every pixel is `valid`; NaN when there
+/// is none. See the module documentation for the constants.
+pub fn ssim(x: &[f64], y: &[f64], valid: &[bool], width: usize, height: usize) -> f64 {
+    if width < SSIM_WINDOW || height < SSIM_WINDOW {
+        return f64::NAN;
+    }
+    let g = ssim_weights();
+    let (ow, oh) = (width - SSIM_WINDOW + 1, height - SSIM_WINDOW + 1);
+    // Separable filtering, 'valid' positions only: rows first, then columns.
+    let filter = |plane: &dyn Fn(usize) -> f64, weights: &[f64; SSIM_WINDOW]| -> Vec<f64> {
+        let mut rows = vec![0.0; ow * height];
+        for r in 0..height {
+            for c in 0..ow {
+                rows[r * ow + c] = (0..SSIM_WINDOW).map(|k| weights[k] * plane(r * width + c + k)).sum();
+            }
+        }
+        let mut out = vec![0.0; ow * oh];
+        for r in 0..oh {
+            for c in 0..ow {
+                out[r * ow + c] = (0..SSIM_WINDOW).map(|k| weights[k] * rows[(r + k) * ow + c]).sum();
+            }
+        }
+        out
+    };
+    let value = |p: &[f64], i: usize| if valid[i] { p[i] } else { 0.0 };
+    let mu_x = filter(&|i| value(x, i), &g);
+    let mu_y = filter(&|i| value(y, i), &g);
+    let xx = filter(&|i| value(x, i).powi(2), &g);
+    let yy = filter(&|i| value(y, i).powi(2), &g);
+    let xy = filter(&|i| value(x, i) * value(y, i), &g);
+    let invalid = filter(&|i| f64::from(u8::from(!valid[i])), &[1.0; SSIM_WINDOW]);
+    let (mut sum, mut windows) = (0.0, 0usize);
+    for i in 0..ow * oh {
+        if invalid[i] > 0.0 {
+            continue;
+        }
+        let (mx, my) = (mu_x[i], mu_y[i]);
+        let (vx, vy, cxy) = (xx[i] - mx * mx, yy[i] - my * my, xy[i] - mx * my);
+        sum += (2.0 * mx * my + SSIM_C1) * (2.0 * cxy + SSIM_C2)
+            / ((mx * mx + my * my + SSIM_C1) * (vx + vy + SSIM_C2));
+        windows += 1;
+    }
+    sum / windows as f64
+}
+
+/// The bias and variance parts of a render's MSE (see the module documentation).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Split {
+    /// The MSE over the pixels of the split (those finite in both images and both variances).
+    pub mse: f64,
+    /// V = mean of the render's per-pixel variance (0 for a deterministic render).
+    pub variance: f64,
+    /// Standard error of V.
+    pub variance_se: f64,
+    /// V_r = mean of the reference's per-pixel variance (0 when it has none).
+    pub reference_variance: f64,
+    /// Standard error of V_r.
+    pub reference_variance_se: f64,
+    /// B = MSE − V − V_r, the estimate of the mean squared bias; can be negative by noise.
+    pub bias: f64,
+    /// Standard error of B.
+    pub bias_se: f64,
+    /// Pixels in the split.
+    pub pixels: usize,
+    /// Pixels left out because a variance (of the render or of the reference) is not finite.
+    pub non_finite_variance: usize,
+}
+
+/// B must exceed this many standard errors to call a render biased.
+pub const BIAS_SIGNIFICANCE: f64 = 3.0;
+
+/// B must be more than this fraction of the MSE to call a render biased.
+pub const BIAS_FRACTION: f64 = 0.1;
+
+impl Split {
+    /// Whether the bias part is significant: more than [`BIAS_SIGNIFICANCE`] standard errors and
+    /// more than [`BIAS_FRACTION`] of the MSE.
+    pub fn biased(&self) -> bool {
+        self.bias > BIAS_SIGNIFICANCE * self.bias_se && self.bias > BIAS_FRACTION * self.mse
+    }
+
+    /// Whether the variance part is significantly larger than the whole error (B below −3
+    /// standard errors): the render's variance estimate is conservative, as s²/n is for the
+    /// Sobol' and stratified samplers.
+    pub fn variance_overestimated(&self) -> bool {
+        self.bias < -BIAS_SIGNIFICANCE * self.bias_se
+    }
+
+    /// Not biased, and the variance part not significantly above the MSE either: the error is
+    /// variance, and the variance estimate agrees with it.
+    pub fn unbiased(&self) -> bool {
+        self.status() == "unbiased"
+    }
+
+    /// The verdict: "biased", "unbiased", or "unresolved" (the variance part significantly
+    /// exceeds the MSE, so the variance estimate is conservative and could hide a bias; or there
+    /// are too few pixels, under two, for a standard error).
+    pub fn status(&self) -> &'static str {
+        if self.biased() {
+            "biased"
+        } else if self.variance_overestimated() || !self.bias_se.is_finite() {
+            "unresolved"
+        } else {
+            "unbiased"
+        }
+    }
+
+    /// √B, the root-mean-square bias (0 when B is not positive).
+    pub fn rms_bias(&self) -> f64 {
+        self.bias.max(0.0).sqrt()
+    }
+}
+
+/// The CSV columns of a split, as [`split_csv`] fills them.
+pub const SPLIT_CSV_COLUMNS: &str = "variance,variance_se,reference_variance,bias,bias_se,bias_status";
+
+/// The CSV fields of `split` under [`SPLIT_CSV_COLUMNS`] (full precision): the parts, their
+/// standard errors and [`Split::status`]; empty fields and "unknown" without a split.
+pub fn split_csv(split: Option<&Split>) -> String {
+    match split {
+        Some(s) => format!(
+            "{},{},{},{},{},{}",
+            s.variance,
+            s.variance_se,
+            s.reference_variance,
+            s.bias,
+            s.bias_se,
+            s.status()
+        ),
+        None => ",,,,,unknown".to_string(),
+    }
+}
+
+/// The mean of `values` and its standard error, sd/√n (NaN for the error below two values).
+fn mean_and_se(values: &[f64]) -> (f64, f64) {
+    let n = values.len() as f64;
+    let mean = values.iter().sum::<f64>() / n;
+    let ss: f64 = values.iter().map(|v| (v - mean).powi(2)).sum();
+    (mean, (ss / (n - 1.0)).sqrt() / n.sqrt())
+}
+
+/// The bias and variance parts of the MSE of `test` against `reference` over `crop` (or the
+/// whole image). `test_variance` and `reference_variance` are the per-pixel variances of the
+/// estimates; `None` means zero (a deterministic render, a reference taken as exact).
+pub fn split(
+    test: &Image,
+    test_variance: Option<&Image>,
+    reference: &Image,
+    reference_variance: Option<&Image>,
+    crop: Option<Crop>,
+) -> Result<Split, MetricsError> {
+    check_sizes(test, reference)?;
+    for (which, v) in [("test", test_variance), ("reference", reference_variance)] {
+        if let Some(v) = v {
+            if check_sizes(v, reference).is_err() {
+                return Err(MetricsError::VarianceSize { which, width: v.width, height: v.height });
+            }
+        }
+    }
+    let crop = resolve_crop(test, crop)?;
+    let variance_at = |v: Option<&Image>, i: usize| v.map_or(glam::DVec3::ZERO, |v| v.pixels[i].as_dvec3());
+    let (mut sq, mut var, mut var_r, mut bias) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    let mut non_finite_variance = 0;
+    for i in region_indices(test.width, crop) {
+        let (x, r) = (test.pixels[i].as_dvec3(), reference.pixels[i].as_dvec3());
+        if !(x.is_finite() && r.is_finite()) {
+            continue;
+        }
+        let (vx, vr) = (variance_at(test_variance, i), variance_at(reference_variance, i));
+        if !(vx.is_finite() && vr.is_finite()) {
+            non_finite_variance += 1;
+            continue;
+        }
+        let d2 = (x - r) * (x - r);
+        sq.push(d2.element_sum() / 3.0);
+        var.push(vx.element_sum() / 3.0);
+        var_r.push(vr.element_sum() / 3.0);
+        bias.push((d2 - vx - vr).element_sum() / 3.0);
+    }
+    let (mse, _) = mean_and_se(&sq);
+    let (variance, variance_se) = mean_and_se(&var);
+    let (reference_variance, reference_variance_se) = mean_and_se(&var_r);
+    let (bias, bias_se) = mean_and_se(&bias);
+    Ok(Split {
+        mse,
+        variance,
+        variance_se,
+        reference_variance,
+        reference_variance_se,
+        bias,
+        bias_se,
+        pixels: sq.len(),
+        non_finite_variance,
     })
 }
 
@@ -215,6 +571,12 @@ fn resolve_crop(image: &Image, crop: Option<Crop>) -> Result<Crop, MetricsError>
     }
 }
 
+/// The indices of the pixels of `crop` in a `width`-wide raster, row by row.
+fn region_indices(width: usize, crop: Crop) -> impl Iterator<Item = usize> {
+    (crop.y..crop.y + crop.height)
+        .flat_map(move |row| row * width + crop.x..row * width + crop.x + crop.width)
+}
+
 /// The (test, reference) pixel pairs of `crop`, row by row; the sizes and crop have been checked.
 fn region_pairs<'a>(
     test: &'a Image,
@@ -226,6 +588,23 @@ fn region_pairs<'a>(
         let range = row * width + crop.x..row * width + crop.x + crop.width;
         test.pixels[range.clone()].iter().copied().zip(reference.pixels[range].iter().copied())
     })
+}
+
+/// The split of a render by `method` (see [`split`]): with the render's own variance; with none
+/// for a method of one fixed, deterministic pattern ([`Progression::Fixed`]: `ssaa`), whose error
+/// is all bias; `None` (unknown) for any other render without a variance (a single sample, or a
+/// file that kept none).
+pub fn render_split(
+    method: &dyn Integrator,
+    out: &RenderOutput,
+    reference: &Image,
+    reference_variance: Option<&Image>,
+) -> Result<Option<Split>, MetricsError> {
+    let deterministic = matches!(method.progression(), Progression::Fixed(_));
+    if out.variance.is_none() && !deterministic {
+        return Ok(None);
+    }
+    split(&out.image, out.variance.as_ref(), reference, reference_variance, None).map(Some)
 }
 
 #[cfg(test)]
@@ -266,7 +645,7 @@ mod tests {
 
     #[test]
     fn hand_computed_metrics_leave_out_the_nan_pixel() {
-        let m = compare(&test_image(), &reference(), None).unwrap();
+        let m = compare(&test_image(), &reference(), None, 0.0).unwrap();
         // Three pixels compared, nine channels: squared errors 0.01 and 0.04, the rest 0.
         assert_eq!((m.pixels, m.non_finite_test, m.non_finite_reference), (3, 1, 0));
         assert!(close(m.mse, 0.05 / 9.0), "{m:?}");
@@ -283,7 +662,7 @@ mod tests {
     fn a_crop_compares_only_its_pixels() {
         // The right column: (1,0) compared, (1,1) has the NaN.
         let crop = Crop { x: 1, y: 0, width: 1, height: 2 };
-        let m = compare(&test_image(), &reference(), Some(crop)).unwrap();
+        let m = compare(&test_image(), &reference(), Some(crop), 0.0).unwrap();
         assert_eq!((m.pixels, m.non_finite_test, m.non_finite_reference), (1, 1, 0));
         assert!(close(m.mse, 0.01 / 3.0) && close(m.rel_mse, 1.0 / 3.0) && close(m.mae, 0.1 / 3.0), "{m:?}");
         // The compared reference pixel is black: the peak falls back to 1.
@@ -291,7 +670,7 @@ mod tests {
         assert!(close(m.psnr, 10.0 * 300f64.log10()), "{m:?}");
 
         let crop = Crop { x: 0, y: 1, width: 1, height: 1 };
-        let m = compare(&test_image(), &reference(), Some(crop)).unwrap();
+        let m = compare(&test_image(), &reference(), Some(crop), 0.0).unwrap();
         assert_eq!((m.pixels, m.non_finite_test), (1, 0));
         assert!(close(m.mse, 0.04 / 3.0));
     }
@@ -300,18 +679,18 @@ mod tests {
     fn non_finite_reference_pixels_are_counted_too() {
         let mut r = reference();
         r.pixels[0] = Vec3::new(0.0, f32::INFINITY, 0.0);
-        let m = compare(&test_image(), &r, None).unwrap();
+        let m = compare(&test_image(), &r, None, 0.0).unwrap();
         assert_eq!((m.pixels, m.non_finite_test, m.non_finite_reference), (2, 1, 1));
         assert!(close(m.mse, 0.05 / 6.0));
     }
 
     #[test]
     fn identical_images_and_nothing_to_compare() {
-        let m = compare(&reference(), &reference(), None).unwrap();
+        let m = compare(&reference(), &reference(), None, 0.0).unwrap();
         assert_eq!((m.mse, m.mae, m.rel_mse), (0.0, 0.0, 0.0));
         assert_eq!(m.psnr, f64::INFINITY);
         let nan = image([Vec3::NAN; 4]);
-        let m = compare(&nan, &reference(), None).unwrap();
+        let m = compare(&nan, &reference(), None, 0.0).unwrap();
         assert_eq!((m.pixels, m.non_finite_test), (0, 4));
         assert!(m.mse.is_nan() && m.psnr.is_nan());
     }
@@ -320,7 +699,7 @@ mod tests {
     fn sizes_and_crops_are_checked() {
         let small = Image::new(2, 1);
         assert_eq!(
-            compare(&small, &reference(), None),
+            compare(&small, &reference(), None, 0.0),
             Err(MetricsError::SizeMismatch {
                 test_width: 2,
                 test_height: 1,
@@ -332,19 +711,20 @@ mod tests {
         // A short pixel vector is a size mismatch, not an out-of-bounds panic.
         let mut short = reference();
         short.pixels.pop();
-        assert!(matches!(compare(&short, &reference(), None), Err(MetricsError::SizeMismatch { .. })));
+        assert!(matches!(compare(&short, &reference(), None, 0.0), Err(MetricsError::SizeMismatch { .. })));
         for (x, y, width, height) in [(1, 0, 2, 1), (0, 2, 1, 1), (0, 0, 0, 1), (usize::MAX, 0, 2, 1)] {
             let crop = Crop { x, y, width, height };
-            let err = compare(&test_image(), &reference(), Some(crop)).unwrap_err();
+            let err = compare(&test_image(), &reference(), Some(crop), 0.0).unwrap_err();
             assert!(
                 matches!(err, MetricsError::CropOutside { image_width: 2, image_height: 2, .. }),
                 "{err}"
             );
         }
         let whole = Crop { x: 0, y: 0, width: 2, height: 2 };
+        // (Debug text: the SSIM of a 2×2 image is NaN, which is not equal to itself.)
         assert_eq!(
-            compare(&test_image(), &reference(), Some(whole)),
-            compare(&test_image(), &reference(), None)
+            format!("{:?}", compare(&test_image(), &reference(), Some(whole), 0.0)),
+            format!("{:?}", compare(&test_image(), &reference(), None, 0.0))
         );
     }
 
@@ -356,7 +736,7 @@ mod tests {
         assert!((e[1] - 1.0 / 3.0).abs() < 1e-6 && (e[2] - 4.0 / 3.0).abs() < 1e-6, "{e:?}");
         assert!(e[3].is_nan());
         // Its mean over the finite pixels is relMSE.
-        let m = compare(&test_image(), &reference(), None).unwrap();
+        let m = compare(&test_image(), &reference(), None, 0.0).unwrap();
         assert!(close((e[0] + e[1] + e[2]) as f64 / 3.0, m.rel_mse));
     }
 
@@ -369,5 +749,192 @@ mod tests {
         );
         assert_eq!(crop_values(&v, 4, Crop { x: 3, y: 0, width: 2, height: 1 }), None);
         assert_eq!(crop_values(&v, 4, Crop { x: 0, y: 2, width: 1, height: 2 }), None);
+    }
+
+    /// A `w`×`h` grey image of linear value `v`.
+    fn grey(w: usize, h: usize, v: f32) -> Image {
+        Image { width: w, height: h, pixels: vec![Vec3::splat(v); w * h] }
+    }
+
+    #[test]
+    fn trimmed_rel_mse_drops_the_worst_tenth_of_a_percent() {
+        // 1000 pixels (40×25): reference 1, test 1.1 (relative squared error d²/1.01 each, d the
+        // f32 difference) but one firefly of 101 (10⁴/1.01). ⌊1000/1000⌋ = 1 pixel dropped: the
+        // firefly.
+        let one = grey(40, 25, 1.0);
+        let mut test = grey(40, 25, 1.1);
+        test.pixels[617] = Vec3::splat(101.0);
+        let d = f64::from(1.1f32 - 1.0);
+        let (e, firefly) = (d * d / 1.01, 1e4 / 1.01);
+        let m = compare(&test, &one, None, 0.0).unwrap();
+        assert!(close(m.rel_mse, (999.0 * e + firefly) / 1000.0), "{m:?}");
+        assert!(close(m.rel_mse_trimmed, e), "{m:?}");
+        assert!(m.rel_mse > 9.0 && m.rel_mse_trimmed < 0.011, "{m:?}");
+        // 2000 pixels with three fireflies: two dropped, one kept.
+        let one = grey(50, 40, 1.0);
+        let mut test = grey(50, 40, 1.1);
+        for i in [3, 999, 1500] {
+            test.pixels[i] = Vec3::splat(101.0);
+        }
+        let m = compare(&test, &one, None, 0.0).unwrap();
+        assert!(close(m.rel_mse_trimmed, (1997.0 * e + firefly) / 1998.0), "{m:?}");
+        // Under 1000 pixels nothing is dropped.
+        let m = compare(&test_image(), &reference(), None, 0.0).unwrap();
+        assert_eq!(m.rel_mse_trimmed, m.rel_mse);
+        assert!(trimmed_mean(Vec::new()).is_nan());
+    }
+
+    #[test]
+    fn preview_psnr_has_peak_one_on_the_8_bit_preview() {
+        // Black against white: preview values 0 and 1, MSE 1, 0 dB.
+        let m = compare(&grey(2, 2, 0.0), &grey(2, 2, 1.0), None, 0.0).unwrap();
+        assert!(close(m.psnr_preview, 0.0) || m.psnr_preview.abs() < 1e-12, "{m:?}");
+        // Linear 0.5 is the sRGB code round(255·(1.055·0.5^(1/2.4) − 0.055)) = 188.
+        let m = compare(&grey(2, 2, 0.5), &grey(2, 2, 1.0), None, 0.0).unwrap();
+        let d = (255.0 - 188.0) / 255.0f64;
+        assert!(close(m.psnr_preview, -10.0 * (d * d).log10()), "{m:?}");
+        // One stop of exposure takes 0.5 to white: identical previews.
+        let m = compare(&grey(2, 2, 0.5), &grey(2, 2, 1.0), None, 1.0).unwrap();
+        assert_eq!((m.psnr_preview, m.exposure_ev), (f64::INFINITY, 1.0));
+        // The HDR PSNR of the same images keeps its own peak (1).
+        assert!(close(m.psnr, -10.0 * 0.25f64.log10()), "{m:?}");
+        // The NaN pixel is left out of the preview too: only (1,0) and (0,1) differ.
+        let m = compare(&test_image(), &reference(), None, 0.0).unwrap();
+        let (red, green) = (f64::from(to_srgb8(&grey(1, 1, 0.1), 0.0)[0]) / 255.0, 0.0);
+        let green_ref = 0.0f64;
+        let green_test = f64::from(to_srgb8(&grey(1, 1, 0.2), 0.0)[0]) / 255.0;
+        let mse = (red * red + (green_test - green_ref).powi(2) + green) / 9.0;
+        assert!(close(m.psnr_preview, -10.0 * mse.log10()), "{m:?}");
+    }
+
+    #[test]
+    fn ssim_of_constant_planes_and_a_checkerboard_by_hand() {
+        // Black against white, one 11×11 window: σ = 0, so SSIM = C1 / (1 + C1).
+        let m = compare(&grey(11, 11, 0.0), &grey(11, 11, 1.0), None, 0.0).unwrap();
+        assert!(close(m.ssim, SSIM_C1 / (1.0 + SSIM_C1)), "{m:?}");
+        assert_eq!(compare(&grey(11, 11, 0.5), &grey(11, 11, 0.5), None, 0.0).unwrap().ssim, 1.0);
+        // Below one window: undefined.
+        assert!(compare(&grey(10, 20, 0.0), &grey(10, 20, 1.0), None, 0.0).unwrap().ssim.is_nan());
+
+        // Planes: x = a + d·(−1)^(i+j) (a checkerboard), y = a. With g the 1-D weights and
+        // q = (Σ_k g_k (−1)^k)² over k = −5..=5, the window centred on an even square has
+        // μx = a + d·q, σx² = d²(1 − q²), σy = σxy = 0: SSIM = (2μx·a + C1)/(μx² + a² + C1)
+        // · C2/(σx² + C2). On a 12×11 plane the second window is centred on an odd square (−q).
+        let g: Vec<f64> = (-5i32..=5).map(|k| (-(k * k) as f64 / (2.0 * 1.5 * 1.5)).exp()).collect();
+        let total: f64 = g.iter().sum();
+        let alternating: f64 =
+            (-5i32..=5).zip(&g).map(|(k, w)| w / total * f64::from((-1i32).pow(k.unsigned_abs()))).sum();
+        let q = alternating * alternating;
+        let (a, d) = (0.5, 0.2);
+        let by_hand = |sign: f64| {
+            let mx = a + sign * d * q;
+            let vx = d * d * (1.0 - q * q);
+            (2.0 * mx * a + SSIM_C1) / (mx * mx + a * a + SSIM_C1) * SSIM_C2 / (vx + SSIM_C2)
+        };
+        let plane = |w: usize, h: usize| -> Vec<f64> {
+            (0..w * h).map(|i| a + d * if (i % w + i / w).is_multiple_of(2) { 1.0 } else { -1.0 }).collect()
+        };
+        let (x, y) = (plane(11, 11), vec![a; 121]);
+        let s = ssim(&x, &y, &[true; 121], 11, 11);
+        // The centre (5,5) is an even square.
+        assert!((s - by_hand(1.0)).abs() < 1e-12, "{s} against {}", by_hand(1.0));
+        let (x, y) = (plane(12, 11), vec![a; 132]);
+        let s = ssim(&x, &y, &[true; 132], 12, 11);
+        let expected = (by_hand(1.0) + by_hand(-1.0)) / 2.0;
+        assert!((s - expected).abs() < 1e-12, "{s} against {expected}");
+        // A window touching an invalid pixel is left out: only the first window of 12×11 counts.
+        let mut valid = [true; 132];
+        valid[11] = false;
+        assert!((ssim(&x, &y, &valid, 12, 11) - by_hand(1.0)).abs() < 1e-12);
+        assert!(ssim(&x, &y, &[false; 132], 12, 11).is_nan());
+    }
+
+    /// `reference` plus `offset` plus Gaussian noise of standard deviation `sigma` per channel
+    /// (Box–Muller, seeded), with the variance image σ² that states it.
+    fn noisy(reference: &Image, offset: f32, sigma: f32, seed: u64) -> (Image, Image) {
+        use rand::{RngExt, SeedableRng};
+        let mut rng = rand_pcg::Pcg64::seed_from_u64(seed);
+        let mut normal = || {
+            let (u, v): (f64, f64) = (1.0 - rng.random::<f64>(), rng.random::<f64>());
+            ((-2.0 * u.ln()).sqrt() * (std::f64::consts::TAU * v).cos()) as f32
+        };
+        let pixels =
+            reference.pixels.iter().map(|p| *p + offset + sigma * Vec3::new(normal(), normal(), normal()));
+        let image = Image { width: reference.width, height: reference.height, pixels: pixels.collect() };
+        (image, grey(reference.width, reference.height, sigma * sigma))
+    }
+
+    /// A 64×64 reference: the split needs no structure, only pixels.
+    fn flat() -> Image {
+        grey(64, 64, 0.5)
+    }
+
+    #[test]
+    fn the_split_recovers_a_known_bias_and_variance() {
+        // Test = reference + 0.05 + N(0, 0.1²): bias² = 2.5e-3, variance 1e-2. Per pixel the bias
+        // term has a standard deviation near 0.01, so over 4096 pixels B has a standard error of
+        // about 1.6e-4: 2.5e-3 is some 16 of them, far outside the 4-SE tolerance of each check.
+        let reference = flat();
+        let (bias, sigma) = (0.05f32, 0.1f32);
+        let (test, variance) = noisy(&reference, bias, sigma, 1);
+        let s = split(&test, Some(&variance), &reference, None, None).unwrap();
+        let b2 = f64::from(bias) * f64::from(bias);
+        assert!((s.bias - b2).abs() < 4.0 * s.bias_se, "{s:?}");
+        assert!(s.bias_se > 0.0 && s.bias_se < b2 / 8.0, "{s:?}");
+        assert!((s.variance - f64::from(sigma * sigma)).abs() < 1e-9 && s.variance_se < 1e-9, "{s:?}");
+        assert!((s.mse - (s.bias + s.variance + s.reference_variance)).abs() < 1e-12, "{s:?}");
+        assert!(s.biased() && s.status() == "biased", "{s:?}");
+        assert!(close(s.mse, compare(&test, &reference, None, 0.0).unwrap().mse), "{s:?}");
+
+        // No offset: B is zero within 4 standard errors, and not called biased.
+        let (test, variance) = noisy(&reference, 0.0, sigma, 2);
+        let s = split(&test, Some(&variance), &reference, None, None).unwrap();
+        assert!(s.bias.abs() < 4.0 * s.bias_se && !s.biased() && s.unbiased(), "{s:?}");
+        assert_eq!(s.status(), "unbiased");
+        // A variance estimate twice too large (as s²/n can be with Sobol' samples): B is some
+        // −60 standard errors, and the verdict is unresolved, not unbiased.
+        let doubled = grey(64, 64, 2.0 * sigma * sigma);
+        let s = split(&test, Some(&doubled), &reference, None, None).unwrap();
+        assert!(s.variance_overestimated() && !s.unbiased() && s.status() == "unresolved", "{s:?}");
+
+        // A noisy reference (σr = 0.05, its variance stated): without V_r, B would be off by
+        // σr² = 2.5e-3, some 16 standard errors; with it B is the offset's square again.
+        let (noisy_reference, reference_variance) = noisy(&reference, 0.0, 0.05, 3);
+        let (test, variance) = noisy(&reference, bias, sigma, 4);
+        let s = split(&test, Some(&variance), &noisy_reference, Some(&reference_variance), None).unwrap();
+        assert!((s.bias - b2).abs() < 4.0 * s.bias_se, "{s:?}");
+        assert!((s.reference_variance - 0.0025).abs() < 1e-9, "{s:?}");
+        let ignored = split(&test, Some(&variance), &noisy_reference, None, None).unwrap();
+        assert!((ignored.bias - b2).abs() > 8.0 * ignored.bias_se, "{ignored:?}");
+
+        // A deterministic render (no variance) with an error: all of it is bias.
+        let pixels = reference.pixels.iter().map(|p| *p + 0.01).collect();
+        let offset = Image { pixels, ..reference.clone() };
+        let s = split(&offset, None, &reference, None, None).unwrap();
+        assert!((s.bias - 1e-4).abs() < 1e-8 && s.variance == 0.0 && s.biased(), "{s:?}");
+        // A small but certain bias under much noise is a variance problem: not biased.
+        let (test, variance) = noisy(&reference, 0.02, 0.2, 5);
+        let s = split(&test, Some(&variance), &reference, None, None).unwrap();
+        assert!(s.bias < BIAS_FRACTION * s.mse && !s.biased(), "{s:?}");
+    }
+
+    #[test]
+    fn the_split_checks_sizes_and_skips_non_finite_pixels() {
+        let reference = flat();
+        let (mut test, mut variance) = noisy(&reference, 0.0, 0.1, 6);
+        test.pixels[0] = Vec3::NAN;
+        variance.pixels[1] = Vec3::INFINITY;
+        let s = split(&test, Some(&variance), &reference, None, None).unwrap();
+        assert_eq!((s.pixels, s.non_finite_variance), (4094, 1));
+        // One pixel: no standard error, no verdict.
+        let one = Crop { x: 5, y: 5, width: 1, height: 1 };
+        let s = split(&test, Some(&variance), &reference, None, Some(one)).unwrap();
+        assert!(s.bias_se.is_nan() && s.status() == "unresolved", "{s:?}");
+        let wrong = grey(2, 2, 0.0);
+        assert_eq!(
+            split(&test, Some(&wrong), &reference, None, None),
+            Err(MetricsError::VarianceSize { which: "test", width: 2, height: 2 })
+        );
+        assert!(split(&test, None, &reference, Some(&wrong), None).is_err());
     }
 }

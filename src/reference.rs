@@ -16,7 +16,9 @@
 //! than it is.
 
 use crate::image::Image;
-use crate::output::exr::{read_exr, stage_exr, ExrMetadata};
+use crate::output::exr::{
+    read_exr, read_variance, stage_exr, stage_exr_with_channels, variance_channels, ExrMetadata,
+};
 use crate::output::{write_atomically, OutputError};
 use crate::render::{camera_for, Budget, RenderOptions};
 use crate::scene::Scene;
@@ -37,6 +39,9 @@ pub struct Reference {
     pub spp: u32,
     /// Whether it was read from the cache (false: rendered now).
     pub cached: bool,
+    /// The variance of each pixel's estimate (kept in the EXR's variance channels), so that
+    /// the reference's own noise can be told from a method's bias ([`crate::metrics::split`]).
+    pub variance: Option<Image>,
 }
 
 /// Everything a cached reference depends on (the sidecar's contents).
@@ -112,14 +117,21 @@ fn fnv1a(bytes: &[u8]) -> u64 {
     bytes.iter().fold(0xcbf2_9ce4_8422_2325, |h, &b| (h ^ b as u64).wrapping_mul(0x0000_0100_0000_01b3))
 }
 
-/// The cached reference for `key` in `cache_dir`, when a valid one is there.
-fn read_cached(exr: &Path, sidecar: &Path, key: &ReferenceKey) -> Option<Image> {
+/// The cached reference for `key` in `cache_dir` and its variance, when a valid one is there
+/// (one of two samples or more cached without variance channels, by an older version, is not).
+fn read_cached(exr: &Path, sidecar: &Path, key: &ReferenceKey) -> Option<(Image, Option<Image>)> {
     let stored: ReferenceKey = serde_json::from_str(&std::fs::read_to_string(sidecar).ok()?).ok()?;
     if !stored.same(key) {
         return None;
     }
     let (image, _) = read_exr(exr).ok()?;
-    (image.width == key.width as usize && image.height == key.height as usize).then_some(image)
+    let variance = read_variance(exr).ok()?;
+    let size = (key.width as usize, key.height as usize);
+    let variance_fits = match &variance {
+        Some(v) => (v.width, v.height) == size,
+        None => key.spp < 2,
+    };
+    ((image.width, image.height) == size && variance_fits).then_some((image, variance))
 }
 
 /// The `path` reference of `scene` at `spp` samples with the resolution, seed and depth of
@@ -136,8 +148,8 @@ pub fn path_reference(
     let stem = key.file_stem();
     let exr = cache_dir.join(format!("{stem}.exr"));
     let sidecar = cache_dir.join(format!("{stem}.json"));
-    if let Some(image) = read_cached(&exr, &sidecar, &key) {
-        return Ok(Reference { image, path: exr, spp, cached: true });
+    if let Some((image, variance)) = read_cached(&exr, &sidecar, &key) {
+        return Ok(Reference { image, path: exr, spp, cached: true, variance });
     }
 
     std::fs::create_dir_all(cache_dir).map_err(|e| OutputError::io(cache_dir, e))?;
@@ -155,12 +167,18 @@ pub fn path_reference(
         scene: format!("{} ({})", scene.origin.name, scene.origin.hash),
         effects: scene.effects.names(),
     };
-    stage_exr(&exr, &out.image, &meta)?.commit()?;
+    match &out.variance {
+        Some(v) => {
+            let samples = vec![out.spp as f32; v.pixels.len()];
+            stage_exr_with_channels(&exr, &out.image, &meta, &variance_channels(v, &samples))?.commit()?
+        }
+        None => stage_exr(&exr, &out.image, &meta)?.commit()?,
+    }
     let text = serde_json::to_string_pretty(&key).expect("a key serialises") + "\n";
     write_atomically(&sidecar, |tmp| {
         std::fs::write(tmp, text.as_bytes()).map_err(|e| OutputError::io(tmp, e))
     })?;
-    Ok(Reference { image: out.image, path: exr, spp, cached: false })
+    Ok(Reference { image: out.image, path: exr, spp, cached: false, variance: out.variance })
 }
 
 #[cfg(test)]
@@ -205,6 +223,9 @@ radiance = 1.0
         assert!(again.cached);
         assert_eq!(again.path, first.path);
         assert_eq!(bits(&again.image), bits(&first.image));
+        // The variance is kept in the cache, for the split of bias and variance.
+        let variance = |r: &Reference| bits(r.variance.as_ref().expect("a 4-spp reference has a variance"));
+        assert_eq!(variance(&again), variance(&first));
 
         // Another seed, sample count, depth or resolution is another reference.
         let changes: [&dyn Fn(&mut RenderOptions); 3] =

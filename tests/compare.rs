@@ -7,6 +7,7 @@ use std::fs;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 use tempfile::TempDir;
+use vitrum::commands::compare::CSV_HEADER;
 
 /// Render size of every case: small, and not square (so width and height cannot be swapped).
 const SIZE: (u32, u32) = (32, 24);
@@ -118,15 +119,20 @@ fn png_size(path: &Path) -> (u32, u32) {
 fn table_methods(folder: &Path) -> (Vec<String>, Vec<String>) {
     let csv = fs::read_to_string(folder.join("compare.csv")).unwrap();
     let mut lines = csv.lines();
-    assert_eq!(
-        lines.next(),
-        Some("method,spp,seconds,rays,mrays_per_second,mse,rel_mse,efficiency,non_finite_pixels")
-    );
+    let header = lines.next().unwrap();
+    assert_eq!(header, CSV_HEADER);
+    // The first nine columns are those of earlier versions, in their order.
+    assert!(header
+        .starts_with("method,spp,seconds,rays,mrays_per_second,mse,rel_mse,efficiency,non_finite_pixels,"));
+    let columns = header.split(',').count();
     let csv_rows: Vec<String> = lines
         .map(|l| {
             let cells: Vec<&str> = l.split(',').collect();
-            assert_eq!(cells.len(), 9, "{l}");
-            assert!(cells[1..].iter().all(|c| c.parse::<f64>().is_ok()), "{l}");
+            assert_eq!(cells.len(), columns, "{l}");
+            // Numbers, or empty where absent (no efficiency, no split); the status last.
+            let numeric = &cells[1..columns - 1];
+            assert!(numeric.iter().all(|c| c.is_empty() || c.parse::<f64>().is_ok()), "{l}");
+            assert!(["biased", "unbiased", "unresolved", "unknown"].contains(&cells[columns - 1]), "{l}");
             cells[0].to_string()
         })
         .collect();
@@ -271,4 +277,46 @@ fn bad_input_exits_2_before_rendering_and_leaves_nothing() {
     assert!(stderr(&out).contains("over the reference"), "{}", stderr(&out));
     assert_eq!(sandbox.files("keep"), ["path.exr"]);
     assert_eq!(fs::read(sandbox.path("keep/path.exr")).unwrap(), fs::read(sandbox.path("ref.exr")).unwrap());
+}
+
+/// The CSV of `folder` as rows of (column name, cell).
+fn csv_rows(folder: &Path) -> Vec<std::collections::BTreeMap<String, String>> {
+    let csv = fs::read_to_string(folder.join("compare.csv")).unwrap();
+    let mut lines = csv.lines();
+    let header: Vec<String> = lines.next().unwrap().split(',').map(String::from).collect();
+    lines.map(|l| header.iter().cloned().zip(l.split(',').map(String::from)).collect()).collect()
+}
+
+#[test]
+fn ssaa_states_its_real_rays_per_pixel_and_is_marked_biased() {
+    // ssaa renders one deterministic, adaptive pattern: no variance, so all of its error is bias
+    // (it has no efficiency), and its spp is its camera rays per pixel, not a rounded count.
+    let sandbox = Sandbox::new();
+    let out = sandbox.compare(&["-i", "ssaa,path", "--spp", "2"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let folder = sandbox.path("out/cmp");
+    let rows = csv_rows(&folder);
+    let ssaa = &rows[0];
+    assert_eq!(ssaa["method"], "ssaa");
+    let (_, attributes) = vitrum::output::exr::read_exr(&folder.join("ssaa.exr")).unwrap();
+    let rays = vitrum::output::exr::parse_rays(&attributes["vitrum:rays"]).unwrap();
+    let per_pixel = rays.primary as f64 / f64::from(SIZE.0 * SIZE.1);
+    assert_eq!(ssaa["spp"].parse::<f64>().unwrap(), per_pixel, "{ssaa:?}");
+    assert!(per_pixel > 1.0 && per_pixel.fract() != 0.0, "{per_pixel}");
+    assert_eq!((ssaa["bias_status"].as_str(), ssaa["efficiency"].as_str()), ("biased", ""));
+    assert_eq!(ssaa["variance"], "0");
+    let bias: f64 = ssaa["bias"].parse().unwrap();
+    assert!(bias > 3.0 * ssaa["bias_se"].parse::<f64>().unwrap(), "{ssaa:?}");
+    // path renders 2 samples, with a variance: its split is there.
+    assert_eq!(rows[1]["spp"], "2");
+    assert!(rows[1]["variance"].parse::<f64>().unwrap() > 0.0, "{:?}", rows[1]);
+
+    let md = fs::read_to_string(folder.join("compare.md")).unwrap();
+    let ssaa_line = md.lines().find(|l| l.starts_with("| ssaa |")).unwrap();
+    assert!(ssaa_line.contains(&format!("| {per_pixel:.2} |")) && ssaa_line.contains("| biased |"), "{md}");
+    for needle in ["relMSE 99.9%", "PSNR LDR", "SSIM", "bias part", "README"] {
+        assert!(md.contains(needle), "compare.md lacks `{needle}`: {md}");
+    }
+    // It cites the README, not a DESIGN.md that the repository does not have.
+    assert!(!md.contains("DESIGN.md"), "{md}");
 }

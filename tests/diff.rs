@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 use tempfile::TempDir;
 use vitrum::image::Image;
-use vitrum::output::exr::{write_exr, ExrMetadata};
+use vitrum::output::exr::{stage_exr_with_channels, variance_channels, write_exr, ExrMetadata};
 
 /// Run `vitrum diff` with `args`.
 fn vitrum<S: AsRef<std::ffi::OsStr>>(args: &[S]) -> Output {
@@ -114,6 +114,16 @@ fn json_metrics_are_the_hand_computed_ones() {
     assert_close(&v, "psnr", 10.0 * (4.0 / (0.05f64 / 9.0)).log10());
     assert_eq!((v["width"].as_u64(), v["height"].as_u64()), (Some(2), Some(2)));
     assert!(v["crop"].is_null() && v["error_map"].is_null());
+    // Under 1000 pixels the trimmed relMSE drops none; a 2×2 image has no 11×11 SSIM window.
+    assert_close(&v, "rel_mse_trimmed", v["rel_mse"].as_f64().unwrap());
+    assert!(v["ssim"].is_null(), "{v}");
+    // Preview PSNR (peak 1, exposure 0): the 8-bit sRGB codes of 0.1 and 0.2 against 0.
+    let code = |x: f64| (255.0 * (1.055 * x.powf(1.0 / 2.4) - 0.055)).round() / 255.0;
+    let preview_mse = (code(0.1).powi(2) + code(0.2).powi(2)) / 9.0;
+    assert_close(&v, "psnr_preview", -10.0 * preview_mse.log10());
+    assert_eq!(v["exposure"], 0.0);
+    // No variance channels: no split.
+    assert!(v["split"].is_null(), "{v}");
     // The NaN pixel is reported, not silently skipped.
     assert!(stderr(&out).contains("1 pixel of") && stderr(&out).contains("test.exr"), "{}", stderr(&out));
 }
@@ -137,9 +147,21 @@ fn a_crop_and_the_table() {
     let out = vitrum(&[&t, &r]);
     assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
     let table = stdout(&out);
-    for needle in
-        ["MSE", "RMSE", "relMSE", "MAE", "PSNR", "peak 2.0000e0", "3 compared", "1 in the test image"]
-    {
+    for needle in [
+        "MSE",
+        "RMSE",
+        "relMSE",
+        "relMSE 99.9%",
+        "MAE",
+        "PSNR HDR",
+        "peak 2.0000e0",
+        "PSNR LDR",
+        "peak 1, on the 8-bit sRGB preview at exposure 0 EV",
+        "SSIM",
+        "3 compared",
+        "1 in the test image",
+        "n/a: the test image keeps no variance",
+    ] {
         assert!(table.contains(needle), "the table lacks `{needle}`:\n{table}");
     }
     assert!(table.contains(&format!("{:.4e}", 0.05f64 / 9.0)), "{table}");
@@ -232,4 +254,109 @@ fn bad_crops_and_output_paths_are_bad_input() {
     // The output check comes first: with a missing input too, the message is about the output.
     let out = vitrum(&[Path::new("missing.exr"), &r, Path::new("--error-map"), &s.path("out")]);
     assert_bad_input(&s, &out, &["folder"]);
+}
+
+/// `reference` plus `offset` plus Gaussian noise of standard deviation `sigma` per channel
+/// (Box–Muller, seeded), written as `name` with variance channels σ² when `sigma` > 0 and with
+/// `meta`.
+fn noisy_exr(
+    s: &Sandbox,
+    name: &str,
+    reference: &Image,
+    (offset, sigma): (f32, f32),
+    meta: &ExrMetadata,
+) -> PathBuf {
+    use rand::{RngExt, SeedableRng};
+    let mut rng = rand_pcg::Pcg64::seed_from_u64(name.len() as u64 * 7 + 1);
+    let mut normal = || {
+        let (u, v): (f64, f64) = (1.0 - rng.random::<f64>(), rng.random::<f64>());
+        ((-2.0 * u.ln()).sqrt() * (std::f64::consts::TAU * v).cos()) as f32
+    };
+    let pixels: Vec<Vec3> = reference
+        .pixels
+        .iter()
+        .map(|p| *p + offset + sigma * Vec3::new(normal(), normal(), normal()))
+        .collect();
+    let image = Image { width: reference.width, height: reference.height, pixels };
+    let path = s.path(name);
+    let variance = Image { pixels: vec![Vec3::splat(sigma * sigma); image.pixels.len()], ..image.clone() };
+    let extra =
+        if sigma > 0.0 { variance_channels(&variance, &vec![16.0; image.pixels.len()]) } else { vec![] };
+    stage_exr_with_channels(&path, &image, meta, &extra).unwrap().commit().unwrap();
+    path
+}
+
+/// A 64×64 reference with some structure.
+fn gradient() -> Image {
+    let pixels =
+        (0..64 * 64).map(|i| Vec3::new((i % 64) as f32 / 64.0, (i / 64) as f32 / 64.0, 0.5)).collect();
+    Image { width: 64, height: 64, pixels }
+}
+
+#[test]
+fn variance_channels_split_the_error_into_a_known_bias_and_variance() {
+    // Test = reference + 0.05 + N(0, 0.1²), its variance channels 0.01: bias² 2.5e-3, variance
+    // 1e-2. B's standard error is about 1.6e-4 (4096 pixels), so 2.5e-3 is some 16 of them.
+    let s = Sandbox::new();
+    let reference = s.exr("gradient.exr", &gradient());
+    let meta = ExrMetadata::default();
+    let biased = noisy_exr(&s, "biased.exr", &gradient(), (0.05, 0.1), &meta);
+    let v = json(&vitrum(&[biased.as_path(), &reference, Path::new("--json")]));
+    let split = &v["split"];
+    let (bias, se) = (split["bias"].as_f64().unwrap(), split["bias_se"].as_f64().unwrap());
+    assert!((bias - 0.0025).abs() < 4.0 * se && se < 0.0025 / 8.0, "{split}");
+    assert!((split["variance"].as_f64().unwrap() - 0.01).abs() < 1e-8, "{split}");
+    assert_eq!((split["biased"].as_bool(), split["status"].as_str()), (Some(true), Some("biased")));
+    let table = stdout(&vitrum(&[biased.as_path(), &reference]));
+    assert!(table.contains("biased: the bias part is") && table.contains("taken as exact"), "{table}");
+
+    // No offset: the bias part is zero within 4 standard errors; not biased.
+    let unbiased = noisy_exr(&s, "unbiased.exr", &gradient(), (0.0, 0.1), &meta);
+    let v = json(&vitrum(&[unbiased.as_path(), &reference, Path::new("--json")]));
+    let split = &v["split"];
+    assert!(split["bias"].as_f64().unwrap().abs() < 4.0 * split["bias_se"].as_f64().unwrap(), "{split}");
+    assert_eq!(split["status"], "unbiased");
+
+    // A noisy reference with its variance channels: its variance is taken out of the bias.
+    let noisy_reference = noisy_exr(&s, "noisy-reference.exr", &gradient(), (0.0, 0.05), &meta);
+    let v = json(&vitrum(&[biased.as_path(), &noisy_reference, Path::new("--json")]));
+    let split = &v["split"];
+    assert!((split["reference_variance"].as_f64().unwrap() - 0.0025).abs() < 1e-8, "{split}");
+    let (bias, se) = (split["bias"].as_f64().unwrap(), split["bias_se"].as_f64().unwrap());
+    assert!((bias - 0.0025).abs() < 4.0 * se, "{split}");
+
+    // An `ssaa` render has no variance: all of its error is bias.
+    let ssaa = ExrMetadata { integrator: "ssaa".into(), ..ExrMetadata::default() };
+    let deterministic = noisy_exr(&s, "ssaa.exr", &gradient(), (0.01, 0.0), &ssaa);
+    let v = json(&vitrum(&[deterministic.as_path(), &reference, Path::new("--json")]));
+    assert_eq!((v["split"]["variance"].as_f64(), v["split"]["status"].as_str()), (Some(0.0), Some("biased")));
+    assert!((v["split"]["bias"].as_f64().unwrap() - 1e-4).abs() < 1e-8, "{v}");
+}
+
+#[test]
+fn the_error_map_marks_and_counts_the_pixels_above_its_scale() {
+    // 1000 pixels off by 0.1 against 1 (relative squared error 0.0099, scale 10⁻³..10⁻²) and
+    // three fireflies of 101 (about 10⁴): drawn red and counted.
+    let s = Sandbox::new();
+    let reference = s.exr("one.exr", &Image { width: 40, height: 25, pixels: vec![Vec3::ONE; 1000] });
+    let mut pixels = vec![Vec3::splat(1.1); 1000];
+    for i in [7, 400, 999] {
+        pixels[i] = Vec3::splat(101.0);
+    }
+    let test = s.exr("fireflies.exr", &Image { width: 40, height: 25, pixels });
+    let map = s.path("out/map.png");
+    let out = vitrum(&[test.as_path(), &reference, Path::new("--error-map"), &map]);
+    assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
+    assert!(stdout(&out).contains("(scale 10⁻³..10⁻²; 3 px above it, drawn red)"), "{}", stdout(&out));
+    let png = image::open(&map).unwrap().to_rgb8();
+    let red = png.pixels().filter(|p| p.0 == [255, 0, 0]).count();
+    // Three pixels magnified 7 times (⌈256/40⌉, maps are at least 256 pixels wide) and the
+    // legend's swatch.
+    assert!(red > 3 * 7 * 7, "{red}");
+    let v = json(&vitrum(&[test.as_path(), &reference, Path::new("--error-map"), &map, Path::new("--json")]));
+    assert_eq!(v["error_map_above_scale"], 3);
+    // The trimmed relMSE drops ⌊1000/1000⌋ = 1 firefly; the full one is made by all three.
+    let d = f64::from(1.1f32 - 1.0);
+    assert_close(&v, "rel_mse_trimmed", (997.0 * d * d / 1.01 + 2.0 * 1e4 / 1.01) / 999.0);
+    assert!(v["rel_mse"].as_f64().unwrap() > v["rel_mse_trimmed"].as_f64().unwrap());
 }

@@ -11,15 +11,16 @@
 //! the files are published together once all of them are encoded.
 
 use crate::cli::{load_scene, CliError};
+use crate::commands::diff::{read_judged, Judged};
 use crate::commands::{parse_crop, parse_integrators, CropArg, SweepArgs};
 use crate::figure::canvas::Canvas;
-use crate::figure::compose::{self, format_number, format_seconds, Panel};
+use crate::figure::compose::{self, format_number, format_seconds, format_spp, Panel};
 use crate::image::Image;
 use crate::integrators::Integrator;
-use crate::metrics::{self, Crop, Metrics};
-use crate::output::exr::{read_exr, stage_exr, ExrMetadata};
+use crate::metrics::{self, Crop, Metrics, MetricsError, Split};
+use crate::output::exr::{read_variance, stage_exr, ExrMetadata};
 use crate::output::{stage, OutputError, Staged};
-use crate::render::{self, Budget, RenderOutput};
+use crate::render::{self, Budget, Progression, RenderOutput};
 use crate::scene::Scene;
 use indicatif::{MultiProgress, ProgressBar, ProgressDrawTarget, ProgressStyle};
 use std::fmt::Write as _;
@@ -60,7 +61,7 @@ pub struct CompareArgs {
     #[arg(long, value_name = "X,Y,W,H", value_parser = parse_crop)]
     pub crop: Option<CropArg>,
     /// Exposure of the figure in stops, the same for every render (default from the scene file).
-    #[arg(long, value_name = "EV", value_parser = parse_exposure, allow_hyphen_values = true)]
+    #[arg(long, value_name = "EV", value_parser = super::diff::parse_exposure, allow_hyphen_values = true)]
     pub exposure: Option<f32>,
     /// Render options shared by every integrator.
     #[command(flatten)]
@@ -86,18 +87,11 @@ fn parse_seconds(s: &str) -> Result<f64, String> {
     Ok(t)
 }
 
-/// Parses a finite exposure in stops.
-fn parse_exposure(s: &str) -> Result<f32, String> {
-    match s.trim().parse::<f32>() {
-        Ok(ev) if ev.is_finite() => Ok(ev),
-        _ => Err(format!("`{s}` is not a finite number of stops")),
-    }
-}
-
 /// Where the reference comes from.
 enum ReferenceSource {
-    /// Read from a file: the image and a description for the title and the table.
-    File(Image, String),
+    /// Read from a file: the image, its variance (when it keeps one) and a description for the
+    /// title and the table.
+    File(Image, Option<Image>, String),
     /// A `path` render of this many samples, cached in this folder.
     Cached(u32, PathBuf),
 }
@@ -120,9 +114,58 @@ struct Plan {
 /// One method's render and its errors.
 struct Row {
     method: &'static str,
+    /// Whether the method renders one fixed pattern (`ssaa`): its samples per pixel are then its
+    /// real camera rays per pixel.
+    fixed: bool,
     out: RenderOutput,
     metrics: Metrics,
+    /// The bias/variance split; `None` when the render's variance is unknown.
+    split: Option<Split>,
     seed: u64,
+}
+
+impl Row {
+    /// The row of `method`'s render `out`, measured against `reference`.
+    fn new(
+        method: &dyn Integrator,
+        out: RenderOutput,
+        seed: u64,
+        reference: &Reference,
+        exposure: f32,
+    ) -> Result<Row, MetricsError> {
+        let metrics = metrics::compare(&out.image, &reference.image, None, exposure)?;
+        let split = metrics::render_split(method, &out, &reference.image, reference.variance.as_ref())?;
+        let fixed = matches!(method.progression(), Progression::Fixed(_));
+        Ok(Row { method: method.name(), fixed, out, metrics, split, seed })
+    }
+
+    /// Samples per pixel: for a fixed-pattern (adaptive) method its camera rays per pixel, the
+    /// real mean, else the whole samples every pixel got.
+    fn spp(&self) -> f64 {
+        if self.fixed {
+            let pixels = (self.out.image.width * self.out.image.height).max(1) as f64;
+            self.out.rays.primary as f64 / pixels
+        } else {
+            f64::from(self.out.spp)
+        }
+    }
+
+    /// 1/(MSE·seconds), only for a render whose error is variance: split known and not biased
+    /// (unbiased, or unresolved: the variance estimate explains more than the whole error).
+    fn efficiency(&self) -> Option<f64> {
+        self.split.filter(|s| !s.biased()).map(|_| 1.0 / (self.metrics.mse * self.out.seconds.max(1e-9)))
+    }
+
+    /// The split's verdict ([`Split::status`]), or "unknown" (no variance to split the error with).
+    fn status(&self) -> &'static str {
+        self.split.as_ref().map_or("unknown", Split::status)
+    }
+}
+
+/// The reference every method is measured against.
+struct Reference {
+    image: Image,
+    variance: Option<Image>,
 }
 
 impl Plan {
@@ -181,7 +224,8 @@ impl Plan {
         }
         let reference = match &args.reference {
             Some(path) => {
-                let (image, attributes) = read_exr(path).map_err(|e| bad(format!("--reference: {e}")))?;
+                let Judged { image, attributes, variance } =
+                    read_judged(path).map_err(|e| bad(format!("--reference: {e}")))?;
                 if (image.width, image.height) != size {
                     return Err(bad(format!(
                         "--reference {}: the reference is {}x{} but the renders are {}x{} \
@@ -210,7 +254,7 @@ impl Plan {
                     (Some(i), Some(spp)) => format!("{i}, {spp} spp ({name})"),
                     _ => name,
                 };
-                ReferenceSource::File(image, describe)
+                ReferenceSource::File(image, variance, describe)
             }
             None => {
                 let cache =
@@ -336,7 +380,9 @@ pub fn run(args: &CompareArgs) -> Result<(), CliError> {
     let failure = |e: OutputError| CliError::Failure(e.to_string());
 
     let (reference, reference_text) = match &plan.reference {
-        ReferenceSource::File(image, text) => (image.clone(), text.clone()),
+        ReferenceSource::File(image, variance, text) => {
+            (Reference { image: image.clone(), variance: variance.clone() }, text.clone())
+        }
         ReferenceSource::Cached(spp, cache) => {
             let path = crate::integrators::create("path").expect("`path` is registered");
             let opts = args.render.reference_options(&plan.scene, path.as_ref(), Budget::Samples(*spp));
@@ -354,7 +400,10 @@ pub fn run(args: &CompareArgs) -> Result<(), CliError> {
                 let how = if r.cached { "read from the cache" } else { "rendered and cached" };
                 eprintln!("reference: path, {} spp, {how}: {}", r.spp, r.path.display());
             }
-            (r.image, format!("path, {} spp ({})", r.spp, r.path.display()))
+            (
+                Reference { image: r.image, variance: r.variance },
+                format!("path, {} spp ({})", r.spp, r.path.display()),
+            )
         }
     };
 
@@ -362,9 +411,14 @@ pub fn run(args: &CompareArgs) -> Result<(), CliError> {
     for (index, method) in plan.methods.iter().enumerate() {
         if let Some(renders) = &plan.renders {
             let r = &renders[index];
-            let metrics = metrics::compare(&r.out.image, &reference, None)
-                .map_err(|e| CliError::Failure(format!("{}: {e}", r.path.display())))?;
-            rows.push(Row { method: method.name(), out: r.out.clone(), metrics, seed: r.seed });
+            let failure = |e: String| CliError::Failure(format!("{}: {e}", r.path.display()));
+            let mut out = r.out.clone();
+            if out.variance.is_none() {
+                out.variance = read_variance(&r.path).map_err(|e| failure(e.to_string()))?;
+            }
+            let row = Row::new(method.as_ref(), out, r.seed, &reference, plan.exposure)
+                .map_err(|e| failure(e.to_string()))?;
+            rows.push(row);
             continue;
         }
         let opts = args.render.options(&plan.scene, method.as_ref(), plan.budget);
@@ -391,9 +445,9 @@ pub fn run(args: &CompareArgs) -> Result<(), CliError> {
                 out.non_finite_samples
             );
         }
-        let metrics = metrics::compare(&out.image, &reference, None)
+        let row = Row::new(method.as_ref(), out, opts.seed, &reference, plan.exposure)
             .map_err(|e| CliError::Failure(format!("{}: {e}", method.name())))?;
-        rows.push(Row { method: method.name(), out, metrics, seed: opts.seed });
+        rows.push(row);
     }
     bars.overall.finish_and_clear();
 
@@ -407,7 +461,7 @@ pub fn run(args: &CompareArgs) -> Result<(), CliError> {
     );
     let errors = rows
         .iter()
-        .map(|row| metrics::relative_squared_error(&row.out.image, &reference))
+        .map(|row| metrics::relative_squared_error(&row.out.image, &reference.image))
         .collect::<Result<Vec<_>, _>>()
         .map_err(|e| CliError::Failure(e.to_string()))?;
     let panels: Vec<Panel> = rows
@@ -416,7 +470,7 @@ pub fn run(args: &CompareArgs) -> Result<(), CliError> {
         .map(|(row, error)| Panel {
             method: row.method,
             image: &row.out.image,
-            spp: row.out.spp,
+            spp: row.spp(),
             seconds: row.out.seconds,
             rel_mse: row.metrics.rel_mse,
             error,
@@ -424,18 +478,19 @@ pub fn run(args: &CompareArgs) -> Result<(), CliError> {
         .collect();
     let figure = compose::compose(&title, &panels, plan.exposure, plan.crop);
     let csv = csv_table(&rows);
-    let markdown = markdown_table(&plan, &rows, &reference_text);
+    let markdown = markdown_table(&plan, &rows, &reference_text, reference.variance.is_some());
 
     publish(&plan, &rows, &figure, &csv, &markdown).map_err(failure)?;
     if !args.quiet {
         for row in &rows {
             eprintln!(
-                "{:<11} {:>6} spp {:>8} s  relMSE {:<9} MSE {}",
+                "{:<11} {:>6} spp {:>8} s  relMSE {:<9} MSE {:<9} {}",
                 row.method,
-                row.out.spp,
+                format_spp(row.spp()),
                 format_seconds(row.out.seconds),
                 format_number(row.metrics.rel_mse),
-                format_number(row.metrics.mse)
+                format_number(row.metrics.mse),
+                split_text(row)
             );
         }
         eprintln!(
@@ -496,44 +551,86 @@ fn mrays_per_second(out: &RenderOutput) -> f64 {
     out.rays.total() as f64 / out.seconds.max(1e-9) / 1e6
 }
 
-/// 1/(MSE·seconds): higher is better; infinite for an exact render.
-fn efficiency(row: &Row) -> f64 {
-    1.0 / (row.metrics.mse * row.out.seconds.max(1e-9))
+/// The split for the summary line: "biased: bias 1.2e-3 ± 4e-5" or "unbiased: variance …".
+fn split_text(row: &Row) -> String {
+    match &row.split {
+        Some(s) if s.biased() => format!(
+            "biased: bias part {} ± {} (RMS bias {})",
+            format_number(s.bias),
+            format_number(s.bias_se),
+            format_number(s.rms_bias())
+        ),
+        Some(s) => format!(
+            "{}: variance part {}, bias part {} ± {}{}",
+            s.status(),
+            format_number(s.variance),
+            format_number(s.bias),
+            format_number(s.bias_se),
+            if s.variance_overestimated() { " (the variance estimate is conservative)" } else { "" }
+        ),
+        None => "bias unknown (no variance estimate)".to_string(),
+    }
 }
 
-/// The CSV header.
-pub const CSV_HEADER: &str =
-    "method,spp,seconds,rays,mrays_per_second,mse,rel_mse,efficiency,non_finite_pixels";
+/// The CSV header: the first nine columns as before, the newer ones after them.
+pub const CSV_HEADER: &str = concat!(
+    "method,spp,seconds,rays,mrays_per_second,mse,rel_mse,efficiency,non_finite_pixels,",
+    "rel_mse_trimmed,psnr,psnr_peak,psnr_preview,ssim,",
+    "variance,variance_se,reference_variance,bias,bias_se,bias_status"
+);
 
-/// The table as CSV, one row per method (full precision).
+/// The table as CSV, one row per method (full precision; absent values are empty fields).
 fn csv_table(rows: &[Row]) -> String {
     let mut s = String::from(CSV_HEADER);
     s.push('\n');
+    let opt = |v: Option<f64>| v.map_or(String::new(), |v| v.to_string());
     for r in rows {
+        let m = &r.metrics;
         let _ = writeln!(
             s,
-            "{},{},{},{},{},{},{},{},{}",
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
             r.method,
-            r.out.spp,
+            r.spp(),
             r.out.seconds,
             r.out.rays.total(),
             mrays_per_second(&r.out),
-            r.metrics.mse,
-            r.metrics.rel_mse,
-            efficiency(r),
-            r.metrics.non_finite_test
+            m.mse,
+            m.rel_mse,
+            opt(r.efficiency()),
+            m.non_finite_test,
+            m.rel_mse_trimmed,
+            m.psnr,
+            m.peak,
+            m.psnr_preview,
+            m.ssim,
+            metrics::split_csv(r.split.as_ref()),
         );
     }
     s
 }
 
-/// The table as Markdown with a caption stating the scene, budget and reference.
-fn markdown_table(plan: &Plan, rows: &[Row], reference: &str) -> String {
+/// "1.23e-3 ± 4.00e-5", or "n/a".
+fn value_se(split: Option<&Split>, f: fn(&Split) -> (f64, f64)) -> String {
+    split.map_or("n/a".into(), |s| {
+        let (v, se) = f(s);
+        format!("{v:.2e} ± {se:.1e}")
+    })
+}
+
+/// The table as Markdown with a caption stating the scene, budget, reference and definitions.
+fn markdown_table(plan: &Plan, rows: &[Row], reference: &str, reference_variance: bool) -> String {
     let mut s = format!("# vitrum compare: {}\n\n", plan.scene_name);
     let _ = writeln!(
         s,
-        "{} ({}); {}x{} pixels; reference: {}. MSE and relMSE over the whole image \
-         (DESIGN.md definitions); efficiency = 1/(MSE·seconds).\n",
+        "{} ({}); {}x{} pixels; reference: {}{}. Metrics over the whole image, defined in the \
+         README's \"Metrics\" section: relMSE and relMSE without the 0.1% worst pixels; PSNR on \
+         the HDR values (peak = largest reference value, stated) and on the 8-bit sRGB preview \
+         at exposure {} EV (peak 1); SSIM of the preview's luma. MSE = bias part + variance part + \
+         the reference's variance part, each ± one standard error; \"biased\" = bias part > {} \
+         standard errors and > {:.0}% of the MSE; \"unresolved\" = bias part < −3 standard errors \
+         (a conservative variance estimate, as with Sobol' samples, that could hide a bias). \
+         Efficiency = 1/(MSE·seconds), given only for methods not biased, whose error is variance \
+         (marked \"unresolved\" where that is so). `ssaa`'s spp is its mean camera rays per pixel.\n",
         plan.budget_text(),
         match (&plan.renders, plan.budget) {
             (Some(_), _) => "read from files; seconds of merged parts are summed",
@@ -542,23 +639,44 @@ fn markdown_table(plan: &Plan, rows: &[Row], reference: &str) -> String {
         },
         plan.size.0,
         plan.size.1,
-        reference
+        reference,
+        if reference_variance { " (its variance kept)" } else { " (no variance: taken as exact)" },
+        plan.exposure,
+        metrics::BIAS_SIGNIFICANCE,
+        100.0 * metrics::BIAS_FRACTION,
     );
-    s.push_str("| method | spp | seconds | rays | Mrays/s | MSE | relMSE | efficiency | non-finite px |\n");
-    s.push_str("|---|--:|--:|--:|--:|--:|--:|--:|--:|\n");
+    s.push_str(
+        "| method | spp | seconds | rays | Mrays/s | MSE | relMSE | relMSE 99.9% | PSNR HDR (peak) | \
+         PSNR LDR | SSIM | variance part | bias part | efficiency | non-finite px |\n",
+    );
+    s.push_str("|---|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|\n");
     for r in rows {
+        let m = &r.metrics;
+        let efficiency = match (r.efficiency(), r.status()) {
+            (Some(e), "unresolved") => format!("{e:.3e} (unresolved)"),
+            (Some(e), _) => format!("{e:.3e}"),
+            (None, "biased") => "biased".to_string(),
+            (None, _) => "n/a (no variance)".to_string(),
+        };
         let _ = writeln!(
             s,
-            "| {} | {} | {:.3} | {} | {:.2} | {:.3e} | {:.3e} | {:.3e} | {} |",
+            "| {} | {} | {:.3} | {} | {:.2} | {:.3e} | {:.3e} | {:.3e} | {:.2} dB ({:.3}) | {:.2} dB | {:.4} | {} | {} | {} | {} |",
             r.method,
-            r.out.spp,
+            format_spp(r.spp()),
             r.out.seconds,
             r.out.rays.total(),
             mrays_per_second(&r.out),
-            r.metrics.mse,
-            r.metrics.rel_mse,
-            efficiency(r),
-            r.metrics.non_finite_test
+            m.mse,
+            m.rel_mse,
+            m.rel_mse_trimmed,
+            m.psnr,
+            m.peak,
+            m.psnr_preview,
+            m.ssim,
+            value_se(r.split.as_ref(), |s| (s.variance, s.variance_se)),
+            value_se(r.split.as_ref(), |s| (s.bias, s.bias_se)),
+            efficiency,
+            m.non_finite_test
         );
     }
     s
@@ -574,8 +692,15 @@ mod tests {
         for bad in ["0", "-1", "nan", "inf", "abc", "1e300"] {
             assert!(parse_seconds(bad).is_err(), "{bad}");
         }
-        assert_eq!(parse_exposure("-1.5"), Ok(-1.5));
-        assert!(parse_exposure("nan").is_err() && parse_exposure("inf").is_err());
+        assert_eq!(super::super::diff::parse_exposure("-1.5"), Ok(-1.5));
+        assert!(super::super::diff::parse_exposure("nan").is_err());
+        assert!(super::super::diff::parse_exposure("inf").is_err());
+    }
+
+    #[test]
+    fn the_split_columns_end_the_csv_header() {
+        assert!(CSV_HEADER.ends_with(metrics::SPLIT_CSV_COLUMNS));
+        assert_eq!(CSV_HEADER.split(',').count(), 9 + 5 + 6);
     }
 
     #[test]

@@ -2,9 +2,19 @@
 //!
 //! Every integrator renders once, progressively ([`crate::render::render_progressive`]): the image
 //! grows pass by pass and at every power of two of the sample count (and at the last count) the
-//! cumulative image is measured against the reference with DESIGN.md's metrics, together with the
-//! cumulative render seconds and rays. The reference is a file (`--reference`) or the cached
-//! `path` render of [`crate::reference::path_reference`].
+//! cumulative image is measured against the reference with the metrics of [`crate::metrics`],
+//! together with the cumulative render seconds and rays. The reference is a file (`--reference`)
+//! or the cached `path` render of [`crate::reference::path_reference`].
+//!
+//! # Rates and plateaus
+//! Each checkpoint's MSE is split into its bias and variance parts ([`crate::metrics::split`],
+//! with the render's per-pixel variance and the reference's). The error falls like variance
+//! until the first checkpoint called biased (bias part > 3 standard errors and > 10% of the MSE);
+//! from there on the error is held up by a bias floor. The relMSE slopes (against samples and
+//! against seconds) are fitted over the checkpoints before that one only, and the rest is
+//! reported as "plateau from N spp (bias part ≈ B ± SE)", B and SE being the last checkpoint's,
+//! instead of a rate. A checkpoint without a variance estimate (one sample) counts as variance.
+//! A method with no two checkpoints in the variance regime has no slope.
 //!
 //! Outputs in `--out` (each written atomically): `converge.csv` (one row per integrator and
 //! checkpoint, rewritten after every integrator so that a stopped run keeps what it measured),
@@ -19,11 +29,13 @@
 
 use super::SweepArgs;
 use crate::cli::{load_scene, CliError};
+use crate::commands::diff::{read_judged, Judged};
+use crate::figure::compose::format_number;
 use crate::figure::plot::{fit_slope, write_loglog, LogLogPlot, Series};
 use crate::image::Image;
 use crate::integrators::Integrator;
-use crate::metrics::{self, Metrics};
-use crate::output::exr::{read_exr, stage_exr, ExrMetadata};
+use crate::metrics::{self, split_csv, Metrics, MetricsError, Split};
+use crate::output::exr::{read_variance, stage_exr, ExrMetadata};
 use crate::output::{write_atomically, OutputError};
 use crate::reference::{path_reference, DEFAULT_CACHE_DIR};
 use crate::render::{self, Budget, Growth, RenderOutput};
@@ -39,8 +51,11 @@ pub const DEFAULT_SPP_MAX: u32 = 64;
 /// Samples per pixel of the cached `path` reference when no `--reference` is given.
 pub const DEFAULT_REFERENCE_SPP: u32 = 1024;
 /// The CSV header.
-pub const CSV_HEADER: &str =
-    "integrator,spp,seconds,rays,mse,rmse,rel_mse,mae,psnr,non_finite,std_error,est_mse";
+pub const CSV_HEADER: &str = concat!(
+    "integrator,spp,seconds,rays,mse,rmse,rel_mse,mae,psnr,non_finite,std_error,est_mse,",
+    "rel_mse_trimmed,psnr_peak,psnr_preview,ssim,",
+    "variance,variance_se,reference_variance,bias,bias_se,bias_status"
+);
 
 /// Options of `vitrum converge`.
 #[derive(clap::Args, Debug, Clone)]
@@ -93,8 +108,8 @@ const PRECOMPUTED: &str = "precomputed renders read from files (--renders)";
 
 /// Where the reference comes from.
 enum ReferenceSource {
-    /// Read from a file: the image and its path.
-    File(Image, PathBuf),
+    /// Read from a file: the image, its variance (if it keeps one) and its path.
+    File(Image, Option<Image>, PathBuf),
     /// A `path` render of this many samples, cached in this folder.
     Cached(u32, PathBuf),
 }
@@ -126,6 +141,8 @@ pub struct Row {
     pub metrics: Metrics,
     /// The reference-free noise estimate, when the render has one.
     pub noise: Option<render::Noise>,
+    /// The bias/variance split of the MSE, when the render's variance is known.
+    pub split: Option<Split>,
 }
 
 impl Row {
@@ -134,7 +151,7 @@ impl Row {
         let m = &self.metrics;
         let opt = |v: Option<f64>| v.map_or(String::new(), |v| v.to_string());
         format!(
-            "{},{},{},{},{},{},{},{},{},{},{},{}",
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
             self.integrator,
             self.spp,
             self.seconds,
@@ -147,6 +164,11 @@ impl Row {
             m.non_finite_test,
             opt(self.noise.map(|n| n.std_error)),
             opt(self.noise.map(|n| n.mse)),
+            m.rel_mse_trimmed,
+            m.peak,
+            m.psnr_preview,
+            m.ssim,
+            split_csv(self.split.as_ref()),
         )
     }
 }
@@ -182,7 +204,8 @@ fn plan(args: &ConvergeArgs) -> Result<Plan, CliError> {
     };
     let reference = match &args.reference {
         Some(path) => {
-            let (image, _) = read_exr(path).map_err(|e| bad(format!("--reference: {e}")))?;
+            let Judged { image, variance, .. } =
+                read_judged(path).map_err(|e| bad(format!("--reference: {e}")))?;
             if (image.width, image.height) != (width, height) {
                 return Err(bad(format!(
                     "--reference {}: the reference is {}x{} but the renders are {width}x{height} \
@@ -194,7 +217,7 @@ fn plan(args: &ConvergeArgs) -> Result<Plan, CliError> {
                     image.height
                 )));
             }
-            ReferenceSource::File(image, path.clone())
+            ReferenceSource::File(image, variance, path.clone())
         }
         None => {
             let spp = args.reference_spp.unwrap_or(DEFAULT_REFERENCE_SPP);
@@ -257,9 +280,99 @@ impl Bars {
 struct MethodSummary {
     name: &'static str,
     growth: Growth,
-    slope_spp: Option<f64>,
-    slope_seconds: Option<f64>,
+    regime: Regime,
     last: Option<Row>,
+}
+
+/// Where a method's error falls like variance, and where it stops at a bias floor.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Regime {
+    /// The checkpoints before the first biased one: those the slopes are fitted over.
+    pub variance_rows: usize,
+    /// The least-squares relMSE slope against samples over those checkpoints.
+    pub slope_spp: Option<f64>,
+    /// The same against seconds.
+    pub slope_seconds: Option<f64>,
+    /// The plateau, from the first biased checkpoint on.
+    pub plateau: Option<Plateau>,
+}
+
+/// A bias floor under a method's error.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Plateau {
+    /// Samples per pixel of the first biased checkpoint.
+    pub from_spp: u32,
+    /// The bias part of the MSE at the last checkpoint.
+    pub bias: f64,
+    /// Its standard error.
+    pub bias_se: f64,
+}
+
+/// The regime of one method's checkpoints `rows` (in sample order): see the module docs.
+pub fn regime(rows: &[Row]) -> Regime {
+    let first_biased = rows.iter().position(|r| r.split.is_some_and(|s| s.biased()));
+    let variance_rows = first_biased.unwrap_or(rows.len());
+    let points = |x: fn(&Row) -> f64| -> Vec<(f64, f64)> {
+        rows[..variance_rows].iter().map(|r| (x(r), r.metrics.rel_mse)).collect()
+    };
+    let plateau = first_biased.map(|i| {
+        let last = rows.last().and_then(|r| r.split).expect("a biased row has a split");
+        Plateau { from_spp: rows[i].spp, bias: last.bias, bias_se: last.bias_se }
+    });
+    Regime {
+        variance_rows,
+        slope_spp: fit_slope(&points(|r| r.spp as f64)),
+        slope_seconds: fit_slope(&points(|r| r.seconds)),
+        plateau,
+    }
+}
+
+impl Regime {
+    /// "slope −1.00 against samples, −0.98 against seconds (over 1–16 spp); plateau from 32 spp
+    /// (bias part ≈ 1.2e-3 ± 4e-5)".
+    fn describe(&self, rows: &[Row]) -> String {
+        let slope = |s: Option<f64>| s.map_or("n/a".to_string(), |s| format!("{s:.2}"));
+        let mut text = format!(
+            "slope {} against samples, {} against seconds",
+            slope(self.slope_spp),
+            slope(self.slope_seconds)
+        );
+        if let Some(p) = &self.plateau {
+            if self.variance_rows > 1 {
+                text += &format!(" (over {}–{} spp)", rows[0].spp, rows[self.variance_rows - 1].spp);
+            }
+            text += &format!(
+                "; plateau from {} spp (bias part ≈ {} ± {}: biased)",
+                p.from_spp,
+                format_number(p.bias),
+                format_number(p.bias_se)
+            );
+        }
+        text
+    }
+
+    /// The plot legend of method `name`: its slope over the variance regime and the plateau.
+    fn legend(&self, name: &str, slope: Option<f64>, rows: &[Row]) -> String {
+        let slope = slope.map(|s| format!("slope {}", format!("{s:.2}").replace('-', "−")));
+        match (&self.plateau, slope) {
+            (None, Some(s)) => format!("{name} ({s})"),
+            (None, None) => name.to_string(),
+            (Some(p), Some(s)) => {
+                format!(
+                    "{name} ({s} to {} spp, plateau from {} spp: bias)",
+                    rows[self.variance_rows - 1].spp,
+                    p.from_spp
+                )
+            }
+            (Some(p), None) => format!("{name} (plateau from {} spp: bias)", p.from_spp),
+        }
+    }
+}
+
+/// The reference of a sweep: its image and, when known, its per-pixel variance.
+struct Reference {
+    image: Image,
+    variance: Option<Image>,
 }
 
 /// Write `text` to `path` atomically.
@@ -284,11 +397,14 @@ fn measure(
     scene: &Scene,
     method: &dyn Integrator,
     seed: u64,
-    reference: &Image,
+    reference: &Reference,
     out: &RenderOutput,
 ) -> Result<Row, CliError> {
+    let failure = |e: MetricsError| CliError::Failure(e.to_string());
     let metrics =
-        metrics::compare(&out.image, reference, None).map_err(|e| CliError::Failure(e.to_string()))?;
+        metrics::compare(&out.image, &reference.image, None, scene.settings.exposure).map_err(failure)?;
+    let split =
+        metrics::render_split(method, out, &reference.image, reference.variance.as_ref()).map_err(failure)?;
     if args.exr {
         let path = args.out.join(format!("{}-{}spp.exr", method.name(), out.spp));
         let meta = ExrMetadata {
@@ -312,6 +428,7 @@ fn measure(
         rays: out.rays.total(),
         metrics,
         noise: out.noise(),
+        split,
     })
 }
 
@@ -322,7 +439,7 @@ fn render_rows(
     bars: &Bars,
     pool: &rayon::ThreadPool,
     (index, method): (usize, &dyn Integrator),
-    reference: &Image,
+    reference: &Reference,
 ) -> Result<(Growth, Vec<Row>), CliError> {
     let scene = &plan.scene;
     let cached = matches!(plan.reference, ReferenceSource::Cached(..));
@@ -370,9 +487,9 @@ pub fn run(args: &ConvergeArgs) -> Result<(), CliError> {
 
     // The reference.
     let (reference, reference_json, reference_text) = match &plan.reference {
-        ReferenceSource::File(image, path) => (
-            image.clone(),
-            json!({"source": "file", "path": path}),
+        ReferenceSource::File(image, variance, path) => (
+            Reference { image: image.clone(), variance: variance.clone() },
+            json!({"source": "file", "path": path, "variance": variance.is_some()}),
             format!("reference: {} ({}x{})", path.display(), image.width, image.height),
         ),
         ReferenceSource::Cached(spp, cache) => {
@@ -385,8 +502,8 @@ pub fn run(args: &ConvergeArgs) -> Result<(), CliError> {
             let r = r.map_err(failure)?;
             let how = if r.cached { "read from the cache" } else { "rendered and cached" };
             (
-                r.image,
-                json!({"source": "path", "spp": r.spp, "path": r.path, "cached": r.cached}),
+                Reference { image: r.image, variance: r.variance },
+                json!({"source": "path", "spp": r.spp, "path": r.path, "cached": r.cached, "variance": true}),
                 format!("reference: path, {} spp, {how}: {}", r.spp, r.path.display()),
             )
         }
@@ -413,22 +530,23 @@ pub fn run(args: &ConvergeArgs) -> Result<(), CliError> {
                 let mut mine: Vec<&super::RenderFile> =
                     renders.iter().filter(|r| r.method.name() == method.name()).collect();
                 mine.sort_by_key(|r| r.out.spp);
-                let rows = mine
-                    .iter()
-                    .map(|r| measure(args, scene, method.as_ref(), r.seed, &reference, &r.out))
-                    .collect::<Result<Vec<Row>, CliError>>()?;
+                let mut rows = Vec::with_capacity(mine.len());
+                for r in mine {
+                    let mut out = r.out.clone();
+                    if out.variance.is_none() {
+                        out.variance = read_variance(&r.path)
+                            .map_err(|e| CliError::BadInput(format!("--renders: {e}")))?;
+                    }
+                    rows.push(measure(args, scene, method.as_ref(), r.seed, &reference, &out)?);
+                }
                 (Growth::Fresh(PRECOMPUTED), rows)
             }
             None => render_rows(args, &plan, &bars, &pool, (index, method.as_ref()), &reference)?,
         };
-        let points = |x: fn(&Row) -> f64| -> Vec<(f64, f64)> {
-            method_rows.iter().map(|r| (x(r), r.metrics.rel_mse)).collect()
-        };
         summaries.push(MethodSummary {
             name: method.name(),
             growth,
-            slope_spp: fit_slope(&points(|r| r.spp as f64)),
-            slope_seconds: fit_slope(&points(|r| r.seconds)),
+            regime: regime(&method_rows),
             last: method_rows.last().cloned(),
         });
         rows.extend(method_rows);
@@ -445,19 +563,25 @@ pub fn run(args: &ConvergeArgs) -> Result<(), CliError> {
         _ => "default scene".to_string(),
     };
     let title = format!("{short}: relMSE");
-    for (x_name, x_label, x) in [
-        ("spp", "samples per pixel", (|r: &Row| r.spp as f64) as fn(&Row) -> f64),
-        ("seconds", "render time (s)", |r: &Row| r.seconds),
+    type Slope = fn(&Regime) -> Option<f64>;
+    for (x_name, x_label, x, slope) in [
+        (
+            "spp",
+            "samples per pixel",
+            (|r: &Row| r.spp as f64) as fn(&Row) -> f64,
+            (|g: &Regime| g.slope_spp) as Slope,
+        ),
+        ("seconds", "render time (s)", |r: &Row| r.seconds, |g: &Regime| g.slope_seconds),
     ] {
         let series: Vec<Series> = summaries
             .iter()
-            .map(|s| Series {
-                name: s.name.to_string(),
-                points: rows
-                    .iter()
-                    .filter(|r| r.integrator == s.name)
-                    .map(|r| (x(r), r.metrics.rel_mse))
-                    .collect(),
+            .map(|s| {
+                let mine: Vec<Row> = rows.iter().filter(|r| r.integrator == s.name).cloned().collect();
+                Series {
+                    name: s.name.to_string(),
+                    points: mine.iter().map(|r| (x(r), r.metrics.rel_mse)).collect(),
+                    legend: Some(s.regime.legend(s.name, slope(&s.regime), &mine)),
+                }
             })
             .collect();
         let plot = LogLogPlot {
@@ -495,8 +619,14 @@ pub fn run(args: &ConvergeArgs) -> Result<(), CliError> {
         "integrators": summaries.iter().map(|s| {
             let mut v = growth_json(s.growth);
             v["name"] = json!(s.name);
-            v["rel_mse_slope_spp"] = json!(s.slope_spp);
-            v["rel_mse_slope_seconds"] = json!(s.slope_seconds);
+            v["rel_mse_slope_spp"] = json!(s.regime.slope_spp);
+            v["rel_mse_slope_seconds"] = json!(s.regime.slope_seconds);
+            v["slope_checkpoints"] = json!(s.regime.variance_rows);
+            v["plateau"] = json!(s.regime.plateau.map(|p| json!({
+                "from_spp": p.from_spp,
+                "bias": p.bias,
+                "bias_se": p.bias_se,
+            })));
             v["checkpoints"] = json!(rows.iter().filter(|r| r.integrator == s.name).count());
             v
         }).collect::<Vec<_>>(),
@@ -508,7 +638,6 @@ pub fn run(args: &ConvergeArgs) -> Result<(), CliError> {
         .map_err(failure)?;
 
     if !args.quiet {
-        let slope = |s: Option<f64>| s.map_or("n/a".to_string(), |s| format!("{s:.2}"));
         for s in &summaries {
             let Some(last) = &s.last else { continue };
             let how = match s.growth {
@@ -516,14 +645,14 @@ pub fn run(args: &ConvergeArgs) -> Result<(), CliError> {
                 Growth::Fresh(why) => format!(" ({why})"),
                 Growth::Fixed(why) => format!(" (one fixed image: {why})"),
             };
+            let mine: Vec<Row> = rows.iter().filter(|r| r.integrator == s.name).cloned().collect();
             eprintln!(
-                "{:<12} {} spp in {:.3} s: relMSE {:.4e}; slope {} against samples, {} against seconds{how}",
+                "{:<12} {} spp in {:.3} s: relMSE {:.4e}; {}{how}",
                 s.name,
                 last.spp,
                 last.seconds,
                 last.metrics.rel_mse,
-                slope(s.slope_spp),
-                slope(s.slope_seconds),
+                s.regime.describe(&mine),
             );
         }
         eprintln!("converge -> {}, {}", csv_path.display(), json_path.display());
@@ -535,24 +664,95 @@ pub fn run(args: &ConvergeArgs) -> Result<(), CliError> {
 mod tests {
     use super::*;
 
-    #[test]
-    fn csv_rows_have_every_column_and_empty_fields_for_missing_noise() {
-        let m = Metrics {
+    fn metrics(rel_mse: f64) -> Metrics {
+        Metrics {
             mse: 0.25,
             rmse: 0.5,
-            rel_mse: 0.125,
+            rel_mse,
+            rel_mse_trimmed: 0.1,
             mae: 0.4,
             psnr: 6.0,
             peak: 1.0,
+            psnr_preview: 20.0,
+            exposure_ev: 0.0,
+            ssim: 0.5,
             pixels: 4,
             non_finite_test: 1,
             non_finite_reference: 0,
-        };
-        let row = Row { integrator: "path".into(), spp: 8, seconds: 1.5, rays: 100, metrics: m, noise: None };
-        let text = csv(&[row]);
+        }
+    }
+
+    fn row(spp: u32, rel_mse: f64, split: Option<Split>) -> Row {
+        let seconds = f64::from(spp) / 10.0;
+        Row {
+            integrator: "light".into(),
+            spp,
+            seconds,
+            rays: 100,
+            metrics: metrics(rel_mse),
+            noise: None,
+            split,
+        }
+    }
+
+    /// A split with bias part `bias` ± `bias_se` of an MSE `mse`.
+    fn split(mse: f64, bias: f64, bias_se: f64) -> Split {
+        Split {
+            mse,
+            variance: mse - bias,
+            variance_se: 0.0,
+            reference_variance: 0.0,
+            reference_variance_se: 0.0,
+            bias,
+            bias_se,
+            pixels: 4,
+            non_finite_variance: 0,
+        }
+    }
+
+    #[test]
+    fn csv_rows_have_every_column_and_empty_fields_for_missing_noise() {
+        let path = Row { integrator: "path".into(), spp: 8, seconds: 1.5, ..row(8, 0.125, None) };
+        let text = csv(&[path]);
         let lines: Vec<&str> = text.lines().collect();
         assert_eq!(lines[0], CSV_HEADER);
-        assert_eq!(lines[1], "path,8,1.5,100,0.25,0.5,0.125,0.4,6,1,,");
+        assert!(CSV_HEADER.ends_with(metrics::SPLIT_CSV_COLUMNS));
+        assert_eq!(lines[1], "path,8,1.5,100,0.25,0.5,0.125,0.4,6,1,,,0.1,1,20,0.5,,,,,,unknown");
         assert_eq!(lines[1].split(',').count(), CSV_HEADER.split(',').count());
+        let biased = csv(&[row(8, 0.125, Some(split(0.25, 0.2, 0.01)))]);
+        assert!(biased.lines().nth(1).unwrap().ends_with(",0,0,0.2,0.01,biased"), "{biased}");
+    }
+
+    #[test]
+    fn the_slope_is_fitted_before_the_first_biased_checkpoint_and_the_rest_is_a_plateau() {
+        // relMSE 1/N up to 4 spp, then flat at a bias floor: slope −1 over 1..4, plateau from 8.
+        let rows = [
+            row(1, 1.0, None),
+            row(2, 0.5, Some(split(0.5, 0.01, 0.01))),
+            row(4, 0.25, Some(split(0.25, 0.02, 0.005))),
+            row(8, 0.2, Some(split(0.2, 0.1, 0.004))),
+            row(16, 0.2, Some(split(0.2, 0.15, 0.003))),
+        ];
+        let g = regime(&rows);
+        assert_eq!(g.variance_rows, 3);
+        assert!((g.slope_spp.unwrap() + 1.0).abs() < 1e-12, "{g:?}");
+        assert_eq!(g.plateau, Some(Plateau { from_spp: 8, bias: 0.15, bias_se: 0.003 }));
+        let text = g.describe(&rows);
+        assert!(text.contains("slope -1.00 against samples") && text.contains("(over 1–4 spp)"), "{text}");
+        assert!(text.contains("plateau from 8 spp (bias part ≈ 0.150 ± 3.00e-3: biased)"), "{text}");
+        assert_eq!(
+            g.legend("light", g.slope_spp, &rows),
+            "light (slope −1.00 to 4 spp, plateau from 8 spp: bias)"
+        );
+        // Fitted over every checkpoint, the slope would read as a slow rate (about −0.6).
+        let all = fit_slope(&rows.iter().map(|r| (r.spp as f64, r.metrics.rel_mse)).collect::<Vec<_>>());
+        assert!(all.unwrap() > -0.7);
+
+        // Without bias: every checkpoint, no plateau; biased from the start: no slope.
+        let unbiased = regime(&rows[..3]);
+        assert_eq!((unbiased.variance_rows, unbiased.plateau), (3, None));
+        let biased = regime(&rows[3..]);
+        assert_eq!((biased.variance_rows, biased.slope_spp), (0, None));
+        assert_eq!(biased.legend("ssaa", None, &rows[3..]), "ssaa (plateau from 8 spp: bias)");
     }
 }

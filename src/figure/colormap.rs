@@ -3,17 +3,22 @@
 //! Values are shown on a log10 scale in viridis (perceptually uniform, readable in grey and by
 //! colour-blind readers). The scale spans whole decades chosen from the data by [`log_range`]:
 //! the top is the power of ten at or above the 99th percentile of the finite positive values
-//! (so a few fireflies do not darken the whole map; larger values take the top colour), the
-//! bottom the power of ten at or below the 1st percentile, with at least one and at most
-//! [`MAX_DECADES`] decades (zeros and values below the bottom take the bottom colour). The bar's
-//! end labels read "≥"/"≤" when values were clipped there. Non-finite values are drawn in
-//! [`NAN_COLOR`], which a swatch under the bar explains. Use [`error_map_in_range`] to give
-//! several maps the same scale.
+//! (so a few fireflies do not darken the whole map), the bottom the power of ten at or below the
+//! 1st percentile, with at least one and at most [`MAX_DECADES`] decades (zeros and values below
+//! the bottom take the bottom colour; the bar's bottom label then reads "≤"). Values above the
+//! top, the fireflies the scale leaves out, are drawn in [`ABOVE_COLOR`], a colour the scale
+//! does not use, and counted ([`above_scale`]) in the legend: "> 10ᵏ: N px". Non-finite values
+//! are drawn in [`NAN_COLOR`]; a swatch under the bar explains each. Use
+//! [`error_map_in_range`] to give several maps the same scale.
 
 use super::canvas::{Canvas, Rgb, BLACK, WHITE};
 
 /// The colour of NaN or infinite values: magenta, as in the PNG previews; no viridis colour is near it.
 pub const NAN_COLOR: Rgb = [255, 0, 255];
+
+/// The colour of values above the top of the scale: pure red, far from every viridis colour
+/// and from [`NAN_COLOR`].
+pub const ABOVE_COLOR: Rgb = [255, 0, 0];
 
 /// The most decades a data-driven scale spans (below that, detail is rarely worth the contrast lost).
 pub const MAX_DECADES: i32 = 6;
@@ -55,11 +60,31 @@ pub fn viridis(t: f32) -> Rgb {
     [0, 1, 2].map(|c| (a[c] as f32 + (b[c] as f32 - a[c] as f32) * f).round() as u8)
 }
 
-/// The false colour of the error `v` on the log scale 10^lo … 10^hi: viridis, clamped at both
-/// ends (zero takes the bottom colour), [`NAN_COLOR`] when `v` is not finite.
+/// Whether the finite value `v` lies above the top 10^hi of a scale (with the tolerance of
+/// [`log_range`], so that 10^hi rounded to f32 is still on the scale).
+fn is_above(v: f32, hi: i32) -> bool {
+    v.is_finite() && v > 0.0 && f64::from(v).log10() - 1e-6 > f64::from(hi)
+}
+
+/// How many of `values` lie above the top of the scale `(lo, hi)`: the pixels drawn in
+/// [`ABOVE_COLOR`].
+pub fn above_scale(values: &[f32], (_, hi): (i32, i32)) -> usize {
+    values.iter().filter(|&&v| is_above(v, hi)).count()
+}
+
+/// The legend text for values above the scale's top, e.g. "> 10⁰: 3 px".
+pub fn above_label(hi: i32, count: usize) -> String {
+    format!("> {}: {count} px", power_of_ten_label(hi))
+}
+
+/// The false colour of the error `v` on the log scale 10^lo … 10^hi: viridis, clamped at the
+/// bottom (zero takes the bottom colour), [`ABOVE_COLOR`] above the top, [`NAN_COLOR`] when `v`
+/// is not finite.
 pub fn error_colour(v: f32, (lo, hi): (i32, i32)) -> Rgb {
     if !v.is_finite() {
         NAN_COLOR
+    } else if is_above(v, hi) {
+        ABOVE_COLOR
     } else if v <= 0.0 {
         viridis(0.0)
     } else {
@@ -118,23 +143,18 @@ pub fn error_map_in_range(
     let value = |i: usize| values.get(i).copied().unwrap_or(f32::NAN);
     let count = width.saturating_mul(height);
     let clipped_low = (0..count).any(|i| value(i).is_finite() && f64::from(value(i)) < 10f64.powi(lo));
-    let clipped_high = (0..count).any(|i| value(i).is_finite() && f64::from(value(i)) > 10f64.powi(hi));
+    let above = (0..count).filter(|&i| is_above(value(i), hi)).count();
     let non_finite = (0..count).filter(|&i| !value(i).is_finite()).count();
 
     let tick_labels: Vec<String> = (lo..=hi)
         .map(|k| {
-            let prefix = if k == hi && clipped_high {
-                "≥ "
-            } else if k == lo && clipped_low {
-                "≤ "
-            } else {
-                ""
-            };
+            let prefix = if k == lo && clipped_low { "≤ " } else { "" };
             format!("{prefix}{}", power_of_ten_label(k))
         })
         .collect();
+    let above_text = above_label(hi, above);
     let nan_label = format!("NaN/Inf: {non_finite} px");
-    let layout = Layout::new(width, height, label, &tick_labels, &nan_label);
+    let layout = Layout::new(width, height, label, &tick_labels, &[&above_text, &nan_label]);
     let mut canvas = Canvas::new(layout.width, layout.height, WHITE);
 
     // The map, magnified by a whole factor.
@@ -172,13 +192,16 @@ pub fn error_map_in_range(
         canvas.text((x + tick_len as i64) as f32 + size * 0.3, y as f32 - size * 0.55, size, BLACK, text);
     }
 
-    // What the NaN colour means.
-    let swatch_y = layout.top + bar_h as i64 + size.round() as i64;
+    // What the colours outside the scale mean: above the top, then not finite.
     let s = size.round() as u32;
-    canvas.fill_rect(layout.bar_x, swatch_y, layout.bar_w, s, NAN_COLOR);
-    canvas.stroke_rect(layout.bar_x - 1, swatch_y - 1, layout.bar_w + 2, s + 2, 1, BLACK);
     let text_x = (layout.bar_x + layout.bar_w as i64 + tick_len as i64) as f32 + size * 0.3;
-    canvas.text(text_x, swatch_y as f32 - size * 0.05, size, BLACK, &nan_label);
+    for (row, (colour, text)) in [(ABOVE_COLOR, &above_text), (NAN_COLOR, &nan_label)].into_iter().enumerate()
+    {
+        let swatch_y = layout.swatch_y(row);
+        canvas.fill_rect(layout.bar_x, swatch_y, layout.bar_w, s, colour);
+        canvas.stroke_rect(layout.bar_x - 1, swatch_y - 1, layout.bar_w + 2, s + 2, 1, BLACK);
+        canvas.text(text_x, swatch_y as f32 - size * 0.05, size, BLACK, text);
+    }
     canvas
 }
 
@@ -208,8 +231,15 @@ struct Layout {
 }
 
 impl Layout {
-    /// The layout for a `width`×`height` map with these texts.
-    fn new(width: usize, height: usize, label: &str, tick_labels: &[String], nan_label: &str) -> Layout {
+    /// The layout for a `width`×`height` map with these texts (`swatch_labels`: one per swatch
+    /// under the bar).
+    fn new(
+        width: usize,
+        height: usize,
+        label: &str,
+        tick_labels: &[String],
+        swatch_labels: &[&str],
+    ) -> Layout {
         let longer = width.max(height).max(1);
         let zoom = MIN_MAP_SIDE.div_ceil(longer).max(1) as u32;
         let side = |n: usize| u32::try_from(n).unwrap_or(u32::MAX).saturating_mul(zoom);
@@ -221,9 +251,14 @@ impl Layout {
         let bar_h = map_h.max((text_size * 12.0) as u32);
         let bar_x = pad.saturating_add(map_w).saturating_add(2 * pad);
         let text_w = |t: &str| Canvas::text_width(text_size, t).ceil() as u32;
-        let widest = tick_labels.iter().map(|t| text_w(t)).chain([text_w(nan_label)]).max().unwrap_or(0);
+        let widest = tick_labels
+            .iter()
+            .map(|t| text_w(t))
+            .chain(swatch_labels.iter().map(|t| text_w(t)))
+            .max()
+            .unwrap_or(0);
         let column = (bar_w + (text_size * 0.7).round() as u32 + widest).max(text_w(label));
-        let swatch_bottom = bar_h + 2 * text_size.round() as u32;
+        let swatch_bottom = bar_h + (1 + 2 * swatch_labels.len() as u32) * text_size.round() as u32;
         Layout {
             zoom,
             text_size,
@@ -236,6 +271,12 @@ impl Layout {
             width: bar_x.saturating_add(column).saturating_add(pad),
             height: top.saturating_add(map_h.max(swatch_bottom)).saturating_add(pad),
         }
+    }
+
+    /// The top of swatch `row` under the bar (0 first), one text line apart.
+    fn swatch_y(&self, row: usize) -> i64 {
+        let line = self.text_size.round() as i64;
+        self.top + self.bar_h as i64 + line + 2 * line * row as i64
     }
 
     /// The row of the tick for 10^k on a bar spanning 10^lo .. 10^hi.
@@ -261,8 +302,11 @@ mod tests {
         assert_eq!(viridis(7.0), viridis(1.0));
         // matplotlib: viridis(0.5) = (33, 145, 140).
         assert!(distance(viridis(0.5), [33, 145, 140]) <= 6, "{:?}", viridis(0.5));
-        // NaN marks stand apart from every colour of the scale.
-        assert!((0..=100).all(|i| distance(viridis(i as f32 / 100.0), NAN_COLOR) > 200));
+        // NaN and above-the-scale marks stand apart from every colour of the scale and each other.
+        for mark in [NAN_COLOR, ABOVE_COLOR] {
+            assert!((0..=100).all(|i| distance(viridis(i as f32 / 100.0), mark) > 200), "{mark:?}");
+        }
+        assert!(distance(NAN_COLOR, ABOVE_COLOR) > 200);
     }
 
     #[test]
@@ -294,7 +338,7 @@ mod tests {
         let values = [1e-4, 1e-2, 1.0, f32::NAN];
         let canvas = error_map_in_range(&values, 4, 1, "relative squared error", (-4, 0));
         let labels: Vec<String> = (-4..=0).map(power_of_ten_label).collect();
-        let layout = Layout::new(4, 1, "relative squared error", &labels, "NaN/Inf: 1 px");
+        let layout = Layout::new(4, 1, "relative squared error", &labels, &["> 10⁰: 0 px", "NaN/Inf: 1 px"]);
         assert_eq!(layout.zoom, 64);
         assert_eq!((canvas.width, canvas.height), (layout.width, layout.height));
         assert!(canvas.width > 256 + layout.bar_w && canvas.height >= layout.bar_h);
@@ -307,8 +351,9 @@ mod tests {
         let bar = |y: i64| canvas.get(layout.bar_x as u32 + layout.bar_w / 2, y as u32);
         assert_eq!(bar(layout.top + 1), viridis(1.0 - 1.0 / (layout.bar_h - 1) as f32));
         assert_eq!(bar(layout.top + layout.bar_h as i64 - 2), viridis(1.0 / (layout.bar_h - 1) as f32));
-        // The NaN swatch below it.
-        assert_eq!(bar(layout.top + layout.bar_h as i64 + (1.5 * layout.text_size) as i64), NAN_COLOR);
+        // The swatches below it: above the scale, then NaN.
+        let swatch = |row: usize| bar(layout.swatch_y(row) + (layout.text_size / 2.0) as i64);
+        assert_eq!((swatch(0), swatch(1)), (ABOVE_COLOR, NAN_COLOR));
         // Text was set: the label row and the tick-label column have ink.
         let ink = |x0: u32, x1: u32, y0: u32, y1: u32| {
             (y0..y1)
@@ -328,7 +373,7 @@ mod tests {
         let values = vec![0.01f32; 300 * 200];
         let canvas = error_map(&values, 300, 200, "relMSE");
         let labels: Vec<String> = (-3..=-2).map(power_of_ten_label).collect();
-        let layout = Layout::new(300, 200, "relMSE", &labels, "NaN/Inf: 0 px");
+        let layout = Layout::new(300, 200, "relMSE", &labels, &["> 10⁻²: 0 px", "NaN/Inf: 0 px"]);
         assert_eq!(layout.zoom, 1);
         assert_eq!(canvas.height, layout.height);
         assert_eq!(canvas.get(layout.map_x as u32 + 299, layout.top as u32 + 199), viridis(1.0));
@@ -337,5 +382,30 @@ mod tests {
         assert!(short.pixels.contains(&NAN_COLOR));
         let empty = error_map(&[], 0, 0, "x");
         assert!(empty.width > 0 && empty.height > 0);
+    }
+
+    #[test]
+    fn fireflies_above_the_scale_are_marked_and_counted() {
+        // 1000 values of 0.05 (scale 10⁻²..10⁻¹) and three fireflies: the scale ignores them,
+        // the map draws them in ABOVE_COLOR, and the legend counts them.
+        let mut values = vec![0.05f32; 1000];
+        for i in [10, 500, 999] {
+            values[i] = 1e4;
+        }
+        let decades = log_range(&values);
+        assert_eq!(decades, (-2, -1));
+        assert_eq!(above_scale(&values, decades), 3);
+        assert_eq!(above_label(decades.1, 3), "> 10⁻¹: 3 px");
+        assert_eq!(error_colour(1e4, decades), ABOVE_COLOR);
+        // The top itself is inside the scale: its colour is viridis's top.
+        assert_eq!(error_colour(0.1, decades), viridis(1.0));
+        let canvas = error_map(&values, 40, 25, "relMSE");
+        let red = canvas.pixels.iter().filter(|p| **p == ABOVE_COLOR).count();
+        let labels: Vec<String> = (-2..=-1).map(power_of_ten_label).collect();
+        let layout = Layout::new(40, 25, "relMSE", &labels, &["> 10⁻¹: 3 px", "NaN/Inf: 0 px"]);
+        let zoom = layout.zoom as usize;
+        let swatch = layout.bar_w as usize * layout.text_size.round() as usize;
+        // Three magnified pixels and the legend's swatch, nothing else.
+        assert_eq!(red, 3 * zoom * zoom + swatch, "zoom {zoom}");
     }
 }

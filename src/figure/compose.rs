@@ -29,7 +29,7 @@
 //! than its room is set smaller to fit: the layout never depends on the text or the data.
 
 use super::canvas::{font, Canvas, Rgb, BLACK, WHITE};
-use super::colormap::{error_colour, log_range, power_of_ten_label, viridis};
+use super::colormap::{above_label, above_scale, error_colour, log_range, power_of_ten_label, viridis};
 use crate::image::Image;
 use crate::metrics::Crop;
 use ab_glyph::{Font, PxScale, ScaleFont};
@@ -141,8 +141,8 @@ pub struct Panel<'a> {
     pub method: &'a str,
     /// Its render (linear HDR).
     pub image: &'a Image,
-    /// Samples per pixel.
-    pub spp: u32,
+    /// Samples (camera rays) per pixel: a whole number, or the real mean of an adaptive method.
+    pub spp: f64,
     /// Seconds of rendering.
     pub seconds: f64,
     /// relMSE against the reference.
@@ -163,6 +163,15 @@ pub fn format_number(x: f64) -> String {
         format!("{x:.decimals$}")
     } else {
         format!("{x:.2e}")
+    }
+}
+
+/// Samples per pixel: whole counts as they are, a mean of an adaptive method with two decimals.
+pub fn format_spp(spp: f64) -> String {
+    if spp.fract() == 0.0 {
+        format!("{spp:.0}")
+    } else {
+        format!("{spp:.2}")
     }
 }
 
@@ -216,7 +225,7 @@ pub fn compose(title: &str, panels: &[Panel], exposure_ev: f32, crop: Option<Cro
     let decades = log_range(&all);
     let finite = || all.iter().copied().filter(|v| v.is_finite());
     let clipped_low = finite().any(|v| f64::from(v) < 10f64.powi(decades.0));
-    let clipped_high = finite().any(|v| f64::from(v) > 10f64.powi(decades.1));
+    let above = above_scale(&all, decades);
     let non_finite = all.len() - finite().count();
 
     // The outline sits outside the pixels it marks, within the gap.
@@ -245,7 +254,7 @@ pub fn compose(title: &str, panels: &[Panel], exposure_ev: f32, crop: Option<Cro
 
         let lines = [
             panel.method.to_string(),
-            format!("{} spp, {} s", panel.spp, format_seconds(panel.seconds)),
+            format!("{} spp, {} s", format_spp(panel.spp), format_seconds(panel.seconds)),
             format!("relMSE {}", format_number(panel.rel_mse)),
         ];
         let left = layout.column_x(i) as f32;
@@ -262,24 +271,18 @@ pub fn compose(title: &str, panels: &[Panel], exposure_ev: f32, crop: Option<Cro
         }
     }
 
-    let caption = match non_finite {
-        0 => ERROR_LABEL.to_string(),
-        n => format!("{ERROR_LABEL}; magenta: NaN/Inf ({n} px)"),
-    };
+    let mut caption = format!("{ERROR_LABEL}; red: {}", above_label(decades.1, above));
+    if non_finite > 0 {
+        caption += &format!("; magenta: NaN/Inf ({non_finite} px)");
+    }
     let (gx, gy) = (layout.gap as f32, layout.caption_y as f32);
     fitted_text(&mut fig, gx, gy, layout.font, content, Align::Left, &caption);
-    colour_bar(&mut fig, &layout, decades, clipped_low, clipped_high);
+    colour_bar(&mut fig, &layout, decades, clipped_low);
     fig
 }
 
 /// The colour bar across the figure, low errors left, with labelled decades.
-fn colour_bar(
-    fig: &mut Canvas,
-    layout: &Layout,
-    (lo, hi): (i32, i32),
-    clipped_low: bool,
-    clipped_high: bool,
-) {
+fn colour_bar(fig: &mut Canvas, layout: &Layout, (lo, hi): (i32, i32), clipped_low: bool) {
     let (x0, length) = (layout.gap as i64 + 1, layout.width.saturating_sub(2 * layout.gap + 2).max(2));
     for i in 0..length {
         let colour = viridis(i as f32 / (length - 1) as f32);
@@ -288,11 +291,7 @@ fn colour_bar(
     let tick_x = |k: i32| x0 + ((k - lo) as f64 / (hi - lo) as f64 * (length - 1) as f64).round() as i64;
     let labels: Vec<(i32, String)> = (lo..=hi)
         .map(|k| {
-            let prefix = match k {
-                k if k == hi && clipped_high => "≥ ",
-                k if k == lo && clipped_low => "≤ ",
-                _ => "",
-            };
+            let prefix = if k == lo && clipped_low { "≤ " } else { "" };
             (k, format!("{prefix}{}", power_of_ten_label(k)))
         })
         .collect();
@@ -318,7 +317,7 @@ fn colour_bar(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::figure::colormap::NAN_COLOR;
+    use crate::figure::colormap::{ABOVE_COLOR, NAN_COLOR};
     use glam::Vec3;
 
     #[test]
@@ -384,7 +383,7 @@ mod tests {
 
     /// A panel of `image` with the given errors.
     fn panel<'a>(image: &'a Image, method: &'a str, error: &'a [f32]) -> Panel<'a> {
-        Panel { method, image, spp: 16, seconds: 1.5, rel_mse: 0.01, error }
+        Panel { method, image, spp: 16.0, seconds: 1.5, rel_mse: 0.01, error }
     }
 
     /// Whether any pixel of rows y0..y1 is dark (text).
@@ -399,6 +398,7 @@ mod tests {
         image.pixels[12 * 40 + 20] = Vec3::new(1.0, 0.0, 0.0);
         let (low, mut high) = (vec![1e-4; 40 * 30], vec![1e-1; 40 * 30]);
         high[5] = f32::NAN;
+        high[7] = 1e3; // a firefly above the scale
         let panels = [panel(&image, "whitted", &low), panel(&image, "path", &high)];
         let crop = Crop { x: 18, y: 10, width: 5, height: 5 };
         let fig = compose("cornell-glass · equal samples", &panels, 0.0, Some(crop));
@@ -421,6 +421,7 @@ mod tests {
         assert_eq!(fig.get(x0 + 3, l.error_y + 3), viridis(0.0));
         assert_eq!(fig.get(x1 + 3, l.error_y + 3), viridis(1.0));
         assert_eq!(fig.get(x1 + 5, l.error_y), NAN_COLOR);
+        assert_eq!(fig.get(x1 + 7, l.error_y), ABOVE_COLOR);
         // The bar runs from the bottom colour on the left to the top colour on the right.
         let near = |a: Rgb, b: Rgb| (0..3).all(|c| a[c].abs_diff(b[c]) <= 8);
         assert!(near(fig.get(l.gap + 3, l.bar_y + 1), viridis(0.0)));

@@ -24,6 +24,9 @@ pub struct Series {
     pub name: String,
     /// (x, y) points, both positive.
     pub points: Vec<(f64, f64)>,
+    /// The whole legend text instead of the name and the slope fitted to every point (for a
+    /// slope fitted to some of them, such as `converge`'s variance regime).
+    pub legend: Option<String>,
 }
 
 /// A log-log plot.
@@ -77,6 +80,9 @@ pub fn fit_slope(points: &[(f64, f64)]) -> Option<f64> {
 
 /// The legend text of a series: its name and fitted slope, e.g. "path (slope −0.98)".
 pub fn legend_label(series: &Series) -> String {
+    if let Some(legend) = &series.legend {
+        return legend.clone();
+    }
     match fit_slope(&series.points) {
         Some(slope) => format!("{} (slope {})", series.name, format!("{slope:.2}").replace('-', "−")),
         None => series.name.clone(),
@@ -379,7 +385,7 @@ mod tests {
 
     #[test]
     fn the_legend_sits_where_the_curves_are_not() {
-        let series = |points: Vec<(f64, f64)>| [Series { name: "s".into(), points }];
+        let series = |points: Vec<(f64, f64)>| [Series { name: "s".into(), points, legend: None }];
         let plot = |series| LogLogPlot { title: "t", x_label: "x", y_label: "y", series };
         let falling = series(vec![(1.0, 1.0), (10.0, 0.1), (100.0, 0.01)]);
         let rising = series(vec![(1.0, 0.1), (10.0, 0.2), (100.0, 0.4)]);
@@ -389,10 +395,12 @@ mod tests {
 
     #[test]
     fn legend_names_carry_the_slope() {
-        let s = Series { name: "path".into(), points: vec![(1.0, 1.0), (100.0, 0.1)] };
+        let s = Series { name: "path".into(), points: vec![(1.0, 1.0), (100.0, 0.1)], legend: None };
         assert_eq!(legend_label(&s), "path (slope −0.50)");
-        let lone = Series { name: "light".into(), points: vec![(1.0, 1.0)] };
+        let lone = Series { name: "light".into(), points: vec![(1.0, 1.0)], legend: None };
         assert_eq!(legend_label(&lone), "light");
+        let given = Series { legend: Some("light (plateau)".into()), ..s };
+        assert_eq!(legend_label(&given), "light (plateau)");
     }
 
     #[test]
@@ -406,10 +414,11 @@ mod tests {
     fn sample_plot_series() -> Vec<Series> {
         let spp = [1.0, 4.0, 16.0, 64.0, 256.0];
         vec![
-            Series { name: "path".into(), points: spp.iter().map(|&n| (n, 0.3 / n)).collect() },
+            Series { name: "path".into(), points: spp.iter().map(|&n| (n, 0.3 / n)).collect(), legend: None },
             Series {
                 name: "light".into(),
                 points: spp.iter().map(|&n| (n, 0.9 * f64::powf(n, -0.9))).collect(),
+                legend: None,
             },
         ]
     }
@@ -455,7 +464,7 @@ mod tests {
     fn nothing_to_plot_is_an_error_and_writes_nothing() {
         let dir = tempfile::tempdir().unwrap();
         let (svg, png) = (dir.path().join("plot.svg"), dir.path().join("plot.png"));
-        let series = [Series { name: "zero".into(), points: vec![(1.0, 0.0), (0.0, 1.0)] }];
+        let series = [Series { name: "zero".into(), points: vec![(1.0, 0.0), (0.0, 1.0)], legend: None }];
         let plot = LogLogPlot { title: "t", x_label: "x", y_label: "y", series: &series };
         let err = write_loglog(&plot, &svg, &png).unwrap_err();
         assert!(err.to_string().contains("plot.svg"), "{err}");

@@ -186,6 +186,18 @@ pub fn variance_channels(variance: &Image, samples: &[f32]) -> Vec<ExtraChannel>
     ]
 }
 
+/// The per-pixel variance kept in an EXR's [`variance_channels`], `None` when the file has no
+/// `variance.R`, `variance.G` and `variance.B` channels.
+pub fn read_variance(path: &Path) -> Result<Option<Image>, OutputError> {
+    let exr = read_exr_channels(path)?;
+    let [Some(r), Some(g), Some(b)] = ["variance.R", "variance.G", "variance.B"].map(|c| exr.channels.get(c))
+    else {
+        return Ok(None);
+    };
+    let pixels = r.iter().zip(g).zip(b).map(|((&r, &g), &b)| glam::Vec3::new(r, g, b)).collect();
+    Ok(Some(Image { width: exr.width, height: exr.height, pixels }))
+}
+
 /// Like [`stage_exr`], with `extra` float32 channels beside R, G, B in the beauty layer.
 pub fn stage_exr_with_channels(
     path: &Path,
@@ -621,6 +633,7 @@ mod tests {
         stage_exr_with_channels(&path, &image, &test_metadata(), &extra).unwrap().commit().unwrap();
         let (back, attrs) = read_exr(&path).unwrap();
         assert_eq!(bits(&back), bits(&image));
+        assert_eq!(bits(&read_variance(&path).unwrap().unwrap()), bits(&variance));
         assert_eq!(attrs["vitrum:spp"], "64");
         assert_eq!(
             attrs["channels"],
