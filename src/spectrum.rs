@@ -13,13 +13,13 @@
 //!   piecewise constant in 1 nm bins, ∝ ‖w(λ)‖^0.7 (Euclidean norm of the colour weights w
 //!   below): it follows the visual response of all three channels (the blue one too, which
 //!   pbrt-v4's luminance-like density 1/cosh² starves); ‖w‖ itself would minimise the summed
-//!   channel variance of a flat spectrum, and the exponent 0.7 flattens it so that saturated
-//!   colours, whose spectra are not flat, lose less. Measured on the white spectrum, the
+//!   channel variance of a flat spectrum, and the exponent 0.7 flattens it, a hedge for the
+//!   colours whose spectra are not flat. Measured on the white spectrum, the
 //!   per-channel variance of the three-wavelength estimate is 0.033 (averaged over R, G, B)
 //!   against 0.31 with pbrt-v4's density, 3.0 for the hero alone and 4.2 for the single
-//!   wavelength of vitrum's first spectral mode. Measured on `path` over `soft-shadows`
-//!   (160×160, 64 spp, against a 1024-spp RGB reference), exponents 0.5, 0.7 and 1.0 gave
-//!   1.24×, 1.25× and 1.47× the MSE of RGB mode, and the summed |w|^0.7 1.29×.
+//!   wavelength of vitrum's first spectral mode (‖w‖^0.5 gives 0.035, (Σ|w_c|)^0.7 0.049). On
+//!   `path` over `soft-shadows` the three wavelengths cost 1.06× the variance of RGB mode at equal
+//!   samples (README, "Spectral rendering").
 //! - **Back to RGB** ([`Wavelengths::to_rgb`]): a spectral radiance L at λ₁, λ₂, λ₃ becomes
 //!   RGB = Σᵢ L(λᵢ) w(λᵢ) / (3 p(λᵢ)), an unbiased estimate of ∫ L(λ) w(λ) dλ.
 //!   w(λ) ([`rgb_weight`]) is the linear-sRGB colour of monochromatic light (CIE 1931 2°
@@ -70,9 +70,9 @@ const DENSITY_EXPONENT: f64 = 0.7;
 
 /// Coefficients (constant term first) of the cubics in x = (λ − 580 nm)/200 nm whose softmax
 /// with 0 (green) gives the red and blue basis spectra; fitted by `scripts/spectral/fit_basis.py`.
-const BASIS_RED: [f32; 4] = [-1.832_042_7, 38.105_357, 63.913_065, -2.797_717_6];
+const BASIS_RED: [f32; 4] = [-1.815_745_6, 38.094_308, 59.811_833, -7.819_125_6];
 /// See [`BASIS_RED`].
-const BASIS_BLUE: [f32; 4] = [-3.740_165, 2.914_904_7, 15.536_159, -16.887_395];
+const BASIS_BLUE: [f32; 4] = [-3.733_315, 3.170_743, 16.617_997, -15.724_476];
 
 /// One asymmetric ("piecewise") Gaussian lobe with reciprocal widths below and above its centre.
 #[inline]

@@ -19,6 +19,7 @@ const EXPECTED: &[(&str, &str)] = &[
     ("drinking-glass.toml", "soft-shadows,textures"),
     ("frosted-glass.toml", "soft-shadows,glossy,textures"),
     ("glass-bowl.toml", "textures"),
+    ("glass-of-water.toml", "dispersion,soft-shadows,textures"),
     ("hollow-spheres.toml", "textures"),
     ("motion-blur.toml", "motion-blur,textures"),
     ("shapes-gallery.toml", "soft-shadows,textures,meshes"),

@@ -429,7 +429,7 @@ fn thin_lens_and_motion_blur_agree_with_path() {
 
 #[test]
 fn spectral_light_tracing_agrees_with_rgb_path() {
-    // One wavelength per light path with its RGB weight: a scene without dispersion rendered
+    // Three wavelengths per light path (src/spectrum.rs): a scene without dispersion rendered
     // spectrally estimates the same image as in RGB.
     let scene = load_str(LIT_QUAD, "lit quad", None).unwrap();
     let spectral = |seed| {
