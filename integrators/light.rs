@@ -392,8 +392,8 @@ impl Tracer<'_> {
             }
             depth += 1;
             let material = scene.material_of(isect.primitive);
-            beta0 *= ctx.end_secondaries_at(&material.bsdf);
             let bsdf = Scattering::at(material, hit.p, &ctx.channels);
+            beta0 *= ctx.end_secondaries_at(&material.bsdf, &bsdf);
             let frame = Frame::from_normal(hit.n);
             // Importance mode: `wo` leads back towards the light, `wi` on towards the camera.
             let wo_local = frame.to_local(-ray.dir);
@@ -424,7 +424,7 @@ impl Tracer<'_> {
                 break;
             }
             let wi = frame.to_world(s.wi);
-            throughput *= s.f * (s.wi.z.abs() / s.pdf);
+            throughput *= s.f * (s.wi.z.abs() / s.pdf) * ctx.secondaries_after(&material.bsdf, &s, wo_local);
             if let Some(c) = crossing(&material.bsdf, ray.dir, hit.n, ctx.channels.hero()) {
                 let medium = if s.is_transmission { c.transmitted } else { c.incident };
                 absorption = ctx.channels.colour(medium.absorption);

@@ -17,6 +17,7 @@ pub use whitted::Whitted;
 use crate::bsdf::{BsdfSample, Scattering, TransportMode};
 use crate::geometry::Ray;
 use crate::material::Bsdf;
+use crate::optics::fresnel_dielectric;
 use crate::render::{Progression, RenderOptions, RenderOutput};
 use crate::sampler::{Dim, Sampler};
 use crate::scene::effects::Support;
@@ -88,16 +89,45 @@ impl PathContext {
         PathContext { sampler, rays: RayCounts::default(), channels: Channels::Rgb, hero_only: false }
     }
 
-    /// The factor a spectral path's throughput takes at a surface of `bsdf`: [`HERO_ONLY`] the
-    /// first time it meets a dispersive interface (where its wavelengths would part), 1 otherwise.
+    /// The factor a spectral path's throughput takes at a surface of `bsdf`, modelled as
+    /// `scattering`, before anything is sampled or evaluated there: [`HERO_ONLY`] the first time it
+    /// meets a dispersive interface that is not smooth (rough glass, whose value at the hero
+    /// wavelength next-event estimation is about to use), 1 otherwise. Smooth dispersive glass
+    /// decides after its sample, in [`secondaries_after`](Self::secondaries_after).
     #[inline]
-    pub fn end_secondaries_at(&mut self, bsdf: &Bsdf) -> Vec3 {
-        if ends_secondaries(&self.channels, self.hero_only, bsdf) {
+    pub fn end_secondaries_at(&mut self, bsdf: &Bsdf, scattering: &Scattering) -> Vec3 {
+        if ends_secondaries(&self.channels, self.hero_only, bsdf) && !scattering.is_delta() {
             self.hero_only = true;
             HERO_ONLY
         } else {
             Vec3::ONE
         }
+    }
+
+    /// The factor a spectral path's throughput takes after sample `s` of smooth glass `bsdf`
+    /// (the outgoing direction `wo` in the local frame of its outward normal), the first time it
+    /// meets a dispersive one. A refraction parts the wavelengths: the hero goes on alone,
+    /// [`HERO_ONLY`]. A reflection sends every wavelength the same way, so all three go on, each
+    /// weighted by its own Fresnel reflectance over the hero's, F(λᵢ)/F(λ₁), which the hero chose
+    /// the reflection with: the estimate of every wavelength stays unbiased. 1 otherwise.
+    #[inline]
+    pub fn secondaries_after(&mut self, bsdf: &Bsdf, s: &BsdfSample, wo: Vec3) -> Vec3 {
+        let (Channels::Spectral(w), Bsdf::Dielectric { inside, outside, .. }) = (&self.channels, bsdf) else {
+            return Vec3::ONE;
+        };
+        if self.hero_only || !bsdf.is_dispersive() || !s.is_specular {
+            return Vec3::ONE;
+        }
+        let reflectance = |lambda: f32| {
+            let eta = inside.ior.at(lambda) / outside.ior.at(lambda);
+            fresnel_dielectric(wo.z.abs(), if wo.z > 0.0 { eta } else { 1.0 / eta })
+        };
+        let hero = reflectance(w.lambda[0]);
+        if s.is_transmission || hero <= 0.0 {
+            self.hero_only = true;
+            return HERO_ONLY;
+        }
+        Vec3::new(1.0, reflectance(w.lambda[1]) / hero, reflectance(w.lambda[2]) / hero)
     }
 }
 
@@ -169,6 +199,61 @@ mod tests {
 
     fn sampler(sample: u32) -> Sampler {
         Sampler::new(SamplerKind::Sobol, 5, 17, sample, 0)
+    }
+
+    #[test]
+    fn dispersive_glass_keeps_every_wavelength_when_it_reflects_and_the_hero_when_it_refracts() {
+        use crate::dispersion::Ior;
+        use crate::material::Medium;
+        use crate::spectrum::Wavelengths;
+        let sf11 = Medium { ior: Ior::named("sf11").unwrap(), absorption: Vec3::ZERO };
+        let smooth = Bsdf::Dielectric { inside: sf11, outside: Medium::clear(1.0), roughness: 0.0 };
+        let w = Wavelengths::sample(0.1);
+        let channels = Channels::Spectral(w);
+        let scattering = Scattering::Dielectric(RoughDielectric::new(
+            sf11.ior.at(w.hero()),
+            TrowbridgeReitz::from_roughness(0.0),
+        ));
+        // From outside, and from inside nearer the critical angle (a larger F, varying faster with λ).
+        for wo in [Vec3::new(0.6, 0.0, 0.8), Vec3::new(0.52, 0.0, -(1.0f32 - 0.27).sqrt())] {
+            let fresnel = |lambda: f32| {
+                let eta = sf11.ior.at(lambda);
+                crate::optics::fresnel_dielectric(wo.z.abs(), if wo.z > 0.0 { eta } else { 1.0 / eta })
+            };
+            let expected = Vec3::from_array(w.lambda.map(fresnel));
+            assert!(expected.x != expected.y && expected.y != expected.z, "the indices differ");
+            // E[weight · 1{reflection}] over the lobe choice, per wavelength: its own F(λ).
+            let n = 100_000;
+            let mut reflected = Vec3::ZERO;
+            for k in 0..n {
+                let uc = (k as f32 + 0.5) / n as f32;
+                let mut ctx = PathContext { channels, ..PathContext::new(sampler(0)) };
+                assert_eq!(
+                    ctx.end_secondaries_at(&smooth, &scattering),
+                    Vec3::ONE,
+                    "smooth glass decides later"
+                );
+                let s = scattering.sample(wo, uc, glam::Vec2::splat(0.5), TransportMode::Radiance).unwrap();
+                let factor = ctx.secondaries_after(&smooth, &s, wo);
+                if s.is_transmission {
+                    assert_eq!((factor, ctx.hero_only), (HERO_ONLY, true));
+                    // A path whose secondaries have ended is left alone.
+                    assert_eq!(ctx.secondaries_after(&smooth, &s, wo), Vec3::ONE);
+                } else {
+                    assert!(!ctx.hero_only);
+                    reflected += s.weight() * factor / n as f32;
+                }
+            }
+            assert!(reflected.abs_diff_eq(expected, 1e-4), "wo {wo}: {reflected} vs F(λ) {expected}");
+        }
+        // Rough dispersive glass ends them before anything is evaluated; RGB paths never do.
+        let rough = Bsdf::Dielectric { inside: sf11, outside: Medium::clear(1.0), roughness: 0.3 };
+        let rough_model =
+            Scattering::Dielectric(RoughDielectric::new(1.7, TrowbridgeReitz::from_roughness(0.3)));
+        let mut ctx = PathContext { channels, ..PathContext::new(sampler(0)) };
+        assert_eq!(ctx.end_secondaries_at(&rough, &rough_model), HERO_ONLY);
+        let mut rgb = PathContext::new(sampler(0));
+        assert_eq!(rgb.end_secondaries_at(&rough, &rough_model), Vec3::ONE);
     }
 
     #[test]

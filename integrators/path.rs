@@ -10,8 +10,9 @@
 //! BSDF sampling and never weighted by MIS. Russian roulette starts after
 //! three bounces and uses the path weight with the η² radiance scaling of refraction undone, so
 //! light inside glass is not killed early. Media absorb by Beer–Lambert's law. In spectral mode
-//! the path carries three wavelengths (see [`crate::spectrum`]); at its first dispersive
-//! interface it ends the secondary ones and refracts the hero wavelength alone.
+//! the path carries three wavelengths (see [`crate::spectrum`]); the first time it refracts
+//! through dispersive glass (or meets rough dispersive glass) it ends the secondary ones and goes
+//! on with the hero wavelength alone ([`PathContext::secondaries_after`]).
 
 use super::{pick_light, sample_bsdf, Integrator, PathContext, RenderParams};
 use crate::bsdf::{Frame, Scattering, TransportMode};
@@ -114,8 +115,8 @@ impl Integrator for Path {
                 break;
             }
             let material = scene.material_of(isect.primitive);
-            beta *= ctx.end_secondaries_at(&material.bsdf);
             let bsdf = Scattering::at(material, hit.p, &ctx.channels);
+            beta *= ctx.end_secondaries_at(&material.bsdf, &bsdf);
             let frame = Frame::from_normal(hit.n);
             let wo_local = frame.to_local(wo);
             if !bsdf.is_delta() && !scene.lights.is_empty() {
@@ -128,7 +129,7 @@ impl Integrator for Path {
                 break;
             }
             let wi = frame.to_world(s.wi);
-            beta *= s.f * (s.wi.z.abs() / s.pdf);
+            beta *= s.f * (s.wi.z.abs() / s.pdf) * ctx.secondaries_after(&material.bsdf, &s, wo_local);
             skip_mis = !s.is_evaluable();
             bsdf_pdf = s.pdf;
             if let Some(c) = crossing(&material.bsdf, ray.dir, hit.n, ctx.channels.hero()) {

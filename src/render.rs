@@ -101,16 +101,22 @@ pub struct RenderOptions {
 
 impl RenderOptions {
     /// Options for `spp` samples with the scene's own settings for its own integrator
-    /// (`[render] integrator`; for another method, set `params` to
-    /// [`crate::scene::RenderSettings::params`] of it).
+    /// (`[render] integrator`; for another method, use [`for_method`](Self::for_method)).
     pub fn from_scene(scene: &Scene, spp: u32) -> RenderOptions {
+        let integrator =
+            crate::integrators::create(&scene.settings.integrator).expect("compile checked the name");
+        RenderOptions::for_method(scene, integrator.as_ref(), spp)
+    }
+
+    /// Options for `spp` samples of `integrator` with the scene's settings for that method
+    /// (its `[render.METHOD]` table, else the method's own defaults, such as its full depth).
+    pub fn for_method(scene: &Scene, integrator: &dyn Integrator, spp: u32) -> RenderOptions {
         let s = &scene.settings;
-        let integrator = crate::integrators::create(&s.integrator).expect("compile checked the name");
         RenderOptions {
             budget: Budget::Samples(spp),
             resolution: None,
             seed: s.seed,
-            params: s.params(integrator.as_ref(), None),
+            params: s.params(integrator, None),
             spectral: s.spectral,
             sampler: s.sampler,
             planned_spp: None,

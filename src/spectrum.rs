@@ -40,12 +40,17 @@
 //!   Jakob and Hanika's (2019) sigmoid spectra are smoother for saturated colours but need a
 //!   precomputed coefficient table per colour and are not linear; linearity lets a path
 //!   project each colour with one 3×3 product at its wavelengths.
-//! - **Dispersion** ([`HERO_ONLY`]): where a path meets a dispersive interface, the directions
-//!   of the three wavelengths part. vitrum then ends the two secondary wavelengths and carries
-//!   the hero alone with weight 3, as pbrt-v4 does (`TerminateSecondary`); with smooth glass a
-//!   hero-MIS (Wilkie et al.) would weight them by a zero density anyway. What the path gathered
-//!   before keeps all three, so only light that passed dispersive glass pays the colour noise
-//!   of a single wavelength.
+//! - **Dispersion** ([`HERO_ONLY`]): where a path refracts through a dispersive interface, the
+//!   directions of the three wavelengths part. vitrum then ends the two secondary wavelengths
+//!   and carries the hero alone with weight 3, as pbrt-v4 does (`TerminateSecondary`); with
+//!   smooth glass a hero MIS (Wilkie et al.) would weight them by a zero density anyway. Unlike
+//!   pbrt-v4, `path` and `light` keep all three where smooth dispersive glass *reflects* (one
+//!   direction for every wavelength), each weighted by its own Fresnel reflectance over the
+//!   hero's, which chose the reflection; rough dispersive glass, whose value feeds next-event
+//!   estimation at the hero's index, ends them on contact, and so do the deterministic
+//!   recursions (`whitted`, `distributed`), which follow both branches at once. What a path
+//!   gathered before keeps all three, so only light that crossed dispersive glass pays the
+//!   colour noise of a single wavelength (3.0 per channel on white, against 0.033).
 
 use glam::{DMat3, DVec3, Vec3};
 use std::sync::OnceLock;

@@ -26,13 +26,12 @@ fn scenes_dir() -> std::path::PathBuf {
 /// `path` at `size`×`size` and `spp` with seed `seed` in the given spectral mode.
 fn render_path(scene: &Scene, size: u32, spp: u32, seed: u64, spectral: SpectralMode) -> RenderOutput {
     // `path`'s own settings (its full depth), not those of the scene's default method.
-    let params = scene.settings.params(vitrum::integrators::create("path").unwrap().as_ref(), None);
+    let path = vitrum::integrators::create("path").unwrap();
     let opts = RenderOptions {
         resolution: Some((size, size)),
         seed,
         spectral,
-        params,
-        ..RenderOptions::from_scene(scene, spp)
+        ..RenderOptions::for_method(scene, path.as_ref(), spp)
     };
     let out = render_opts(scene, "path", &opts);
     assert_eq!(out.non_finite_samples, 0);
