@@ -750,8 +750,21 @@ fn run_info(args: &InfoArgs) -> Result<(), CliError> {
                 json!({"effect": u.effect.name(), "reason": u.reason, "integrators": support})
             })
             .collect();
+        let depths: serde_json::Map<String, serde_json::Value> = all
+            .iter()
+            .map(|i| {
+                let from = if scene.settings.max_depths.contains_key(i.name()) { "scene" } else { "default" };
+                (
+                    i.name().to_string(),
+                    json!({"max_depth": scene.settings.max_depth(i.as_ref(), None), "from": from}),
+                )
+            })
+            .collect();
+        let settings = &scene.settings;
         let summary = json!({
             "scene": scene.origin.name,
+            "render": {"integrator": settings.integrator, "spp": settings.spp, "seed": settings.seed,
+                       "spectral": settings.spectral.name(), "sampler": settings.sampler.name(), "methods": depths},
             "hash": scene.origin.hash,
             "resolution": [scene.camera.width, scene.camera.height],
             "objects": scene.objects.iter().map(|o| json!({"name": o.name, "kind": o.kind, "material": o.material, "primitives": o.primitives})).collect::<Vec<_>>(),
@@ -767,6 +780,23 @@ fn run_info(args: &InfoArgs) -> Result<(), CliError> {
     }
     println!("scene      {} (hash {})", scene.origin.name, scene.origin.hash);
     println!("camera     {}x{}, fov {}°", scene.camera.width, scene.camera.height, scene.camera.fov_degrees);
+    let settings = &scene.settings;
+    println!(
+        "render     {}, {} spp, seed {}, spectral {}, sampler {}",
+        settings.integrator,
+        settings.spp,
+        settings.seed,
+        settings.spectral.name(),
+        settings.sampler.name()
+    );
+    for i in &all {
+        let from = if settings.max_depths.contains_key(i.name()) {
+            "[render.".to_string() + i.name() + "]"
+        } else {
+            "default".into()
+        };
+        println!("  {:<12} max depth {:<4} ({from})", i.name(), settings.max_depth(i.as_ref(), None));
+    }
     println!("objects    {}", scene.objects.len());
     for o in &scene.objects {
         println!("  {:<24} {:<16} material {:<12} {} primitive(s)", o.name, o.kind, o.material, o.primitives);

@@ -1293,6 +1293,10 @@ fn info_json_describes_the_bvh_and_effects() {
     for name in ["raycast", "whitted"] {
         assert!(textures["integrators"][name].is_string(), "{textures}");
     }
+    // Each method's depth and where it comes from: the scene's `[render.whitted]`, else the default.
+    let methods = &info["render"]["methods"];
+    assert_eq!(methods["whitted"], serde_json::json!({"max_depth": 5, "from": "scene"}), "{methods}");
+    assert_eq!(methods["path"], serde_json::json!({"max_depth": 256, "from": "default"}), "{methods}");
 }
 
 #[test]

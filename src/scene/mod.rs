@@ -125,6 +125,15 @@ pub enum SpectralMode {
 }
 
 impl SpectralMode {
+    /// The name the scene file and the command line use: `auto`, `on` or `off`.
+    pub fn name(self) -> &'static str {
+        match self {
+            SpectralMode::Auto => "auto",
+            SpectralMode::On => "on",
+            SpectralMode::Off => "off",
+        }
+    }
+
     /// Parse `auto`, `on` or `off`.
     pub fn from_name(name: &str) -> Option<SpectralMode> {
         match name {
