@@ -88,11 +88,10 @@
 //! `k`-sample render.
 
 use super::{pick_light, sample_bsdf, Integrator, PathContext, RenderParams, DEFAULT_PATH_DEPTH};
-use crate::bsdf::lambert::cosine_hemisphere;
 use crate::bsdf::{Frame, Scattering, TransportMode};
 use crate::camera::{concentric_disk, Camera};
-use crate::geometry::{point_error, spawn_origin, Ray, SurfaceHit};
-use crate::light::{uniform_sphere, EmitterShape, Light};
+use crate::geometry::{spawn_origin, Ray, SurfaceHit};
+use crate::light::Light;
 use crate::lighting::{crossing, transmittance, ShadowMode, ShadowRays};
 use crate::render::{
     camera_for, render_accumulated, Accumulate, CameraDims, Film, Progression, RenderOptions, RenderOutput,
@@ -102,11 +101,10 @@ use crate::scene::effects::Support;
 use crate::scene::{Effect, Scene};
 use crate::spectrum::{Channels, Wavelengths};
 use crate::stats::RayCounts;
-use glam::{DVec3, Vec2, Vec3};
+use glam::{DVec3, Vec3};
 use rand::SeedableRng;
 use rand_pcg::Pcg32;
 use rayon::prelude::*;
-use std::f32::consts::PI;
 use std::ops::Range;
 use std::sync::atomic::{AtomicU64, Ordering};
 
@@ -179,7 +177,7 @@ impl Accumulate for LightTracer {
     fn film(&self, scene: &Scene, opts: &RenderOptions) -> Film {
         let tracer = Tracer::new(scene, self, opts);
         let (w, h) = (tracer.camera.width as usize, tracer.camera.height as usize);
-        Film::new(w, h, film_area(&tracer.camera) as f64, tracer.dims.wavelength)
+        Film::new(w, h, tracer.camera.film_area() as f64, tracer.dims.wavelength)
     }
 
     /// Sample index `s` is the `w·h` light paths `s·w·h .. (s+1)·w·h`; their splats are one
@@ -207,16 +205,6 @@ struct ChunkSplats {
     ends_sample: bool,
 }
 
-/// How a light path leaves its light.
-struct Emission {
-    /// The first ray.
-    ray: Ray,
-    /// Path weight of the emitted ray, `L_e·|cos| / (p_light·p_area·p_dir)` or `I / (p_light·p_dir)`.
-    beta: Vec3,
-    /// For area lights: the emission point, and `1 / (p_light·p_area)` for its direct splat.
-    origin: Option<(SurfaceHit, f32)>,
-}
-
 /// Everything fixed during a light-tracing render.
 struct Tracer<'a> {
     scene: &'a Scene,
@@ -227,14 +215,6 @@ struct Tracer<'a> {
     seed: u64,
     /// Indices of the lights paths can start on (all but the environment).
     lights: Vec<usize>,
-}
-
-/// Area of the image plane at distance 1 from the pinhole: `(2·tan(fov/2))² · aspect`.
-fn film_area(camera: &Camera) -> f32 {
-    // The same expression as the camera's own (private) tan_half_fov.
-    let tan_half_fov = (0.5 * camera.fov_degrees.to_radians()).tan();
-    let aspect = camera.width as f32 / camera.height as f32;
-    4.0 * tan_half_fov * tan_half_fov * aspect
 }
 
 /// Merge chunk buffers into the film in their order; `batch` collects the current sample
@@ -364,7 +344,7 @@ impl Tracer<'_> {
         let side = ctx.sampler.get_1d(Dim::Light);
         let u_point = ctx.sampler.get_2d(Dim::Light);
         let u_dir = ctx.sampler.get_2d(Dim::Light);
-        let Some(emission) = emit(light, 1.0 / n as f32, side, u_point, u_dir) else { return };
+        let Some(emission) = light.emit(1.0 / n as f32, side, u_point, u_dir) else { return };
         let shadow = ShadowRays { mode: ShadowMode::Opaque, channels: ctx.channels, time };
 
         // Vertex 0: the emission point of an area light, seen directly.
@@ -468,31 +448,8 @@ impl Tracer<'_> {
         } else {
             cam.position
         };
-        let to_vertex = hit.p - lens;
-        let dist2 = to_vertex.length_squared();
-        if !(dist2 > 0.0 && dist2.is_finite()) {
-            return;
-        }
-        let dir = to_vertex / dist2.sqrt();
-        let cos_cam = dir.dot(cam.forward);
-        if cos_cam <= 0.0 {
-            return;
-        }
-        // The camera pass's ray from this lens point aims at the pinhole ray's point on the focal
-        // plane, so the splat goes where that point projects.
-        let film = if self.dims.lens {
-            cam.project(lens + dir * (cam.focus_distance / cos_cam))
-        } else {
-            cam.project(hit.p)
-        };
-        let Some(film) = film else { return };
-        if !(film.x >= 0.0 && film.y >= 0.0) {
-            return;
-        }
-        let (x, y) = (film.x as u32, film.y as u32);
-        if x >= cam.width || y >= cam.height {
-            return;
-        }
+        let Some(c) = cam.connection(hit.p, lens) else { return };
+        let (dir, dist2, cos_cam) = (c.dir, c.dist2, c.cos);
         let v = value(-dir);
         if v == Vec3::ZERO {
             return;
@@ -502,80 +459,10 @@ impl Tracer<'_> {
             return;
         }
         // dω = |cos_v| dA / d² and dA_film = dω / cos³θ (see the module documentation).
-        let c = ctx.channels.to_rgb(v * visible) / (dist2 * cos_cam * cos_cam * cos_cam);
-        if !c.is_finite() {
+        let value = ctx.channels.to_rgb(v * visible) / (dist2 * cos_cam * cos_cam * cos_cam);
+        if !value.is_finite() {
             out.non_finite += 1;
         }
-        out.splats.push((y * cam.width + x, c));
+        out.splats.push((c.pixel, value));
     }
-}
-
-/// Sample how a path leaves `light` (picked with probability `p_light`): `side` picks the side of
-/// a two-sided emitter, `u_point` the point, `u_dir` the direction. `None` for the environment.
-fn emit(light: &Light, p_light: f32, side: f32, u_point: Vec2, u_dir: Vec2) -> Option<Emission> {
-    match *light {
-        Light::Point { position, intensity } => {
-            // β = I / (p_light · 1/(4π))
-            let dir = uniform_sphere(u_dir);
-            Some(Emission {
-                ray: Ray::new(position, dir),
-                beta: intensity * (4.0 * PI / p_light),
-                origin: None,
-            })
-        }
-        Light::Environment { .. } => None,
-        Light::Quad { corner, u, v, normal, radiance } => {
-            let p = corner + u_point.x * u + u_point.y * v;
-            let hit = emitter_point(p, normal, point_error(p, (u.abs() + v.abs()).max_element(), 8));
-            area_emission(hit, u.cross(v).length(), radiance, None, u_dir, p_light)
-        }
-        Light::Sphere { center, radius, radiance } => {
-            let n = uniform_sphere(u_point);
-            let p = center + radius * n;
-            let hit = emitter_point(p, n, point_error(p, radius, 8));
-            area_emission(hit, 4.0 * PI * radius * radius, radiance, None, u_dir, p_light)
-        }
-        Light::Surface { shape, radiance } => {
-            let (p, n) = shape.sample(u_point);
-            let local = match shape {
-                EmitterShape::Sphere { radius, .. } | EmitterShape::Disk { radius, .. } => radius,
-                EmitterShape::Quad { u, v, .. } => (u.abs() + v.abs()).max_element(),
-            };
-            let hit = emitter_point(p, n, point_error(p, local, 8));
-            area_emission(hit, shape.area(), radiance, Some(side), u_dir, p_light)
-        }
-    }
-}
-
-/// A point on an emitter as a surface hit (for spawning rays from it).
-fn emitter_point(p: Vec3, n: Vec3, p_error: f32) -> SurfaceHit {
-    SurfaceHit { t: 0.0, p, n, uv: Vec2::ZERO, p_error }
-}
-
-/// Emission from a Lambertian emitter of area `area` at `hit`: a cosine-distributed direction
-/// about the normal, or for a two-sided emitter (`side` given) about the normal's side `side`
-/// picks with probability ½ each. β = L·|cos| / (p_light · (1/area) · (|cos|/π) · p_side).
-fn area_emission(
-    hit: SurfaceHit,
-    area: f32,
-    radiance: Vec3,
-    side: Option<f32>,
-    u_dir: Vec2,
-    p_light: f32,
-) -> Option<Emission> {
-    let local = cosine_hemisphere(u_dir);
-    if local.z <= 0.0 || area <= 0.0 {
-        return None;
-    }
-    let (facing, sides) = match side {
-        Some(s) if s >= 0.5 => (-hit.n, 2.0),
-        Some(_) => (hit.n, 2.0),
-        None => (hit.n, 1.0),
-    };
-    let dir = Frame::from_normal(facing).to_world(local);
-    Some(Emission {
-        ray: Ray::new(spawn_origin(&hit, dir), dir),
-        beta: radiance * (PI * area * sides / p_light),
-        origin: Some((hit, area / p_light)),
-    })
 }

@@ -5,6 +5,7 @@ mod light;
 mod path;
 mod raycast;
 mod ssaa;
+mod vertex_merging;
 mod whitted;
 
 pub use distributed::Distributed;
@@ -12,6 +13,7 @@ pub use light::LightTracer;
 pub use path::{Path, DEFAULT_PATH_DEPTH};
 pub use raycast::RayCast;
 pub use ssaa::{Ssaa, SsaaParams};
+pub use vertex_merging::{initial_radius, iteration_radius, Algorithm, MergeParams, VertexMerging};
 pub use whitted::Whitted;
 
 use crate::bsdf::{BsdfSample, Scattering, TransportMode};
@@ -61,12 +63,20 @@ pub struct RenderParams {
     pub reflectance: Option<f32>,
     /// Settings of `ssaa`.
     pub ssaa: SsaaParams,
+    /// Settings of the methods that merge photons (`ppm`, `bpm`, `vcm`).
+    pub merging: MergeParams,
 }
 
 impl RenderParams {
-    /// Parameters with the given depth and the defaults otherwise (exact Fresnel, default ssaa).
+    /// Parameters with the given depth and the defaults otherwise (exact Fresnel, default ssaa
+    /// and merging).
     pub fn with_depth(max_depth: u32) -> RenderParams {
-        RenderParams { max_depth, reflectance: None, ssaa: SsaaParams::default() }
+        RenderParams {
+            max_depth,
+            reflectance: None,
+            ssaa: SsaaParams::default(),
+            merging: MergeParams::default(),
+        }
     }
 }
 
@@ -178,6 +188,10 @@ pub fn all() -> Vec<Box<dyn Integrator>> {
         Box::new(Distributed),
         Box::new(Path),
         Box::new(LightTracer),
+        Box::new(VertexMerging(Algorithm::Bpt)),
+        Box::new(VertexMerging(Algorithm::Ppm)),
+        Box::new(VertexMerging(Algorithm::Bpm)),
+        Box::new(VertexMerging(Algorithm::Vcm)),
     ]
 }
 

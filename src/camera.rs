@@ -115,6 +115,44 @@ impl Camera {
         Ray::new(self.position, dir)
     }
 
+    /// Area of the image plane at distance 1 from the pinhole: `(2·tan(fov/2))² · aspect`. The
+    /// camera's importance is `W_e = 1/(A·cos⁴θ)` (pbrt); a pixel covers `A / (w·h)` of it.
+    pub fn film_area(&self) -> f32 {
+        let tan_half_fov = (0.5 * self.fov_degrees.to_radians()).tan();
+        let aspect = self.width as f32 / self.height as f32;
+        4.0 * tan_half_fov * tan_half_fov * aspect
+    }
+
+    /// The connection of the scene point `p` to the point `lens` of the lens (the camera's
+    /// position for a pinhole): the pixel it lands in, where the camera pass's ray from that lens
+    /// point through the focal plane comes from; `None` when `p` is behind the camera, off the
+    /// film or at the lens point itself.
+    pub fn connection(&self, p: Vec3, lens: Vec3) -> Option<CameraConnection> {
+        let to_vertex = p - lens;
+        let dist2 = to_vertex.length_squared();
+        if !(dist2 > 0.0 && dist2.is_finite()) {
+            return None;
+        }
+        let dir = to_vertex / dist2.sqrt();
+        let cos = dir.dot(self.forward);
+        if cos <= 0.0 {
+            return None;
+        }
+        let film = if self.has_lens() {
+            self.project(lens + dir * (self.focus_distance / cos))
+        } else {
+            self.project(p)
+        }?;
+        if !(film.x >= 0.0 && film.y >= 0.0) {
+            return None;
+        }
+        let (x, y) = (film.x as u32, film.y as u32);
+        if x >= self.width || y >= self.height {
+            return None;
+        }
+        Some(CameraConnection { pixel: y * self.width + x, dir, dist2, cos })
+    }
+
     /// The film position (pixel units) where the point `p` projects, if it is in front of the
     /// camera.
     pub fn project(&self, p: Vec3) -> Option<Vec2> {
@@ -128,6 +166,19 @@ impl Camera {
         let ndc_y = d.dot(self.up) / (z * self.tan_half_fov);
         Some(Vec2::new((ndc_x + 1.0) * 0.5 * self.width as f32, (1.0 - ndc_y) * 0.5 * self.height as f32))
     }
+}
+
+/// A scene point connected to the camera ([`Camera::connection`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CameraConnection {
+    /// Row-major index of the pixel the point lands in.
+    pub pixel: u32,
+    /// Unit direction from the lens point to the scene point.
+    pub dir: Vec3,
+    /// Squared distance between them.
+    pub dist2: f32,
+    /// Cosine between `dir` and the view axis.
+    pub cos: f32,
 }
 
 /// Shirley–Chiu concentric map from the unit square to the unit disk (area preserving).

@@ -106,6 +106,14 @@ pub struct RenderArgs {
     /// Sample distribution: sobol (Owen-scrambled, progressive), stratified or independent.
     #[arg(long, value_parser = ["sobol", "stratified", "independent"])]
     pub sampler: Option<String>,
+    /// ppm, bpm, vcm: initial merge radius in scene units (default from the scene file, else
+    /// 0.0015 of the diameter of the scene's bounding sphere).
+    #[arg(long, allow_negative_numbers = true)]
+    pub radius: Option<f32>,
+    /// ppm, bpm, vcm: Knaus–Zwicker α in (0, 1]: the radius of iteration i is
+    /// radius·(i + 1)^((α − 1)/2) (default from the scene file, else 0.75).
+    #[arg(long, allow_negative_numbers = true)]
+    pub radius_alpha: Option<f32>,
     /// ssaa: adaptive corner subdivision or a regular grid.
     #[arg(long, value_parser = ["adaptive", "grid"])]
     pub ssaa_mode: Option<String>,
@@ -386,11 +394,26 @@ pub fn render_options(
         }
         ssaa.threshold = t;
     }
+    let mut params = RenderParams { reflectance, ssaa, ..s.params(integrator, args.max_depth) };
+    if let Some(r) = args.radius {
+        if !(r.is_finite() && r > 0.0) {
+            return Err(CliError::BadInput(format!(
+                "--radius {r}: must be a positive distance in scene units"
+            )));
+        }
+        params.merging.radius = Some(r);
+    }
+    if let Some(a) = args.radius_alpha {
+        if !(a > 0.0 && a <= 1.0) {
+            return Err(CliError::BadInput(format!("--radius-alpha {a}: must be in (0, 1]")));
+        }
+        params.merging.alpha = a;
+    }
     Ok(RenderOptions {
         budget,
         resolution: args.resolution,
         seed: args.seed.unwrap_or(s.seed),
-        params: RenderParams { reflectance, ssaa, ..s.params(integrator, args.max_depth) },
+        params,
         spectral: args.spectral.as_deref().and_then(SpectralMode::from_name).unwrap_or(s.spectral),
         sampler: args.sampler.as_deref().and_then(SamplerKind::from_name).unwrap_or(s.sampler),
         planned_spp: None,
@@ -642,6 +665,9 @@ fn report(
     let mrays = out.rays.total() as f64 / out.seconds.max(1e-9) / 1e6;
     let noise = out.noise();
     let depth = crate::scene::desc::has_max_depth(integrator).then_some(opts.params.max_depth);
+    let merging = crate::scene::desc::MERGING_METHODS
+        .contains(&integrator)
+        .then(|| (integrators::initial_radius(scene, &opts.params.merging), opts.params.merging.alpha));
     if args.json {
         let summary = json!({
             "integrator": integrator,
@@ -653,6 +679,8 @@ fn report(
             "seed": opts.seed,
             // The depth the render used (`null` for `raycast`, which has none).
             "max_depth": depth,
+            // The initial merge radius and its α (`null` for the methods that do not merge).
+            "merging": merging.map(|(radius, alpha)| json!({"radius": radius, "alpha": alpha})),
             "seconds": out.seconds,
             "rays": {
                 "primary": out.rays.primary,
@@ -691,11 +719,12 @@ fn report(
         println!("{summary}");
     } else if !args.quiet {
         eprintln!(
-            "{integrator}: {}x{} at {} spp{}{} in {:.3} s, {} rays ({:.1} per pixel: primary {}, reflected {}, refracted {}, shadow {}), {:.2} Mrays/s, {} -> {}",
+            "{integrator}: {}x{} at {} spp{}{}{} in {:.3} s, {} rays ({:.1} per pixel: primary {}, reflected {}, refracted {}, shadow {}), {:.2} Mrays/s, {} -> {}",
             out.image.width,
             out.image.height,
             out.spp,
             depth.map_or(String::new(), |d| format!(", max depth {d}")),
+            merging.map_or(String::new(), |(r, a)| format!(", radius {r:.3e} (alpha {a})")),
             if out.spectral { " (spectral)" } else { "" },
             out.seconds,
             out.rays.total(),
@@ -754,10 +783,14 @@ fn run_info(args: &InfoArgs) -> Result<(), CliError> {
             .iter()
             .map(|i| {
                 let from = if scene.settings.max_depths.contains_key(i.name()) { "scene" } else { "default" };
-                (
-                    i.name().to_string(),
-                    json!({"max_depth": scene.settings.max_depth(i.as_ref(), None), "from": from}),
-                )
+                let mut entry =
+                    json!({"max_depth": scene.settings.max_depth(i.as_ref(), None), "from": from});
+                if let Some(m) = scene.settings.merging.get(i.name()) {
+                    entry["radius"] = json!(integrators::initial_radius(&scene, m));
+                    entry["radius_from"] = json!(if m.radius.is_some() { "scene" } else { "default" });
+                    entry["radius_alpha"] = json!(m.alpha);
+                }
+                (i.name().to_string(), entry)
             })
             .collect();
         let settings = &scene.settings;
@@ -795,7 +828,13 @@ fn run_info(args: &InfoArgs) -> Result<(), CliError> {
         } else {
             "default".into()
         };
-        println!("  {:<12} max depth {:<4} ({from})", i.name(), settings.max_depth(i.as_ref(), None));
+        print!("  {:<12} max depth {:<4} ({from})", i.name(), settings.max_depth(i.as_ref(), None));
+        if let Some(m) = settings.merging.get(i.name()) {
+            let r0 = integrators::initial_radius(&scene, m);
+            let from = if m.radius.is_some() { "scene" } else { "default fraction of the scene's size" };
+            print!(", radius {r0:.4e} ({from}), radius alpha {}", m.alpha);
+        }
+        println!();
     }
     println!("objects    {}", scene.objects.len());
     for o in &scene.objects {

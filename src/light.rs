@@ -1,6 +1,9 @@
 //! Light sources: point lights, one-sided area quads and spheres, emissive surfaces (two-sided
 //! diffuse emitters) and a constant environment.
 
+use crate::bsdf::lambert::cosine_hemisphere;
+use crate::bsdf::Frame;
+use crate::geometry::{point_error, spawn_origin, Ray, SurfaceHit};
 use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
 
@@ -146,6 +149,30 @@ pub struct LightSample {
     pub pdf: f32,
     /// Whether the light is a delta (point) light that only next-event estimation can reach.
     pub delta: bool,
+    /// The light's unit normal at `position` (−`wi` for a point light and the environment).
+    pub normal: Vec3,
+}
+
+/// How a light path leaves its light ([`Light::emit`]), with the densities multiple importance
+/// sampling between light and camera paths needs.
+#[derive(Clone, Copy, Debug)]
+pub struct Emission {
+    /// The first ray.
+    pub ray: Ray,
+    /// Path weight of the emitted ray, `L_e·|cos| / (p_light·p_area·p_dir)` or `I / (p_light·p_dir)`.
+    pub beta: Vec3,
+    /// For area lights: the emission point, and `1 / (p_light·p_area)` for its direct splat.
+    pub origin: Option<(SurfaceHit, f32)>,
+    /// Density of the emitted ray, `p_light · p_area · p_dir` (area × solid angle; for a point
+    /// light `p_light · p_dir`).
+    pub pdf_emit: f32,
+    /// `p_light` times the area density with which next-event estimation picks the emission
+    /// point (for a point light, `p_light`: the delta is left out on both sides).
+    pub pdf_direct: f32,
+    /// |cos| between the emitted ray and the emitter's normal (1 for a point light).
+    pub cos_light: f32,
+    /// Whether the light is a point (delta) light, which no ray can hit.
+    pub delta: bool,
 }
 
 /// What one light contributes at a shading point, seen as a point source.
@@ -183,6 +210,7 @@ impl Light {
                 radiance: *intensity / (distance * distance),
                 pdf: 1.0,
                 delta: true,
+                normal: -d / distance,
             });
         }
         if let Light::Environment { radiance } = self {
@@ -194,6 +222,7 @@ impl Light {
                 radiance: *radiance,
                 pdf: 1.0 / (4.0 * PI),
                 delta: false,
+                normal: -wi,
             });
         }
         let (y, n) = match self {
@@ -220,6 +249,7 @@ impl Light {
             radiance,
             pdf,
             delta: false,
+            normal: n,
         })
     }
 
@@ -245,6 +275,71 @@ impl Light {
             return 0.0;
         }
         area_pdf * d.length_squared() / cos
+    }
+
+    /// Sample how a path leaves the light (picked with probability `p_light`): `side` picks the
+    /// side of a two-sided emitter, `u_point` the point, `u_dir` the direction. A point light
+    /// emits uniformly over the sphere; an area light from a point uniform over its area in a
+    /// cosine-distributed direction about the normal. `None` for the environment.
+    pub fn emit(&self, p_light: f32, side: f32, u_point: Vec2, u_dir: Vec2) -> Option<Emission> {
+        match *self {
+            Light::Point { position, intensity } => {
+                // β = I / (p_light · 1/(4π))
+                let dir = uniform_sphere(u_dir);
+                Some(Emission {
+                    ray: Ray::new(position, dir),
+                    beta: intensity * (4.0 * PI / p_light),
+                    origin: None,
+                    pdf_emit: p_light / (4.0 * PI),
+                    pdf_direct: p_light,
+                    cos_light: 1.0,
+                    delta: true,
+                })
+            }
+            Light::Environment { .. } => None,
+            Light::Quad { corner, u, v, normal, radiance } => {
+                let p = corner + u_point.x * u + u_point.y * v;
+                let hit = emitter_point(p, normal, point_error(p, (u.abs() + v.abs()).max_element(), 8));
+                let area = u.cross(v).length();
+                area_emission(hit, area, 1.0 / area, radiance, None, u_dir, p_light)
+            }
+            Light::Sphere { center, radius, radiance } => {
+                let n = uniform_sphere(u_point);
+                let p = center + radius * n;
+                let hit = emitter_point(p, n, point_error(p, radius, 8));
+                // Next-event estimation samples the hemisphere facing the shading point, which
+                // every emitted ray's next vertex is in.
+                let direct = 1.0 / (2.0 * PI * radius * radius);
+                area_emission(hit, 4.0 * PI * radius * radius, direct, radiance, None, u_dir, p_light)
+            }
+            Light::Surface { shape, radiance } => {
+                let (p, n) = shape.sample(u_point);
+                let local = match shape {
+                    EmitterShape::Sphere { radius, .. } | EmitterShape::Disk { radius, .. } => radius,
+                    EmitterShape::Quad { u, v, .. } => (u.abs() + v.abs()).max_element(),
+                };
+                let hit = emitter_point(p, n, point_error(p, local, 8));
+                let area = shape.area();
+                area_emission(hit, area, 1.0 / area, radiance, Some(side), u_dir, p_light)
+            }
+        }
+    }
+
+    /// The densities of the other strategies for light leaving the point `y` (normal `n`) of this
+    /// area light towards `wo`, reached by a ray from `from`: `(pdf_emit, pdf_direct)` as in
+    /// [`Emission`], without the light's selection probability. (0, 0) for a point light and the
+    /// environment.
+    pub fn emission_pdfs(&self, from: Vec3, y: Vec3, n: Vec3, wo: Vec3) -> (f32, f32) {
+        let cos = n.dot(wo).abs();
+        let (area, sides) = match self {
+            Light::Point { .. } | Light::Environment { .. } => return (0.0, 0.0),
+            Light::Quad { u, v, .. } => (u.cross(*v).length(), 1.0),
+            Light::Sphere { radius, .. } => (4.0 * PI * radius * radius, 1.0),
+            Light::Surface { shape, .. } => (shape.area(), 2.0),
+        };
+        let d = y - from;
+        let direct = self.pdf_li(from, y, n) * cos / d.length_squared();
+        (cos / (PI * area * sides), direct)
     }
 
     /// Whether the light has an area (and so casts soft shadows).
@@ -346,6 +441,45 @@ impl Light {
             Light::Environment { .. } => PointIllumination { position: p + Vec3::Y, intensity: Vec3::ZERO },
         }
     }
+}
+
+/// A point on an emitter as a surface hit (for spawning rays from it).
+fn emitter_point(p: Vec3, n: Vec3, p_error: f32) -> SurfaceHit {
+    SurfaceHit { t: 0.0, p, n, uv: Vec2::ZERO, p_error }
+}
+
+/// Emission from a Lambertian emitter of area `area` at `hit`: a cosine-distributed direction
+/// about the normal, or for a two-sided emitter (`side` given) about the normal's side `side`
+/// picks with probability ½ each. β = L·|cos| / (p_light · (1/area) · (|cos|/π) · p_side).
+/// `direct` is the area density with which next-event estimation picks `hit`.
+fn area_emission(
+    hit: SurfaceHit,
+    area: f32,
+    direct: f32,
+    radiance: Vec3,
+    side: Option<f32>,
+    u_dir: Vec2,
+    p_light: f32,
+) -> Option<Emission> {
+    let local = cosine_hemisphere(u_dir);
+    if local.z <= 0.0 || area <= 0.0 {
+        return None;
+    }
+    let (facing, sides) = match side {
+        Some(s) if s >= 0.5 => (-hit.n, 2.0),
+        Some(_) => (hit.n, 2.0),
+        None => (hit.n, 1.0),
+    };
+    let dir = Frame::from_normal(facing).to_world(local);
+    Some(Emission {
+        ray: Ray::new(spawn_origin(&hit, dir), dir),
+        beta: radiance * (PI * area * sides / p_light),
+        origin: Some((hit, area / p_light)),
+        pdf_emit: p_light * local.z / (PI * area * sides),
+        pdf_direct: p_light * direct,
+        cos_light: local.z,
+        delta: false,
+    })
 }
 
 #[cfg(test)]

@@ -171,7 +171,13 @@ impl Identity {
             ("wavelengths", if wavelengths { "yes" } else { "no" }.to_string()),
             ("reflectance", opts.params.reflectance.map_or("fresnel".to_string(), |r| r.to_string())),
         ];
-        Identity(fields.into_iter().map(|(k, v)| (k.to_string(), v)).collect())
+        let mut fields: Vec<(String, String)> = fields.into_iter().map(|(k, v)| (k.to_string(), v)).collect();
+        if crate::scene::desc::MERGING_METHODS.contains(&integrator) {
+            let merging = &opts.params.merging;
+            fields.push(("radius".into(), crate::integrators::initial_radius(scene, merging).to_string()));
+            fields.push(("radius-alpha".into(), merging.alpha.to_string()));
+        }
+        Identity(fields)
     }
 
     /// The value of `field`.

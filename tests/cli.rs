@@ -1393,10 +1393,10 @@ fn per_method_tables_refuse_what_the_method_does_not_have() {
         &["[render.raycast] takes no parameters"],
     );
     assert_extra_error(
-        "[render.bpt]\nmax_depth = 2\n",
-        "[render.bpt]",
-        "render.bpt",
-        &["unknown method `bpt`", "raycast, whitted, ssaa, distributed, path, light"],
+        "[render.mlt]\nmax_depth = 2\n",
+        "[render.mlt]",
+        "render.mlt",
+        &["unknown method `mlt`", "raycast, whitted, ssaa, distributed, path, light, bpt, ppm, bpm, vcm"],
     );
     // A misspelt key of [render] is no method, and `max_depth` is not offered.
     let text = edited(&[("spp = 1", "spp = 1\nsed = 3")], "");
@@ -1487,4 +1487,47 @@ fn the_reference_of_cornell_glass_is_rendered_at_full_depth() {
     };
     assert_eq!(depths(&[]), [256]);
     assert_eq!(depths(&["--max-depth", "4"]), [4, 256]);
+}
+
+#[test]
+fn merge_radius_comes_from_the_command_line_else_the_scene_else_the_scene_size() {
+    // The scene's `[render.vcm]` table sets vcm's radius and α; ppm keeps the default fraction.
+    let text = edited(&[], "[render.vcm]\nradius = 0.02\nradius_alpha = 0.5\n");
+    let sandbox = Sandbox::new();
+    let scene = sandbox.scene(&text);
+    let info = vitrum(&["info".as_ref(), scene.as_os_str(), "--json".as_ref()]);
+    assert!(info.status.success(), "{}", stderr(&info));
+    let info: Value = serde_json::from_str(&stdout(&info)).unwrap();
+    let methods = &info["render"]["methods"];
+    assert_eq!(methods["vcm"]["radius"].as_f64().unwrap() as f32, 0.02, "{methods}");
+    assert_eq!(methods["vcm"]["radius_alpha"].as_f64().unwrap() as f32, 0.5, "{methods}");
+    assert_eq!(methods["vcm"]["radius_from"], "scene", "{methods}");
+    // 0.0015 of the bounding box's diagonal (the Cornell box is 2 × 2 × 2 plus nothing outside).
+    let default = methods["ppm"]["radius"].as_f64().unwrap();
+    assert!((default - 0.0015 * 12f64.sqrt()).abs() < 1e-6, "{methods}");
+    assert!(methods["path"].get("radius").is_none(), "path does not merge: {methods}");
+
+    let summary = |extra: &[&str]| -> Value {
+        let mut args = vec!["-i", "vcm", "--spp", "1", "--json", "--resolution", "8x8"];
+        args.extend_from_slice(extra);
+        let out = render(&sandbox, Some(&scene), &args);
+        assert!(out.status.success(), "{}", stderr(&out));
+        serde_json::from_str(&stdout(&out)).unwrap()
+    };
+    let from_scene = summary(&[]);
+    assert_eq!(from_scene["merging"]["radius"].as_f64().unwrap() as f32, 0.02);
+    let from_cli = summary(&["--radius", "0.05", "--radius-alpha", "0.9"]);
+    assert_eq!(from_cli["merging"]["radius"].as_f64().unwrap() as f32, 0.05);
+    assert_eq!(from_cli["merging"]["alpha"].as_f64().unwrap() as f32, 0.9);
+
+    for bad in [["--radius", "0"], ["--radius", "-1"], ["--radius-alpha", "0"], ["--radius-alpha", "1.5"]] {
+        let sandbox = Sandbox::new();
+        let out = render(&sandbox, None, &["-i", "vcm", bad[0], bad[1]]);
+        assert_refused(&sandbox, &out, &[bad[0]]);
+    }
+    for (line, key) in [("radius = -0.1", "radius"), ("radius_alpha = 2.0", "radius_alpha")] {
+        let text = edited(&[], &format!("[render.vcm]\n{line}\n"));
+        assert_scene_error_at(&text, line_of(&text, line), &format!("render.vcm.{key}"), &[]);
+    }
+    assert_scene_refused(&edited(&[], "[render.bpt]\nradius = 0.1\n"), &["unknown field `radius`"]);
 }

@@ -87,3 +87,12 @@ fn another_seed_gives_other_pixels() {
     let again = render(&dir, None, &["--spp", "4", "--seed", "1", "--threads", "1"]);
     assert!(a.bits == again.bits, "seed 1 rendered twice differs");
 }
+
+#[test]
+fn vertex_connection_and_merging_is_independent_of_the_thread_count() {
+    // Light paths in chunks, the photon grid, splats and merges: the default scene's point light
+    // and glass, with every strategy of the engine.
+    for method in ["vcm", "ppm"] {
+        assert_thread_count_invariant(None, &["-i", method, "--spp", "3", "--seed", "4"]);
+    }
+}

@@ -62,10 +62,19 @@ fn with_base<'a>(args: &[&'a str]) -> Vec<&'a str> {
 #[test]
 fn resume_after_sigkill_at_any_moment_equals_the_uninterrupted_render() {
     let _serial = serial();
-    for method in ["path", "light"] {
+    // The bidirectional methods at fewer samples (an iteration costs more) and fewer kills.
+    let all_fractions = [0.05, 0.2, 0.35, 0.5, 0.65, 0.8, 0.95];
+    let few_fractions = [0.15, 0.35, 0.55, 0.75];
+    let cases: [(&str, u32, &[f64]); 4] = [
+        ("path", 160, &all_fractions),
+        ("light", 160, &all_fractions),
+        ("vcm", 40, &few_fractions),
+        ("ppm", 40, &few_fractions),
+    ];
+    for (method, samples, fractions) in cases {
         let dir = tempfile::tempdir().unwrap();
         let dir = dir.path();
-        let spp = "160";
+        let spp = &samples.to_string();
         let start = Instant::now();
         ok(dir, &with_base(&["-i", method, "--spp", spp, "-o", "full.exr"]));
         let full_time = start.elapsed();
@@ -73,7 +82,7 @@ fn resume_after_sigkill_at_any_moment_equals_the_uninterrupted_render() {
 
         let args = with_base(&["-i", method, "--spp", spp, "-o", "out.exr", "--checkpoint", "0"]);
         let (mut cut_short, mut killed) = (0, Vec::new());
-        for fraction in [0.05, 0.2, 0.35, 0.5, 0.65, 0.8, 0.95] {
+        for &fraction in fractions {
             let _ = std::fs::remove_file(dir.join("out.exr"));
             let mut child = vitrum(dir, &args).spawn().unwrap();
             killed.push(child.id());
@@ -97,14 +106,14 @@ fn resume_after_sigkill_at_any_moment_equals_the_uninterrupted_render() {
                 .unwrap_or_else(|e| panic!("{method}, kill at {fraction}: corrupt checkpoint: {e}"))
                 .part;
             let done = part.info.samples.as_range().expect("one range");
-            assert_eq!((done.start, part.info.target.clone()), (0, 0..160), "{method}");
-            if done.end < 160 {
+            assert_eq!((done.start, part.info.target.clone()), (0, 0..samples), "{method}");
+            if done.end < samples {
                 cut_short += 1;
                 ok(dir, &["render", "--resume", "out.exr", "--quiet"]);
             }
             assert!(
                 bits(&image(dir, "out.exr")) == full,
-                "{method}: resumed after {} of 160 samples, the image differs from the uninterrupted one",
+                "{method}: resumed after {} of {samples} samples, the image differs from the uninterrupted one",
                 done.end
             );
         }
@@ -126,7 +135,7 @@ fn max_relative_difference(a: &Image, b: &Image) -> f64 {
 fn shards_rendered_by_parallel_processes_merge_into_the_single_render() {
     let _serial = serial();
     let binary = env!("CARGO_BIN_EXE_vitrum");
-    for method in ["path", "light"] {
+    for method in ["path", "light", "vcm", "ppm"] {
         let dir = tempfile::tempdir().unwrap();
         let dir = dir.path();
         // 10 samples in 4 shards: 2, 3, 2, 3 samples (uneven, so the weights matter).

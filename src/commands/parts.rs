@@ -34,7 +34,7 @@ pub fn finished(file: &PartFile) -> bool {
 
 /// `args` with every render setting it leaves open taken from the resumed part `file` (the
 /// scene file it was rendered from, the integrator, seed, resolution, sampler, maximum depth,
-/// whether it traced wavelengths and the reflectance), and the output defaulting to the
+/// merge radius and its α, whether it traced wavelengths and the reflectance), and the output defaulting to the
 /// resumed file.
 pub fn resume_defaults(args: &RenderArgs, file: &PartFile) -> Result<RenderArgs, CliError> {
     let path = args.resume.clone().expect("called for --resume");
@@ -58,6 +58,13 @@ pub fn resume_defaults(args: &RenderArgs, file: &PartFile) -> Result<RenderArgs,
     a.sampler.get_or_insert(field("sampler")?.to_string());
     if a.max_depth.is_none() {
         a.max_depth = Some(field("max-depth")?.parse().map_err(|_| bad("max-depth"))?);
+    }
+    if a.radius.is_none() {
+        a.radius = id.get("radius").map(|r| r.parse().map_err(|_| bad("radius"))).transpose()?;
+    }
+    if a.radius_alpha.is_none() {
+        a.radius_alpha =
+            id.get("radius-alpha").map(|r| r.parse().map_err(|_| bad("radius-alpha"))).transpose()?;
     }
     let wavelengths = if field("wavelengths")? == "yes" { "on" } else { "off" };
     a.spectral.get_or_insert(wavelengths.to_string());

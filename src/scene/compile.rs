@@ -3,7 +3,7 @@
 use super::bodies::{self, BodySurface};
 use super::desc::{
     IorDesc, LightDesc, MaterialDesc, PhongDesc, Rgb, SceneDesc, ShapeDesc, TextureDesc, IOR_TABLE_ERROR,
-    METHOD_TABLES, MOVED_MAX_DEPTH,
+    MERGING_METHODS, METHOD_TABLES, MOVED_MAX_DEPTH,
 };
 use super::effects::{Effect, Effects};
 use super::source::{FieldPath, SceneError, Source};
@@ -13,7 +13,7 @@ use super::{
 use crate::camera::Camera;
 use crate::dispersion::Ior;
 use crate::geometry::{parallelogram_normal, try_unit, Bounds, Disk, Polygon, Quad, Shape, Sphere};
-use crate::integrators::SsaaParams;
+use crate::integrators::{MergeParams, SsaaParams};
 use crate::light::{EmitterShape, Light};
 use crate::material::{Bsdf, Material, Medium, Phong, Texture};
 use crate::sampler::SamplerKind;
@@ -614,6 +614,28 @@ impl Compiler<'_> {
                 max_depths.insert(method.to_string(), depth);
             }
         }
+        let mut merging = BTreeMap::new();
+        for method in MERGING_METHODS {
+            let Some(m) = r.merge_of(method) else { continue };
+            let at = path.key(method);
+            let mut params = MergeParams::default();
+            if let Some(radius) = m.radius {
+                if !(radius > 0.0 && radius.is_finite()) {
+                    let msg = format!("must be a positive distance in scene units (got {radius})");
+                    return Err(self.err(&at.key("radius"), msg));
+                }
+                params.radius = Some(radius);
+            }
+            if let Some(alpha) = m.radius_alpha {
+                if !(alpha > 0.0 && alpha <= 1.0) {
+                    let msg =
+                        format!("must be in (0, 1]: the radius shrinks as (i + 1)^((α - 1)/2) (got {alpha})");
+                    return Err(self.err(&at.key("radius_alpha"), msg));
+                }
+                params.alpha = alpha;
+            }
+            merging.insert(method.to_string(), params);
+        }
         if crate::integrators::create(&r.integrator).is_none() {
             return Err(self.err(
                 &path.key("integrator"),
@@ -658,6 +680,7 @@ impl Compiler<'_> {
             integrator: r.integrator.clone(),
             spp: r.spp,
             max_depths,
+            merging,
             seed: r.seed,
             ambient: self.color(&path.key("ambient"), r.ambient)?,
             background: self.color(&path.key("background"), r.background)?,

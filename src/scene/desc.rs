@@ -178,15 +178,32 @@ pub struct RenderDesc {
     /// `[render.light]`: light tracing.
     #[serde(default)]
     pub light: DepthDesc,
+    /// `[render.bpt]`: bidirectional path tracing.
+    #[serde(default)]
+    pub bpt: DepthDesc,
+    /// `[render.ppm]`: progressive photon mapping.
+    #[serde(default)]
+    pub ppm: MergeDesc,
+    /// `[render.bpm]`: bidirectional photon mapping.
+    #[serde(default)]
+    pub bpm: MergeDesc,
+    /// `[render.vcm]`: vertex connection and merging.
+    #[serde(default)]
+    pub vcm: MergeDesc,
 }
 
 /// The message for a `max_depth` in `[render]`, which no longer applies to every method.
 pub const MOVED_MAX_DEPTH: &str = "a depth is set per method, e.g. `[render.whitted] max_depth = 5` \
-     (likewise [render.ssaa], [render.distributed], [render.path], [render.light]); without one each \
-     method uses its own default (5; 256 for path and light)";
+     (likewise [render.ssaa], [render.distributed], [render.path], [render.light], [render.bpt], \
+     [render.ppm], [render.bpm], [render.vcm]); without one each method uses its own default (5; 256 \
+     for path, light and the bidirectional methods)";
 
 /// The methods with a `[render.METHOD]` table, in the order `vitrum integrators` lists them.
-pub const METHOD_TABLES: [&str; 6] = ["raycast", "whitted", "ssaa", "distributed", "path", "light"];
+pub const METHOD_TABLES: [&str; 10] =
+    ["raycast", "whitted", "ssaa", "distributed", "path", "light", "bpt", "ppm", "bpm", "vcm"];
+
+/// The methods that merge photons and so take `radius` and `radius_alpha`.
+pub const MERGING_METHODS: [&str; 3] = ["ppm", "bpm", "vcm"];
 
 /// Whether the method `name` has a maximum depth (`[render.NAME] max_depth`): every method
 /// but `raycast`, which shades the first hit only.
@@ -206,6 +223,21 @@ pub struct DepthDesc {
     /// Maximum recursion depth (bounces); default the method's own.
     #[serde(default)]
     pub max_depth: Option<u32>,
+}
+
+/// The table of a method that merges photons (`ppm`, `bpm`, `vcm`).
+#[derive(Clone, Copy, Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MergeDesc {
+    /// Maximum number of scattering events of a full path; default the method's own.
+    #[serde(default)]
+    pub max_depth: Option<u32>,
+    /// Initial merge radius in scene units; default a fraction of the scene's size.
+    #[serde(default)]
+    pub radius: Option<f32>,
+    /// Knaus–Zwicker α in (0, 1) of the radius schedule; default 0.75.
+    #[serde(default)]
+    pub radius_alpha: Option<f32>,
 }
 
 fn default_auto() -> String {
@@ -263,6 +295,16 @@ fn default_ssaa_threshold() -> f32 {
 }
 
 impl RenderDesc {
+    /// The `[render.NAME]` table of the merging method `name` (`None` for other methods).
+    pub fn merge_of(&self, name: &str) -> Option<&MergeDesc> {
+        match name {
+            "ppm" => Some(&self.ppm),
+            "bpm" => Some(&self.bpm),
+            "vcm" => Some(&self.vcm),
+            _ => None,
+        }
+    }
+
     /// The maximum depth the scene sets for the method `name` in its `[render.NAME]` table.
     pub fn max_depth_of(&self, name: &str) -> Option<u32> {
         match name {
@@ -271,6 +313,10 @@ impl RenderDesc {
             "distributed" => self.distributed.max_depth,
             "path" => self.path.max_depth,
             "light" => self.light.max_depth,
+            "bpt" => self.bpt.max_depth,
+            "ppm" => self.ppm.max_depth,
+            "bpm" => self.bpm.max_depth,
+            "vcm" => self.vcm.max_depth,
             _ => None,
         }
     }
@@ -295,6 +341,10 @@ impl Default for RenderDesc {
             distributed: DepthDesc::default(),
             path: DepthDesc::default(),
             light: DepthDesc::default(),
+            bpt: DepthDesc::default(),
+            ppm: MergeDesc::default(),
+            bpm: MergeDesc::default(),
+            vcm: MergeDesc::default(),
         }
     }
 }

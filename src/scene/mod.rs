@@ -76,6 +76,8 @@ pub struct RenderSettings {
     pub spp: u32,
     /// The maximum depths the scene sets per method (`[render.METHOD] max_depth`), by name.
     pub max_depths: BTreeMap<String, u32>,
+    /// The merge settings the scene sets per merging method (`[render.vcm] radius = …`), by name.
+    pub merging: BTreeMap<String, crate::integrators::MergeParams>,
     /// Seed of the random streams.
     pub seed: u64,
     /// Ambient radiance of the empirical Phong model.
@@ -109,6 +111,7 @@ impl RenderSettings {
             max_depth: self.max_depth(integrator, cli_depth),
             reflectance: self.reflectance,
             ssaa: self.ssaa,
+            merging: self.merging.get(integrator.name()).copied().unwrap_or_default(),
         }
     }
 }

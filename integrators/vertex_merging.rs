@@ -1,0 +1,975 @@
+//! The bidirectional methods on one engine: bidirectional path tracing (`bpt`, Veach 1997),
+//! progressive photon mapping (`ppm`, Hachisuka et al. 2008 with Knaus and Zwicker's radius
+//! schedule), bidirectional photon mapping (`bpm`) and vertex connection and merging (`vcm`,
+//! Georgiev et al. 2012). The four differ only in which strategies they use: `bpt` connects
+//! camera and light sub-paths, `ppm` merges once at the first non-specular camera vertex, `bpm`
+//! merges at every non-specular camera vertex and `vcm` does both.
+//!
+//! # One iteration is one sample index
+//! Iteration `s` traces `N = w·h` light sub-paths and one camera sub-path per pixel. Light path
+//! `j` of iteration `s` uses the random stream of (light seed, `j`, `s`), camera path `j` the
+//! camera pass's stream of pixel `j`, sample `s`: the light seed is the render's seed hashed with
+//! a constant, so a light path never reuses a camera sample's stream. The merge radius of
+//! iteration `s` is `r_s = r₀ · (s + 1)^{(α − 1)/2}` (Knaus and Zwicker 2011), a pure function of
+//! `s`. An iteration's estimate of every pixel, camera contributions plus the splats of its
+//! light paths, is one term of the film's sums, so renders are progressive, time budgets,
+//! checkpoints, shards and merges work as for every method, and the image does not depend on
+//! the thread count (light paths are traced in fixed chunks whose vertices and splats are
+//! concatenated in order; the photon grid is built by a counting sort).
+//!
+//! # Strategies and their weights
+//! The weights follow the recursive formulation of Georgiev et al.'s technical report: every
+//! sub-path vertex carries three running quantities (`d_vcm`, `d_vc`, `d_vm`) from which the
+//! weight of any connection or merge is computed in constant time, with the power heuristic.
+//! Camera path `j` is connected to the vertices of light path `j` only (as in classic BPT);
+//! it merges with the photons of every light path of the iteration. The strategies are: a camera
+//! path hitting an emitter, next-event estimation, connections to light vertices, connections of
+//! light vertices to the camera (splats) and merges. A light's emission point is not connected
+//! to the camera (a light seen directly is found by camera rays, with weight 1). `ppm` and `bpm`
+//! count emitters hit by camera paths only along purely specular chains (the rest is merging's).
+//! Russian roulette is left out of the densities the weights use: the weights still sum to one
+//! over the strategies of every path (they are computed from one set of densities on both
+//! sides), so the estimate stays unbiased.
+//!
+//! # Rough glass
+//! A rough dielectric's light scattered between several facets has no density (its sample is a
+//! random walk; `eval` covers single scattering only). Such a sample is treated like a specular
+//! one: the weights take its reverse-to-forward density ratio as 1, and no strategy connects or
+//! merges at it (connections and merges evaluate single scattering only). Every strategy
+//! computes its weight from the same densities, so the weights of the strategies that can make
+//! a path still sum to one and the estimate is unbiased; `ppm` follows such samples as part of
+//! the specular chain before it merges.
+//!
+//! # Wavelengths and time
+//! `bpt` draws the wavelengths and the shutter time of camera path `j` and light path `j` from a
+//! stream of their own keyed by (`j`, `s`), so a connection joins sub-paths of one wavelength
+//! set. The merging methods merge photons of every light path, so all paths of an iteration share
+//! one wavelength set and one time, drawn from the iteration's stream: unbiased over iterations,
+//! with colour noise from iteration to iteration. A sub-path that ends its secondary wavelengths
+//! (dispersive refraction) carries the hero alone; a full path both of whose halves did so counts
+//! the factor 3 once.
+//!
+//! # What the engine does not do yet
+//! The camera is a pinhole (depth of field is ignored); the environment is reached only by
+//! camera paths that escape (never sampled as a light), which keeps `bpt`, `bpm` and `vcm`
+//! unbiased for it and leaves it out of `ppm` beyond specular chains.
+
+use super::{pick_light, sample_bsdf, Integrator, PathContext, RenderParams, DEFAULT_PATH_DEPTH};
+use crate::bsdf::{Frame, Scattering, TransportMode};
+use crate::camera::Camera;
+use crate::geometry::{spawn_origin, Ray, SurfaceHit};
+use crate::light::Light;
+use crate::lighting::{crossing, transmittance, ShadowMode, ShadowRays};
+use crate::render::{
+    camera_for, render_accumulated, Accumulate, CameraDims, Film, Progression, RenderOptions, RenderOutput,
+};
+use crate::sampler::{Dim, Sampler, SamplerKind};
+use crate::scene::effects::Support;
+use crate::scene::{Effect, Scene};
+use crate::spectrum::{Channels, Wavelengths};
+use crate::stats::RayCounts;
+use glam::{DVec3, Vec2, Vec3};
+use rayon::prelude::*;
+use std::f32::consts::PI;
+use std::ops::Range;
+
+/// Light paths per chunk of work (the unit of determinism).
+const CHUNK_PATHS: usize = 1 << 12;
+
+/// Bounces after which Russian roulette may end a sub-path.
+const ROULETTE_DEPTH: u32 = 3;
+
+/// The default initial merge radius as a fraction of the diameter of the scene's bounding sphere.
+pub const DEFAULT_RADIUS_FRACTION: f32 = 0.0015;
+
+/// Hashed into the render's seed for the light sub-paths' streams.
+const LIGHT_STREAM: u64 = 0x6c69_6768_745f_7061; // "light_pa"
+
+/// Hashed into the render's seed for the streams of shared wavelengths and times.
+const SHARED_STREAM: u64 = 0x7368_6172_6564_5f77; // "shared_w"
+
+/// Settings of the merging methods.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MergeParams {
+    /// Initial merge radius (scene units); `None`: [`DEFAULT_RADIUS_FRACTION`] of the diameter of
+    /// the scene's bounding sphere.
+    pub radius: Option<f32>,
+    /// Knaus–Zwicker α in (0, 1): the radius shrinks as `(s + 1)^{(α − 1)/2}`.
+    pub alpha: f32,
+}
+
+impl Default for MergeParams {
+    fn default() -> MergeParams {
+        MergeParams { radius: None, alpha: 0.75 }
+    }
+}
+
+/// Which strategies a bidirectional method uses.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Algorithm {
+    /// Bidirectional path tracing: connections only.
+    Bpt,
+    /// Progressive photon mapping: one merge at the first non-specular camera vertex.
+    Ppm,
+    /// Bidirectional photon mapping: merges at every non-specular camera vertex.
+    Bpm,
+    /// Vertex connection and merging: connections and merges.
+    Vcm,
+}
+
+impl Algorithm {
+    fn connects(self) -> bool {
+        matches!(self, Algorithm::Bpt | Algorithm::Vcm)
+    }
+
+    fn merges(self) -> bool {
+        !matches!(self, Algorithm::Bpt)
+    }
+}
+
+/// A bidirectional method of the shared engine.
+pub struct VertexMerging(pub Algorithm);
+
+impl Integrator for VertexMerging {
+    fn name(&self) -> &'static str {
+        match self.0 {
+            Algorithm::Bpt => "bpt",
+            Algorithm::Ppm => "ppm",
+            Algorithm::Bpm => "bpm",
+            Algorithm::Vcm => "vcm",
+        }
+    }
+
+    fn description(&self) -> &'static str {
+        match self.0 {
+            Algorithm::Bpt => {
+                "bidirectional path tracing: camera and light sub-paths connected, MIS over every strategy"
+            }
+            Algorithm::Ppm => {
+                "progressive photon mapping: specular camera chains merge photons once; radius shrinks"
+            }
+            Algorithm::Bpm => "bidirectional photon mapping: merges at every non-specular camera vertex, MIS",
+            Algorithm::Vcm => {
+                "vertex connection and merging: bpt plus merging, MIS over both; every light path"
+            }
+        }
+    }
+
+    fn support(&self, effect: Effect) -> Support {
+        match effect {
+            Effect::DepthOfField => Support::Ignores("the engine's camera is a pinhole"),
+            Effect::Environment if self.0 == Algorithm::Ppm => Support::Ignores(
+                "photons do not start on the environment; only specular camera chains see it",
+            ),
+            Effect::Dispersion | Effect::MotionBlur if self.0.merges() => Support::Approximates(
+                "an iteration's paths share one wavelength set and one time, so that photons can merge",
+            ),
+            _ => Support::Simulates,
+        }
+    }
+
+    fn default_max_depth(&self) -> u32 {
+        DEFAULT_PATH_DEPTH
+    }
+
+    /// Unused: the engine renders in [`Integrator::render_image`], which always returns `Some`.
+    fn radiance(&self, _: &Scene, _: &RenderParams, _: &Ray, _: &mut PathContext) -> Vec3 {
+        Vec3::ZERO
+    }
+
+    fn render_image(
+        &self,
+        scene: &Scene,
+        opts: &RenderOptions,
+        progress: &(dyn Fn(u64, u64) + Sync),
+    ) -> Option<RenderOutput> {
+        Some(render_accumulated(scene, self, opts, progress))
+    }
+
+    fn progression(&self) -> Progression<'_> {
+        Progression::Own(self)
+    }
+}
+
+impl Accumulate for VertexMerging {
+    fn film(&self, scene: &Scene, opts: &RenderOptions) -> Film {
+        let engine = Engine::new(scene, self, opts);
+        Film::new(engine.camera.width as usize, engine.camera.height as usize, 1.0, engine.dims.wavelength)
+    }
+
+    /// Each sample index is one iteration: its light paths, its photon grid, its camera paths.
+    fn add_samples(
+        &self,
+        scene: &Scene,
+        opts: &RenderOptions,
+        samples: Range<u32>,
+        film: &mut Film,
+        progress: &(dyn Fn(u64, u64) + Sync),
+    ) {
+        let engine = Engine::new(scene, self, opts);
+        let total = samples.len() as u64;
+        for (k, s) in samples.enumerate() {
+            engine.iteration(s, film);
+            progress(k as u64 + 1, total);
+        }
+    }
+}
+
+/// The initial merge radius of `scene` with `params`.
+pub fn initial_radius(scene: &Scene, params: &MergeParams) -> f32 {
+    params.radius.unwrap_or_else(|| {
+        let (lo, hi) = scene.bvh_stats.bounds;
+        DEFAULT_RADIUS_FRACTION * (hi - lo).length()
+    })
+}
+
+/// The merge radius of iteration `s` (0-based) from the initial radius `r0`.
+pub fn iteration_radius(r0: f32, alpha: f32, s: u32) -> f32 {
+    (r0 * ((s as f64 + 1.0).powf(0.5 * (alpha as f64 - 1.0))) as f32).max(1e-7)
+}
+
+/// The power heuristic's term for a density (or ratio of densities).
+#[inline]
+fn mis(x: f32) -> f32 {
+    x * x
+}
+
+/// A light sub-path vertex on a non-delta surface: a photon and a connection end.
+#[derive(Clone, Copy, Debug)]
+struct LightVertex {
+    p: Vec3,
+    n: Vec3,
+    p_error: f32,
+    /// Unit direction towards the previous vertex of the light path (where the light came from).
+    wo: Vec3,
+    /// Path weight from the light to this vertex (emission included).
+    beta: Vec3,
+    d_vcm: f32,
+    d_vc: f32,
+    d_vm: f32,
+    /// Segments from the light to this vertex.
+    segments: u32,
+    primitive: u32,
+    hero_only: bool,
+}
+
+impl LightVertex {
+    fn hit(&self) -> SurfaceHit {
+        SurfaceHit { t: 0.0, p: self.p, n: self.n, uv: Vec2::ZERO, p_error: self.p_error }
+    }
+}
+
+/// What one chunk of light paths made.
+#[derive(Default)]
+struct LightChunk {
+    vertices: Vec<LightVertex>,
+    /// Per path of the chunk, the end of its vertices in `vertices`.
+    ends: Vec<u32>,
+    splats: Vec<(u32, Vec3)>,
+    rays: RayCounts,
+    non_finite: u64,
+}
+
+/// The photons of one iteration in a hashed uniform grid of cells twice the radius wide.
+struct PhotonGrid {
+    origin: Vec3,
+    inv_cell: f32,
+    mask: u64,
+    /// Per bucket, the start of its photons in `indices` (one more entry at the end).
+    starts: Vec<u32>,
+    indices: Vec<u32>,
+}
+
+impl PhotonGrid {
+    fn cell_of(&self, p: Vec3) -> [i64; 3] {
+        let c = ((p - self.origin) * self.inv_cell).floor();
+        [c.x as i64, c.y as i64, c.z as i64]
+    }
+
+    fn bucket(&self, c: [i64; 3]) -> usize {
+        let h = (c[0] as u64).wrapping_mul(73_856_093)
+            ^ (c[1] as u64).wrapping_mul(19_349_663)
+            ^ (c[2] as u64).wrapping_mul(83_492_791);
+        (h & self.mask) as usize
+    }
+
+    /// A grid over `vertices` for merges of radius `radius` (deterministic: a counting sort).
+    fn build(vertices: &[LightVertex], radius: f32, origin: Vec3) -> PhotonGrid {
+        let buckets = vertices.len().max(1).next_power_of_two();
+        let mut grid = PhotonGrid {
+            origin,
+            inv_cell: 1.0 / (2.0 * radius),
+            mask: buckets as u64 - 1,
+            starts: vec![0; buckets + 1],
+            indices: vec![0; vertices.len()],
+        };
+        let keys: Vec<usize> = vertices.iter().map(|v| grid.bucket(grid.cell_of(v.p))).collect();
+        for &k in &keys {
+            grid.starts[k + 1] += 1;
+        }
+        for b in 0..buckets {
+            grid.starts[b + 1] += grid.starts[b];
+        }
+        let mut fill = grid.starts.clone();
+        for (i, &k) in keys.iter().enumerate() {
+            grid.indices[fill[k] as usize] = i as u32;
+            fill[k] += 1;
+        }
+        grid
+    }
+
+    /// Call `visit` with the index of every photon within `radius` of `p`, each once.
+    fn query(&self, vertices: &[LightVertex], p: Vec3, radius: f32, mut visit: impl FnMut(usize)) {
+        let lo = self.cell_of(p - Vec3::splat(radius));
+        let hi = self.cell_of(p + Vec3::splat(radius));
+        let mut seen = [usize::MAX; 8];
+        let mut count = 0;
+        let r2 = radius * radius;
+        for x in lo[0]..=hi[0] {
+            for y in lo[1]..=hi[1] {
+                for z in lo[2]..=hi[2] {
+                    let b = self.bucket([x, y, z]);
+                    if seen[..count].contains(&b) {
+                        continue;
+                    }
+                    if count < seen.len() {
+                        seen[count] = b;
+                        count += 1;
+                    }
+                    for &i in &self.indices[self.starts[b] as usize..self.starts[b + 1] as usize] {
+                        if (vertices[i as usize].p - p).length_squared() <= r2 {
+                            visit(i as usize);
+                        }
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// The MIS constants of one iteration.
+#[derive(Clone, Copy)]
+struct IterationConstants {
+    radius: f32,
+    /// Weight of merging relative to connection, `mis(π r² N)` (0 without merging).
+    mis_vm: f32,
+    /// Its inverse (0 without connections).
+    mis_vc: f32,
+    /// `1 / (π r² N)`: the merge kernel over the number of light paths.
+    vm_norm: f32,
+}
+
+/// The running state of a sub-path.
+struct SubPath {
+    ctx: PathContext,
+    beta: Vec3,
+    d_vcm: f32,
+    d_vc: f32,
+    d_vm: f32,
+    segments: u32,
+    specular_path: bool,
+}
+
+impl SubPath {
+    /// The MIS update on reaching a surface at distance `t` with |cos| `cos` there.
+    fn arrive(&mut self, t: f32, cos: f32) {
+        self.d_vcm *= mis(t * t);
+        let inv = 1.0 / mis(cos);
+        self.d_vcm *= inv;
+        self.d_vc *= inv;
+        self.d_vm *= inv;
+    }
+
+    /// The MIS update on scattering into `wi` with forward density `pdf` and reverse density
+    /// `rev` (both ignored for specular and multiply scattered samples).
+    fn scatter(&mut self, k: &IterationConstants, cos_out: f32, pdf: f32, rev: f32, evaluable: bool) {
+        if evaluable {
+            let g = mis(cos_out / pdf);
+            self.d_vc = g * (self.d_vc * mis(rev) + self.d_vcm + k.mis_vm);
+            self.d_vm = g * (self.d_vm * mis(rev) + self.d_vcm * k.mis_vc + 1.0);
+            self.d_vcm = mis(1.0 / pdf);
+            self.specular_path = false;
+        } else {
+            self.d_vcm = 0.0;
+            self.d_vc *= mis(cos_out);
+            self.d_vm *= mis(cos_out);
+        }
+    }
+}
+
+/// The factor of a full path joined from two halves: 1/3 when both ended their secondary
+/// wavelengths (each half carries the hero's factor 3, the path only once).
+#[inline]
+fn joined(a: bool, b: bool) -> f32 {
+    if a && b {
+        1.0 / 3.0
+    } else {
+        1.0
+    }
+}
+
+/// Everything fixed during a render.
+struct Engine<'a> {
+    scene: &'a Scene,
+    params: &'a RenderParams,
+    algorithm: Algorithm,
+    camera: Camera,
+    dims: CameraDims,
+    sampler: SamplerKind,
+    seed: u64,
+    /// The lights paths start on and next-event estimation samples (all but the environment).
+    lights: Vec<usize>,
+    /// Segments a full path may have: the maximum depth (scattering vertices) plus one.
+    max_segments: u32,
+    /// Area of one pixel on the image plane at distance 1.
+    pixel_area: f32,
+    paths: usize,
+    radius0: f32,
+}
+
+impl<'a> Engine<'a> {
+    fn new(scene: &'a Scene, integrator: &VertexMerging, opts: &'a RenderOptions) -> Engine<'a> {
+        let camera = camera_for(scene, opts.resolution);
+        let paths = camera.width as usize * camera.height as usize;
+        Engine {
+            scene,
+            params: &opts.params,
+            algorithm: integrator.0,
+            pixel_area: camera.film_area() / paths as f32,
+            dims: CameraDims::resolve(scene, integrator, opts.spectral),
+            camera,
+            sampler: opts.sampler,
+            seed: opts.seed,
+            lights: (0..scene.lights.len())
+                .filter(|&i| !matches!(scene.lights[i], Light::Environment { .. }))
+                .collect(),
+            max_segments: opts.params.max_depth.saturating_add(1),
+            paths,
+            radius0: initial_radius(scene, &opts.params.merging),
+        }
+    }
+
+    fn constants(&self, s: u32) -> IterationConstants {
+        let radius = iteration_radius(self.radius0, self.params.merging.alpha, s);
+        let eta = PI * radius * radius * self.paths as f32;
+        let merges = self.algorithm.merges();
+        IterationConstants {
+            radius,
+            mis_vm: if merges { mis(eta) } else { 0.0 },
+            mis_vc: if self.algorithm.connects() { mis(1.0 / eta) } else { 0.0 },
+            vm_norm: 1.0 / eta,
+        }
+    }
+
+    /// The wavelengths and shutter time of path pair `j` of iteration `s` (shared by the whole
+    /// iteration for the merging methods).
+    fn channels_and_time(&self, j: usize, s: u32) -> (Channels, f32) {
+        let key = if self.algorithm.merges() { u64::MAX } else { j as u64 };
+        let mut sampler = Sampler::new(self.sampler, self.seed ^ SHARED_STREAM, key, s, 0);
+        let (open, close) = self.camera.shutter;
+        let time = if self.dims.time { open + (close - open) * sampler.get_1d(Dim::Time) } else { open };
+        let channels = if self.dims.wavelength {
+            Channels::Spectral(Wavelengths::sample(sampler.get_1d(Dim::Wavelength)))
+        } else {
+            Channels::Rgb
+        };
+        (channels, time)
+    }
+
+    /// One iteration: light paths, photon grid, camera paths, then one term of every pixel.
+    fn iteration(&self, s: u32, film: &mut Film) {
+        let k = self.constants(s);
+        let starts: Vec<usize> = (0..self.paths).step_by(CHUNK_PATHS).collect();
+        let chunks: Vec<LightChunk> = starts
+            .par_iter()
+            .map(|&start| self.trace_light_chunk(start..(start + CHUNK_PATHS).min(self.paths), s, &k))
+            .collect();
+        let mut vertices = Vec::with_capacity(chunks.iter().map(|c| c.vertices.len()).sum());
+        let mut ends = Vec::with_capacity(self.paths);
+        let mut splats = vec![DVec3::ZERO; self.paths];
+        for chunk in chunks {
+            let base = vertices.len() as u32;
+            ends.extend(chunk.ends.iter().map(|e| e + base));
+            vertices.extend_from_slice(&chunk.vertices);
+            for (pixel, v) in chunk.splats {
+                splats[pixel as usize] += v.as_dvec3();
+            }
+            film.rays += chunk.rays;
+            film.non_finite += chunk.non_finite;
+        }
+        let grid = self
+            .algorithm
+            .merges()
+            .then(|| PhotonGrid::build(&vertices, k.radius, self.scene.bvh_stats.bounds.0));
+        let light = LightPaths { vertices: &vertices, ends: &ends, grid: grid.as_ref() };
+        let w = self.camera.width as usize;
+        let rows: Vec<(Vec<Vec3>, RayCounts, u64)> = (0..self.camera.height as usize)
+            .into_par_iter()
+            .map(|y| {
+                let mut rays = RayCounts::default();
+                let mut non_finite = 0;
+                let row = (0..w)
+                    .map(|x| {
+                        let l = self.camera_path(y * w + x, s, &k, &light, &mut rays);
+                        if !l.is_finite() {
+                            non_finite += 1;
+                        }
+                        l
+                    })
+                    .collect();
+                (row, rays, non_finite)
+            })
+            .collect();
+        let inv_area = 1.0 / self.camera.film_area() as f64;
+        for (y, (row, rays, non_finite)) in rows.into_iter().enumerate() {
+            film.rays += rays;
+            film.non_finite += non_finite;
+            for (x, l) in row.into_iter().enumerate() {
+                let p = y * w + x;
+                let v = l.as_dvec3() + splats[p] * inv_area;
+                film.sum[p] += v;
+                film.sum_sq[p] += v * v;
+            }
+        }
+    }
+
+    /// The random stream of light path `j` of iteration `s`.
+    fn light_sampler(&self, j: usize, s: u32) -> Sampler {
+        Sampler::new(self.sampler, self.seed ^ LIGHT_STREAM, j as u64, s, 0)
+    }
+
+    fn trace_light_chunk(&self, paths: Range<usize>, s: u32, k: &IterationConstants) -> LightChunk {
+        let mut out = LightChunk::default();
+        for j in paths {
+            if !self.lights.is_empty() {
+                self.trace_light_path(j, s, k, &mut out);
+            }
+            out.ends.push(out.vertices.len() as u32);
+        }
+        out
+    }
+
+    /// Trace light path `j`: store its vertices and splat their connections to the camera.
+    fn trace_light_path(&self, j: usize, s: u32, k: &IterationConstants, out: &mut LightChunk) {
+        let scene = self.scene;
+        let (channels, time) = self.channels_and_time(j, s);
+        let mut ctx = PathContext::new(self.light_sampler(j, s));
+        ctx.channels = channels;
+        let n = self.lights.len();
+        let light = &scene.lights[self.lights[pick_light(n, &mut ctx.sampler)]];
+        let side = ctx.sampler.get_1d(Dim::Light);
+        let u_point = ctx.sampler.get_2d(Dim::Light);
+        let u_dir = ctx.sampler.get_2d(Dim::Light);
+        let Some(e) = light.emit(1.0 / n as f32, side, u_point, u_dir) else { return };
+        let d_vc = if e.delta { 0.0 } else { mis(e.cos_light / e.pdf_emit) };
+        let mut path = SubPath {
+            beta: ctx.channels.colour(e.beta),
+            ctx,
+            d_vcm: mis(e.pdf_direct / e.pdf_emit),
+            d_vc,
+            d_vm: d_vc * k.mis_vc,
+            segments: 1,
+            specular_path: true,
+        };
+        let shadow = ShadowRays { mode: ShadowMode::Opaque, channels, time };
+        let mut ray = e.ray;
+        ray.time = time;
+        path.ctx.rays.primary += 1;
+        let mut throughput = Vec3::ONE;
+        let mut absorption = Vec3::ZERO;
+        while let Some(isect) = scene.intersect(&ray, f32::INFINITY) {
+            let hit = isect.hit;
+            if absorption != Vec3::ZERO {
+                let a = (-absorption * hit.t).exp();
+                path.beta *= a;
+                throughput *= a;
+            }
+            path.arrive(hit.t, hit.n.dot(ray.dir).abs());
+            let material = scene.material_of(isect.primitive);
+            let bsdf = Scattering::at(material, hit.p, &path.ctx.channels);
+            path.beta *= path.ctx.end_secondaries_at(&material.bsdf, &bsdf);
+            let frame = Frame::from_normal(hit.n);
+            let wo_local = frame.to_local(-ray.dir);
+            if !bsdf.is_delta() {
+                out.vertices.push(LightVertex {
+                    p: hit.p,
+                    n: hit.n,
+                    p_error: hit.p_error,
+                    wo: -ray.dir,
+                    beta: path.beta,
+                    d_vcm: path.d_vcm,
+                    d_vc: path.d_vc,
+                    d_vm: path.d_vm,
+                    segments: path.segments,
+                    primitive: isect.primitive,
+                    hero_only: path.ctx.hero_only,
+                });
+                if self.algorithm.connects() && path.segments < self.max_segments {
+                    self.connect_to_camera(&hit, &bsdf, &frame, wo_local, &mut path, k, shadow, out);
+                }
+            }
+            if path.segments + 2 > self.max_segments {
+                break;
+            }
+            let Some(smp) = sample_bsdf(&bsdf, wo_local, TransportMode::Importance, &mut path.ctx.sampler)
+            else {
+                break;
+            };
+            if smp.pdf <= 0.0 || smp.f == Vec3::ZERO {
+                break;
+            }
+            let cos_out = smp.wi.z.abs();
+            let evaluable = smp.is_evaluable();
+            let rev = if evaluable { bsdf.pdf(smp.wi, wo_local) } else { 0.0 };
+            path.scatter(k, cos_out, smp.pdf, rev, evaluable);
+            let step =
+                smp.f * (cos_out / smp.pdf) * path.ctx.secondaries_after(&material.bsdf, &smp, wo_local);
+            path.beta *= step;
+            throughput *= step;
+            let wi = frame.to_world(smp.wi);
+            if let Some(c) = crossing(&material.bsdf, ray.dir, hit.n, path.ctx.channels.hero()) {
+                let medium = if smp.is_transmission { c.transmitted } else { c.incident };
+                absorption = path.ctx.channels.colour(medium.absorption);
+            }
+            if smp.is_transmission {
+                path.ctx.rays.refracted += 1;
+            } else {
+                path.ctx.rays.reflected += 1;
+            }
+            ray = ray.spawn(spawn_origin(&hit, wi), wi);
+            path.segments += 1;
+            if path.segments > ROULETTE_DEPTH + 1 {
+                let rr = throughput.max_element();
+                if rr < 1.0 {
+                    let q = (1.0 - rr).max(0.0);
+                    if path.ctx.sampler.get_1d(Dim::Other) < q {
+                        break;
+                    }
+                    path.beta /= 1.0 - q;
+                    throughput /= 1.0 - q;
+                }
+            }
+        }
+        out.rays += path.ctx.rays;
+    }
+
+    /// Splat the connection of light vertex `hit` to the camera (light tracing's strategy).
+    #[allow(clippy::too_many_arguments)]
+    fn connect_to_camera(
+        &self,
+        hit: &SurfaceHit,
+        bsdf: &Scattering,
+        frame: &Frame,
+        wo_local: Vec3,
+        path: &mut SubPath,
+        k: &IterationConstants,
+        shadow: ShadowRays,
+        out: &mut LightChunk,
+    ) {
+        let cam = &self.camera;
+        let Some(c) = cam.connection(hit.p, cam.position) else { return };
+        let wc_local = frame.to_local(-c.dir);
+        let f = bsdf.eval(wo_local, wc_local, TransportMode::Importance);
+        if f == Vec3::ZERO {
+            return;
+        }
+        let cos_v = wc_local.z.abs();
+        let cos3 = c.cos * c.cos * c.cos;
+        // Density of this point per unit area as the camera samples it (one sample per pixel).
+        let camera_pdf_a = cos_v / (self.pixel_area * c.dist2 * cos3);
+        let rev = bsdf.pdf(wc_local, wo_local);
+        let w_light = mis(camera_pdf_a / self.paths as f32) * (k.mis_vm + path.d_vcm + path.d_vc * mis(rev));
+        let weight = 1.0 / (1.0 + w_light);
+        let visible = transmittance(self.scene, hit, cam.position, None, shadow, &mut path.ctx.rays);
+        if visible == Vec3::ZERO {
+            return;
+        }
+        let value = path.ctx.channels.to_rgb(path.beta * f * visible) * (weight * cos_v / (c.dist2 * cos3));
+        if !value.is_finite() {
+            out.non_finite += 1;
+        }
+        out.splats.push((c.pixel, value));
+    }
+
+    /// The radiance camera path `j` of iteration `s` gathers by its own strategies.
+    fn camera_path(
+        &self,
+        j: usize,
+        s: u32,
+        k: &IterationConstants,
+        light: &LightPaths,
+        rays: &mut RayCounts,
+    ) -> Vec3 {
+        let scene = self.scene;
+        let cam = &self.camera;
+        let (channels, time) = self.channels_and_time(j, s);
+        let mut ctx = PathContext::new(Sampler::new(self.sampler, self.seed, j as u64, s, 0));
+        ctx.channels = channels;
+        let (x, y) = ((j % cam.width as usize) as f32, (j / cam.width as usize) as f32);
+        let offset = ctx.sampler.get_2d(Dim::Pixel);
+        let mut ray = cam.generate_ray(Vec2::new(x, y) + offset);
+        ray.time = time;
+        ctx.rays.primary += 1;
+        let cos = ray.dir.dot(cam.forward);
+        let camera_pdf_w = 1.0 / (self.pixel_area * cos * cos * cos);
+        let mut path = SubPath {
+            ctx,
+            beta: Vec3::ONE,
+            d_vcm: mis(self.paths as f32 / camera_pdf_w),
+            d_vc: 0.0,
+            d_vm: 0.0,
+            segments: 1,
+            specular_path: true,
+        };
+        let shadow = ShadowRays { mode: ShadowMode::Opaque, channels, time };
+        let only_merges = self.algorithm.merges() && !self.algorithm.connects();
+        let pick = 1.0 / self.lights.len().max(1) as f32;
+        let mut l = Vec3::ZERO;
+        let mut eta_scale = 1.0f32;
+        let mut absorption = Vec3::ZERO;
+        loop {
+            let Some(isect) = scene.intersect(&ray, f32::INFINITY) else {
+                if absorption == Vec3::ZERO {
+                    l += path.beta * path.ctx.channels.colour(scene.settings.background);
+                }
+                break;
+            };
+            let hit = isect.hit;
+            if absorption != Vec3::ZERO {
+                path.beta *= (-absorption * hit.t).exp();
+            }
+            let wo = -ray.dir;
+            path.arrive(hit.t, hit.n.dot(wo).abs());
+            if let Some(index) = scene.light_of(isect.primitive) {
+                let emitter = &scene.lights[index as usize];
+                let le = emitter.emitted(hit.n, wo);
+                if le != Vec3::ZERO {
+                    let weight = if path.segments == 1 {
+                        1.0
+                    } else if only_merges {
+                        if path.specular_path {
+                            1.0
+                        } else {
+                            0.0
+                        }
+                    } else {
+                        let (emit, direct) = emitter.emission_pdfs(ray.origin, hit.p, hit.n, wo);
+                        let w_camera = mis(pick * direct) * path.d_vcm + mis(pick * emit) * path.d_vc;
+                        1.0 / (1.0 + w_camera)
+                    };
+                    l += path.beta * path.ctx.channels.colour(le) * weight;
+                }
+            }
+            if path.segments >= self.max_segments {
+                break;
+            }
+            let material = scene.material_of(isect.primitive);
+            let bsdf = Scattering::at(material, hit.p, &path.ctx.channels);
+            path.beta *= path.ctx.end_secondaries_at(&material.bsdf, &bsdf);
+            let frame = Frame::from_normal(hit.n);
+            let wo_local = frame.to_local(wo);
+            let at = Vertex { hit: &hit, bsdf: &bsdf, frame: &frame, wo_local };
+            let mut merged = false;
+            if !bsdf.is_delta() {
+                if self.algorithm.connects() {
+                    if !self.lights.is_empty() {
+                        l += path.beta * self.next_event(&at, &mut path, k, shadow, pick);
+                    }
+                    let range = if j == 0 { 0 } else { light.ends[j - 1] as usize }..light.ends[j] as usize;
+                    for v in &light.vertices[range] {
+                        if v.segments + path.segments + 1 > self.max_segments {
+                            break;
+                        }
+                        l += path.beta * self.connect(&at, &mut path, v, k, shadow);
+                    }
+                }
+                if let Some(grid) = light.grid {
+                    l += path.beta * self.merge(&at, &path, k, light.vertices, grid);
+                    merged = true;
+                }
+            }
+            let Some(smp) = sample_bsdf(&bsdf, wo_local, TransportMode::Radiance, &mut path.ctx.sampler)
+            else {
+                break;
+            };
+            if smp.pdf <= 0.0 || smp.f == Vec3::ZERO {
+                break;
+            }
+            // Photon mapping merges once: only the specular chain (multiply scattered samples
+            // of rough glass included) goes on past a merge.
+            if merged && self.algorithm == Algorithm::Ppm && smp.is_evaluable() {
+                break;
+            }
+            let cos_out = smp.wi.z.abs();
+            let evaluable = smp.is_evaluable();
+            let rev = if evaluable { bsdf.pdf(smp.wi, wo_local) } else { 0.0 };
+            path.scatter(k, cos_out, smp.pdf, rev, evaluable);
+            path.beta *=
+                smp.f * (cos_out / smp.pdf) * path.ctx.secondaries_after(&material.bsdf, &smp, wo_local);
+            let wi = frame.to_world(smp.wi);
+            if let Some(c) = crossing(&material.bsdf, ray.dir, hit.n, path.ctx.channels.hero()) {
+                let medium = if smp.is_transmission { c.transmitted } else { c.incident };
+                absorption = path.ctx.channels.colour(medium.absorption);
+            }
+            if smp.is_transmission {
+                eta_scale *= smp.eta * smp.eta;
+                path.ctx.rays.refracted += 1;
+            } else {
+                path.ctx.rays.reflected += 1;
+            }
+            ray = ray.spawn(spawn_origin(&hit, wi), wi);
+            path.segments += 1;
+            if path.segments > ROULETTE_DEPTH + 1 {
+                let rr = (path.beta * eta_scale).max_element();
+                if rr < 1.0 {
+                    let q = (1.0 - rr).max(0.0);
+                    if path.ctx.sampler.get_1d(Dim::Other) < q {
+                        break;
+                    }
+                    path.beta /= 1.0 - q;
+                }
+            }
+        }
+        *rays += path.ctx.rays;
+        path.ctx.channels.to_rgb(l)
+    }
+
+    /// Next-event estimation at a camera vertex, weighted against every other strategy.
+    fn next_event(
+        &self,
+        at: &Vertex,
+        path: &mut SubPath,
+        k: &IterationConstants,
+        shadow: ShadowRays,
+        pick: f32,
+    ) -> Vec3 {
+        let index = self.lights[pick_light(self.lights.len(), &mut path.ctx.sampler)];
+        let u = path.ctx.sampler.get_2d(Dim::Light);
+        let light = &self.scene.lights[index];
+        let Some(ls) = light.sample_li(at.hit.p, u) else { return Vec3::ZERO };
+        let wi_local = at.frame.to_local(ls.wi);
+        let f = at.bsdf.eval(at.wo_local, wi_local, TransportMode::Radiance);
+        if f == Vec3::ZERO {
+            return Vec3::ZERO;
+        }
+        let cos_to_light = wi_local.z.abs();
+        let (direct_w, emit_w, cos_at_light) = if ls.delta {
+            (ls.distance * ls.distance, 1.0 / (4.0 * PI), 1.0)
+        } else {
+            let cos_at_light = ls.normal.dot(-ls.wi).abs();
+            if cos_at_light <= 0.0 {
+                // A grazing sample (a point of an emitter's own plane): its geometry term is 0.
+                return Vec3::ZERO;
+            }
+            (ls.pdf, light.emission_pdfs(at.hit.p, ls.position, ls.normal, -ls.wi).0, cos_at_light)
+        };
+        let dir_pdf = if ls.delta { 0.0 } else { at.bsdf.pdf(at.wo_local, wi_local) };
+        let rev_pdf = at.bsdf.pdf(wi_local, at.wo_local);
+        let w_light = mis(dir_pdf / (pick * direct_w));
+        let w_camera = mis(emit_w * cos_to_light / (direct_w * cos_at_light))
+            * (k.mis_vm + path.d_vcm + path.d_vc * mis(rev_pdf));
+        let weight = 1.0 / (w_light + 1.0 + w_camera);
+        let visible =
+            transmittance(self.scene, at.hit, ls.position, Some(index as u32), shadow, &mut path.ctx.rays);
+        if visible == Vec3::ZERO {
+            return Vec3::ZERO;
+        }
+        f * path.ctx.channels.colour(ls.radiance) * visible * (weight * cos_to_light / (pick * ls.pdf))
+    }
+
+    /// The connection of a camera vertex to light vertex `v`, weighted.
+    fn connect(
+        &self,
+        at: &Vertex,
+        path: &mut SubPath,
+        v: &LightVertex,
+        k: &IterationConstants,
+        shadow: ShadowRays,
+    ) -> Vec3 {
+        let d = v.p - at.hit.p;
+        let dist2 = d.length_squared();
+        if !(dist2 > 0.0 && dist2.is_finite()) {
+            return Vec3::ZERO;
+        }
+        let dir = d / dist2.sqrt();
+        let wi_local = at.frame.to_local(dir);
+        let f_camera = at.bsdf.eval(at.wo_local, wi_local, TransportMode::Radiance);
+        if f_camera == Vec3::ZERO {
+            return Vec3::ZERO;
+        }
+        let material = self.scene.material_of(v.primitive);
+        let light_bsdf = Scattering::at(material, v.p, &path.ctx.channels);
+        let light_frame = Frame::from_normal(v.n);
+        let light_wo = light_frame.to_local(v.wo);
+        let light_wi = light_frame.to_local(-dir);
+        let f_light = light_bsdf.eval(light_wo, light_wi, TransportMode::Importance);
+        if f_light == Vec3::ZERO {
+            return Vec3::ZERO;
+        }
+        let (cos_camera, cos_light) = (wi_local.z.abs(), light_wi.z.abs());
+        let camera_dir_a = at.bsdf.pdf(at.wo_local, wi_local) * cos_light / dist2;
+        let light_dir_a = light_bsdf.pdf(light_wo, light_wi) * cos_camera / dist2;
+        let camera_rev = at.bsdf.pdf(wi_local, at.wo_local);
+        let light_rev = light_bsdf.pdf(light_wi, light_wo);
+        let w_light = mis(camera_dir_a) * (k.mis_vm + v.d_vcm + v.d_vc * mis(light_rev));
+        let w_camera = mis(light_dir_a) * (k.mis_vm + path.d_vcm + path.d_vc * mis(camera_rev));
+        let weight = 1.0 / (w_light + 1.0 + w_camera);
+        let target = spawn_origin(&v.hit(), -dir);
+        let visible = transmittance(self.scene, at.hit, target, None, shadow, &mut path.ctx.rays);
+        if visible == Vec3::ZERO {
+            return Vec3::ZERO;
+        }
+        let g = cos_camera * cos_light / dist2;
+        f_camera * f_light * v.beta * visible * (weight * g * joined(path.ctx.hero_only, v.hero_only))
+    }
+
+    /// The merges of a camera vertex with the photons around it, weighted.
+    fn merge(
+        &self,
+        at: &Vertex,
+        path: &SubPath,
+        k: &IterationConstants,
+        vertices: &[LightVertex],
+        grid: &PhotonGrid,
+    ) -> Vec3 {
+        let mut sum = Vec3::ZERO;
+        let ppm = self.algorithm == Algorithm::Ppm;
+        grid.query(vertices, at.hit.p, k.radius, |i| {
+            let v = &vertices[i];
+            if v.segments + path.segments > self.max_segments {
+                return;
+            }
+            let wi_local = at.frame.to_local(v.wo);
+            let f = at.bsdf.eval(at.wo_local, wi_local, TransportMode::Radiance);
+            if f == Vec3::ZERO {
+                return;
+            }
+            let weight = if ppm {
+                1.0
+            } else {
+                let dir = at.bsdf.pdf(at.wo_local, wi_local);
+                let rev = at.bsdf.pdf(wi_local, at.wo_local);
+                let w_light = v.d_vcm * k.mis_vc + v.d_vm * mis(dir);
+                let w_camera = path.d_vcm * k.mis_vc + path.d_vm * mis(rev);
+                1.0 / (w_light + 1.0 + w_camera)
+            };
+            sum += f * v.beta * (weight * joined(path.ctx.hero_only, v.hero_only));
+        });
+        sum * k.vm_norm
+    }
+}
+
+/// A camera vertex being shaded.
+struct Vertex<'a> {
+    hit: &'a SurfaceHit,
+    bsdf: &'a Scattering,
+    frame: &'a Frame,
+    wo_local: Vec3,
+}
+
+/// The light sub-paths of an iteration.
+struct LightPaths<'a> {
+    vertices: &'a [LightVertex],
+    ends: &'a [u32],
+    grid: Option<&'a PhotonGrid>,
+}
