@@ -129,6 +129,13 @@ impl Bsdf {
             Bsdf::Mirror { roughness, .. } | Bsdf::Dielectric { roughness, .. } => *roughness,
         }
     }
+
+    /// Whether the surface scatters only into delta directions (a mirror or dielectric whose
+    /// roughness the BSDFs treat as smooth): no light can be connected to it.
+    pub fn is_specular(&self) -> bool {
+        !matches!(self, Bsdf::Diffuse(_))
+            && crate::bsdf::TrowbridgeReitz::from_roughness(self.roughness()).effectively_smooth()
+    }
 }
 
 /// A material: physical behaviour plus its empirical Phong terms.

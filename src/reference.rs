@@ -1,10 +1,14 @@
-//! High-sample reference renders for sweeps, cached on disk by scene content, settings and version.
+//! High-sample reference renders for sweeps, cached on disk by method, scene content, settings
+//! and version.
 //!
-//! A reference is a `path` render. It is stored in the cache folder as an EXR file named after
-//! its resolution, sample count and a digest of its key, with a JSON sidecar holding the whole
-//! key: the scene's content hash, the resolution, spp, seed, maximum depth, the other render
-//! settings that change the image (Fresnel override, spectral mode, sampler) and the crate
-//! version. A later request with the same key reads the file back instead of rendering; a key
+//! A reference is a `path` render, or a `vcm` render where path tracing is biased: where a point
+//! (delta) light meets a specular surface, path tracing misses the caustics (a point is reached
+//! only by shadow rays, which cannot bend through glass), while vertex connection and merging
+//! finds them ([`choose_method`]). It is stored in the cache folder as an EXR file named after
+//! its method, resolution, sample count and a digest of its key, with a JSON sidecar holding the
+//! whole key: the method, the scene's content hash, the resolution, spp, seed, maximum depth, the
+//! other render settings that change the image (Fresnel override, spectral mode, sampler, the
+//! merge radius and its α for a merging method) and the crate version. A later request with the same key reads the file back instead of rendering; a key
 //! that differs in anything, a missing or unreadable file, or one of another size is rendered
 //! anew and replaces it. Both files are written atomically, the EXR before its sidecar, so a
 //! reader never trusts a half-written reference. The content hash covers the scene file's text,
@@ -16,6 +20,8 @@
 //! than it is.
 
 use crate::image::Image;
+use crate::integrators::Integrator;
+use crate::light::Light;
 use crate::output::exr::{
     read_exr, read_variance, stage_exr, stage_exr_with_channels, variance_channels, ExrMetadata,
 };
@@ -47,7 +53,7 @@ pub struct Reference {
 /// Everything a cached reference depends on (the sidecar's contents).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct ReferenceKey {
-    /// The integrator (always `path`).
+    /// The integrator that renders it (`path` or `vcm`, or the one `--reference-method` names).
     pub integrator: String,
     /// Content hash of the scene text.
     pub scene_hash: String,
@@ -70,16 +76,24 @@ pub struct ReferenceKey {
     pub spectral: String,
     /// Sampler name.
     pub sampler: String,
+    /// The initial merge radius and its α, for a merging method (absent for the others, so
+    /// that the keys of `path` references stay as they were).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub merging: Option<[f32; 2]>,
     /// The crate version that rendered it.
     pub version: String,
 }
 
 impl ReferenceKey {
-    /// The key of the `path` reference of `scene` at `spp` with the options `opts`.
-    pub fn new(scene: &Scene, opts: &RenderOptions, spp: u32) -> ReferenceKey {
+    /// The key of the reference of `scene` by the method `method` at `spp` with the options `opts`.
+    pub fn new(scene: &Scene, method: &str, opts: &RenderOptions, spp: u32) -> ReferenceKey {
         let camera = camera_for(scene, opts.resolution);
+        let merging = crate::scene::desc::MERGING_METHODS.contains(&method).then(|| {
+            [crate::integrators::initial_radius(scene, &opts.params.merging), opts.params.merging.alpha]
+        });
         ReferenceKey {
-            integrator: "path".into(),
+            integrator: method.into(),
+            merging,
             scene_hash: scene.origin.hash.clone(),
             scene: Some(scene.origin.name.clone()),
             width: camera.width,
@@ -103,7 +117,14 @@ impl ReferenceKey {
     pub fn file_stem(&self) -> String {
         let identity = ReferenceKey { scene: None, ..self.clone() };
         let text = serde_json::to_string(&identity).expect("a key serialises");
-        format!("path-{}x{}-{}spp-{:016x}", self.width, self.height, self.spp, fnv1a(text.as_bytes()))
+        format!(
+            "{}-{}x{}-{}spp-{:016x}",
+            self.integrator,
+            self.width,
+            self.height,
+            self.spp,
+            fnv1a(text.as_bytes())
+        )
     }
 }
 
@@ -134,17 +155,56 @@ fn read_cached(exr: &Path, sidecar: &Path, key: &ReferenceKey) -> Option<(Image,
     ((image.width, image.height) == size && variance_fits).then_some((image, variance))
 }
 
-/// The `path` reference of `scene` at `spp` samples with the resolution, seed and depth of
+/// The method that renders a correct reference of a scene, and why.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct ReferenceChoice {
+    /// The integrator's name.
+    pub method: &'static str,
+    /// Why it is the right one for the scene, in a sentence.
+    pub why: String,
+}
+
+/// The reference method of `scene`: `vcm` where a point (delta) light meets a specular surface
+/// (a smooth mirror or dielectric), since `path` misses the caustics a point light casts through
+/// or off such a surface; `path` (unbiased, and the cheapest per sample) otherwise.
+pub fn choose_method(scene: &Scene) -> ReferenceChoice {
+    let point = scene.lights.iter().position(|l| matches!(l, Light::Point { .. }));
+    let specular =
+        (0..scene.primitives.len() as u32).map(|i| scene.material_of(i)).find(|m| m.bsdf.is_specular());
+    match (point, specular) {
+        (Some(light), Some(material)) => ReferenceChoice {
+            method: "vcm",
+            why: format!(
+                "point light {} meets the specular material `{}`: path tracing misses the caustics \
+                 (a point light is reached only by shadow rays, which cannot bend through glass or off \
+                 a mirror), vertex connection and merging finds them",
+                light + 1,
+                material.name
+            ),
+        },
+        (Some(_), None) => ReferenceChoice {
+            method: "path",
+            why: "no specular surface: path tracing is unbiased for the point light".into(),
+        },
+        (None, _) => ReferenceChoice {
+            method: "path",
+            why: "no point light: path tracing reaches every light and is unbiased".into(),
+        },
+    }
+}
+
+/// The reference of `scene` by `method` at `spp` samples with the resolution, seed and depth of
 /// `opts`, read from `cache_dir` when an identical one was made before, otherwise rendered and
 /// stored there.
-pub fn path_reference(
+pub fn render_reference(
     scene: &Scene,
+    method: &dyn Integrator,
     opts: &RenderOptions,
     spp: u32,
     cache_dir: &Path,
     progress: &(dyn Fn(u64, u64) + Sync),
 ) -> Result<Reference, OutputError> {
-    let key = ReferenceKey::new(scene, opts, spp);
+    let key = ReferenceKey::new(scene, method.name(), opts, spp);
     let stem = key.file_stem();
     let exr = cache_dir.join(format!("{stem}.exr"));
     let sidecar = cache_dir.join(format!("{stem}.json"));
@@ -153,13 +213,12 @@ pub fn path_reference(
     }
 
     std::fs::create_dir_all(cache_dir).map_err(|e| OutputError::io(cache_dir, e))?;
-    let path = crate::integrators::create("path").expect("`path` is registered");
     let opts =
         RenderOptions { budget: Budget::Samples(spp), seed: reference_seed(opts.seed), ..opts.clone() };
-    let out = crate::render::render(scene, path.as_ref(), &opts, progress);
+    let out = crate::render::render(scene, method, &opts, progress);
     let meta = ExrMetadata {
         version: crate::VERSION.to_string(),
-        integrator: "path".into(),
+        integrator: method.name().into(),
         spp: out.spp,
         seed: opts.seed,
         render_time_seconds: out.seconds,
@@ -206,6 +265,18 @@ material = "white"
 type = "environment"
 radiance = 1.0
 "#;
+
+    /// The `path` reference (as the sweeps make it for this scene).
+    fn path_reference(
+        scene: &Scene,
+        opts: &RenderOptions,
+        spp: u32,
+        dir: &Path,
+        progress: &(dyn Fn(u64, u64) + Sync),
+    ) -> Result<Reference, OutputError> {
+        let path = crate::integrators::create("path").unwrap();
+        render_reference(scene, path.as_ref(), opts, spp, dir, progress)
+    }
 
     fn bits(image: &Image) -> Vec<[u32; 3]> {
         image.pixels.iter().map(|p| p.to_array().map(f32::to_bits)).collect()
@@ -257,10 +328,52 @@ radiance = 1.0
     }
 
     #[test]
+    fn the_reference_method_follows_the_scene() {
+        // The thesis scene: a point light and smooth glass.
+        let cornell = crate::scene::load_default();
+        let choice = choose_method(&cornell);
+        assert_eq!(choice.method, "vcm");
+        assert!(choice.why.contains("`glass`"), "{}", choice.why);
+        // No point light (an environment): path.
+        assert_eq!(choose_method(&load_str(SCENE, "ball", None).unwrap()).method, "path");
+        // A point light over diffuse or rough surfaces only: path is unbiased.
+        let point = SCENE.replace(
+            "type = \"environment\"\nradiance = 1.0",
+            "type = \"point\"\nposition = [0.0, 3.0, 0.0]\nintensity = 5.0",
+        );
+        assert_eq!(choose_method(&load_str(&point, "ball", None).unwrap()).method, "path");
+        let glass = |roughness: f32| {
+            point.replace(
+                "type = \"diffuse\"\ncolor = 0.5",
+                &format!("type = \"dielectric\"\nior = 1.5\nroughness = {roughness}"),
+            )
+        };
+        assert_eq!(choose_method(&load_str(&glass(0.3), "ball", None).unwrap()).method, "path");
+        assert_eq!(choose_method(&load_str(&glass(0.0), "ball", None).unwrap()).method, "vcm");
+        // An unused glass material does not count.
+        let unused = format!("{point}[materials.spare]\ntype = \"dielectric\"\nior = 1.5\n");
+        assert_eq!(choose_method(&load_str(&unused, "ball", None).unwrap()).method, "path");
+    }
+
+    #[test]
+    fn the_method_and_its_merge_radius_are_part_of_the_key() {
+        let scene = load_str(SCENE, "ball", None).unwrap();
+        let mut opts = RenderOptions::from_scene(&scene, 1);
+        let path = ReferenceKey::new(&scene, "path", &opts, 64);
+        let vcm = ReferenceKey::new(&scene, "vcm", &opts, 64);
+        assert!(vcm.file_stem().starts_with("vcm-8x6-64spp-"), "{}", vcm.file_stem());
+        assert_ne!(path.file_stem()[5..], vcm.file_stem()[4..], "another digest too");
+        assert_eq!(path.merging, None);
+        opts.params.merging.radius = Some(0.5);
+        assert_ne!(ReferenceKey::new(&scene, "vcm", &opts, 64).file_stem(), vcm.file_stem());
+        assert_eq!(ReferenceKey::new(&scene, "path", &opts, 64).file_stem(), path.file_stem());
+    }
+
+    #[test]
     fn file_names_show_the_settings_and_differ_by_key() {
         let scene = load_str(SCENE, "ball", None).unwrap();
         let opts = RenderOptions::from_scene(&scene, 1);
-        let key = ReferenceKey::new(&scene, &opts, 64);
+        let key = ReferenceKey::new(&scene, "path", &opts, 64);
         assert!(key.file_stem().starts_with("path-8x6-64spp-"), "{}", key.file_stem());
         let other = ReferenceKey { seed: key.seed + 1, ..key.clone() };
         assert_ne!(key.file_stem(), other.file_stem());

@@ -222,9 +222,28 @@ fn without_a_reference_file_the_path_reference_is_cached() {
         assert!(output.status.success(), "{}", stderr(&output));
         stderr(&output)
     };
-    assert!(run("first").contains("rendered and cached"));
+    // The thesis scene has a point light and smooth glass: its reference is `vcm`, and the run
+    // says why.
+    let first = run("first");
+    assert!(first.contains("reference: vcm, 4 spp, rendered and cached"), "{first}");
+    assert!(first.contains("path tracing misses the caustics"), "{first}");
     assert_eq!(sandbox.files("cache").len(), 2, "the EXR and its key");
     assert!(run("second").contains("read from the cache"));
+    // `--reference-method` overrides the choice; the method is part of the cache key.
+    let mut named = args.to_vec();
+    named.extend(["--reference-method", "path", "--cache", "cache", "--out", "third"]);
+    let third = sandbox.vitrum(&named);
+    assert!(third.status.success(), "{}", stderr(&third));
+    assert!(stderr(&third).contains("reference: path, 4 spp, rendered and cached"), "{}", stderr(&third));
+    assert_eq!(sandbox.files("cache").len(), 4, "a second EXR and key");
+    for bad in ["nope", "ssaa"] {
+        let mut refused = args.to_vec();
+        refused.extend(["--reference-method", bad, "--cache", "cache", "--out", "refused"]);
+        let out = sandbox.vitrum(&refused);
+        assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
+        assert!(stderr(&out).contains(&format!("--reference-method {bad}")), "{}", stderr(&out));
+        assert!(!sandbox.path("refused").exists());
+    }
     for out in ["first", "second"] {
         assert_eq!(table_methods(&sandbox.path(out)), (vec!["whitted".into()], vec!["whitted".into()]));
     }

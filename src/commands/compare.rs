@@ -4,8 +4,10 @@
 //! pool: `--time T` gives each whole 1-sample passes until T seconds have passed (at least one
 //! pass), `--spp N` gives each N samples per pixel (`ssaa`, deterministic and adaptive, renders
 //! once whatever the budget and reports its mean samples per pixel). Each render is measured
-//! against a reference, either an EXR file (`--reference`) or a cached high-sample `path` render
-//! (`--reference-spp`, cached in `--cache`). The output folder receives `METHOD.exr` for every
+//! against a reference, either an EXR file (`--reference`) or a cached high-sample render
+//! (`--reference-spp`, cached in `--cache`) by the method right for the scene (`vcm` where a point
+//! light meets a specular surface, else `path`; [`crate::reference::choose_method`]) or by
+//! `--reference-method`. The output folder receives `METHOD.exr` for every
 //! method, `compare.png` (the figure, laid out as [`crate::figure::compose`] documents),
 //! `compare.csv` and `compare.md` (the table). Every input is checked before the first render, and
 //! the files are published together once all of them are encoded.
@@ -50,10 +52,14 @@ pub struct CompareArgs {
     /// Reference image (EXR) of the same size as the renders.
     #[arg(long, value_name = "REF.exr", conflicts_with_all = ["reference_spp", "cache"])]
     pub reference: Option<PathBuf>,
-    /// Samples per pixel of the `path` reference rendered (or read from the cache) when no
+    /// Samples per pixel of the reference rendered (or read from the cache) when no
     /// `--reference` is given (default 1024).
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..), allow_negative_numbers = true)]
     pub reference_spp: Option<u32>,
+    /// The method that renders the reference when no `--reference` is given (default: `vcm`
+    /// where a point light meets a specular surface, else `path`).
+    #[arg(long, value_name = "NAME", conflicts_with = "reference")]
+    pub reference_method: Option<String>,
     /// Folder of cached references (default `.vitrum-cache`).
     #[arg(long, value_name = "DIR")]
     pub cache: Option<PathBuf>,
@@ -92,8 +98,8 @@ enum ReferenceSource {
     /// Read from a file: the image, its variance (when it keeps one) and a description for the
     /// title and the table.
     File(Image, Option<Image>, String),
-    /// A `path` render of this many samples, cached in this folder.
-    Cached(u32, PathBuf),
+    /// A render by the sweep, cached.
+    Cached(super::CachedReference),
 }
 
 /// Everything `compare` will do, checked before the first render.
@@ -256,14 +262,12 @@ impl Plan {
                 };
                 ReferenceSource::File(image, variance, describe)
             }
-            None => {
-                let cache =
-                    args.cache.clone().unwrap_or_else(|| PathBuf::from(crate::reference::DEFAULT_CACHE_DIR));
-                if cache.exists() && !cache.is_dir() {
-                    return Err(bad(format!("--cache {}: is not a folder", cache.display())));
-                }
-                ReferenceSource::Cached(args.reference_spp.unwrap_or(DEFAULT_REFERENCE_SPP), cache)
-            }
+            None => ReferenceSource::Cached(super::CachedReference::plan(
+                &scene,
+                args.reference_method.as_deref(),
+                args.reference_spp.unwrap_or(DEFAULT_REFERENCE_SPP),
+                args.cache.clone(),
+            )?),
         };
         check_out_folder(&args.out)?;
         if let Some(reference) = &args.reference {
@@ -383,27 +387,22 @@ pub fn run(args: &CompareArgs) -> Result<(), CliError> {
         ReferenceSource::File(image, variance, text) => {
             (Reference { image: image.clone(), variance: variance.clone() }, text.clone())
         }
-        ReferenceSource::Cached(spp, cache) => {
-            let path = crate::integrators::create("path").expect("`path` is registered");
-            let opts = args.render.reference_options(&plan.scene, path.as_ref(), Budget::Samples(*spp));
-            let bar = bars.render("reference", Budget::Samples(*spp));
+        ReferenceSource::Cached(plan_ref) => {
+            let spp = plan_ref.spp;
+            let bar = bars.render("reference", Budget::Samples(spp));
             let progress = |done: u64, total: u64| {
                 bar.set_length(total);
                 bar.set_position(done);
             };
-            let r =
-                pool.install(|| crate::reference::path_reference(&plan.scene, &opts, *spp, cache, &progress));
+            let r = pool.install(|| plan_ref.get(&plan.scene, &args.render, &progress));
             bar.finish_and_clear();
             bars.overall.inc(1);
-            let r = r.map_err(failure)?;
+            let r = r?;
             if !args.quiet {
-                let how = if r.cached { "read from the cache" } else { "rendered and cached" };
-                eprintln!("reference: path, {} spp, {how}: {}", r.spp, r.path.display());
+                eprintln!("{}", plan_ref.describe(&r));
             }
-            (
-                Reference { image: r.image, variance: r.variance },
-                format!("path, {} spp ({})", r.spp, r.path.display()),
-            )
+            let text = format!("{}, {} spp ({})", plan_ref.method.name(), r.spp, r.path.display());
+            (Reference { image: r.image, variance: r.variance }, text)
         }
     };
 

@@ -4,7 +4,8 @@
 //! grows pass by pass and at every power of two of the sample count (and at the last count) the
 //! cumulative image is measured against the reference with the metrics of [`crate::metrics`],
 //! together with the cumulative render seconds and rays. The reference is a file (`--reference`)
-//! or the cached `path` render of [`crate::reference::path_reference`].
+//! or a cached high-sample render ([`crate::reference::render_reference`]) by the method right
+//! for the scene ([`crate::reference::choose_method`]) or by `--reference-method`.
 //!
 //! # Rates and plateaus
 //! Each checkpoint's MSE is split into its bias and variance parts ([`crate::metrics::split`],
@@ -37,7 +38,6 @@ use crate::integrators::Integrator;
 use crate::metrics::{self, split_csv, Metrics, MetricsError, Split};
 use crate::output::exr::{read_variance, stage_exr, ExrMetadata};
 use crate::output::{write_atomically, OutputError};
-use crate::reference::{path_reference, DEFAULT_CACHE_DIR};
 use crate::render::{self, Budget, Growth, RenderOutput};
 use crate::scene::Scene;
 use indicatif::{MultiProgress, ProgressBar, ProgressStyle};
@@ -65,12 +65,17 @@ pub struct ConvergeArgs {
     /// Integrators, comma-separated, or `all`.
     #[arg(short, long, default_value = "path,light")]
     pub integrators: String,
-    /// Reference image (EXR of the render's size); default: a `path` render, cached.
-    #[arg(long, conflicts_with_all = ["reference_spp", "cache"])]
+    /// Reference image (EXR of the render's size); default: a render by the reference method,
+    /// cached.
+    #[arg(long, conflicts_with_all = ["reference_spp", "cache", "reference_method"])]
     pub reference: Option<PathBuf>,
-    /// Samples per pixel of the cached `path` reference (default 1024).
+    /// Samples per pixel of the cached reference (default 1024).
     #[arg(long)]
     pub reference_spp: Option<u32>,
+    /// The method that renders the reference (default: `vcm` where a point light meets a
+    /// specular surface, else `path`).
+    #[arg(long, value_name = "NAME")]
+    pub reference_method: Option<String>,
     /// Folder of cached references (default `.vitrum-cache`).
     #[arg(long)]
     pub cache: Option<PathBuf>,
@@ -110,8 +115,8 @@ const PRECOMPUTED: &str = "precomputed renders read from files (--renders)";
 enum ReferenceSource {
     /// Read from a file: the image, its variance (if it keeps one) and its path.
     File(Image, Option<Image>, PathBuf),
-    /// A `path` render of this many samples, cached in this folder.
-    Cached(u32, PathBuf),
+    /// A render by the sweep, cached.
+    Cached(super::CachedReference),
 }
 
 /// Everything checked before rendering.
@@ -219,17 +224,12 @@ fn plan(args: &ConvergeArgs) -> Result<Plan, CliError> {
             }
             ReferenceSource::File(image, variance, path.clone())
         }
-        None => {
-            let spp = args.reference_spp.unwrap_or(DEFAULT_REFERENCE_SPP);
-            if spp == 0 {
-                return Err(bad("--reference-spp 0: at least one sample per pixel".into()));
-            }
-            let cache = args.cache.clone().unwrap_or_else(|| PathBuf::from(DEFAULT_CACHE_DIR));
-            if cache.exists() && !cache.is_dir() {
-                return Err(bad(format!("--cache {}: is not a folder", cache.display())));
-            }
-            ReferenceSource::Cached(spp, cache)
-        }
+        None => ReferenceSource::Cached(super::CachedReference::plan(
+            &scene,
+            args.reference_method.as_deref(),
+            args.reference_spp.unwrap_or(DEFAULT_REFERENCE_SPP),
+            args.cache.clone(),
+        )?),
     };
     if args.out.exists() && !args.out.is_dir() {
         return Err(bad(format!("--out {}: is not a folder", args.out.display())));
@@ -492,31 +492,28 @@ pub fn run(args: &ConvergeArgs) -> Result<(), CliError> {
             json!({"source": "file", "path": path, "variance": variance.is_some()}),
             format!("reference: {} ({}x{})", path.display(), image.width, image.height),
         ),
-        ReferenceSource::Cached(spp, cache) => {
-            let path = crate::integrators::create("path").expect("`path` is registered");
-            let opts = args.render.reference_options(scene, path.as_ref(), Budget::Samples(*spp));
+        ReferenceSource::Cached(plan_ref) => {
             let bar = bars.render("reference", "rows");
             let progress = |done: u64, total: u64| bars.update(&bar, 0, done, total);
-            let r = pool.install(|| path_reference(scene, &opts, *spp, cache, &progress));
+            let r = pool.install(|| plan_ref.get(scene, &args.render, &progress));
             bar.finish_and_clear();
-            let r = r.map_err(failure)?;
-            let how = if r.cached { "read from the cache" } else { "rendered and cached" };
-            (
-                Reference { image: r.image, variance: r.variance },
-                json!({"source": "path", "spp": r.spp, "path": r.path, "cached": r.cached, "variance": true}),
-                format!("reference: path, {} spp, {how}: {}", r.spp, r.path.display()),
-            )
+            let r = r?;
+            let json = json!({"source": plan_ref.method.name(), "why": plan_ref.why, "spp": r.spp,
+                              "path": r.path, "cached": r.cached, "variance": true});
+            let text = plan_ref.describe(&r);
+            (Reference { image: r.image, variance: r.variance }, json, text)
         }
     };
     if !args.quiet {
         bars.overall.suspend(|| eprintln!("{reference_text}"));
     }
-    if let (ReferenceSource::Cached(ref_spp, _), Budget::Samples(max)) = (&plan.reference, plan.budget) {
-        if *ref_spp < 16 * max {
+    if let (ReferenceSource::Cached(plan_ref), Budget::Samples(max)) = (&plan.reference, plan.budget) {
+        let ref_spp = plan_ref.spp;
+        if ref_spp < 16 * max {
             eprintln!(
                 "vitrum: warning: the reference ({ref_spp} spp) is less than 16 times the largest sample count \
                  ({max}): its own noise adds about {:.0}% to the error measured there",
-                100.0 * max as f64 / *ref_spp as f64
+                100.0 * max as f64 / ref_spp as f64
             );
         }
     }

@@ -79,6 +79,93 @@ impl SweepArgs {
     }
 }
 
+/// A reference the sweep renders itself (or reads from its cache): the method, why it is the
+/// one, its samples per pixel and the cache folder.
+pub struct CachedReference {
+    /// The method that renders it.
+    pub method: Box<dyn Integrator>,
+    /// Why that method: chosen for the scene ([`crate::reference::choose_method`]) or named.
+    pub why: String,
+    /// Samples per pixel.
+    pub spp: u32,
+    /// The cache folder.
+    pub cache: PathBuf,
+}
+
+impl CachedReference {
+    /// The reference of `scene` by `method` (`--reference-method`, else the scene's choice) at
+    /// `spp` samples, cached in `cache` (default `.vitrum-cache`).
+    pub fn plan(
+        scene: &Scene,
+        method: Option<&str>,
+        spp: u32,
+        cache: Option<PathBuf>,
+    ) -> Result<CachedReference, CliError> {
+        let bad = |m: String| CliError::BadInput(m);
+        if spp == 0 {
+            return Err(bad("--reference-spp 0: at least one sample per pixel".into()));
+        }
+        let cache = cache.unwrap_or_else(|| PathBuf::from(crate::reference::DEFAULT_CACHE_DIR));
+        if cache.exists() && !cache.is_dir() {
+            return Err(bad(format!("--cache {}: is not a folder", cache.display())));
+        }
+        let (method, why) = match method {
+            Some(name) => {
+                let method = integrators::create(name).ok_or_else(|| {
+                    bad(format!(
+                        "--reference-method {name}: unknown integrator; known: {}",
+                        integrators::names().join(", ")
+                    ))
+                })?;
+                (method, "named by --reference-method".to_string())
+            }
+            None => {
+                let choice = crate::reference::choose_method(scene);
+                (integrators::create(choice.method).expect("a registered method"), choice.why)
+            }
+        };
+        if let crate::render::Progression::Fixed(why) = method.progression() {
+            let name = method.name();
+            return Err(bad(format!(
+                "--reference-method {name}: its samples are not a sample count ({why})"
+            )));
+        }
+        Ok(CachedReference { method, why, spp, cache })
+    }
+
+    /// Render it (or read it from the cache) with the sweep's options `sweep`, reporting
+    /// `progress`.
+    pub fn get(
+        &self,
+        scene: &Scene,
+        sweep: &SweepArgs,
+        progress: &(dyn Fn(u64, u64) + Sync),
+    ) -> Result<crate::reference::Reference, CliError> {
+        let opts = sweep.reference_options(scene, self.method.as_ref(), Budget::Samples(self.spp));
+        crate::reference::render_reference(
+            scene,
+            self.method.as_ref(),
+            &opts,
+            self.spp,
+            &self.cache,
+            progress,
+        )
+        .map_err(|e| CliError::Failure(e.to_string()))
+    }
+
+    /// The line that says where the reference `r` came from and why its method.
+    pub fn describe(&self, r: &crate::reference::Reference) -> String {
+        let how = if r.cached { "read from the cache" } else { "rendered and cached" };
+        format!(
+            "reference: {}, {} spp, {how}: {} ({})",
+            self.method.name(),
+            r.spp,
+            r.path.display(),
+            self.why
+        )
+    }
+}
+
 /// The integrators named in a comma-separated list, or every one for `all`.
 pub fn parse_integrators(list: &str) -> Result<Vec<Box<dyn Integrator>>, CliError> {
     if list.trim() == "all" {
