@@ -132,14 +132,26 @@ fn bpt_and_vcm_match_path_where_path_is_unbiased() {
     // soft-shadows has an area light: `path` is unbiased there, and so must `bpt` and `vcm` be.
     // The 8×8 block means of each agree with a `path` render in their standard errors: χ² over
     // the 16 blocks below its 99.99% quantile (about 42), so a real bias of a few percent fails.
-    let scene = load(std::path::Path::new("scenes/soft-shadows.toml")).unwrap();
-    let reference = render_with_variance(&scene, "path", 32, 1024, 71);
-    for method in ["bpt", "vcm"] {
-        let render = render_with_variance(&scene, method, 32, 256, 5);
-        let (chi2, blocks) = block_chi2(&render, &reference);
-        println!("{method}: χ² {chi2:.1} over {blocks} blocks");
-        assert_eq!(blocks, 16);
-        assert!(chi2 < 42.0, "{method}: block χ² {chi2} over {blocks} blocks against path");
+    // hollow-spheres (glass shells with swapped indices inside) with its point light replaced by
+    // a quad light of the same power (6 W/sr ≈ π·0.36·L / π, so L = 6/0.36).
+    let hollow = std::fs::read_to_string("scenes/hollow-spheres.toml").unwrap().replace(
+        "type = \"point\"\nposition = [0.0, 1.9, 0.0]\nintensity = 6.0",
+        "type = \"quad\"\ncorner = [-0.3, 1.98, -0.3]\nu = [0.6, 0.0, 0.0]\nv = [0.0, 0.0, 0.6]\nradiance = 16.67",
+    );
+    assert!(hollow.contains("type = \"quad\""), "the point light of hollow-spheres.toml moved");
+    let scenes = [
+        ("soft-shadows", load(std::path::Path::new("scenes/soft-shadows.toml")).unwrap()),
+        ("hollow-spheres with a quad light", load_str(&hollow, "hollow-quad.toml", None).unwrap()),
+    ];
+    for (name, scene) in &scenes {
+        let reference = render_with_variance(scene, "path", 32, 1024, 71);
+        for method in ["bpt", "vcm"] {
+            let render = render_with_variance(scene, method, 32, 256, 5);
+            let (chi2, blocks) = block_chi2(&render, &reference);
+            println!("{name}, {method}: χ² {chi2:.1} over {blocks} blocks");
+            assert_eq!(blocks, 16);
+            assert!(chi2 < 42.0, "{name}, {method}: block χ² {chi2} over {blocks} blocks against path");
+        }
     }
 }
 
