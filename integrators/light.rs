@@ -89,7 +89,7 @@
 
 use super::{pick_light, sample_bsdf, Integrator, PathContext, RenderParams, DEFAULT_PATH_DEPTH};
 use crate::bsdf::{Frame, Scattering, TransportMode};
-use crate::camera::{concentric_disk, Camera};
+use crate::camera::Camera;
 use crate::geometry::{spawn_origin, Ray, SurfaceHit};
 use crate::light::Light;
 use crate::lighting::{crossing, transmittance, ShadowMode, ShadowRays};
@@ -442,12 +442,7 @@ impl Tracer<'_> {
         value: impl FnOnce(Vec3) -> Vec3,
     ) {
         let cam = &self.camera;
-        let lens = if self.dims.lens {
-            let d = concentric_disk(ctx.sampler.get_2d(Dim::Lens)) * cam.aperture;
-            cam.position + cam.right * d.x + cam.up * d.y
-        } else {
-            cam.position
-        };
+        let lens = if self.dims.lens { cam.lens_point(ctx.sampler.get_2d(Dim::Lens)) } else { cam.position };
         let Some(c) = cam.connection(hit.p, lens) else { return };
         let (dir, dist2, cos_cam) = (c.dir, c.dist2, c.cos);
         let v = value(-dir);

@@ -49,10 +49,16 @@
 //! (dispersive refraction) carries the hero alone; a full path both of whose halves did so counts
 //! the factor 3 once.
 //!
+//! # Thin lens
+//! A camera path leaves a sampled lens point; a light vertex connects to a uniform point of the
+//! lens. The camera samples a lens point with the same density (one over the lens area) and,
+//! from it, a direction with the pinhole's density `1/(A·cos³θ)` (the focal plane is parallel to
+//! the film), so the lens area cancels and every weight has the pinhole's form.
+//!
 //! # What the engine does not do yet
-//! The camera is a pinhole (depth of field is ignored); the environment is reached only by
-//! camera paths that escape (never sampled as a light), which keeps `bpt`, `bpm` and `vcm`
-//! unbiased for it and leaves it out of `ppm` beyond specular chains.
+//! The environment is reached only by camera paths that escape (never sampled as a light),
+//! which keeps `bpt`, `bpm` and `vcm` unbiased for it and leaves it out of `ppm` beyond
+//! specular chains.
 
 use super::{pick_light, sample_bsdf, Integrator, PathContext, RenderParams, DEFAULT_PATH_DEPTH};
 use crate::bsdf::{Frame, Scattering, TransportMode};
@@ -72,6 +78,9 @@ use glam::{DVec3, Vec2, Vec3};
 use rayon::prelude::*;
 use std::f32::consts::PI;
 use std::ops::Range;
+
+mod mis;
+use mis::{mis, Mis};
 
 /// Light paths per chunk of work (the unit of determinism).
 const CHUNK_PATHS: usize = 1 << 12;
@@ -157,7 +166,6 @@ impl Integrator for VertexMerging {
 
     fn support(&self, effect: Effect) -> Support {
         match effect {
-            Effect::DepthOfField => Support::Ignores("the engine's camera is a pinhole"),
             Effect::Environment if self.0 == Algorithm::Ppm => Support::Ignores(
                 "photons do not start on the environment; only specular camera chains see it",
             ),
@@ -228,12 +236,6 @@ pub fn iteration_radius(r0: f32, alpha: f32, s: u32) -> f32 {
     (r0 * ((s as f64 + 1.0).powf(0.5 * (alpha as f64 - 1.0))) as f32).max(1e-7)
 }
 
-/// The power heuristic's term for a density (or ratio of densities).
-#[inline]
-fn mis(x: f32) -> f32 {
-    x * x
-}
-
 /// A light sub-path vertex on a non-delta surface: a photon and a connection end.
 #[derive(Clone, Copy, Debug)]
 struct LightVertex {
@@ -244,9 +246,8 @@ struct LightVertex {
     wo: Vec3,
     /// Path weight from the light to this vertex (emission included).
     beta: Vec3,
-    d_vcm: f32,
-    d_vc: f32,
-    d_vm: f32,
+    /// The light sub-path's MIS quantities here.
+    mis: Mis,
     /// Segments from the light to this vertex.
     segments: u32,
     primitive: u32,
@@ -363,9 +364,7 @@ struct IterationConstants {
 struct SubPath {
     ctx: PathContext,
     beta: Vec3,
-    d_vcm: f32,
-    d_vc: f32,
-    d_vm: f32,
+    mis: Mis,
     segments: u32,
     specular_path: bool,
 }
@@ -373,27 +372,14 @@ struct SubPath {
 impl SubPath {
     /// The MIS update on reaching a surface at distance `t` with |cos| `cos` there.
     fn arrive(&mut self, t: f32, cos: f32) {
-        self.d_vcm *= mis(t * t);
-        let inv = 1.0 / mis(cos);
-        self.d_vcm *= inv;
-        self.d_vc *= inv;
-        self.d_vm *= inv;
+        self.mis.arrive(t, cos);
     }
 
     /// The MIS update on scattering into `wi` with forward density `pdf` and reverse density
     /// `rev` (both ignored for specular and multiply scattered samples).
     fn scatter(&mut self, k: &IterationConstants, cos_out: f32, pdf: f32, rev: f32, evaluable: bool) {
-        if evaluable {
-            let g = mis(cos_out / pdf);
-            self.d_vc = g * (self.d_vc * mis(rev) + self.d_vcm + k.mis_vm);
-            self.d_vm = g * (self.d_vm * mis(rev) + self.d_vcm * k.mis_vc + 1.0);
-            self.d_vcm = mis(1.0 / pdf);
-            self.specular_path = false;
-        } else {
-            self.d_vcm = 0.0;
-            self.d_vc *= mis(cos_out);
-            self.d_vm *= mis(cos_out);
-        }
+        self.mis.scatter(k, cos_out, pdf, rev, evaluable);
+        self.specular_path &= !evaluable;
     }
 }
 
@@ -561,13 +547,10 @@ impl<'a> Engine<'a> {
         let u_point = ctx.sampler.get_2d(Dim::Light);
         let u_dir = ctx.sampler.get_2d(Dim::Light);
         let Some(e) = light.emit(1.0 / n as f32, side, u_point, u_dir) else { return };
-        let d_vc = if e.delta { 0.0 } else { mis(e.cos_light / e.pdf_emit) };
         let mut path = SubPath {
             beta: ctx.channels.colour(e.beta),
             ctx,
-            d_vcm: mis(e.pdf_direct / e.pdf_emit),
-            d_vc,
-            d_vm: d_vc * k.mis_vc,
+            mis: Mis::light(k, e.pdf_emit, e.pdf_direct, e.cos_light, e.delta),
             segments: 1,
             specular_path: true,
         };
@@ -597,9 +580,7 @@ impl<'a> Engine<'a> {
                     p_error: hit.p_error,
                     wo: -ray.dir,
                     beta: path.beta,
-                    d_vcm: path.d_vcm,
-                    d_vc: path.d_vc,
-                    d_vm: path.d_vm,
+                    mis: path.mis,
                     segments: path.segments,
                     primitive: isect.primitive,
                     hero_only: path.ctx.hero_only,
@@ -667,7 +648,11 @@ impl<'a> Engine<'a> {
         out: &mut LightChunk,
     ) {
         let cam = &self.camera;
-        let Some(c) = cam.connection(hit.p, cam.position) else { return };
+        // A thin lens: a uniform point of the lens, which the camera samples with the same
+        // density, so the lens area cancels and the weights are the pinhole's.
+        let lens =
+            if self.dims.lens { cam.lens_point(path.ctx.sampler.get_2d(Dim::Lens)) } else { cam.position };
+        let Some(c) = cam.connection(hit.p, lens) else { return };
         let wc_local = frame.to_local(-c.dir);
         let f = bsdf.eval(wo_local, wc_local, TransportMode::Importance);
         if f == Vec3::ZERO {
@@ -678,9 +663,8 @@ impl<'a> Engine<'a> {
         // Density of this point per unit area as the camera samples it (one sample per pixel).
         let camera_pdf_a = cos_v / (self.pixel_area * c.dist2 * cos3);
         let rev = bsdf.pdf(wc_local, wo_local);
-        let w_light = mis(camera_pdf_a / self.paths as f32) * (k.mis_vm + path.d_vcm + path.d_vc * mis(rev));
-        let weight = 1.0 / (1.0 + w_light);
-        let visible = transmittance(self.scene, hit, cam.position, None, shadow, &mut path.ctx.rays);
+        let weight = mis::camera_splat(&path.mis, k, camera_pdf_a / self.paths as f32, rev);
+        let visible = transmittance(self.scene, hit, lens, None, shadow, &mut path.ctx.rays);
         if visible == Vec3::ZERO {
             return;
         }
@@ -707,17 +691,15 @@ impl<'a> Engine<'a> {
         ctx.channels = channels;
         let (x, y) = ((j % cam.width as usize) as f32, (j / cam.width as usize) as f32);
         let offset = ctx.sampler.get_2d(Dim::Pixel);
-        let mut ray = cam.generate_ray(Vec2::new(x, y) + offset);
-        ray.time = time;
+        let lens = if self.dims.lens { ctx.sampler.get_2d(Dim::Lens) } else { Vec2::ZERO };
+        let mut ray = cam.generate_ray_lens(Vec2::new(x, y) + offset, lens, time);
         ctx.rays.primary += 1;
         let cos = ray.dir.dot(cam.forward);
         let camera_pdf_w = 1.0 / (self.pixel_area * cos * cos * cos);
         let mut path = SubPath {
             ctx,
             beta: Vec3::ONE,
-            d_vcm: mis(self.paths as f32 / camera_pdf_w),
-            d_vc: 0.0,
-            d_vm: 0.0,
+            mis: Mis::camera(self.paths as f32, camera_pdf_w),
             segments: 1,
             specular_path: true,
         };
@@ -754,8 +736,7 @@ impl<'a> Engine<'a> {
                         }
                     } else {
                         let (emit, direct) = emitter.emission_pdfs(ray.origin, hit.p, hit.n, wo);
-                        let w_camera = mis(pick * direct) * path.d_vcm + mis(pick * emit) * path.d_vc;
-                        1.0 / (1.0 + w_camera)
+                        mis::emitter_hit(&path.mis, pick * direct, pick * emit)
                     };
                     l += path.beta * path.ctx.channels.colour(le) * weight;
                 }
@@ -865,10 +846,8 @@ impl<'a> Engine<'a> {
         };
         let dir_pdf = if ls.delta { 0.0 } else { at.bsdf.pdf(at.wo_local, wi_local) };
         let rev_pdf = at.bsdf.pdf(wi_local, at.wo_local);
-        let w_light = mis(dir_pdf / (pick * direct_w));
-        let w_camera = mis(emit_w * cos_to_light / (direct_w * cos_at_light))
-            * (k.mis_vm + path.d_vcm + path.d_vc * mis(rev_pdf));
-        let weight = 1.0 / (w_light + 1.0 + w_camera);
+        let emit_ratio = emit_w * cos_to_light / (direct_w * cos_at_light);
+        let weight = mis::next_event(&path.mis, k, dir_pdf, rev_pdf, pick * direct_w, emit_ratio);
         let visible =
             transmittance(self.scene, at.hit, ls.position, Some(index as u32), shadow, &mut path.ctx.rays);
         if visible == Vec3::ZERO {
@@ -911,9 +890,7 @@ impl<'a> Engine<'a> {
         let light_dir_a = light_bsdf.pdf(light_wo, light_wi) * cos_camera / dist2;
         let camera_rev = at.bsdf.pdf(wi_local, at.wo_local);
         let light_rev = light_bsdf.pdf(light_wi, light_wo);
-        let w_light = mis(camera_dir_a) * (k.mis_vm + v.d_vcm + v.d_vc * mis(light_rev));
-        let w_camera = mis(light_dir_a) * (k.mis_vm + path.d_vcm + path.d_vc * mis(camera_rev));
-        let weight = 1.0 / (w_light + 1.0 + w_camera);
+        let weight = mis::connection(&path.mis, &v.mis, k, camera_dir_a, light_dir_a, camera_rev, light_rev);
         let target = spawn_origin(&v.hit(), -dir);
         let visible = transmittance(self.scene, at.hit, target, None, shadow, &mut path.ctx.rays);
         if visible == Vec3::ZERO {
@@ -949,9 +926,7 @@ impl<'a> Engine<'a> {
             } else {
                 let dir = at.bsdf.pdf(at.wo_local, wi_local);
                 let rev = at.bsdf.pdf(wi_local, at.wo_local);
-                let w_light = v.d_vcm * k.mis_vc + v.d_vm * mis(dir);
-                let w_camera = path.d_vcm * k.mis_vc + path.d_vm * mis(rev);
-                1.0 / (w_light + 1.0 + w_camera)
+                mis::merge(&path.mis, &v.mis, k, dir, rev)
             };
             sum += f * v.beta * (weight * joined(path.ctx.hero_only, v.hero_only));
         });

@@ -88,6 +88,16 @@ impl Camera {
         self.aperture > 0.0
     }
 
+    /// The point of the lens disk for the lens sample `u` in [0,1)² (concentric mapping), where
+    /// a connection to the camera ends; the camera's position for a pinhole.
+    pub fn lens_point(&self, u: Vec2) -> Vec3 {
+        if !self.has_lens() {
+            return self.position;
+        }
+        let d = concentric_disk(u) * self.aperture;
+        self.position + self.right * d.x + self.up * d.y
+    }
+
     /// The ray through film position `film` (pixel units) from lens sample `lens` in [0,1)²
     /// (ignored for a pinhole) at time `time`. Thin lens: the ray leaves a point of the lens disk
     /// (concentric mapping) towards the point of the focal plane the pinhole ray would reach.

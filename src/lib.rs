@@ -28,7 +28,7 @@ pub mod scene;
 pub mod spectrum;
 pub mod stats;
 
-// The integrators live in the top-level `integrators/` folder, one file per method (DESIGN.md).
+// The integrators live in the top-level `integrators/` folder, one file per method (docs/architecture.md).
 #[path = "../integrators/mod.rs"]
 pub mod integrators;
 

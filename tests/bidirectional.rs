@@ -139,9 +139,16 @@ fn bpt_and_vcm_match_path_where_path_is_unbiased() {
         "type = \"quad\"\ncorner = [-0.3, 1.98, -0.3]\nu = [0.6, 0.0, 0.0]\nv = [0.0, 0.0, 0.6]\nradiance = 16.67",
     );
     assert!(hollow.contains("type = \"quad\""), "the point light of hollow-spheres.toml moved");
+    // depth-of-field (a thin lens) likewise: the light connects to sampled lens points.
+    let lens = std::fs::read_to_string("scenes/depth-of-field.toml").unwrap().replace(
+        "type = \"point\"\nposition = [0.0, 1.8, 0.0]\nintensity = 5.0",
+        "type = \"quad\"\ncorner = [-0.3, 1.98, -0.3]\nu = [0.6, 0.0, 0.0]\nv = [0.0, 0.0, 0.6]\nradiance = 13.9",
+    );
+    assert!(lens.contains("type = \"quad\""), "the point light of depth-of-field.toml moved");
     let scenes = [
         ("soft-shadows", load(std::path::Path::new("scenes/soft-shadows.toml")).unwrap()),
         ("hollow-spheres with a quad light", load_str(&hollow, "hollow-quad.toml", None).unwrap()),
+        ("depth-of-field with a quad light", load_str(&lens, "lens-quad.toml", None).unwrap()),
     ];
     for (name, scene) in &scenes {
         let reference = render_with_variance(scene, "path", 32, 1024, 71);

@@ -73,7 +73,7 @@ pub fn parse_rays(text: &str) -> Option<RayCounts> {
     Some(rays)
 }
 
-/// The custom header attributes for `meta` (see DESIGN.md, "EXR files").
+/// The custom header attributes for `meta` (see docs/architecture.md, "Contracts").
 fn metadata_attributes(
     path: &Path,
     meta: &ExrMetadata,
