@@ -12,8 +12,8 @@
 //! `compare.csv` and `compare.md` (the table). Every input is checked before the first render, and
 //! the files are published together once all of them are encoded.
 
-use crate::cli::{load_scene, CliError};
 use crate::commands::diff::{read_judged, Judged};
+use crate::commands::support::{load_scene, CliError};
 use crate::commands::{parse_crop, parse_integrators, CropArg, SweepArgs};
 use crate::figure::canvas::Canvas;
 use crate::figure::compose::{self, format_number, format_seconds, format_spp, Panel};
@@ -421,7 +421,7 @@ pub fn run(args: &CompareArgs) -> Result<(), CliError> {
             continue;
         }
         let opts = args.render.options(&plan.scene, method.as_ref(), plan.budget);
-        crate::cli::check_effects(&plan.scene, method.as_ref(), &opts, false)?;
+        crate::commands::support::check_effects(&plan.scene, method.as_ref(), &opts, false)?;
         let bar = bars.render(method.name(), plan.budget);
         let start = Instant::now();
         let progress = |done: u64, total: u64| match plan.budget {

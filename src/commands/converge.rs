@@ -29,8 +29,8 @@
 //! scene's sampler, and then the seconds of a row are those of its own render. `ssaa` renders one fixed pattern: one row.
 
 use super::SweepArgs;
-use crate::cli::{load_scene, CliError};
 use crate::commands::diff::{read_judged, Judged};
+use crate::commands::support::{load_scene, CliError};
 use crate::figure::compose::format_number;
 use crate::figure::plot::{fit_slope, write_loglog, LogLogPlot, Series};
 use crate::image::Image;
@@ -444,7 +444,7 @@ fn render_rows(
     let scene = &plan.scene;
     let cached = matches!(plan.reference, ReferenceSource::Cached(..));
     let opts = args.render.options(scene, method, plan.budget);
-    crate::cli::check_effects(scene, method, &opts, false)?;
+    crate::commands::support::check_effects(scene, method, &opts, false)?;
     let unit = match plan.budget {
         Budget::Samples(_) => "samples",
         Budget::Time(_) => "time",

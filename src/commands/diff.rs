@@ -12,7 +12,7 @@
 //! and the pixels above its scale are counted. Unreadable images, different sizes and a crop
 //! outside the images are bad input (exit 2); nothing is written then.
 
-use crate::cli::{check_output_path, CliError};
+use crate::commands::support::{check_output_path, CliError};
 use crate::figure::colormap::{above_scale, error_map, log_range, power_of_ten_label};
 use crate::figure::compose::format_number;
 use crate::image::Image;

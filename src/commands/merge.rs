@@ -3,7 +3,7 @@
 //! refusing parts of different renders and parts that leave gaps in the render's samples (unless
 //! `--allow-gaps`: then the output holds, and says, only the samples the parts hold).
 
-use crate::cli::{check_output_path, CliError};
+use crate::commands::support::{check_output_path, CliError};
 use crate::output::exr::{variance_channels, ExrMetadata};
 use crate::output::film::{read_part, stage_part};
 use crate::output::png::stage_png;

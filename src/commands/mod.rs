@@ -1,15 +1,19 @@
-//! The research commands beyond `render`: `diff` (error metrics), `converge` (error against samples
-//! and seconds), `compare` (equal-time figures and tables) and `merge` (render parts into one
-//! image), and `render`'s parts (shards, checkpoints, resume). Each lives in its own module with
-//! its clap arguments and a `run` function; [`crate::cli`] dispatches to them.
+//! Every command: `render` (and its parts: shards, checkpoints, resume), `info`, `export`, and the
+//! research commands `diff` (error metrics), `converge` (error against samples and seconds),
+//! `compare` (equal-time figures and tables) and `merge` (render parts into one image). Each
+//! lives in its own module with its clap arguments and a `run` function; [`crate::cli`]
+//! dispatches to them, and what they share is in [`support`]. Nothing here imports the CLI.
 
 pub mod compare;
 pub mod converge;
 pub mod diff;
+pub mod export;
+pub mod info;
 pub mod merge;
 pub mod parts;
+pub mod render;
+pub mod support;
 
-use crate::cli::{integrator_named, CliError};
 use crate::integrators::{self, Integrator, RenderParams};
 use crate::output::exr::parse_rays;
 use crate::output::film::read_render;
@@ -17,12 +21,13 @@ use crate::render::{Budget, RenderOptions, RenderOutput};
 use crate::scene::compile::{MAX_DEPTH, MAX_PIXELS};
 use crate::scene::Scene;
 use std::path::PathBuf;
+use support::{integrator_named, CliError};
 
 /// Render options shared by the sweeps (`converge`, `compare`); the scene file gives the rest.
 #[derive(clap::Args, Debug, Clone, Default)]
 pub struct SweepArgs {
     /// Image size, e.g. 400x300 (default from the scene file).
-    #[arg(long, value_parser = crate::cli::parse_resolution)]
+    #[arg(long, value_parser = support::parse_resolution)]
     pub resolution: Option<(u32, u32)>,
     /// Seed of the random streams (default from the scene file).
     #[arg(long)]
@@ -75,7 +80,7 @@ impl SweepArgs {
 
     /// A worker pool with the requested number of threads.
     pub fn pool(&self) -> Result<rayon::ThreadPool, CliError> {
-        crate::cli::thread_pool(self.threads)
+        support::thread_pool(self.threads)
     }
 }
 

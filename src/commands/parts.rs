@@ -3,7 +3,8 @@
 //! with the film layer of [`crate::output::film`], which `--resume` continues and
 //! `vitrum merge` combines.
 
-use crate::cli::{CliError, RenderArgs};
+use crate::commands::render::RenderArgs;
+use crate::commands::support::CliError;
 use crate::integrators::Integrator;
 use crate::output::exr::ExrMetadata;
 use crate::output::film::{read_part, stage_part, PartFile};
@@ -52,8 +53,10 @@ pub fn resume_defaults(args: &RenderArgs, file: &PartFile) -> Result<RenderArgs,
         a.seed = Some(field("seed")?.parse().map_err(|_| bad("seed"))?);
     }
     if a.resolution.is_none() {
-        a.resolution =
-            Some(crate::cli::parse_resolution(field("resolution")?).map_err(|_| bad("resolution"))?);
+        a.resolution = Some(
+            crate::commands::support::parse_resolution(field("resolution")?)
+                .map_err(|_| bad("resolution"))?,
+        );
     }
     a.sampler.get_or_insert(field("sampler")?.to_string());
     if a.max_depth.is_none() {

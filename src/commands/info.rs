@@ -1,0 +1,134 @@
+//! `vitrum info`: a scene's render settings, objects, materials, lights, BVH and effects, as
+//! text or JSON.
+
+use crate::commands::support::{load_scene, CliError};
+use crate::integrators;
+use crate::scene::effects::Support;
+use serde_json::json;
+use std::path::PathBuf;
+
+/// Options of `vitrum info`.
+#[derive(clap::Args, Debug)]
+pub struct InfoArgs {
+    /// Scene file (TOML); the embedded default scene when omitted.
+    pub scene: Option<PathBuf>,
+    /// Print as one JSON object.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// Runs `vitrum info`.
+pub fn run(args: &InfoArgs) -> Result<(), CliError> {
+    let scene = load_scene(args.scene.as_deref())?;
+    let all = integrators::all();
+    let support_text = |s: Support| match s {
+        Support::Simulates => "simulates".to_string(),
+        Support::Approximates(how) => format!("approximates: {how}"),
+        Support::Ignores(how) => format!("ignores: {how}"),
+    };
+    let b = &scene.bvh_stats;
+    if args.json {
+        let effects: Vec<_> = scene
+            .effects
+            .0
+            .iter()
+            .map(|u| {
+                let support: serde_json::Map<String, serde_json::Value> = all
+                    .iter()
+                    .map(|i| (i.name().to_string(), json!(support_text(i.support(u.effect)))))
+                    .collect();
+                json!({"effect": u.effect.name(), "reason": u.reason, "integrators": support})
+            })
+            .collect();
+        let depths: serde_json::Map<String, serde_json::Value> = all
+            .iter()
+            .map(|i| {
+                let from = if scene.settings.max_depths.contains_key(i.name()) { "scene" } else { "default" };
+                let mut entry =
+                    json!({"max_depth": scene.settings.max_depth(i.as_ref(), None), "from": from});
+                if let Some(m) = scene.settings.merging.get(i.name()) {
+                    entry["radius"] = json!(integrators::initial_radius(&scene, m));
+                    entry["radius_from"] = json!(if m.radius.is_some() { "scene" } else { "default" });
+                    entry["radius_alpha"] = json!(m.alpha);
+                }
+                (i.name().to_string(), entry)
+            })
+            .collect();
+        let settings = &scene.settings;
+        let summary = json!({
+            "scene": scene.origin.name,
+            "render": {"integrator": settings.integrator, "spp": settings.spp, "seed": settings.seed,
+                       "spectral": settings.spectral.name(), "sampler": settings.sampler.name(), "methods": depths},
+            "hash": scene.origin.hash,
+            "resolution": [scene.camera.width, scene.camera.height],
+            "objects": scene.objects.iter().map(|o| json!({"name": o.name, "kind": o.kind, "material": o.material, "primitives": o.primitives})).collect::<Vec<_>>(),
+            "materials": scene.materials.iter().map(|m| json!({"name": m.name, "type": format!("{:?}", m.bsdf)})).collect::<Vec<_>>(),
+            "lights": scene.lights.iter().map(|l| json!({"light": format!("{l:?}"), "power_watts": l.power().to_array()})).collect::<Vec<_>>(),
+            "bvh": {"nodes": b.nodes, "primitives": b.primitives, "depth": b.depth, "build_seconds": b.build_seconds,
+                    "bounds_min": b.bounds.0.to_array(), "bounds_max": b.bounds.1.to_array()},
+            "effects": effects,
+            "warnings": scene.warnings,
+        });
+        println!("{summary}");
+        return Ok(());
+    }
+    println!("scene      {} (hash {})", scene.origin.name, scene.origin.hash);
+    println!("camera     {}x{}, fov {}°", scene.camera.width, scene.camera.height, scene.camera.fov_degrees);
+    let settings = &scene.settings;
+    println!(
+        "render     {}, {} spp, seed {}, spectral {}, sampler {}",
+        settings.integrator,
+        settings.spp,
+        settings.seed,
+        settings.spectral.name(),
+        settings.sampler.name()
+    );
+    for i in &all {
+        let from = if settings.max_depths.contains_key(i.name()) {
+            "[render.".to_string() + i.name() + "]"
+        } else {
+            "default".into()
+        };
+        print!("  {:<12} max depth {:<4} ({from})", i.name(), settings.max_depth(i.as_ref(), None));
+        if let Some(m) = settings.merging.get(i.name()) {
+            let r0 = integrators::initial_radius(&scene, m);
+            let from = if m.radius.is_some() { "scene" } else { "default fraction of the scene's size" };
+            print!(", radius {r0:.4e} ({from}), radius alpha {}", m.alpha);
+        }
+        println!();
+    }
+    println!("objects    {}", scene.objects.len());
+    for o in &scene.objects {
+        println!("  {:<24} {:<16} material {:<12} {} primitive(s)", o.name, o.kind, o.material, o.primitives);
+    }
+    println!("materials  {}", scene.materials.len());
+    for m in &scene.materials {
+        println!("  {:<24} {:?}", m.name, m.bsdf);
+    }
+    println!("lights     {}", scene.lights.len());
+    for l in &scene.lights {
+        println!("  {l:?}, power {} W", l.power());
+    }
+    println!(
+        "bvh        CwBvh, {} nodes, {} primitives, depth {}, built in {:.3} ms, bounds {} .. {}",
+        b.nodes,
+        b.primitives,
+        b.depth,
+        b.build_seconds * 1e3,
+        b.bounds.0,
+        b.bounds.1
+    );
+    if scene.effects.0.is_empty() {
+        println!("effects    none (every method renders this scene fully)");
+    }
+    for u in &scene.effects.0 {
+        println!("effect     {}: {}", u.effect, u.reason);
+        for i in &all {
+            println!("  {:<12} {}", i.name(), support_text(i.support(u.effect)));
+        }
+    }
+    for w in &scene.warnings {
+        println!("warning    {w}");
+    }
+    Ok(())
+}
