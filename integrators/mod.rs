@@ -13,7 +13,7 @@ pub use light::LightTracer;
 pub use path::{Path, DEFAULT_PATH_DEPTH};
 pub use raycast::RayCast;
 pub use ssaa::{Ssaa, SsaaParams};
-pub use vertex_merging::{initial_radius, iteration_radius, Algorithm, MergeParams, VertexMerging};
+pub use vertex_merging::{initial_radius, iteration_radius, Algorithm, MergeParams, Strategy, VertexMerging};
 pub use whitted::Whitted;
 
 use crate::bsdf::{BsdfSample, Scattering, TransportMode};

@@ -97,19 +97,58 @@ const LIGHT_STREAM: u64 = 0x6c69_6768_745f_7061; // "light_pa"
 /// Hashed into the render's seed for the streams of shared wavelengths and times.
 const SHARED_STREAM: u64 = 0x7368_6172_6564_5f77; // "shared_w"
 
-/// Settings of the merging methods.
+/// A strategy of the engine, for rendering one alone (`--strategy`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Strategy {
+    /// A camera path reaching an emitter (or escaping to the background).
+    EmitterHit,
+    /// Next-event estimation at a camera vertex.
+    NextEvent,
+    /// A camera vertex connected to a light vertex.
+    Connection,
+    /// A light vertex connected to the camera (light tracing's strategy).
+    CameraSplat,
+    /// A camera vertex merged with the photons around it.
+    Merge,
+}
+
+impl Strategy {
+    /// Every strategy with its command-line name.
+    pub const NAMES: [(&'static str, Strategy); 5] = [
+        ("emitter", Strategy::EmitterHit),
+        ("nee", Strategy::NextEvent),
+        ("connect", Strategy::Connection),
+        ("splat", Strategy::CameraSplat),
+        ("merge", Strategy::Merge),
+    ];
+
+    /// The strategy called `name`.
+    pub fn from_name(name: &str) -> Option<Strategy> {
+        Strategy::NAMES.iter().find(|(n, _)| *n == name).map(|&(_, s)| s)
+    }
+
+    /// The command-line name.
+    pub fn name(self) -> &'static str {
+        Strategy::NAMES.iter().find(|(_, s)| *s == self).map(|&(n, _)| n).expect("every strategy is named")
+    }
+}
+
+/// Settings of the merging methods, and of the engine's research view of one strategy alone.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct MergeParams {
     /// Initial merge radius (scene units); `None`: [`DEFAULT_RADIUS_FRACTION`] of the diameter of
     /// the scene's bounding sphere.
     pub radius: Option<f32>,
-    /// Knaus–Zwicker α in (0, 1): the radius shrinks as `(s + 1)^{(α − 1)/2}`.
+    /// Knaus–Zwicker α in (0, 1]: the radius shrinks as `(s + 1)^{(α − 1)/2}`.
     pub alpha: f32,
+    /// Render only this strategy, unweighted (weight 1): its own estimate of the paths it can
+    /// make (for `CameraSplat`, light tracing). `None`: every strategy of the method, weighted.
+    pub only: Option<Strategy>,
 }
 
 impl Default for MergeParams {
     fn default() -> MergeParams {
-        MergeParams { radius: None, alpha: 0.75 }
+        MergeParams { radius: None, alpha: 0.75, only: None }
     }
 }
 
@@ -127,6 +166,29 @@ pub enum Algorithm {
 }
 
 impl Algorithm {
+    /// The algorithm of the method called `name` (`bpt`, `ppm`, `bpm`, `vcm`).
+    pub fn from_name(name: &str) -> Option<Algorithm> {
+        match name {
+            "bpt" => Some(Algorithm::Bpt),
+            "ppm" => Some(Algorithm::Ppm),
+            "bpm" => Some(Algorithm::Bpm),
+            "vcm" => Some(Algorithm::Vcm),
+            _ => None,
+        }
+    }
+
+    /// The strategies the algorithm uses.
+    pub fn strategies(self) -> Vec<Strategy> {
+        let mut all = vec![Strategy::EmitterHit];
+        if self.connects() {
+            all.extend([Strategy::NextEvent, Strategy::Connection, Strategy::CameraSplat]);
+        }
+        if self.merges() {
+            all.push(Strategy::Merge);
+        }
+        all
+    }
+
     fn connects(self) -> bool {
         matches!(self, Algorithm::Bpt | Algorithm::Vcm)
     }
@@ -411,6 +473,8 @@ struct Engine<'a> {
     pixel_area: f32,
     paths: usize,
     radius0: f32,
+    /// The one strategy rendered alone, unweighted (`None`: all, weighted).
+    only: Option<Strategy>,
 }
 
 impl<'a> Engine<'a> {
@@ -432,6 +496,21 @@ impl<'a> Engine<'a> {
             max_segments: opts.params.max_depth.saturating_add(1),
             paths,
             radius0: initial_radius(scene, &opts.params.merging),
+            only: opts.params.merging.only,
+        }
+    }
+
+    /// Whether the render includes strategy `s`.
+    fn keeps(&self, s: Strategy) -> bool {
+        self.only.is_none_or(|only| only == s)
+    }
+
+    /// A strategy's MIS weight, or 1 when it is rendered alone.
+    fn weighted(&self, weight: f32) -> f32 {
+        if self.only.is_some() {
+            1.0
+        } else {
+            weight
         }
     }
 
@@ -555,6 +634,9 @@ impl<'a> Engine<'a> {
             specular_path: true,
         };
         let shadow = ShadowRays { mode: ShadowMode::Opaque, channels, time };
+        if let (Some(Strategy::CameraSplat), Some((origin, inv_pdf))) = (self.only, e.origin) {
+            self.splat_emission_point(light, &origin, inv_pdf, &mut path, shadow, out);
+        }
         let mut ray = e.ray;
         ray.time = time;
         path.ctx.rays.primary += 1;
@@ -585,7 +667,10 @@ impl<'a> Engine<'a> {
                     primitive: isect.primitive,
                     hero_only: path.ctx.hero_only,
                 });
-                if self.algorithm.connects() && path.segments < self.max_segments {
+                if self.algorithm.connects()
+                    && self.keeps(Strategy::CameraSplat)
+                    && path.segments < self.max_segments
+                {
                     self.connect_to_camera(&hit, &bsdf, &frame, wo_local, &mut path, k, shadow, out);
                 }
             }
@@ -634,6 +719,38 @@ impl<'a> Engine<'a> {
         out.rays += path.ctx.rays;
     }
 
+    /// Splat the emission point `origin` of an area light seen directly (`inv_pdf`: one over
+    /// its density): only when light tracing's strategy is rendered alone, which is then all of
+    /// light tracing; otherwise camera paths find an emitter they see, with weight 1.
+    fn splat_emission_point(
+        &self,
+        light: &Light,
+        origin: &SurfaceHit,
+        inv_pdf: f32,
+        path: &mut SubPath,
+        shadow: ShadowRays,
+        out: &mut LightChunk,
+    ) {
+        let cam = &self.camera;
+        let lens =
+            if self.dims.lens { cam.lens_point(path.ctx.sampler.get_2d(Dim::Lens)) } else { cam.position };
+        let Some(c) = cam.connection(origin.p, lens) else { return };
+        let le = light.emitted(origin.n, -c.dir) * (c.dir.dot(origin.n).abs() * inv_pdf);
+        if le == Vec3::ZERO {
+            return;
+        }
+        let visible = transmittance(self.scene, origin, lens, None, shadow, &mut path.ctx.rays);
+        if visible == Vec3::ZERO {
+            return;
+        }
+        let value = path.ctx.channels.to_rgb(path.ctx.channels.colour(le) * visible)
+            / (c.dist2 * c.cos * c.cos * c.cos);
+        if !value.is_finite() {
+            out.non_finite += 1;
+        }
+        out.splats.push((c.pixel, value));
+    }
+
     /// Splat the connection of light vertex `hit` to the camera (light tracing's strategy).
     #[allow(clippy::too_many_arguments)]
     fn connect_to_camera(
@@ -663,7 +780,7 @@ impl<'a> Engine<'a> {
         // Density of this point per unit area as the camera samples it (one sample per pixel).
         let camera_pdf_a = cos_v / (self.pixel_area * c.dist2 * cos3);
         let rev = bsdf.pdf(wc_local, wo_local);
-        let weight = mis::camera_splat(&path.mis, k, camera_pdf_a / self.paths as f32, rev);
+        let weight = self.weighted(mis::camera_splat(&path.mis, k, camera_pdf_a / self.paths as f32, rev));
         let visible = transmittance(self.scene, hit, lens, None, shadow, &mut path.ctx.rays);
         if visible == Vec3::ZERO {
             return;
@@ -711,7 +828,7 @@ impl<'a> Engine<'a> {
         let mut absorption = Vec3::ZERO;
         loop {
             let Some(isect) = scene.intersect(&ray, f32::INFINITY) else {
-                if absorption == Vec3::ZERO {
+                if absorption == Vec3::ZERO && self.keeps(Strategy::EmitterHit) {
                     l += path.beta * path.ctx.channels.colour(scene.settings.background);
                 }
                 break;
@@ -725,8 +842,8 @@ impl<'a> Engine<'a> {
             if let Some(index) = scene.light_of(isect.primitive) {
                 let emitter = &scene.lights[index as usize];
                 let le = emitter.emitted(hit.n, wo);
-                if le != Vec3::ZERO {
-                    let weight = if path.segments == 1 {
+                if le != Vec3::ZERO && self.keeps(Strategy::EmitterHit) {
+                    let weight = if path.segments == 1 || self.only.is_some() {
                         1.0
                     } else if only_merges {
                         if path.specular_path {
@@ -753,11 +870,13 @@ impl<'a> Engine<'a> {
             let mut merged = false;
             if !bsdf.is_delta() {
                 if self.algorithm.connects() {
-                    if !self.lights.is_empty() {
+                    if !self.lights.is_empty() && self.keeps(Strategy::NextEvent) {
                         l += path.beta * self.next_event(&at, &mut path, k, shadow, pick);
                     }
                     let range = if j == 0 { 0 } else { light.ends[j - 1] as usize }..light.ends[j] as usize;
-                    for v in &light.vertices[range] {
+                    let connections =
+                        if self.keeps(Strategy::Connection) { &light.vertices[range] } else { &[] };
+                    for v in connections {
                         if v.segments + path.segments + 1 > self.max_segments {
                             break;
                         }
@@ -765,7 +884,9 @@ impl<'a> Engine<'a> {
                     }
                 }
                 if let Some(grid) = light.grid {
-                    l += path.beta * self.merge(&at, &path, k, light.vertices, grid);
+                    if self.keeps(Strategy::Merge) {
+                        l += path.beta * self.merge(&at, &path, k, light.vertices, grid);
+                    }
                     merged = true;
                 }
             }
@@ -847,7 +968,8 @@ impl<'a> Engine<'a> {
         let dir_pdf = if ls.delta { 0.0 } else { at.bsdf.pdf(at.wo_local, wi_local) };
         let rev_pdf = at.bsdf.pdf(wi_local, at.wo_local);
         let emit_ratio = emit_w * cos_to_light / (direct_w * cos_at_light);
-        let weight = mis::next_event(&path.mis, k, dir_pdf, rev_pdf, pick * direct_w, emit_ratio);
+        let weight =
+            self.weighted(mis::next_event(&path.mis, k, dir_pdf, rev_pdf, pick * direct_w, emit_ratio));
         let visible =
             transmittance(self.scene, at.hit, ls.position, Some(index as u32), shadow, &mut path.ctx.rays);
         if visible == Vec3::ZERO {
@@ -890,7 +1012,15 @@ impl<'a> Engine<'a> {
         let light_dir_a = light_bsdf.pdf(light_wo, light_wi) * cos_camera / dist2;
         let camera_rev = at.bsdf.pdf(wi_local, at.wo_local);
         let light_rev = light_bsdf.pdf(light_wi, light_wo);
-        let weight = mis::connection(&path.mis, &v.mis, k, camera_dir_a, light_dir_a, camera_rev, light_rev);
+        let weight = self.weighted(mis::connection(
+            &path.mis,
+            &v.mis,
+            k,
+            camera_dir_a,
+            light_dir_a,
+            camera_rev,
+            light_rev,
+        ));
         let target = spawn_origin(&v.hit(), -dir);
         let visible = transmittance(self.scene, at.hit, target, None, shadow, &mut path.ctx.rays);
         if visible == Vec3::ZERO {
@@ -921,7 +1051,7 @@ impl<'a> Engine<'a> {
             if f == Vec3::ZERO {
                 return;
             }
-            let weight = if ppm {
+            let weight = if ppm || self.only.is_some() {
                 1.0
             } else {
                 let dir = at.bsdf.pdf(at.wo_local, wi_local);

@@ -177,6 +177,9 @@ impl Identity {
             fields.push(("radius".into(), crate::integrators::initial_radius(scene, merging).to_string()));
             fields.push(("radius-alpha".into(), merging.alpha.to_string()));
         }
+        if let Some(strategy) = opts.params.merging.only {
+            fields.push(("strategy".into(), strategy.name().to_string()));
+        }
         Identity(fields)
     }
 

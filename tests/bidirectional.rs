@@ -195,3 +195,30 @@ fn every_hard_case_stays_finite_with_every_bidirectional_method() {
         }
     }
 }
+
+#[test]
+fn the_engines_light_tracing_strategy_alone_equals_light_tracing() {
+    // `--strategy splat` renders the engine's connections of light vertices to the camera alone,
+    // unweighted: an independent implementation of light tracing. On the thesis scene (point
+    // light, glass: `light` sees the caustics, not the glass) and on soft-shadows (a quad light)
+    // its 8×8 block means agree with `light`'s within their standard errors.
+    for file in ["scenes/cornell-glass.toml", "scenes/soft-shadows.toml"] {
+        let scene = load(std::path::Path::new(file)).unwrap();
+        let light = render_with_variance(&scene, "light", 32, 512, 3);
+        let integrator = vitrum::integrators::create("bpt").unwrap();
+        let mut opts = RenderOptions::for_method(&scene, integrator.as_ref(), 512);
+        opts.resolution = Some((32, 32));
+        opts.sampler = SamplerKind::Independent;
+        opts.seed = 4;
+        opts.params.merging.only = Some(vitrum::integrators::Strategy::CameraSplat);
+        let out = render_opts(&scene, "bpt", &opts);
+        assert_eq!(out.non_finite_samples, 0);
+        let splats = (out.image, out.variance.unwrap());
+        let (chi2, blocks) = block_chi2(&splats, &light);
+        println!("{file}: splats alone vs light: χ² {chi2:.1} over {blocks} blocks");
+        assert_eq!(blocks, 16);
+        assert!(chi2 < 42.0, "{file}: block χ² {chi2} over {blocks} blocks");
+        let mean = |i: &Image| i.pixels.iter().map(|p| p.element_sum()).sum::<f32>();
+        assert!(mean(&splats.0) > 0.0, "{file}: not a black image");
+    }
+}

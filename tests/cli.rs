@@ -1531,3 +1531,24 @@ fn merge_radius_comes_from_the_command_line_else_the_scene_else_the_scene_size()
     }
     assert_scene_refused(&edited(&[], "[render.bpt]\nradius = 0.1\n"), &["unknown field `radius`"]);
 }
+
+#[test]
+fn one_strategy_of_a_bidirectional_method_renders_alone() {
+    let sandbox = Sandbox::new();
+    let out = render(
+        &sandbox,
+        None,
+        &["-i", "vcm", "--strategy", "merge", "--spp", "1", "--json", "--resolution", "8x8"],
+    );
+    assert!(out.status.success(), "{}", stderr(&out));
+    let summary: Value = serde_json::from_str(&stdout(&out)).unwrap();
+    assert_eq!(summary["strategy"], "merge");
+    for (method, strategy, needle) in [
+        ("bpt", "merge", "`bpt` uses only emitter, nee, connect, splat"),
+        ("path", "splat", "`path` has no strategies"),
+    ] {
+        let sandbox = Sandbox::new();
+        let out = render(&sandbox, None, &["-i", method, "--strategy", strategy]);
+        assert_refused(&sandbox, &out, &[needle]);
+    }
+}

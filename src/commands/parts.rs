@@ -69,6 +69,9 @@ pub fn resume_defaults(args: &RenderArgs, file: &PartFile) -> Result<RenderArgs,
         a.radius_alpha =
             id.get("radius-alpha").map(|r| r.parse().map_err(|_| bad("radius-alpha"))).transpose()?;
     }
+    if a.strategy.is_none() {
+        a.strategy = id.get("strategy").map(str::to_string);
+    }
     let wavelengths = if field("wavelengths")? == "yes" { "on" } else { "off" };
     a.spectral.get_or_insert(wavelengths.to_string());
     if a.reflectance.is_none() {

@@ -80,6 +80,10 @@ pub struct RenderArgs {
     /// radius·(i + 1)^((α − 1)/2) (default from the scene file, else 0.75).
     #[arg(long, allow_negative_numbers = true)]
     pub radius_alpha: Option<f32>,
+    /// bpt, ppm, bpm, vcm: render one strategy alone, unweighted (emitter, nee, connect, splat,
+    /// merge): its own estimate of the paths it can make (`splat` is light tracing's).
+    #[arg(long, value_parser = ["emitter", "nee", "connect", "splat", "merge"])]
+    pub strategy: Option<String>,
     /// ssaa: adaptive corner subdivision or a regular grid.
     #[arg(long, value_parser = ["adaptive", "grid"])]
     pub ssaa_mode: Option<String>,
@@ -172,6 +176,25 @@ pub fn render_options(
             return Err(CliError::BadInput(format!("--radius-alpha {a}: must be in (0, 1]")));
         }
         params.merging.alpha = a;
+    }
+    if let Some(name) = &args.strategy {
+        let strategy = integrators::Strategy::from_name(name).expect("clap checks the name");
+        let Some(algorithm) = integrators::Algorithm::from_name(integrator.name()) else {
+            return Err(CliError::BadInput(format!(
+                "--strategy {name}: `{}` has no strategies to choose from (bpt, ppm, bpm and vcm have)",
+                integrator.name()
+            )));
+        };
+        let allowed = algorithm.strategies();
+        if !allowed.contains(&strategy) {
+            let names: Vec<&str> = allowed.iter().map(|s| s.name()).collect();
+            return Err(CliError::BadInput(format!(
+                "--strategy {name}: `{}` uses only {}",
+                integrator.name(),
+                names.join(", ")
+            )));
+        }
+        params.merging.only = Some(strategy);
     }
     Ok(RenderOptions {
         budget,
@@ -446,6 +469,8 @@ fn report(
             "max_depth": depth,
             // The initial merge radius and its α (`null` for the methods that do not merge).
             "merging": merging.map(|(radius, alpha)| json!({"radius": radius, "alpha": alpha})),
+            // The one strategy rendered alone (`--strategy`), or `null`.
+            "strategy": opts.params.merging.only.map(|s| s.name()),
             "seconds": out.seconds,
             "rays": {
                 "primary": out.rays.primary,
@@ -484,12 +509,13 @@ fn report(
         println!("{summary}");
     } else if !args.quiet {
         eprintln!(
-            "{integrator}: {}x{} at {} spp{}{}{} in {:.3} s, {} rays ({:.1} per pixel: primary {}, reflected {}, refracted {}, shadow {}), {:.2} Mrays/s, {} -> {}",
+            "{integrator}: {}x{} at {} spp{}{}{}{} in {:.3} s, {} rays ({:.1} per pixel: primary {}, reflected {}, refracted {}, shadow {}), {:.2} Mrays/s, {} -> {}",
             out.image.width,
             out.image.height,
             out.spp,
             depth.map_or(String::new(), |d| format!(", max depth {d}")),
             merging.map_or(String::new(), |(r, a)| format!(", radius {r:.3e} (alpha {a})")),
+            opts.params.merging.only.map_or(String::new(), |s| format!(", strategy {} alone (unweighted)", s.name())),
             if out.spectral { " (spectral)" } else { "" },
             out.seconds,
             out.rays.total(),
