@@ -1,0 +1,166 @@
+//! The camera pass: the camera-sample dimensions a render draws ([`CameraDims`]) and one pass of
+//! sample indices over every pixel, rows in parallel.
+
+use super::*;
+use crate::camera::Camera;
+use crate::integrators::{Integrator, PathContext};
+use crate::sampler::{Dim, Sampler, DIM_PURPOSES};
+use crate::scene::effects::Support;
+use crate::scene::{Effect, Scene, SpectralMode};
+use crate::spectrum::{Channels, Wavelengths};
+use crate::stats::RayCounts;
+use glam::{DVec3, Vec2, Vec3};
+use std::ops::Range;
+use std::sync::atomic::{AtomicU64, Ordering};
+
+/// Which camera-sample dimensions a render draws.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct CameraDims {
+    /// A lens point (depth of field).
+    pub lens: bool,
+    /// A shutter time (motion blur).
+    pub time: bool,
+    /// A wavelength (spectral rendering).
+    pub wavelength: bool,
+}
+
+impl CameraDims {
+    /// The dimensions for `scene` rendered by `integrator`: an effect costs a dimension only
+    /// when the scene calls for it and the integrator simulates it.
+    pub fn resolve(scene: &Scene, integrator: &dyn Integrator, spectral: SpectralMode) -> CameraDims {
+        let active = |e: Effect| scene.effects.has(e) && integrator.support(e) == Support::Simulates;
+        CameraDims {
+            lens: active(Effect::DepthOfField),
+            time: active(Effect::MotionBlur),
+            wavelength: match spectral {
+                SpectralMode::Auto => active(Effect::Dispersion),
+                SpectralMode::On => true,
+                SpectralMode::Off => false,
+            },
+        }
+    }
+}
+
+/// Counters of one row over a range of samples.
+pub(super) struct RowStats {
+    pub(super) rays: RayCounts,
+    pub(super) non_finite: u64,
+    pub(super) requests: [u64; DIM_PURPOSES],
+}
+
+/// Everything fixed during camera passes.
+pub(super) struct Pass<'a> {
+    pub(super) scene: &'a Scene,
+    pub(super) integrator: &'a dyn Integrator,
+    pub(super) camera: Camera,
+    pub(super) opts: RenderOptions,
+    pub(super) dims: CameraDims,
+}
+
+impl<'a> Pass<'a> {
+    pub(super) fn new(scene: &'a Scene, integrator: &'a dyn Integrator, opts: &RenderOptions) -> Pass<'a> {
+        Pass {
+            scene,
+            integrator,
+            camera: camera_for(scene, opts.resolution),
+            opts: opts.clone(),
+            dims: CameraDims::resolve(scene, integrator, opts.spectral),
+        }
+    }
+
+    /// An empty film of the camera's size.
+    pub(super) fn film(&self) -> Film {
+        Film::new(self.camera.width as usize, self.camera.height as usize, 1.0, self.dims.wavelength)
+    }
+
+    /// One camera sample of pixel (`x`, `y`): its radiance, with its rays and sampler requests.
+    pub(super) fn sample(&self, x: u32, y: u32, index: u32, total: u32, row: &mut RowStats) -> Vec3 {
+        let pixel = y as u64 * self.camera.width as u64 + x as u64;
+        let mut sampler = Sampler::new(self.opts.sampler, self.opts.seed, pixel, index, total);
+        let offset = if total == 1 { Vec2::splat(0.5) } else { sampler.get_2d(Dim::Pixel) };
+        let lens = if self.dims.lens { sampler.get_2d(Dim::Lens) } else { Vec2::ZERO };
+        let (open, close) = self.camera.shutter;
+        let time = if self.dims.time { open + (close - open) * sampler.get_1d(Dim::Time) } else { open };
+        let mut ctx = PathContext::new(sampler);
+        if self.dims.wavelength {
+            ctx.channels = Channels::Spectral(Wavelengths::sample(ctx.sampler.get_1d(Dim::Wavelength)));
+        }
+        let ray = self.camera.generate_ray_lens(Vec2::new(x as f32, y as f32) + offset, lens, time);
+        ctx.rays.primary += 1;
+        let radiance = self.integrator.radiance(self.scene, &self.opts.params, &ray, &mut ctx);
+        let l = ctx.channels.to_rgb(radiance);
+        row.rays += ctx.rays;
+        for (total, d) in row.requests.iter_mut().zip(ALL_DIMS) {
+            *total += ctx.sampler.requests(d) as u64;
+        }
+        l
+    }
+
+    /// Continue the sums of row `y` with the samples `samples` (of `total`, 0 when unknown).
+    pub(super) fn row(
+        &self,
+        y: u32,
+        samples: Range<u32>,
+        total: u32,
+        sum: &mut [DVec3],
+        sum_sq: &mut [DVec3],
+    ) -> RowStats {
+        let mut row = RowStats { rays: RayCounts::default(), non_finite: 0, requests: [0; DIM_PURPOSES] };
+        for (x, (sum, sum_sq)) in sum.iter_mut().zip(sum_sq.iter_mut()).enumerate() {
+            for s in samples.clone() {
+                let l = self.sample(x as u32, y, s, total, &mut row);
+                if !l.is_finite() {
+                    row.non_finite += 1;
+                }
+                let l = l.as_dvec3();
+                *sum += l;
+                *sum_sq += l * l;
+            }
+        }
+        row
+    }
+
+    /// Add the samples `samples` (of `total` planned, 0 when unknown) to every pixel of `film`.
+    pub(super) fn add(
+        &self,
+        film: &mut Film,
+        samples: Range<u32>,
+        total: u32,
+        progress: &(dyn Fn(u64, u64) + Sync),
+    ) {
+        let (w, h) = (film.width, film.height as u64);
+        let done = AtomicU64::new(0);
+        let rows: Vec<RowStats> = film
+            .sum
+            .par_chunks_mut(w)
+            .zip(film.sum_sq.par_chunks_mut(w))
+            .enumerate()
+            .map(|(y, (sum, sum_sq))| {
+                let r = self.row(y as u32, samples.clone(), total, sum, sum_sq);
+                progress(done.fetch_add(1, Ordering::Relaxed) + 1, h);
+                r
+            })
+            .collect();
+        for row in rows {
+            film.rays += row.rays;
+            film.non_finite += row.non_finite;
+            for (a, b) in film.requests.0.iter_mut().zip(row.requests) {
+                *a += b;
+            }
+        }
+    }
+}
+
+pub(super) const ALL_DIMS: [Dim; DIM_PURPOSES] =
+    [Dim::Pixel, Dim::Lens, Dim::Time, Dim::Wavelength, Dim::Light, Dim::Bsdf, Dim::Other];
+
+/// Counts of sampler requests per purpose over a whole render.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct DimensionRequests(pub [u64; DIM_PURPOSES]);
+
+impl DimensionRequests {
+    /// Requests made for `purpose`.
+    pub fn get(&self, purpose: Dim) -> u64 {
+        self.0[purpose as usize]
+    }
+}
