@@ -8,12 +8,13 @@ mod ssaa;
 mod vertex_merging;
 mod whitted;
 
+pub use crate::params::{MergeParams, RenderParams, SsaaParams, Strategy};
 pub use distributed::Distributed;
 pub use light::LightTracer;
 pub use path::{Path, DEFAULT_PATH_DEPTH};
 pub use raycast::RayCast;
-pub use ssaa::{Ssaa, SsaaParams};
-pub use vertex_merging::{initial_radius, iteration_radius, Algorithm, MergeParams, Strategy, VertexMerging};
+pub use ssaa::Ssaa;
+pub use vertex_merging::{initial_radius, iteration_radius, Algorithm, VertexMerging};
 pub use whitted::Whitted;
 
 use crate::bsdf::{BsdfSample, Scattering, TransportMode};
@@ -23,7 +24,7 @@ use crate::optics::fresnel_dielectric;
 use crate::render::{Progression, RenderOptions, RenderOutput};
 use crate::sampler::{Dim, Sampler};
 use crate::scene::effects::Support;
-use crate::scene::{Effect, Scene};
+use crate::scene::{Effect, RenderSettings, Scene};
 use crate::spectrum::{Channels, HERO_ONLY};
 use crate::stats::RayCounts;
 use glam::Vec3;
@@ -52,32 +53,6 @@ pub(crate) fn pick_light(count: usize, sampler: &mut Sampler) -> usize {
     }
     let choice = sampler.get_1d(Dim::Light);
     ((choice * count as f32) as usize).min(count - 1)
-}
-
-/// Per-render parameters an integrator reads (scene settings after command-line overrides).
-#[derive(Clone, Debug, PartialEq)]
-pub struct RenderParams {
-    /// Maximum recursion depth.
-    pub max_depth: u32,
-    /// Constant dielectric reflectance instead of exact Fresnel.
-    pub reflectance: Option<f32>,
-    /// Settings of `ssaa`.
-    pub ssaa: SsaaParams,
-    /// Settings of the methods that merge photons (`ppm`, `bpm`, `vcm`).
-    pub merging: MergeParams,
-}
-
-impl RenderParams {
-    /// Parameters with the given depth and the defaults otherwise (exact Fresnel, default ssaa
-    /// and merging).
-    pub fn with_depth(max_depth: u32) -> RenderParams {
-        RenderParams {
-            max_depth,
-            reflectance: None,
-            ssaa: SsaaParams::default(),
-            merging: MergeParams::default(),
-        }
-    }
 }
 
 /// The state of one camera sample while its path is traced.
@@ -203,6 +178,27 @@ pub fn create(name: &str) -> Option<Box<dyn Integrator>> {
 /// The registered names.
 pub fn names() -> Vec<&'static str> {
     all().iter().map(|i| i.name()).collect()
+}
+
+/// How a scene's settings meet a method: its depth and its parameters.
+impl RenderSettings {
+    /// The maximum depth of a render by `integrator`: `cli` (the command line's `--max-depth`),
+    /// else the scene's `[render.METHOD] max_depth`, else the method's own default.
+    pub fn max_depth(&self, integrator: &dyn Integrator, cli: Option<u32>) -> u32 {
+        cli.or_else(|| self.max_depths.get(integrator.name()).copied())
+            .unwrap_or_else(|| integrator.default_max_depth())
+    }
+
+    /// The parameters of a render by `integrator` with the scene's settings, the depth as
+    /// [`RenderSettings::max_depth`] gives it.
+    pub fn params(&self, integrator: &dyn Integrator, cli_depth: Option<u32>) -> RenderParams {
+        RenderParams {
+            max_depth: self.max_depth(integrator, cli_depth),
+            reflectance: self.reflectance,
+            ssaa: self.ssaa,
+            merging: self.merging.get(integrator.name()).copied().unwrap_or_default(),
+        }
+    }
 }
 
 #[cfg(test)]

@@ -26,25 +26,6 @@ use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 use std::time::Instant;
 
-/// Settings of the supersampling integrator.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct SsaaParams {
-    /// Adaptive subdivision (true) or a regular grid (false).
-    pub adaptive: bool,
-    /// Samples per side of the regular grid.
-    pub grid: u32,
-    /// Maximum subdivision level (level L spaces samples 3^-L pixels apart).
-    pub levels: u32,
-    /// Contrast above which a square is split.
-    pub threshold: f32,
-}
-
-impl Default for SsaaParams {
-    fn default() -> Self {
-        SsaaParams { adaptive: true, grid: 4, levels: 1, threshold: 0.1 }
-    }
-}
-
 /// How many sub-squares per side one subdivision makes.
 const SPLIT: usize = 3;
 

@@ -60,7 +60,9 @@
 //! which keeps `bpt`, `bpm` and `vcm` unbiased for it and leaves it out of `ppm` beyond
 //! specular chains.
 
-use super::{pick_light, sample_bsdf, Integrator, PathContext, RenderParams, DEFAULT_PATH_DEPTH};
+use super::{
+    pick_light, sample_bsdf, Integrator, MergeParams, PathContext, RenderParams, Strategy, DEFAULT_PATH_DEPTH,
+};
 use crate::bsdf::{Frame, Scattering, TransportMode};
 use crate::camera::Camera;
 use crate::geometry::{spawn_origin, Ray, SurfaceHit};
@@ -96,61 +98,6 @@ const LIGHT_STREAM: u64 = 0x6c69_6768_745f_7061; // "light_pa"
 
 /// Hashed into the render's seed for the streams of shared wavelengths and times.
 const SHARED_STREAM: u64 = 0x7368_6172_6564_5f77; // "shared_w"
-
-/// A strategy of the engine, for rendering one alone (`--strategy`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Strategy {
-    /// A camera path reaching an emitter (or escaping to the background).
-    EmitterHit,
-    /// Next-event estimation at a camera vertex.
-    NextEvent,
-    /// A camera vertex connected to a light vertex.
-    Connection,
-    /// A light vertex connected to the camera (light tracing's strategy).
-    CameraSplat,
-    /// A camera vertex merged with the photons around it.
-    Merge,
-}
-
-impl Strategy {
-    /// Every strategy with its command-line name.
-    pub const NAMES: [(&'static str, Strategy); 5] = [
-        ("emitter", Strategy::EmitterHit),
-        ("nee", Strategy::NextEvent),
-        ("connect", Strategy::Connection),
-        ("splat", Strategy::CameraSplat),
-        ("merge", Strategy::Merge),
-    ];
-
-    /// The strategy called `name`.
-    pub fn from_name(name: &str) -> Option<Strategy> {
-        Strategy::NAMES.iter().find(|(n, _)| *n == name).map(|&(_, s)| s)
-    }
-
-    /// The command-line name.
-    pub fn name(self) -> &'static str {
-        Strategy::NAMES.iter().find(|(_, s)| *s == self).map(|&(n, _)| n).expect("every strategy is named")
-    }
-}
-
-/// Settings of the merging methods, and of the engine's research view of one strategy alone.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct MergeParams {
-    /// Initial merge radius (scene units); `None`: [`DEFAULT_RADIUS_FRACTION`] of the diameter of
-    /// the scene's bounding sphere.
-    pub radius: Option<f32>,
-    /// Knaus–Zwicker α in (0, 1]: the radius shrinks as `(s + 1)^{(α − 1)/2}`.
-    pub alpha: f32,
-    /// Render only this strategy, unweighted (weight 1): its own estimate of the paths it can
-    /// make (for `CameraSplat`, light tracing). `None`: every strategy of the method, weighted.
-    pub only: Option<Strategy>,
-}
-
-impl Default for MergeParams {
-    fn default() -> MergeParams {
-        MergeParams { radius: None, alpha: 0.75, only: None }
-    }
-}
 
 /// Which strategies a bidirectional method uses.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

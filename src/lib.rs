@@ -20,6 +20,7 @@ pub mod material;
 pub mod metrics;
 pub mod optics;
 pub mod output;
+pub mod params;
 pub mod parts;
 pub mod reference;
 pub mod render;

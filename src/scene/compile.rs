@@ -13,9 +13,9 @@ use super::{
 use crate::camera::Camera;
 use crate::dispersion::Ior;
 use crate::geometry::{parallelogram_normal, try_unit, Bounds, Disk, Polygon, Quad, Shape, Sphere};
-use crate::integrators::{MergeParams, SsaaParams};
 use crate::light::{EmitterShape, Light};
 use crate::material::{Bsdf, Material, Medium, Phong, Texture};
+use crate::params::{MergeParams, SsaaParams};
 use crate::sampler::SamplerKind;
 use glam::{Vec3, Vec3A};
 use obvhs::aabb::Aabb;
@@ -636,14 +636,10 @@ impl Compiler<'_> {
             }
             merging.insert(method.to_string(), params);
         }
-        if crate::integrators::create(&r.integrator).is_none() {
+        if !METHOD_TABLES.contains(&r.integrator.as_str()) {
             return Err(self.err(
                 &path.key("integrator"),
-                format!(
-                    "unknown integrator `{}`; known: {}",
-                    r.integrator,
-                    crate::integrators::names().join(", ")
-                ),
+                format!("unknown integrator `{}`; known: {}", r.integrator, METHOD_TABLES.join(", ")),
             ));
         }
         if let Some(rho) = r.reflectance {

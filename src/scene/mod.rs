@@ -15,9 +15,9 @@ pub use source::SceneError;
 
 use crate::camera::Camera;
 use crate::geometry::{Ray, Shape, SurfaceHit};
-use crate::integrators::{Integrator, RenderParams, SsaaParams};
 use crate::light::Light;
 use crate::material::Material;
+use crate::params::{MergeParams, SsaaParams};
 use crate::sampler::SamplerKind;
 use glam::{Vec3, Vec3A};
 use obvhs::cwbvh::CwBvh;
@@ -77,7 +77,7 @@ pub struct RenderSettings {
     /// The maximum depths the scene sets per method (`[render.METHOD] max_depth`), by name.
     pub max_depths: BTreeMap<String, u32>,
     /// The merge settings the scene sets per merging method (`[render.vcm] radius = …`), by name.
-    pub merging: BTreeMap<String, crate::integrators::MergeParams>,
+    pub merging: BTreeMap<String, MergeParams>,
     /// Seed of the random streams.
     pub seed: u64,
     /// Ambient radiance of the empirical Phong model.
@@ -94,26 +94,6 @@ pub struct RenderSettings {
     pub sampler: SamplerKind,
     /// Settings of the supersampling integrator.
     pub ssaa: SsaaParams,
-}
-
-impl RenderSettings {
-    /// The maximum depth of a render by `integrator`: `cli` (the command line's `--max-depth`),
-    /// else the scene's `[render.METHOD] max_depth`, else the method's own default.
-    pub fn max_depth(&self, integrator: &dyn Integrator, cli: Option<u32>) -> u32 {
-        cli.or_else(|| self.max_depths.get(integrator.name()).copied())
-            .unwrap_or_else(|| integrator.default_max_depth())
-    }
-
-    /// The parameters of a render by `integrator` with the scene's settings, the depth as
-    /// [`RenderSettings::max_depth`] gives it.
-    pub fn params(&self, integrator: &dyn Integrator, cli_depth: Option<u32>) -> RenderParams {
-        RenderParams {
-            max_depth: self.max_depth(integrator, cli_depth),
-            reflectance: self.reflectance,
-            ssaa: self.ssaa,
-            merging: self.merging.get(integrator.name()).copied().unwrap_or_default(),
-        }
-    }
 }
 
 /// When to trace wavelengths instead of RGB.

@@ -1,0 +1,104 @@
+//! The parameters every method reads, after the scene's settings and the command line's
+//! overrides: the depth, the Fresnel override, and the settings of `ssaa` and of the
+//! bidirectional engine. They live apart from the integrators so that the scene, which fills
+//! them, does not depend on the integrators.
+
+/// Per-render parameters an integrator reads (scene settings after command-line overrides).
+#[derive(Clone, Debug, PartialEq)]
+pub struct RenderParams {
+    /// Maximum recursion depth.
+    pub max_depth: u32,
+    /// Constant dielectric reflectance instead of exact Fresnel.
+    pub reflectance: Option<f32>,
+    /// Settings of `ssaa`.
+    pub ssaa: SsaaParams,
+    /// Settings of the methods that merge photons (`ppm`, `bpm`, `vcm`).
+    pub merging: MergeParams,
+}
+
+impl RenderParams {
+    /// Parameters with the given depth and the defaults otherwise (exact Fresnel, default ssaa
+    /// and merging).
+    pub fn with_depth(max_depth: u32) -> RenderParams {
+        RenderParams {
+            max_depth,
+            reflectance: None,
+            ssaa: SsaaParams::default(),
+            merging: MergeParams::default(),
+        }
+    }
+}
+
+/// Settings of the supersampling integrator.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SsaaParams {
+    /// Adaptive subdivision (true) or a regular grid (false).
+    pub adaptive: bool,
+    /// Samples per side of the regular grid.
+    pub grid: u32,
+    /// Maximum subdivision level (level L spaces samples 3^-L pixels apart).
+    pub levels: u32,
+    /// Contrast above which a square is split.
+    pub threshold: f32,
+}
+
+impl Default for SsaaParams {
+    fn default() -> Self {
+        SsaaParams { adaptive: true, grid: 4, levels: 1, threshold: 0.1 }
+    }
+}
+
+/// A strategy of the engine, for rendering one alone (`--strategy`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Strategy {
+    /// A camera path reaching an emitter (or escaping to the background).
+    EmitterHit,
+    /// Next-event estimation at a camera vertex.
+    NextEvent,
+    /// A camera vertex connected to a light vertex.
+    Connection,
+    /// A light vertex connected to the camera (light tracing's strategy).
+    CameraSplat,
+    /// A camera vertex merged with the photons around it.
+    Merge,
+}
+
+impl Strategy {
+    /// Every strategy with its command-line name.
+    pub const NAMES: [(&'static str, Strategy); 5] = [
+        ("emitter", Strategy::EmitterHit),
+        ("nee", Strategy::NextEvent),
+        ("connect", Strategy::Connection),
+        ("splat", Strategy::CameraSplat),
+        ("merge", Strategy::Merge),
+    ];
+
+    /// The strategy called `name`.
+    pub fn from_name(name: &str) -> Option<Strategy> {
+        Strategy::NAMES.iter().find(|(n, _)| *n == name).map(|&(_, s)| s)
+    }
+
+    /// The command-line name.
+    pub fn name(self) -> &'static str {
+        Strategy::NAMES.iter().find(|(_, s)| *s == self).map(|&(n, _)| n).expect("every strategy is named")
+    }
+}
+
+/// Settings of the merging methods, and of the engine's research view of one strategy alone.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MergeParams {
+    /// Initial merge radius (scene units); `None`: `integrators::vertex_merging::DEFAULT_RADIUS_FRACTION` (0.0015) of the diameter of
+    /// the scene's bounding sphere.
+    pub radius: Option<f32>,
+    /// Knaus–Zwicker α in (0, 1]: the radius shrinks as `(s + 1)^{(α − 1)/2}`.
+    pub alpha: f32,
+    /// Render only this strategy, unweighted (weight 1): its own estimate of the paths it can
+    /// make (for `CameraSplat`, light tracing). `None`: every strategy of the method, weighted.
+    pub only: Option<Strategy>,
+}
+
+impl Default for MergeParams {
+    fn default() -> MergeParams {
+        MergeParams { radius: None, alpha: 0.75, only: None }
+    }
+}
