@@ -1297,6 +1297,7 @@ fn info_json_describes_the_bvh_and_effects() {
     let methods = &info["render"]["methods"];
     assert_eq!(methods["whitted"], serde_json::json!({"max_depth": 5, "from": "scene"}), "{methods}");
     assert_eq!(methods["path"], serde_json::json!({"max_depth": 256, "from": "default"}), "{methods}");
+    assert_eq!(methods["raycast"]["max_depth"], Value::Null, "ray casting has no depth: {methods}");
 }
 
 #[test]

@@ -44,8 +44,10 @@ pub fn run(args: &InfoArgs) -> Result<(), CliError> {
             .iter()
             .map(|i| {
                 let from = if scene.settings.max_depths.contains_key(i.name()) { "scene" } else { "default" };
-                let mut entry =
-                    json!({"max_depth": scene.settings.max_depth(i.as_ref(), None), "from": from});
+                // `null` for a method without a depth (`raycast` shades the first hit only).
+                let depth = crate::scene::desc::has_max_depth(i.name())
+                    .then(|| scene.settings.max_depth(i.as_ref(), None));
+                let mut entry = json!({"max_depth": depth, "from": from});
                 if let Some(m) = scene.settings.merging.get(i.name()) {
                     entry["radius"] = json!(integrators::initial_radius(&scene, m));
                     entry["radius_from"] = json!(if m.radius.is_some() { "scene" } else { "default" });
@@ -89,7 +91,11 @@ pub fn run(args: &InfoArgs) -> Result<(), CliError> {
         } else {
             "default".into()
         };
-        print!("  {:<12} max depth {:<4} ({from})", i.name(), settings.max_depth(i.as_ref(), None));
+        if crate::scene::desc::has_max_depth(i.name()) {
+            print!("  {:<12} max depth {:<4} ({from})", i.name(), settings.max_depth(i.as_ref(), None));
+        } else {
+            print!("  {:<12} no depth (shades the first hit only)", i.name());
+        }
         if let Some(m) = settings.merging.get(i.name()) {
             let r0 = integrators::initial_radius(&scene, m);
             let from = if m.radius.is_some() { "scene" } else { "default fraction of the scene's size" };
