@@ -64,7 +64,7 @@ use super::{
     pick_light, sample_bsdf, Integrator, MergeParams, PathContext, RenderParams, Strategy, DEFAULT_PATH_DEPTH,
 };
 use crate::bsdf::{Frame, Scattering, TransportMode};
-use crate::camera::Camera;
+use crate::camera::{Camera, CameraConnection};
 use crate::geometry::{spawn_origin, Ray, SurfaceHit};
 use crate::light::Light;
 use crate::lighting::{crossing, transmittance, ShadowMode, ShadowRays};
@@ -678,24 +678,10 @@ impl<'a> Engine<'a> {
         shadow: ShadowRays,
         out: &mut LightChunk,
     ) {
-        let cam = &self.camera;
-        let lens =
-            if self.dims.lens { cam.lens_point(path.ctx.sampler.get_2d(Dim::Lens)) } else { cam.position };
-        let Some(c) = cam.connection(origin.p, lens) else { return };
-        let le = light.emitted(origin.n, -c.dir) * (c.dir.dot(origin.n).abs() * inv_pdf);
-        if le == Vec3::ZERO {
-            return;
-        }
-        let visible = transmittance(self.scene, origin, lens, None, shadow, &mut path.ctx.rays);
-        if visible == Vec3::ZERO {
-            return;
-        }
-        let value = path.ctx.channels.to_rgb(path.ctx.channels.colour(le) * visible)
-            / (c.dist2 * c.cos * c.cos * c.cos);
-        if !value.is_finite() {
-            out.non_finite += 1;
-        }
-        out.splats.push((c.pixel, value));
+        self.splat(origin, path, shadow, out, |path, c| {
+            let le = light.emitted(origin.n, -c.dir) * (c.dir.dot(origin.n).abs() * inv_pdf);
+            path.ctx.channels.colour(le)
+        });
     }
 
     /// Splat the connection of light vertex `hit` to the camera (light tracing's strategy).
@@ -711,28 +697,48 @@ impl<'a> Engine<'a> {
         shadow: ShadowRays,
         out: &mut LightChunk,
     ) {
+        self.splat(hit, path, shadow, out, |path, c| {
+            let wc_local = frame.to_local(-c.dir);
+            let f = bsdf.eval(wo_local, wc_local, TransportMode::Importance);
+            if f == Vec3::ZERO {
+                return Vec3::ZERO;
+            }
+            let cos_v = wc_local.z.abs();
+            // Density of this point per unit area as the camera samples it (one sample per pixel).
+            let camera_pdf_a = cos_v / (self.pixel_area * c.dist2 * c.cos * c.cos * c.cos);
+            let rev = bsdf.pdf(wc_local, wo_local);
+            let weight =
+                self.weighted(mis::camera_splat(&path.mis, k, camera_pdf_a / self.paths as f32, rev));
+            path.beta * f * (weight * cos_v)
+        });
+    }
+
+    /// Connect the light-path point `hit` to the camera and splat `value(path, connection)`,
+    /// the point's weight towards the camera (in the path's channels; zero: nothing to splat)
+    /// times the pinhole's importance `1/(d²·cos³θ)` (see `light`'s module documentation). A
+    /// thin lens: a uniform point of the lens, which the camera samples with the same density,
+    /// so the lens area cancels and the weights are the pinhole's.
+    fn splat(
+        &self,
+        hit: &SurfaceHit,
+        path: &mut SubPath,
+        shadow: ShadowRays,
+        out: &mut LightChunk,
+        value: impl FnOnce(&SubPath, &CameraConnection) -> Vec3,
+    ) {
         let cam = &self.camera;
-        // A thin lens: a uniform point of the lens, which the camera samples with the same
-        // density, so the lens area cancels and the weights are the pinhole's.
         let lens =
             if self.dims.lens { cam.lens_point(path.ctx.sampler.get_2d(Dim::Lens)) } else { cam.position };
         let Some(c) = cam.connection(hit.p, lens) else { return };
-        let wc_local = frame.to_local(-c.dir);
-        let f = bsdf.eval(wo_local, wc_local, TransportMode::Importance);
-        if f == Vec3::ZERO {
+        let v = value(path, &c);
+        if v == Vec3::ZERO {
             return;
         }
-        let cos_v = wc_local.z.abs();
-        let cos3 = c.cos * c.cos * c.cos;
-        // Density of this point per unit area as the camera samples it (one sample per pixel).
-        let camera_pdf_a = cos_v / (self.pixel_area * c.dist2 * cos3);
-        let rev = bsdf.pdf(wc_local, wo_local);
-        let weight = self.weighted(mis::camera_splat(&path.mis, k, camera_pdf_a / self.paths as f32, rev));
         let visible = transmittance(self.scene, hit, lens, None, shadow, &mut path.ctx.rays);
         if visible == Vec3::ZERO {
             return;
         }
-        let value = path.ctx.channels.to_rgb(path.beta * f * visible) * (weight * cos_v / (c.dist2 * cos3));
+        let value = path.ctx.channels.to_rgb(v * visible) / (c.dist2 * c.cos * c.cos * c.cos);
         if !value.is_finite() {
             out.non_finite += 1;
         }

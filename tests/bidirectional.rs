@@ -3,7 +3,7 @@
 
 mod common;
 
-use common::{closed_sphere, mean_and_error, render_opts, toml_files};
+use common::{closed_sphere, glass_furnace, mean_and_error, render_opts, toml_files};
 use glam::Vec3;
 use vitrum::image::Image;
 use vitrum::render::RenderOptions;
@@ -46,41 +46,13 @@ fn an_emitting_closed_sphere_gives_one_everywhere() {
     }
 }
 
-/// A glass sphere (smooth or rough) in a white environment: lossless glass shows 1 everywhere.
-fn furnace(roughness: f32, method: &str) -> Scene {
-    let text = format!(
-        r#"
-[camera]
-position = [0.0, 0.0, 4.0]
-look_at = [0.0, 0.0, 0.0]
-fov = 30.0
-resolution = [16, 16]
-[render]
-integrator = "{method}"
-[materials.glass]
-type = "dielectric"
-ior = 1.5
-roughness = {roughness}
-[[objects]]
-shape = "sphere"
-center = [0.0, 0.0, 0.0]
-radius = 1.0
-material = "glass"
-[[lights]]
-type = "environment"
-radiance = 1.0
-"#
-    );
-    load_str(&text, "furnace", None).unwrap()
-}
-
 #[test]
 fn the_white_furnace_with_smooth_and_rough_glass_stays_one() {
     // Rough glass's multiply scattered samples are followed like specular ones and never
     // connected or merged at: the furnace shows whether that rule loses or adds energy.
     for roughness in [0.0, 0.3] {
         for method in ["bpt", "bpm", "vcm"] {
-            let scene = furnace(roughness, method);
+            let scene = glass_furnace(roughness, 16);
             let (mean, error) = mean_and_error(&scene, method, 8, 32);
             assert_mean(&mean, &error, 1.0, &format!("{method}: furnace, roughness {roughness}"));
         }

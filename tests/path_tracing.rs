@@ -3,13 +3,13 @@
 
 mod common;
 
-use common::{closed_sphere, mean_and_error, render_with};
+use common::{closed_sphere, glass_furnace, mean_and_error, render_with};
 use glam::Vec3;
 use vitrum::image::Image;
 use vitrum::integrators::create;
 use vitrum::render::{render, RenderOptions};
 use vitrum::sampler::SamplerKind;
-use vitrum::scene::{load_str, Scene};
+use vitrum::scene::load_str;
 
 /// The mean of all pixels and channels equals `expected` within 3 standard errors, and no pixel
 /// is more than 5 of its own standard errors away (a floor of 1e-4 for noise-free pixels).
@@ -33,36 +33,9 @@ fn assert_everywhere(mean: &[Vec3], error: &[Vec3], expected: f32, what: &str) {
     }
 }
 
-fn furnace(roughness: f32) -> Scene {
-    let text = format!(
-        r#"
-[camera]
-position = [0.0, 0.0, 4.0]
-look_at = [0.0, 0.0, 0.0]
-fov = 30.0
-resolution = [24, 24]
-[render]
-integrator = "path"
-[materials.glass]
-type = "dielectric"
-ior = 1.5
-roughness = {roughness}
-[[objects]]
-shape = "sphere"
-center = [0.0, 0.0, 0.0]
-radius = 1.0
-material = "glass"
-[[lights]]
-type = "environment"
-radiance = 1.0
-"#
-    );
-    load_str(&text, "furnace", None).unwrap()
-}
-
 #[test]
 fn white_furnace_smooth_glass_sphere_renders_one() {
-    let scene = furnace(0.0);
+    let scene = glass_furnace(0.0, 24);
     let (mean, error) = mean_and_error(&scene, "path", 4, 32);
     assert_everywhere(&mean, &error, 1.0, "smooth glass furnace");
 }
@@ -75,7 +48,7 @@ fn white_furnace_rough_glass_sphere_renders_one() {
     // internal reflection for more than the 256 bounces allowed (roughness 0.1 renders 0.9993),
     // which is a depth limit, not lost energy.
     for roughness in [0.2, 0.3, 0.6, 1.0] {
-        let scene = furnace(roughness);
+        let scene = glass_furnace(roughness, 24);
         let (mean, error) = mean_and_error(&scene, "path", 4, 32);
         assert_everywhere(&mean, &error, 1.0, &format!("rough glass furnace, roughness {roughness}"));
     }

@@ -93,3 +93,33 @@ pub fn entries(dir: &std::path::Path) -> Vec<String> {
     names.sort();
     names
 }
+
+/// A glass sphere of index 1.5 and GGX `roughness` in a white environment of radiance 1, seen
+/// at `size`×`size`: lossless glass shows 1 everywhere (the white furnace). The scene's method is
+/// `path`, so that renders from its settings trace to 256 bounces (as the bidirectional methods do).
+pub fn glass_furnace(roughness: f32, size: u32) -> Scene {
+    let text = format!(
+        r#"
+[camera]
+position = [0.0, 0.0, 4.0]
+look_at = [0.0, 0.0, 0.0]
+fov = 30.0
+resolution = [{size}, {size}]
+[render]
+integrator = "path"
+[materials.glass]
+type = "dielectric"
+ior = 1.5
+roughness = {roughness}
+[[objects]]
+shape = "sphere"
+center = [0.0, 0.0, 0.0]
+radius = 1.0
+material = "glass"
+[[lights]]
+type = "environment"
+radiance = 1.0
+"#
+    );
+    load_str(&text, "furnace", None).unwrap()
+}
