@@ -2,10 +2,11 @@
 //! on the lights and every vertex that can be seen from the camera is splatted into the film.
 //!
 //! # The method
-//! A path starts on a light chosen uniformly among the scene's finite lights (probability
-//! 1/N): a point light emits uniformly over the sphere, an area light (quad, sphere, emissive
-//! surface) from a point uniform over its area in a cosine-distributed direction about the
-//! emitting normal (a two-sided emissive surface picks its side with probability ½). The path
+//! A path starts on a light chosen uniformly among the scene's lights (probability 1/N): a point
+//! light emits uniformly over the sphere, an area light (quad, sphere, emissive surface) from a
+//! point uniform over its area in a cosine-distributed direction about the emitting normal (a
+//! two-sided emissive surface picks its side with probability ½), the environment in a uniform
+//! direction from a point of the scene's bounding disk facing it ([`crate::light`]). The path
 //! then scatters by sampling the BSDF in [`TransportMode::Importance`], absorbs by Beer–Lambert
 //! inside media, and ends by Russian roulette after three bounces or at `--max-depth` scattering
 //! vertices (the same bound as `path`: both include paths with up to `max_depth` scattering
@@ -60,10 +61,10 @@
 //!   specular surfaces do to light elsewhere (caustics on diffuse surfaces, including those of
 //!   point lights, which `path` cannot find) is rendered, because the diffuse receiver connects.
 //!   Rough mirrors and rough glass do connect, but the nearly specular ones are very noisy.
-//! - **The environment and the background.** A constant environment light is not traced (paths
-//!   from an infinitely distant emitter need a disk bounding the scene; not implemented) and the
-//!   background colour of rays leaving the scene is never seen: both render black.
-//!   Paths start only on finite lights; a scene lit only by an environment renders black.
+//! - **The environment and the background seen directly.** Paths start on the environment and
+//!   light the scene, but a camera ray that leaves the scene meets no vertex to splat: the
+//!   environment and the background colour, seen directly or through specular surfaces, render
+//!   black.
 //! - **Point lights** are not visible either (as for every method).
 //!
 //! # Determinism
@@ -91,7 +92,7 @@ use super::{pick_light, sample_bsdf, Integrator, PathContext, RenderParams, DEFA
 use crate::bsdf::{Frame, Scattering, TransportMode};
 use crate::camera::Camera;
 use crate::geometry::{spawn_origin, Ray, SurfaceHit};
-use crate::light::Light;
+use crate::light::SceneSphere;
 use crate::lighting::{crossing, transmittance, ShadowMode, ShadowRays};
 use crate::render::{
     camera_for, render_accumulated, Accumulate, CameraDims, Film, Progression, RenderOptions, RenderOutput,
@@ -143,7 +144,9 @@ impl Integrator for LightTracer {
         // and meshes are simulated. Specular surfaces seen directly are not an effect of the
         // list; the module documentation and the description state that they render black.
         match effect {
-            Effect::Environment => Support::Ignores("paths do not start on the environment, nor is it seen"),
+            Effect::Environment => Support::Approximates(
+                "paths start on the environment and it lights the scene, but seen directly it renders black",
+            ),
             _ => Support::Simulates,
         }
     }
@@ -213,8 +216,10 @@ struct Tracer<'a> {
     dims: CameraDims,
     sampler: SamplerKind,
     seed: u64,
-    /// Indices of the lights paths can start on (all but the environment).
-    lights: Vec<usize>,
+    /// The number of lights paths can start on (all of them).
+    lights: usize,
+    /// Where paths from the environment start.
+    sphere: SceneSphere,
 }
 
 /// Merge chunk buffers into the film in their order; `batch` collects the current sample
@@ -246,9 +251,8 @@ impl<'a> Tracer<'a> {
             dims: CameraDims::resolve(scene, integrator, opts.spectral),
             sampler: opts.sampler,
             seed: opts.seed,
-            lights: (0..scene.lights.len())
-                .filter(|&i| !matches!(scene.lights[i], Light::Environment { .. }))
-                .collect(),
+            lights: scene.lights.len(),
+            sphere: scene.bounding_sphere(),
         }
     }
 }
@@ -303,7 +307,7 @@ impl Tracer<'_> {
             splats: Vec::with_capacity(2 * (paths.end - paths.start) as usize),
             ..Default::default()
         };
-        if self.lights.is_empty() {
+        if self.lights == 0 {
             return out;
         }
         for index in paths {
@@ -339,12 +343,12 @@ impl Tracer<'_> {
             ctx.channels = Channels::Spectral(Wavelengths::sample(ctx.sampler.get_1d(Dim::Wavelength)));
         }
         // The same dimensions for every light, so that stratification lines up across paths.
-        let n = self.lights.len();
-        let light = &scene.lights[self.lights[pick_light(n, &mut ctx.sampler)]];
+        let n = self.lights;
+        let light = &scene.lights[pick_light(n, &mut ctx.sampler)];
         let side = ctx.sampler.get_1d(Dim::Light);
         let u_point = ctx.sampler.get_2d(Dim::Light);
         let u_dir = ctx.sampler.get_2d(Dim::Light);
-        let Some(emission) = light.emit(1.0 / n as f32, side, u_point, u_dir) else { return };
+        let Some(emission) = light.emit(1.0 / n as f32, side, u_point, u_dir, &self.sphere) else { return };
         let shadow = ShadowRays { mode: ShadowMode::Opaque, channels: ctx.channels, time };
 
         // Vertex 0: the emission point of an area light, seen directly.

@@ -164,8 +164,7 @@ impl Integrator for Path {
 /// Radiance of the environment for a ray that leaves the scene, weighted against next-event
 /// estimation of the environment light (the plain background when there is none).
 fn escaped(scene: &Scene, skip_mis: bool, bsdf_pdf: f32, light_pick: f32) -> Vec3 {
-    let has_environment = scene.lights.iter().any(|l| matches!(l, crate::light::Light::Environment { .. }));
-    if has_environment && !skip_mis {
+    if scene.environment_light().is_some() && !skip_mis {
         scene.settings.background * power_heuristic(bsdf_pdf, light_pick * ENVIRONMENT_PDF)
     } else {
         scene.settings.background
@@ -196,7 +195,7 @@ fn next_event(
     }
     let shadow = ShadowRays { mode: ShadowMode::Opaque, channels: ctx.channels, time };
     let target =
-        if ls.distance.is_finite() { ls.position } else { hit.p + ls.wi * far_distance(scene, hit.p) };
+        if ls.distance.is_finite() { ls.position } else { hit.p + ls.wi * scene.far_distance(hit.p) };
     let visible = transmittance(scene, hit, target, Some(index as u32), shadow, &mut ctx.rays);
     if visible == Vec3::ZERO {
         return Vec3::ZERO;
@@ -204,10 +203,4 @@ fn next_event(
     let pdf = light_pick * ls.pdf;
     let w = if ls.delta { 1.0 } else { power_heuristic(pdf, bsdf.pdf(wo_local, wi_local)) };
     f * ctx.channels.colour(ls.radiance) * visible * (w / pdf)
-}
-
-/// A distance from `p` beyond every object of the scene (for shadow rays to the environment).
-fn far_distance(scene: &Scene, p: Vec3) -> f32 {
-    let (lo, hi) = scene.bvh_stats.bounds;
-    2.0 * ((hi - lo).length() + (p - lo).length()) + 1.0
 }

@@ -55,10 +55,15 @@
 //! from it, a direction with the pinhole's density `1/(A·cos³θ)` (the focal plane is parallel to
 //! the film), so the lens area cancels and every weight has the pinhole's form.
 //!
-//! # What the engine does not do yet
-//! The environment is reached only by camera paths that escape (never sampled as a light),
-//! which keeps `bpt`, `bpm` and `vcm` unbiased for it and leaves it out of `ppm` beyond
-//! specular chains.
+//! # The environment
+//! The environment is a light like the others: light sub-paths start on it (on the scene's
+//! bounding disk, [`crate::light`]), next-event estimation samples it, and a camera sub-path
+//! that leaves the scene hits it. Its densities are per solid angle, so the first segment of a
+//! light sub-path from it converts no density by a squared distance ([`Mis::arrive_from_infinity`]),
+//! and a camera path that escapes is weighted with the solid-angle densities of next-event
+//! estimation and emission (Georgiev et al.'s technical report, SmallVCM's background light).
+//! Without an environment light the background colour is no light: rays that escape see it with
+//! weight 1.
 
 use super::{
     pick_light, sample_bsdf, Integrator, MergeParams, PathContext, RenderParams, Strategy, DEFAULT_PATH_DEPTH,
@@ -66,7 +71,7 @@ use super::{
 use crate::bsdf::{Frame, Scattering, TransportMode};
 use crate::camera::{Camera, CameraConnection};
 use crate::geometry::{spawn_origin, Ray, SurfaceHit};
-use crate::light::Light;
+use crate::light::{Light, SceneSphere};
 use crate::lighting::{crossing, transmittance, ShadowMode, ShadowRays};
 use crate::render::{
     camera_for, render_accumulated, Accumulate, CameraDims, Film, Progression, RenderOptions, RenderOutput,
@@ -175,9 +180,6 @@ impl Integrator for VertexMerging {
 
     fn support(&self, effect: Effect) -> Support {
         match effect {
-            Effect::Environment if self.0 == Algorithm::Ppm => Support::Ignores(
-                "photons do not start on the environment; only specular camera chains see it",
-            ),
             Effect::Dispersion | Effect::MotionBlur if self.0.merges() => Support::Approximates(
                 "an iteration's paths share one wavelength set and one time, so that photons can merge",
             ),
@@ -412,8 +414,13 @@ struct Engine<'a> {
     dims: CameraDims,
     sampler: SamplerKind,
     seed: u64,
-    /// The lights paths start on and next-event estimation samples (all but the environment).
-    lights: Vec<usize>,
+    /// The number of lights: paths start on them and next-event estimation samples them, the
+    /// environment included.
+    lights: usize,
+    /// The environment light's index, if there is one.
+    environment: Option<usize>,
+    /// Where light sub-paths from the environment start.
+    sphere: SceneSphere,
     /// Segments a full path may have: the maximum depth (scattering vertices) plus one.
     max_segments: u32,
     /// Area of one pixel on the image plane at distance 1.
@@ -437,9 +444,9 @@ impl<'a> Engine<'a> {
             camera,
             sampler: opts.sampler,
             seed: opts.seed,
-            lights: (0..scene.lights.len())
-                .filter(|&i| !matches!(scene.lights[i], Light::Environment { .. }))
-                .collect(),
+            lights: scene.lights.len(),
+            environment: scene.environment_light(),
+            sphere: scene.bounding_sphere(),
             max_segments: opts.params.max_depth.saturating_add(1),
             paths,
             radius0: initial_radius(scene, &opts.params.merging),
@@ -553,7 +560,7 @@ impl<'a> Engine<'a> {
     fn trace_light_chunk(&self, paths: Range<usize>, s: u32, k: &IterationConstants) -> LightChunk {
         let mut out = LightChunk::default();
         for j in paths {
-            if !self.lights.is_empty() {
+            if self.lights > 0 {
                 self.trace_light_path(j, s, k, &mut out);
             }
             out.ends.push(out.vertices.len() as u32);
@@ -567,12 +574,12 @@ impl<'a> Engine<'a> {
         let (channels, time) = self.channels_and_time(j, s);
         let mut ctx = PathContext::new(self.light_sampler(j, s));
         ctx.channels = channels;
-        let n = self.lights.len();
-        let light = &scene.lights[self.lights[pick_light(n, &mut ctx.sampler)]];
+        let n = self.lights;
+        let light = &scene.lights[pick_light(n, &mut ctx.sampler)];
         let side = ctx.sampler.get_1d(Dim::Light);
         let u_point = ctx.sampler.get_2d(Dim::Light);
         let u_dir = ctx.sampler.get_2d(Dim::Light);
-        let Some(e) = light.emit(1.0 / n as f32, side, u_point, u_dir) else { return };
+        let Some(e) = light.emit(1.0 / n as f32, side, u_point, u_dir, &self.sphere) else { return };
         let mut path = SubPath {
             beta: ctx.channels.colour(e.beta),
             ctx,
@@ -596,7 +603,12 @@ impl<'a> Engine<'a> {
                 path.beta *= a;
                 throughput *= a;
             }
-            path.arrive(hit.t, hit.n.dot(ray.dir).abs());
+            let cos_in = hit.n.dot(ray.dir).abs();
+            if e.infinite && path.segments == 1 {
+                path.mis.arrive_from_infinity(cos_in);
+            } else {
+                path.arrive(hit.t, cos_in);
+            }
             let material = scene.material_of(isect.primitive);
             let bsdf = Scattering::at(material, hit.p, &path.ctx.channels);
             path.beta *= path.ctx.end_secondaries_at(&material.bsdf, &bsdf);
@@ -775,14 +787,29 @@ impl<'a> Engine<'a> {
         };
         let shadow = ShadowRays { mode: ShadowMode::Opaque, channels, time };
         let only_merges = self.algorithm.merges() && !self.algorithm.connects();
-        let pick = 1.0 / self.lights.len().max(1) as f32;
+        let pick = 1.0 / self.lights.max(1) as f32;
         let mut l = Vec3::ZERO;
         let mut eta_scale = 1.0f32;
         let mut absorption = Vec3::ZERO;
         loop {
             let Some(isect) = scene.intersect(&ray, f32::INFINITY) else {
                 if absorption == Vec3::ZERO && self.keeps(Strategy::EmitterHit) {
-                    l += path.beta * path.ctx.channels.colour(scene.settings.background);
+                    let weight = match self.environment {
+                        _ if path.segments == 1 || self.only.is_some() => 1.0,
+                        None => 1.0,
+                        Some(_) if only_merges => {
+                            if path.specular_path {
+                                1.0
+                            } else {
+                                0.0
+                            }
+                        }
+                        Some(_) => {
+                            let (emit, direct) = Light::environment_pdfs(&self.sphere);
+                            mis::emitter_hit(&path.mis, pick * direct, pick * emit)
+                        }
+                    };
+                    l += path.beta * path.ctx.channels.colour(scene.settings.background) * weight;
                 }
                 break;
             };
@@ -823,7 +850,7 @@ impl<'a> Engine<'a> {
             let mut merged = false;
             if !bsdf.is_delta() {
                 if self.algorithm.connects() {
-                    if !self.lights.is_empty() && self.keeps(Strategy::NextEvent) {
+                    if self.lights > 0 && self.keeps(Strategy::NextEvent) {
                         l += path.beta * self.next_event(&at, &mut path, k, shadow, pick);
                     }
                     let range = if j == 0 { 0 } else { light.ends[j - 1] as usize }..light.ends[j] as usize;
@@ -898,7 +925,7 @@ impl<'a> Engine<'a> {
         shadow: ShadowRays,
         pick: f32,
     ) -> Vec3 {
-        let index = self.lights[pick_light(self.lights.len(), &mut path.ctx.sampler)];
+        let index = pick_light(self.lights, &mut path.ctx.sampler);
         let u = path.ctx.sampler.get_2d(Dim::Light);
         let light = &self.scene.lights[index];
         let Some(ls) = light.sample_li(at.hit.p, u) else { return Vec3::ZERO };
@@ -910,6 +937,9 @@ impl<'a> Engine<'a> {
         let cos_to_light = wi_local.z.abs();
         let (direct_w, emit_w, cos_at_light) = if ls.delta {
             (ls.distance * ls.distance, 1.0 / (4.0 * PI), 1.0)
+        } else if !ls.distance.is_finite() {
+            let (emit, direct) = Light::environment_pdfs(&self.sphere);
+            (direct, emit, 1.0)
         } else {
             let cos_at_light = ls.normal.dot(-ls.wi).abs();
             if cos_at_light <= 0.0 {
@@ -923,8 +953,13 @@ impl<'a> Engine<'a> {
         let emit_ratio = emit_w * cos_to_light / (direct_w * cos_at_light);
         let weight =
             self.weighted(mis::next_event(&path.mis, k, dir_pdf, rev_pdf, pick * direct_w, emit_ratio));
+        let target = if ls.distance.is_finite() {
+            ls.position
+        } else {
+            at.hit.p + ls.wi * self.scene.far_distance(at.hit.p)
+        };
         let visible =
-            transmittance(self.scene, at.hit, ls.position, Some(index as u32), shadow, &mut path.ctx.rays);
+            transmittance(self.scene, at.hit, target, Some(index as u32), shadow, &mut path.ctx.rays);
         if visible == Vec3::ZERO {
             return Vec3::ZERO;
         }

@@ -1,5 +1,12 @@
 //! Light sources: point lights, one-sided area quads and spheres, emissive surfaces (two-sided
 //! diffuse emitters) and a constant environment.
+//!
+//! The environment is infinitely far away, so a light path cannot start on it at a point: it
+//! starts on a disk of the scene's bounding sphere's radius, perpendicular to a uniformly
+//! sampled direction and just outside the sphere (Dutré et al.; pbrt's infinite lights and
+//! SmallVCM's background light do the same), so that every ray of that direction which can meet
+//! the scene starts on the disk. Its densities are `1/(4π)` per solid angle times `1/(π R²)` per
+//! unit disk area.
 
 use crate::bsdf::lambert::cosine_hemisphere;
 use crate::bsdf::Frame;
@@ -51,6 +58,29 @@ pub enum Light {
         /// Radiance (W/(m²·sr)).
         radiance: Vec3,
     },
+}
+
+/// A sphere that bounds every object of a scene: where light paths from the environment start.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SceneSphere {
+    /// Centre.
+    pub centre: Vec3,
+    /// Radius (never zero).
+    pub radius: f32,
+}
+
+impl SceneSphere {
+    /// The sphere around the axis-aligned box `(lo, hi)`, enlarged a little so that points
+    /// started on its tangent disks lie strictly outside every object.
+    pub fn around(lo: Vec3, hi: Vec3) -> SceneSphere {
+        let radius = 0.5 * (hi - lo).length();
+        SceneSphere { centre: 0.5 * (lo + hi), radius: (radius * 1.001).max(1e-3) }
+    }
+
+    /// Area density of a point on the sphere's great disk, `1/(π R²)`.
+    pub fn disk_pdf(&self) -> f32 {
+        1.0 / (PI * self.radius * self.radius)
+    }
 }
 
 /// The geometry of an emissive object, sampled uniformly by area.
@@ -173,6 +203,9 @@ pub struct Emission {
     pub cos_light: f32,
     /// Whether the light is a point (delta) light, which no ray can hit.
     pub delta: bool,
+    /// Whether the light is infinitely far away (the environment): its first segment has no
+    /// length, so the densities of the other strategies do not convert by its squared distance.
+    pub infinite: bool,
 }
 
 /// What one light contributes at a shading point, seen as a point source.
@@ -280,8 +313,16 @@ impl Light {
     /// Sample how a path leaves the light (picked with probability `p_light`): `side` picks the
     /// side of a two-sided emitter, `u_point` the point, `u_dir` the direction. A point light
     /// emits uniformly over the sphere; an area light from a point uniform over its area in a
-    /// cosine-distributed direction about the normal. `None` for the environment.
-    pub fn emit(&self, p_light: f32, side: f32, u_point: Vec2, u_dir: Vec2) -> Option<Emission> {
+    /// cosine-distributed direction about the normal; the environment in a uniform direction
+    /// from a uniform point of the disk of `sphere` facing it (see the module documentation).
+    pub fn emit(
+        &self,
+        p_light: f32,
+        side: f32,
+        u_point: Vec2,
+        u_dir: Vec2,
+        sphere: &SceneSphere,
+    ) -> Option<Emission> {
         match *self {
             Light::Point { position, intensity } => {
                 // β = I / (p_light · 1/(4π))
@@ -294,9 +335,28 @@ impl Light {
                     pdf_direct: p_light,
                     cos_light: 1.0,
                     delta: true,
+                    infinite: false,
                 })
             }
-            Light::Environment { .. } => None,
+            Light::Environment { radiance } => {
+                let dir = -uniform_sphere(u_dir);
+                let (t, b) = dir.any_orthonormal_pair();
+                let r = u_point.x.sqrt();
+                let phi = 2.0 * PI * u_point.y;
+                let on_disk = t * (r * phi.cos()) + b * (r * phi.sin());
+                let origin = sphere.centre + sphere.radius * (on_disk - dir);
+                let (pdf_emit, pdf_direct) = Light::environment_pdfs(sphere);
+                Some(Emission {
+                    ray: Ray::new(origin, dir),
+                    beta: radiance / (p_light * pdf_emit),
+                    origin: None,
+                    pdf_emit: p_light * pdf_emit,
+                    pdf_direct: p_light * pdf_direct,
+                    cos_light: 1.0,
+                    delta: false,
+                    infinite: true,
+                })
+            }
             Light::Quad { corner, u, v, normal, radiance } => {
                 let p = corner + u_point.x * u + u_point.y * v;
                 let hit = emitter_point(p, normal, point_error(p, (u.abs() + v.abs()).max_element(), 8));
@@ -340,6 +400,15 @@ impl Light {
         let d = y - from;
         let direct = self.pdf_li(from, y, n) * cos / d.length_squared();
         (cos / (PI * area * sides), direct)
+    }
+
+    /// The densities of the other strategies for light arriving from the environment along any
+    /// direction: `(pdf_emit, pdf_direct)` as in [`Emission`] without the light's selection
+    /// probability, `1/(4π) · 1/(π R²)` and the solid-angle density `1/(4π)` of next-event
+    /// estimation.
+    pub fn environment_pdfs(sphere: &SceneSphere) -> (f32, f32) {
+        let direct = 1.0 / (4.0 * PI);
+        (direct * sphere.disk_pdf(), direct)
     }
 
     /// Whether the light has an area (and so casts soft shadows).
@@ -479,6 +548,7 @@ fn area_emission(
         pdf_direct: p_light * direct,
         cos_light: local.z,
         delta: false,
+        infinite: false,
     })
 }
 
@@ -684,5 +754,50 @@ pub(crate) mod tests {
         let s = (a * a + h * h).sqrt();
         let expected = 4.0 * (a / s) * (a / s).atan();
         assert!((e - expected).abs() / expected < 2e-3, "{e} vs {expected}");
+    }
+
+    #[test]
+    fn environment_emission_gives_the_irradiance_of_the_sky() {
+        // Light paths from a constant environment L, started on the bounding disk, cross a small
+        // disk of radius ρ inside the scene (normal n) from its upper side with the expected flux
+        // E·πρ², E = π L: the mean of β over the rays that cross it, divided by πρ², is π L.
+        // Every ray starts outside the bounding sphere.
+        use rand::{RngExt, SeedableRng};
+        let sphere = SceneSphere::around(Vec3::new(-1.0, 0.0, -2.0), Vec3::new(2.0, 1.0, 1.0));
+        let env = Light::Environment { radiance: Vec3::splat(0.7) };
+        let (centre, n, rho) = (Vec3::new(0.3, 0.6, -0.4), Vec3::new(0.3, 1.0, -0.2).normalize(), 0.4);
+        let mut rng = rand_pcg::Pcg64::seed_from_u64(3);
+        let count = 400_000;
+        let (mut sum, mut sum_sq) = (0.0f64, 0.0f64);
+        for _ in 0..count {
+            let u = |rng: &mut rand_pcg::Pcg64| Vec2::new(rng.random(), rng.random());
+            let (u_point, u_dir) = (u(&mut rng), u(&mut rng));
+            let e = env.emit(0.5, 0.0, u_point, u_dir, &sphere).unwrap();
+            assert!((e.ray.origin - sphere.centre).length() >= sphere.radius * 0.9999);
+            assert!(e.infinite && !e.delta && e.origin.is_none());
+            let mut x = 0.0;
+            if e.ray.dir.dot(n) < 0.0 {
+                let t = (centre - e.ray.origin).dot(n) / e.ray.dir.dot(n);
+                if (e.ray.origin + t * e.ray.dir - centre).length() <= rho {
+                    x = e.beta.x as f64;
+                }
+            }
+            sum += x;
+            sum_sq += x * x;
+        }
+        let mean = sum / count as f64;
+        let error = ((sum_sq / count as f64 - mean * mean) / count as f64).sqrt();
+        let area = std::f64::consts::PI * rho as f64 * rho as f64;
+        // β carries 1/p_light (here ½, as if one of two lights): each path stands for two.
+        let (estimate, expected) = (mean / area, std::f64::consts::PI * 0.7 / 0.5);
+        assert!(
+            (estimate - expected).abs() < 4.0 * error / area,
+            "irradiance {estimate} vs {expected} (standard error {})",
+            error / area
+        );
+        // The densities the other strategies use are the emitted ray's.
+        let (emit, direct) = Light::environment_pdfs(&sphere);
+        let e = env.emit(0.5, 0.0, Vec2::splat(0.3), Vec2::splat(0.6), &sphere).unwrap();
+        assert!((e.pdf_emit - 0.5 * emit).abs() < 1e-9 && (e.pdf_direct - 0.5 * direct).abs() < 1e-9);
     }
 }

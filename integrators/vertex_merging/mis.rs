@@ -47,6 +47,13 @@ impl Mis {
     /// The update on reaching a surface at distance `t` with |cos| `cos` there.
     pub fn arrive(&mut self, t: f32, cos: f32) {
         self.d_vcm *= mis(t * t);
+        self.arrive_from_infinity(cos);
+    }
+
+    /// The update on reaching a surface with |cos| `cos` there along the first segment of a
+    /// light sub-path from the environment: the environment's densities are per solid angle
+    /// already, so no squared distance converts them.
+    pub fn arrive_from_infinity(&mut self, cos: f32) {
         let inv = 1.0 / mis(cos);
         self.d_vcm *= inv;
         self.d_vc *= inv;
@@ -132,8 +139,8 @@ pub(super) fn merge(camera: &Mis, light: &Mis, k: &IterationConstants, dir: f32,
 mod tests {
     //! For random paths, the weights of all strategies that can make the same path sum to one:
     //! the path's vertices, their densities and the sub-path quantities are computed here from
-    //! the geometry, for diffuse (Lambert) and specular vertices, area and point lights, with
-    //! and without merging.
+    //! the geometry, for diffuse (Lambert) and specular vertices, area and point lights and the
+    //! environment, with and without merging.
     use super::*;
     use glam::Vec3;
     use rand::{RngExt, SeedableRng};
@@ -142,6 +149,19 @@ mod tests {
     const PATHS: f32 = 4096.0;
     const PIXEL_AREA: f32 = 2e-4;
     const LIGHT_AREA: f32 = 0.3;
+    /// `1/(π R²)` of the environment's bounding disk.
+    const DISK_PDF: f32 = 1.0 / (PI * 9.0);
+    /// Next-event estimation's solid-angle density of an environment direction.
+    const ENV_DIRECT: f32 = 1.0 / (4.0 * PI);
+
+    /// What the path's last vertex is on.
+    #[derive(Clone, Copy, Debug, PartialEq)]
+    enum Emitter {
+        Area,
+        Point,
+        /// The environment: the last "vertex" is one unit along the direction the light comes from.
+        Environment,
+    }
 
     /// A full path x₀ (camera) … x_last (on the light).
     struct FullPath {
@@ -149,15 +169,19 @@ mod tests {
         n: Vec<Vec3>,
         specular: Vec<bool>,
         forward: Vec3,
-        point_light: bool,
+        emitter: Emitter,
     }
 
     impl FullPath {
-        fn random(rng: &mut rand_pcg::Pcg64, vertices: usize, point_light: bool, specular: f64) -> FullPath {
+        fn random(rng: &mut rand_pcg::Pcg64, vertices: usize, emitter: Emitter, specular: f64) -> FullPath {
             let mut v3 =
                 |s: f32| Vec3::new(rng.random_range(-s..s), rng.random_range(-s..s), rng.random_range(-s..s));
-            let p: Vec<Vec3> = (0..vertices).map(|i| Vec3::new(i as f32 * 0.7, 0.0, 0.0) + v3(0.5)).collect();
+            let mut p: Vec<Vec3> =
+                (0..vertices).map(|i| Vec3::new(i as f32 * 0.7, 0.0, 0.0) + v3(0.5)).collect();
             let last = vertices - 1;
+            if emitter == Emitter::Environment {
+                p[last] = p[last - 1] + (p[last] - p[last - 1]).normalize();
+            }
             let mut n = vec![Vec3::Z; vertices];
             for i in 1..last {
                 // Facing both neighbours (every cosine positive), tilted at random.
@@ -173,7 +197,7 @@ mod tests {
             }
             let forward = ((p[1] - p[0]).normalize() + v3(0.2)).normalize();
             let specular = (0..vertices).map(|i| i > 0 && i < last && rng.random_bool(specular)).collect();
-            FullPath { p, n, specular, forward, point_light }
+            FullPath { p, n, specular, forward, emitter }
         }
 
         fn last(&self) -> usize {
@@ -219,17 +243,31 @@ mod tests {
             m
         }
 
+        /// The camera sub-path's quantities on leaving the scene towards the environment.
+        fn camera_mis_escaped(&self, k: &IterationConstants) -> Mis {
+            let c = self.last() - 1;
+            let mut m = self.camera_mis(k, c);
+            m.scatter(k, self.cos(c, c + 1), self.pdf(c, c + 1), self.pdf(c, c - 1), self.diffuse(c));
+            m
+        }
+
         /// The light sub-path's quantities on arriving at vertex `j` (< last).
         fn light_mis(&self, k: &IterationConstants, j: usize) -> Mis {
             let last = self.last();
-            let mut m = if self.point_light {
-                Mis::light(k, 1.0 / (4.0 * PI), 1.0, 1.0, true)
-            } else {
-                let c = self.cos(last, last - 1);
-                Mis::light(k, c / (PI * LIGHT_AREA), 1.0 / LIGHT_AREA, c, false)
+            let mut m = match self.emitter {
+                Emitter::Point => Mis::light(k, 1.0 / (4.0 * PI), 1.0, 1.0, true),
+                Emitter::Area => {
+                    let c = self.cos(last, last - 1);
+                    Mis::light(k, c / (PI * LIGHT_AREA), 1.0 / LIGHT_AREA, c, false)
+                }
+                Emitter::Environment => Mis::light(k, ENV_DIRECT * DISK_PDF, ENV_DIRECT, 1.0, false),
             };
             for i in (j..last).rev() {
-                m.arrive(self.dist2(i + 1, i).sqrt(), self.cos(i, i + 1));
+                if i + 1 == last && self.emitter == Emitter::Environment {
+                    m.arrive_from_infinity(self.cos(i, i + 1));
+                } else {
+                    m.arrive(self.dist2(i + 1, i).sqrt(), self.cos(i, i + 1));
+                }
                 if i > j {
                     m.scatter(k, self.cos(i, i - 1), self.pdf(i, i - 1), self.pdf(i, i + 1), self.diffuse(i));
                 }
@@ -243,11 +281,12 @@ mod tests {
         fn weights(&self, k: &IterationConstants, merging: bool, connecting: bool) -> Vec<(String, f32)> {
             let last = self.last();
             let mut w = Vec::new();
-            if !self.point_light {
-                let c = self.cos(last, last - 1);
-                let m = self.camera_mis(k, last);
-                let weight = if connecting {
-                    emitter_hit(&m, 1.0 / LIGHT_AREA, c / (PI * LIGHT_AREA))
+            if self.emitter != Emitter::Point {
+                let weight = if connecting && self.emitter == Emitter::Environment {
+                    emitter_hit(&self.camera_mis_escaped(k), ENV_DIRECT, ENV_DIRECT * DISK_PDF)
+                } else if connecting {
+                    let c = self.cos(last, last - 1);
+                    emitter_hit(&self.camera_mis(k, last), 1.0 / LIGHT_AREA, c / (PI * LIGHT_AREA))
                 } else if (1..last).all(|i| self.specular[i]) {
                     1.0
                 } else {
@@ -269,8 +308,10 @@ mod tests {
             if self.diffuse(c) {
                 let m = self.camera_mis(k, c);
                 let d2 = self.dist2(c, last);
-                let (bsdf_pdf, pick_direct, emit_ratio) = if self.point_light {
+                let (bsdf_pdf, pick_direct, emit_ratio) = if self.emitter == Emitter::Point {
                     (0.0, d2, self.cos(c, last) / (4.0 * PI * d2))
+                } else if self.emitter == Emitter::Environment {
+                    (self.pdf(c, last), ENV_DIRECT, ENV_DIRECT * DISK_PDF * self.cos(c, last) / ENV_DIRECT)
                 } else {
                     let cos_l = self.cos(last, c);
                     let direct = d2 / (LIGHT_AREA * cos_l);
@@ -339,9 +380,9 @@ mod tests {
         let mut checked = 0;
         for case in 0..400 {
             let vertices = 3 + case % 5;
-            let point_light = case % 3 == 0;
+            let emitter = [Emitter::Point, Emitter::Area, Emitter::Environment][case % 3];
             let specular = if case % 4 == 0 { 0.0 } else { 0.35 };
-            let path = FullPath::random(&mut rng, vertices, point_light, specular);
+            let path = FullPath::random(&mut rng, vertices, emitter, specular);
             // bpt (connections only), vcm (connections and merges) at two radii, bpm (merges only).
             for (name, merging, connecting, radius) in [
                 ("bpt", false, true, 0.01),
@@ -357,7 +398,7 @@ mod tests {
                 let sum: f32 = strategies.iter().map(|(_, w)| w).sum();
                 assert!(
                     (sum - 1.0).abs() < 1e-4,
-                    "{name} (r {radius}), {vertices} vertices, point light {point_light}, specular {:?}: \
+                    "{name} (r {radius}), {vertices} vertices, {emitter:?}, specular {:?}: \
                      weights {strategies:?} sum to {sum}",
                     path.specular
                 );

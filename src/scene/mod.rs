@@ -15,7 +15,7 @@ pub use source::SceneError;
 
 use crate::camera::Camera;
 use crate::geometry::{Ray, Shape, SurfaceHit};
-use crate::light::Light;
+use crate::light::{Light, SceneSphere};
 use crate::material::Material;
 use crate::params::{MergeParams, SsaaParams};
 use crate::sampler::SamplerKind;
@@ -334,5 +334,22 @@ impl Scene {
     #[inline]
     pub fn light_of(&self, primitive: u32) -> Option<u32> {
         self.primitives[primitive as usize].light
+    }
+
+    /// The sphere bounding every object: where light paths from the environment start.
+    pub fn bounding_sphere(&self) -> SceneSphere {
+        let (lo, hi) = self.bvh_stats.bounds;
+        SceneSphere::around(lo, hi)
+    }
+
+    /// A distance from `p` beyond every object of the scene (for shadow rays to the environment).
+    pub fn far_distance(&self, p: Vec3) -> f32 {
+        let (lo, hi) = self.bvh_stats.bounds;
+        2.0 * ((hi - lo).length() + (p - lo).length()) + 1.0
+    }
+
+    /// The index of the environment light, if the scene has one.
+    pub fn environment_light(&self) -> Option<usize> {
+        self.lights.iter().position(|l| matches!(l, Light::Environment { .. }))
     }
 }
