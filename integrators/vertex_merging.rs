@@ -711,17 +711,16 @@ impl<'a> Engine<'a> {
     ) {
         self.splat(hit, path, shadow, out, |path, c| {
             let wc_local = frame.to_local(-c.dir);
-            let f = bsdf.eval(wo_local, wc_local, TransportMode::Importance);
-            if f == Vec3::ZERO {
+            let e = bsdf.evaluate(wo_local, wc_local, TransportMode::Importance);
+            if e.f == Vec3::ZERO {
                 return Vec3::ZERO;
             }
             let cos_v = wc_local.z.abs();
             // Density of this point per unit area as the camera samples it (one sample per pixel).
             let camera_pdf_a = cos_v / (self.pixel_area * c.dist2 * c.cos * c.cos * c.cos);
-            let rev = bsdf.pdf(wc_local, wo_local);
             let weight =
-                self.weighted(mis::camera_splat(&path.mis, k, camera_pdf_a / self.paths as f32, rev));
-            path.beta * f * (weight * cos_v)
+                self.weighted(mis::camera_splat(&path.mis, k, camera_pdf_a / self.paths as f32, e.pdf_rev));
+            path.beta * e.f * (weight * cos_v)
         });
     }
 
@@ -930,8 +929,8 @@ impl<'a> Engine<'a> {
         let light = &self.scene.lights[index];
         let Some(ls) = light.sample_li(at.hit.p, u) else { return Vec3::ZERO };
         let wi_local = at.frame.to_local(ls.wi);
-        let f = at.bsdf.eval(at.wo_local, wi_local, TransportMode::Radiance);
-        if f == Vec3::ZERO {
+        let e = at.bsdf.evaluate(at.wo_local, wi_local, TransportMode::Radiance);
+        if e.f == Vec3::ZERO {
             return Vec3::ZERO;
         }
         let cos_to_light = wi_local.z.abs();
@@ -948,11 +947,11 @@ impl<'a> Engine<'a> {
             }
             (ls.pdf, light.emission_pdfs(at.hit.p, ls.position, ls.normal, -ls.wi).0, cos_at_light)
         };
-        let dir_pdf = if ls.delta { 0.0 } else { at.bsdf.pdf(at.wo_local, wi_local) };
-        let rev_pdf = at.bsdf.pdf(wi_local, at.wo_local);
+        // A delta light cannot be hit by BSDF sampling.
+        let dir_pdf = if ls.delta { 0.0 } else { e.pdf };
         let emit_ratio = emit_w * cos_to_light / (direct_w * cos_at_light);
         let weight =
-            self.weighted(mis::next_event(&path.mis, k, dir_pdf, rev_pdf, pick * direct_w, emit_ratio));
+            self.weighted(mis::next_event(&path.mis, k, dir_pdf, e.pdf_rev, pick * direct_w, emit_ratio));
         let target = if ls.distance.is_finite() {
             ls.position
         } else {
@@ -963,7 +962,7 @@ impl<'a> Engine<'a> {
         if visible == Vec3::ZERO {
             return Vec3::ZERO;
         }
-        f * path.ctx.channels.colour(ls.radiance) * visible * (weight * cos_to_light / (pick * ls.pdf))
+        e.f * path.ctx.channels.colour(ls.radiance) * visible * (weight * cos_to_light / (pick * ls.pdf))
     }
 
     /// The connection of a camera vertex to light vertex `v`, weighted.
@@ -982,8 +981,8 @@ impl<'a> Engine<'a> {
         }
         let dir = d / dist2.sqrt();
         let wi_local = at.frame.to_local(dir);
-        let f_camera = at.bsdf.eval(at.wo_local, wi_local, TransportMode::Radiance);
-        if f_camera == Vec3::ZERO {
+        let camera = at.bsdf.evaluate(at.wo_local, wi_local, TransportMode::Radiance);
+        if camera.f == Vec3::ZERO {
             return Vec3::ZERO;
         }
         let material = self.scene.material_of(v.primitive);
@@ -991,23 +990,21 @@ impl<'a> Engine<'a> {
         let light_frame = Frame::from_normal(v.n);
         let light_wo = light_frame.to_local(v.wo);
         let light_wi = light_frame.to_local(-dir);
-        let f_light = light_bsdf.eval(light_wo, light_wi, TransportMode::Importance);
-        if f_light == Vec3::ZERO {
+        let light = light_bsdf.evaluate(light_wo, light_wi, TransportMode::Importance);
+        if light.f == Vec3::ZERO {
             return Vec3::ZERO;
         }
         let (cos_camera, cos_light) = (wi_local.z.abs(), light_wi.z.abs());
-        let camera_dir_a = at.bsdf.pdf(at.wo_local, wi_local) * cos_light / dist2;
-        let light_dir_a = light_bsdf.pdf(light_wo, light_wi) * cos_camera / dist2;
-        let camera_rev = at.bsdf.pdf(wi_local, at.wo_local);
-        let light_rev = light_bsdf.pdf(light_wi, light_wo);
+        let camera_dir_a = camera.pdf * cos_light / dist2;
+        let light_dir_a = light.pdf * cos_camera / dist2;
         let weight = self.weighted(mis::connection(
             &path.mis,
             &v.mis,
             k,
             camera_dir_a,
             light_dir_a,
-            camera_rev,
-            light_rev,
+            camera.pdf_rev,
+            light.pdf_rev,
         ));
         let target = spawn_origin(&v.hit(), -dir);
         let visible = transmittance(self.scene, at.hit, target, None, shadow, &mut path.ctx.rays);
@@ -1015,7 +1012,7 @@ impl<'a> Engine<'a> {
             return Vec3::ZERO;
         }
         let g = cos_camera * cos_light / dist2;
-        f_camera * f_light * v.beta * visible * (weight * g * joined(path.ctx.hero_only, v.hero_only))
+        camera.f * light.f * v.beta * visible * (weight * g * joined(path.ctx.hero_only, v.hero_only))
     }
 
     /// The merges of a camera vertex with the photons around it, weighted.
@@ -1035,17 +1032,16 @@ impl<'a> Engine<'a> {
                 return;
             }
             let wi_local = at.frame.to_local(v.wo);
-            let f = at.bsdf.eval(at.wo_local, wi_local, TransportMode::Radiance);
+            // Unweighted merges (`ppm`, a strategy alone) need the value only.
+            let (f, weight) = if ppm || self.only.is_some() {
+                (at.bsdf.eval(at.wo_local, wi_local, TransportMode::Radiance), 1.0)
+            } else {
+                let e = at.bsdf.evaluate(at.wo_local, wi_local, TransportMode::Radiance);
+                (e.f, mis::merge(&path.mis, &v.mis, k, e.pdf, e.pdf_rev))
+            };
             if f == Vec3::ZERO {
                 return;
             }
-            let weight = if ppm || self.only.is_some() {
-                1.0
-            } else {
-                let dir = at.bsdf.pdf(at.wo_local, wi_local);
-                let rev = at.bsdf.pdf(wi_local, at.wo_local);
-                mis::merge(&path.mis, &v.mis, k, dir, rev)
-            };
             sum += f * v.beta * (weight * joined(path.ctx.hero_only, v.hero_only));
         });
         sum * k.vm_norm

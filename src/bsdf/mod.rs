@@ -98,6 +98,18 @@ impl BsdfSample {
     }
 }
 
+/// A BSDF evaluated for a pair of directions, with the two densities multiple importance
+/// sampling between light and camera sub-paths needs ([`Scattering::evaluate`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BsdfEval {
+    /// The BSDF value f(wo, wi) (single scattering for rough glass).
+    pub f: Vec3,
+    /// Solid-angle density with which sampling from `wo` produces `wi`.
+    pub pdf: f32,
+    /// Solid-angle density with which sampling from `wi` produces `wo` (the reverse direction).
+    pub pdf_rev: f32,
+}
+
 /// Whether two local directions lie strictly on the same side of the surface.
 #[inline]
 pub(crate) fn same_hemisphere(a: Vec3, b: Vec3) -> bool {

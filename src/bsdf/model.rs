@@ -1,7 +1,7 @@
 //! The scattering model of a material at a hit point, for the physically based methods (`path`,
 //! `light`): Lambert, smooth or rough mirror, smooth or rough dielectric, behind one interface.
 
-use super::{BsdfSample, Lambert, RoughConductor, RoughDielectric, TransportMode, TrowbridgeReitz};
+use super::{BsdfEval, BsdfSample, Lambert, RoughConductor, RoughDielectric, TransportMode, TrowbridgeReitz};
 use crate::material::{Bsdf, Material};
 use crate::spectrum::Channels;
 use glam::{Vec2, Vec3};
@@ -79,6 +79,15 @@ impl Scattering {
         }
     }
 
+    /// The BSDF value for `wo`, `wi` with the forward density (of `wi` sampled from `wo`) and
+    /// the reverse density (of `wo` sampled from `wi`), in one call: what a connection or a
+    /// merge of the bidirectional methods needs at each end. The same numbers as
+    /// [`eval`](Self::eval) and [`pdf`](Self::pdf) both ways (tested to the bit), so renders do
+    /// not depend on which form a method calls.
+    pub fn evaluate(&self, wo: Vec3, wi: Vec3, mode: TransportMode) -> BsdfEval {
+        BsdfEval { f: self.eval(wo, wi, mode), pdf: self.pdf(wo, wi), pdf_rev: self.pdf(wi, wo) }
+    }
+
     /// Whether [`Scattering::sample`] uses its `uc`: only glass chooses between lobes
     /// (reflection or refraction); the other models draw a direction from `u` alone.
     pub fn chooses_lobe(&self) -> bool {
@@ -95,6 +104,43 @@ impl Scattering {
             Scattering::Diffuse(m) => m.sample(wo, u),
             Scattering::Conductor(m) => m.sample(wo, u),
             Scattering::Dielectric(m) => m.sample(wo, uc, u, mode),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::light::uniform_sphere;
+    use rand::{RngExt, SeedableRng};
+
+    #[test]
+    fn evaluate_gives_the_value_and_both_densities_of_every_model() {
+        let rough = TrowbridgeReitz::from_roughness(0.3);
+        let models = [
+            Scattering::Diffuse(Lambert { albedo: Vec3::new(0.2, 0.5, 0.8) }),
+            Scattering::Conductor(RoughConductor::new(Vec3::splat(0.9), rough)),
+            Scattering::Dielectric(RoughDielectric::new(1.5, rough)),
+            Scattering::Dielectric(RoughDielectric::new(1.0 / 1.33, rough)),
+        ];
+        let mut rng = rand_pcg::Pcg64::seed_from_u64(11);
+        let mut u = || Vec2::new(rng.random(), rng.random());
+        for model in models {
+            for _ in 0..2000 {
+                let (wo, wi) = (uniform_sphere(u()), uniform_sphere(u()));
+                for mode in [TransportMode::Radiance, TransportMode::Importance] {
+                    let e = model.evaluate(wo, wi, mode);
+                    assert_eq!(e.f, model.eval(wo, wi, mode));
+                    assert_eq!(e.pdf.to_bits(), model.pdf(wo, wi).to_bits());
+                    assert_eq!(e.pdf_rev.to_bits(), model.pdf(wi, wo).to_bits());
+                }
+                if let Scattering::Diffuse(_) = model {
+                    // Cosine sampling from wi picks wo with |cos θo|/π on wi's side.
+                    let e = model.evaluate(wo, wi, TransportMode::Radiance);
+                    let expected = if wo.z * wi.z > 0.0 { wo.z.abs() / std::f32::consts::PI } else { 0.0 };
+                    assert!((e.pdf_rev - expected).abs() < 1e-6, "{} vs {expected}", e.pdf_rev);
+                }
+            }
         }
     }
 }
