@@ -88,12 +88,13 @@
 //! lands between sample indices: the image of the `k` indices done is, bit for bit, a plain
 //! `k`-sample render.
 
+use super::splat_film::{CameraTarget, SampleSplats, SplatBuffer};
 use super::{pick_light, sample_bsdf, Integrator, PathContext, RenderParams, DEFAULT_PATH_DEPTH};
 use crate::bsdf::{Frame, Scattering, TransportMode};
 use crate::camera::Camera;
 use crate::geometry::{spawn_origin, Ray, SurfaceHit};
 use crate::light::SceneSphere;
-use crate::lighting::{crossing, transmittance, ShadowMode, ShadowRays};
+use crate::lighting::{crossing, ShadowMode, ShadowRays};
 use crate::render::{
     camera_for, render_accumulated, Accumulate, CameraDims, Film, Progression, RenderOptions, RenderOutput,
 };
@@ -102,7 +103,7 @@ use crate::scene::effects::Support;
 use crate::scene::{Effect, Scene};
 use crate::spectrum::{Channels, Wavelengths};
 use crate::stats::RayCounts;
-use glam::{DVec3, Vec3};
+use glam::Vec3;
 use rand::SeedableRng;
 use rand_pcg::Pcg32;
 use rayon::prelude::*;
@@ -197,13 +198,12 @@ impl Accumulate for LightTracer {
     }
 }
 
-/// The splats of one chunk of paths, in the order the paths made them.
+/// The splats of one chunk of paths, in the order the paths made them (before the film's
+/// common 1/(spp·A) scale).
 #[derive(Default)]
 struct ChunkSplats {
-    /// (pixel index, contribution before the common 1/(spp·A) scale).
-    splats: Vec<(u32, Vec3)>,
+    splats: SplatBuffer,
     rays: RayCounts,
-    non_finite: u64,
     /// Whether the chunk holds the last paths of its sample index.
     ends_sample: bool,
 }
@@ -223,21 +223,13 @@ struct Tracer<'a> {
 }
 
 /// Merge chunk buffers into the film in their order; `batch` collects the current sample
-/// index's splats, whose squares go to the film when its last chunk is merged.
-fn merge(film: &mut Film, batch: &mut [DVec3], chunks: Vec<ChunkSplats>) {
+/// index's splats, which become one term of the film's sums when its last chunk is merged.
+fn merge(film: &mut Film, batch: &mut SampleSplats, chunks: Vec<ChunkSplats>) {
     for chunk in chunks {
-        for (pixel, value) in chunk.splats {
-            let v = value.as_dvec3();
-            film.sum[pixel as usize] += v;
-            batch[pixel as usize] += v;
-        }
+        batch.add(film, chunk.splats);
         film.rays += chunk.rays;
-        film.non_finite += chunk.non_finite;
         if chunk.ends_sample {
-            for (sq, b) in film.sum_sq.iter_mut().zip(batch.iter_mut()) {
-                *sq += *b * *b;
-                *b = DVec3::ZERO;
-            }
+            batch.finish(film, None, 1.0);
         }
     }
 }
@@ -273,7 +265,7 @@ impl Tracer<'_> {
         let total = chunks.len() as u64;
         let done = AtomicU64::new(0);
         let batch_size = CHUNKS_PER_THREAD * rayon::current_num_threads().max(1);
-        let mut batch = vec![DVec3::ZERO; pixels as usize];
+        let mut batch = SampleSplats::new(pixels as usize);
         let mut pending: Option<Vec<ChunkSplats>> = None;
         for group in chunks.chunks(batch_size) {
             // Trace this batch while the previous one is merged (in chunk order).
@@ -304,7 +296,7 @@ impl Tracer<'_> {
 
     fn trace_chunk(&self, paths: Range<u64>) -> ChunkSplats {
         let mut out = ChunkSplats {
-            splats: Vec::with_capacity(2 * (paths.end - paths.start) as usize),
+            splats: SplatBuffer::with_capacity(2 * (paths.end - paths.start) as usize),
             ..Default::default()
         };
         if self.lights == 0 {
@@ -445,23 +437,7 @@ impl Tracer<'_> {
         out: &mut ChunkSplats,
         value: impl FnOnce(Vec3) -> Vec3,
     ) {
-        let cam = &self.camera;
-        let lens = if self.dims.lens { cam.lens_point(ctx.sampler.get_2d(Dim::Lens)) } else { cam.position };
-        let Some(c) = cam.connection(hit.p, lens) else { return };
-        let (dir, dist2, cos_cam) = (c.dir, c.dist2, c.cos);
-        let v = value(-dir);
-        if v == Vec3::ZERO {
-            return;
-        }
-        let visible = transmittance(self.scene, hit, lens, None, shadow, &mut ctx.rays);
-        if visible == Vec3::ZERO {
-            return;
-        }
-        // dω = |cos_v| dA / d² and dA_film = dω / cos³θ (see the module documentation).
-        let value = ctx.channels.to_rgb(v * visible) / (dist2 * cos_cam * cos_cam * cos_cam);
-        if !value.is_finite() {
-            out.non_finite += 1;
-        }
-        out.splats.push((c.pixel, value));
+        let target = CameraTarget { scene: self.scene, camera: &self.camera, lens: self.dims.lens };
+        target.splat(hit, ctx, shadow, &mut out.splats, |_, c| value(-c.dir));
     }
 }

@@ -4,6 +4,7 @@ mod distributed;
 mod light;
 mod path;
 mod raycast;
+mod splat_film;
 mod ssaa;
 mod vertex_merging;
 mod whitted;

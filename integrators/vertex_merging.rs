@@ -65,6 +65,7 @@
 //! Without an environment light the background colour is no light: rays that escape see it with
 //! weight 1.
 
+use super::splat_film::{CameraTarget, SampleSplats, SplatBuffer};
 use super::{
     pick_light, sample_bsdf, Integrator, MergeParams, PathContext, RenderParams, Strategy, DEFAULT_PATH_DEPTH,
 };
@@ -81,7 +82,7 @@ use crate::scene::effects::Support;
 use crate::scene::{Effect, Scene};
 use crate::spectrum::{Channels, Wavelengths};
 use crate::stats::RayCounts;
-use glam::{DVec3, Vec2, Vec3};
+use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 use std::f32::consts::PI;
 use std::ops::Range;
@@ -277,9 +278,8 @@ struct LightChunk {
     vertices: Vec<LightVertex>,
     /// Per path of the chunk, the end of its vertices in `vertices`.
     ends: Vec<u32>,
-    splats: Vec<(u32, Vec3)>,
+    splats: SplatBuffer,
     rays: RayCounts,
-    non_finite: u64,
 }
 
 /// The photons of one iteration in a hashed uniform grid of cells twice the radius wide.
@@ -505,16 +505,13 @@ impl<'a> Engine<'a> {
             .collect();
         let mut vertices = Vec::with_capacity(chunks.iter().map(|c| c.vertices.len()).sum());
         let mut ends = Vec::with_capacity(self.paths);
-        let mut splats = vec![DVec3::ZERO; self.paths];
+        let mut splats = SampleSplats::new(self.paths);
         for chunk in chunks {
             let base = vertices.len() as u32;
             ends.extend(chunk.ends.iter().map(|e| e + base));
             vertices.extend_from_slice(&chunk.vertices);
-            for (pixel, v) in chunk.splats {
-                splats[pixel as usize] += v.as_dvec3();
-            }
+            splats.add(film, chunk.splats);
             film.rays += chunk.rays;
-            film.non_finite += chunk.non_finite;
         }
         let grid = self
             .algorithm
@@ -539,17 +536,13 @@ impl<'a> Engine<'a> {
                 (row, rays, non_finite)
             })
             .collect();
-        let inv_area = 1.0 / self.camera.film_area() as f64;
-        for (y, (row, rays, non_finite)) in rows.into_iter().enumerate() {
+        let mut camera = Vec::with_capacity(self.paths);
+        for (row, rays, non_finite) in rows {
             film.rays += rays;
             film.non_finite += non_finite;
-            for (x, l) in row.into_iter().enumerate() {
-                let p = y * w + x;
-                let v = l.as_dvec3() + splats[p] * inv_area;
-                film.sum[p] += v;
-                film.sum_sq[p] += v * v;
-            }
+            camera.extend(row);
         }
+        splats.finish(film, Some(&camera), 1.0 / self.camera.film_area() as f64);
     }
 
     /// The random stream of light path `j` of iteration `s`.
@@ -690,9 +683,9 @@ impl<'a> Engine<'a> {
         shadow: ShadowRays,
         out: &mut LightChunk,
     ) {
-        self.splat(origin, path, shadow, out, |path, c| {
+        self.splat(origin, path, shadow, out, |ctx, c| {
             let le = light.emitted(origin.n, -c.dir) * (c.dir.dot(origin.n).abs() * inv_pdf);
-            path.ctx.channels.colour(le)
+            ctx.channels.colour(le)
         });
     }
 
@@ -709,7 +702,8 @@ impl<'a> Engine<'a> {
         shadow: ShadowRays,
         out: &mut LightChunk,
     ) {
-        self.splat(hit, path, shadow, out, |path, c| {
+        let (beta, light_mis) = (path.beta, path.mis);
+        self.splat(hit, path, shadow, out, |_, c| {
             let wc_local = frame.to_local(-c.dir);
             let e = bsdf.evaluate(wo_local, wc_local, TransportMode::Importance);
             if e.f == Vec3::ZERO {
@@ -719,41 +713,23 @@ impl<'a> Engine<'a> {
             // Density of this point per unit area as the camera samples it (one sample per pixel).
             let camera_pdf_a = cos_v / (self.pixel_area * c.dist2 * c.cos * c.cos * c.cos);
             let weight =
-                self.weighted(mis::camera_splat(&path.mis, k, camera_pdf_a / self.paths as f32, e.pdf_rev));
-            path.beta * e.f * (weight * cos_v)
+                self.weighted(mis::camera_splat(&light_mis, k, camera_pdf_a / self.paths as f32, e.pdf_rev));
+            beta * e.f * (weight * cos_v)
         });
     }
 
-    /// Connect the light-path point `hit` to the camera and splat `value(path, connection)`,
-    /// the point's weight towards the camera (in the path's channels; zero: nothing to splat)
-    /// times the pinhole's importance `1/(d²·cos³θ)` (see `light`'s module documentation). A
-    /// thin lens: a uniform point of the lens, which the camera samples with the same density,
-    /// so the lens area cancels and the weights are the pinhole's.
+    /// Connect the light-path point `hit` to the camera and splat `value(context, connection)`
+    /// ([`CameraTarget::splat`]).
     fn splat(
         &self,
         hit: &SurfaceHit,
         path: &mut SubPath,
         shadow: ShadowRays,
         out: &mut LightChunk,
-        value: impl FnOnce(&SubPath, &CameraConnection) -> Vec3,
+        value: impl FnOnce(&PathContext, &CameraConnection) -> Vec3,
     ) {
-        let cam = &self.camera;
-        let lens =
-            if self.dims.lens { cam.lens_point(path.ctx.sampler.get_2d(Dim::Lens)) } else { cam.position };
-        let Some(c) = cam.connection(hit.p, lens) else { return };
-        let v = value(path, &c);
-        if v == Vec3::ZERO {
-            return;
-        }
-        let visible = transmittance(self.scene, hit, lens, None, shadow, &mut path.ctx.rays);
-        if visible == Vec3::ZERO {
-            return;
-        }
-        let value = path.ctx.channels.to_rgb(v * visible) / (c.dist2 * c.cos * c.cos * c.cos);
-        if !value.is_finite() {
-            out.non_finite += 1;
-        }
-        out.splats.push((c.pixel, value));
+        let target = CameraTarget { scene: self.scene, camera: &self.camera, lens: self.dims.lens };
+        target.splat(hit, &mut path.ctx, shadow, &mut out.splats, value);
     }
 
     /// The radiance camera path `j` of iteration `s` gathers by its own strategies.

@@ -1,0 +1,117 @@
+//! The splat film of the methods that trace light paths (`light` and the bidirectional engine):
+//! a light-path vertex connected to the camera adds its contribution to whatever pixel it
+//! projects to ([`CameraTarget::splat`]), chunks of light paths collect their splats in the order
+//! they made them ([`SplatBuffer`]), and the splats of one sample index are summed per pixel
+//! ([`SampleSplats`]) before they become one term of every pixel's sum and sum of squares on the
+//! [`Film`], together with the camera paths' own estimates where a method has them. So a light
+//! path's splats count as part of one sample of the pixel, the per-pixel variance is that of
+//! whole sample indices, and progressive checkpoints, render parts and `merge` work on the film
+//! exactly as for the camera methods. The splats of a sample index are added in chunk order, so
+//! the film does not depend on the thread count.
+
+use super::PathContext;
+use crate::camera::{Camera, CameraConnection};
+use crate::geometry::SurfaceHit;
+use crate::lighting::{transmittance, ShadowRays};
+use crate::render::Film;
+use crate::sampler::Dim;
+use crate::scene::Scene;
+use glam::{DVec3, Vec3};
+
+/// The camera splats of a chunk of light paths, in the order the paths made them.
+#[derive(Default, Debug)]
+pub(crate) struct SplatBuffer {
+    /// (pixel index, contribution in RGB before the film's common scale).
+    splats: Vec<(u32, Vec3)>,
+    /// Splats that were NaN or infinite (kept, never hidden).
+    non_finite: u64,
+}
+
+impl SplatBuffer {
+    /// An empty buffer with room for `capacity` splats.
+    pub fn with_capacity(capacity: usize) -> SplatBuffer {
+        SplatBuffer { splats: Vec::with_capacity(capacity), non_finite: 0 }
+    }
+
+    /// Add `value` to pixel `pixel`.
+    pub fn push(&mut self, pixel: u32, value: Vec3) {
+        if !value.is_finite() {
+            self.non_finite += 1;
+        }
+        self.splats.push((pixel, value));
+    }
+}
+
+/// The splats of one sample index, summed per pixel.
+pub(crate) struct SampleSplats {
+    values: Vec<DVec3>,
+}
+
+impl SampleSplats {
+    /// No splats yet, for a film of `pixels` pixels.
+    pub fn new(pixels: usize) -> SampleSplats {
+        SampleSplats { values: vec![DVec3::ZERO; pixels] }
+    }
+
+    /// Add the splats of `buffer` (the next chunk of the sample index, in order), counting its
+    /// non-finite splats on `film`.
+    pub fn add(&mut self, film: &mut Film, buffer: SplatBuffer) {
+        for (pixel, value) in buffer.splats {
+            self.values[pixel as usize] += value.as_dvec3();
+        }
+        film.non_finite += buffer.non_finite;
+    }
+
+    /// End the sample index: every pixel's term, `camera[p] + scale · splats[p]` (no camera
+    /// estimate: 0), goes into the film's sum and sum of squares, and the splats start again
+    /// from zero. The caller advances the film's sample count.
+    pub fn finish(&mut self, film: &mut Film, camera: Option<&[Vec3]>, scale: f64) {
+        for (p, splat) in self.values.iter_mut().enumerate() {
+            let v = camera.map_or(DVec3::ZERO, |c| c[p].as_dvec3()) + *splat * scale;
+            film.sum[p] += v;
+            film.sum_sq[p] += v * v;
+            *splat = DVec3::ZERO;
+        }
+    }
+}
+
+/// The camera that light-path vertices connect to, in its scene.
+pub(crate) struct CameraTarget<'a> {
+    /// The scene whose surfaces block the connection.
+    pub scene: &'a Scene,
+    /// The camera.
+    pub camera: &'a Camera,
+    /// Whether the camera has a thin lens (connections go to a sampled lens point).
+    pub lens: bool,
+}
+
+impl CameraTarget<'_> {
+    /// Connect the light-path point `hit` to the camera and splat `value(ctx, connection)` into
+    /// `out`: the point's weight towards the camera in the path's channels (zero: nothing to
+    /// splat), which the pinhole's importance `1/(d²·cos³θ)` then multiplies (see `light`'s
+    /// module documentation), when the straight, opaque ray to the camera is clear. With a thin
+    /// lens the connection goes to a uniform point of the lens, which the camera samples with
+    /// the same density, so the lens area cancels and the contribution has the pinhole's form.
+    pub fn splat(
+        &self,
+        hit: &SurfaceHit,
+        ctx: &mut PathContext,
+        shadow: ShadowRays,
+        out: &mut SplatBuffer,
+        value: impl FnOnce(&PathContext, &CameraConnection) -> Vec3,
+    ) {
+        let camera = self.camera;
+        let lens = if self.lens { camera.lens_point(ctx.sampler.get_2d(Dim::Lens)) } else { camera.position };
+        let Some(c) = camera.connection(hit.p, lens) else { return };
+        let v = value(ctx, &c);
+        if v == Vec3::ZERO {
+            return;
+        }
+        let visible = transmittance(self.scene, hit, lens, None, shadow, &mut ctx.rays);
+        if visible == Vec3::ZERO {
+            return;
+        }
+        // dω = |cos_v| dA / d² and dA_film = dω / cos³θ.
+        out.push(c.pixel, ctx.channels.to_rgb(v * visible) / (c.dist2 * c.cos * c.cos * c.cos));
+    }
+}
