@@ -79,7 +79,7 @@ use crate::render::{
 };
 use crate::sampler::{Dim, Sampler, SamplerKind};
 use crate::scene::effects::Support;
-use crate::scene::{Effect, Scene};
+use crate::scene::{Effect, Intersection, Scene};
 use crate::spectrum::{Channels, Wavelengths};
 use crate::stats::RayCounts;
 use glam::{Vec2, Vec3};
@@ -374,16 +374,34 @@ struct IterationConstants {
 /// The running state of a sub-path.
 struct SubPath {
     ctx: PathContext,
+    /// Camera paths gather radiance, light paths carry importance.
+    mode: TransportMode,
+    /// The path's weight: its value over its density, the light's emitted power included.
     beta: Vec3,
+    /// `beta` without the light's emission and the spectral factors: the roulette's measure of
+    /// a light path.
+    throughput: Vec3,
+    /// The product of η² over the refractions so far: the radiance scaling a camera path's
+    /// roulette leaves out (pbrt-v4's `etaScale`).
+    eta_scale: f32,
     mis: Mis,
     segments: u32,
     specular_path: bool,
 }
 
 impl SubPath {
-    /// The MIS update on reaching a surface at distance `t` with |cos| `cos` there.
-    fn arrive(&mut self, t: f32, cos: f32) {
-        self.mis.arrive(t, cos);
+    /// A sub-path of weight `beta` and MIS state `mis` at its first segment.
+    fn new(ctx: PathContext, mode: TransportMode, beta: Vec3, mis: Mis) -> SubPath {
+        SubPath {
+            ctx,
+            mode,
+            beta,
+            throughput: Vec3::ONE,
+            eta_scale: 1.0,
+            mis,
+            segments: 1,
+            specular_path: true,
+        }
     }
 
     /// The MIS update on scattering into `wi` with forward density `pdf` and reverse density
@@ -391,6 +409,15 @@ impl SubPath {
     fn scatter(&mut self, k: &IterationConstants, cos_out: f32, pdf: f32, rev: f32, evaluable: bool) {
         self.mis.scatter(k, cos_out, pdf, rev, evaluable);
         self.specular_path &= !evaluable;
+    }
+
+    /// The probability Russian roulette keeps the path with (before clamping to 1): a camera
+    /// path's weight without the radiance scaling of refraction, a light path's throughput.
+    fn survival(&self) -> f32 {
+        match self.mode {
+            TransportMode::Radiance => (self.beta * self.eta_scale).max_element(),
+            TransportMode::Importance => self.throughput.max_element(),
+        }
     }
 }
 
@@ -563,23 +590,17 @@ impl<'a> Engine<'a> {
 
     /// Trace light path `j`: store its vertices and splat their connections to the camera.
     fn trace_light_path(&self, j: usize, s: u32, k: &IterationConstants, out: &mut LightChunk) {
-        let scene = self.scene;
         let (channels, time) = self.channels_and_time(j, s);
         let mut ctx = PathContext::new(self.light_sampler(j, s));
         ctx.channels = channels;
         let n = self.lights;
-        let light = &scene.lights[pick_light(n, &mut ctx.sampler)];
+        let light = &self.scene.lights[pick_light(n, &mut ctx.sampler)];
         let side = ctx.sampler.get_1d(Dim::Light);
         let u_point = ctx.sampler.get_2d(Dim::Light);
         let u_dir = ctx.sampler.get_2d(Dim::Light);
         let Some(e) = light.emit(1.0 / n as f32, side, u_point, u_dir, &self.sphere) else { return };
-        let mut path = SubPath {
-            beta: ctx.channels.colour(e.beta),
-            ctx,
-            mis: Mis::light(k, e.pdf_emit, e.pdf_direct, e.cos_light, e.delta),
-            segments: 1,
-            specular_path: true,
-        };
+        let mis = Mis::light(k, e.pdf_emit, e.pdf_direct, e.cos_light, e.delta);
+        let mut path = SubPath::new(ctx, TransportMode::Importance, channels.colour(e.beta), mis);
         let shadow = ShadowRays { mode: ShadowMode::Opaque, channels, time };
         if let (Some(Strategy::CameraSplat), Some((origin, inv_pdf))) = (self.only, e.origin) {
             self.splat_emission_point(light, &origin, inv_pdf, &mut path, shadow, out);
@@ -587,88 +608,96 @@ impl<'a> Engine<'a> {
         let mut ray = e.ray;
         ray.time = time;
         path.ctx.rays.primary += 1;
-        let mut throughput = Vec3::ONE;
+        self.walk(ray, &mut path, k, e.infinite, &mut LightVisitor { engine: self, k, shadow, out });
+        out.rays += path.ctx.rays;
+    }
+
+    /// The random walk of a sub-path from `ray`, shared by camera and light sub-paths: at every
+    /// surface it reaches, the MIS update of the arrival, `visitor`'s strategies, then a BSDF
+    /// sample, the absorption of the medium it enters and Russian roulette. `from_infinity`: the
+    /// first segment comes from the environment (its density has no distance to convert by).
+    fn walk(
+        &self,
+        mut ray: Ray,
+        path: &mut SubPath,
+        k: &IterationConstants,
+        from_infinity: bool,
+        visitor: &mut impl WalkVisitor,
+    ) {
+        let scene = self.scene;
         let mut absorption = Vec3::ZERO;
-        while let Some(isect) = scene.intersect(&ray, f32::INFINITY) {
-            let hit = isect.hit;
+        loop {
+            let Some(isect) = scene.intersect(&ray, f32::INFINITY) else {
+                visitor.escaped(path, absorption != Vec3::ZERO);
+                break;
+            };
+            let hit = &isect.hit;
             if absorption != Vec3::ZERO {
                 let a = (-absorption * hit.t).exp();
                 path.beta *= a;
-                throughput *= a;
+                path.throughput *= a;
             }
             let cos_in = hit.n.dot(ray.dir).abs();
-            if e.infinite && path.segments == 1 {
+            if from_infinity && path.segments == 1 {
                 path.mis.arrive_from_infinity(cos_in);
             } else {
-                path.arrive(hit.t, cos_in);
+                path.mis.arrive(hit.t, cos_in);
+            }
+            if !visitor.reached(path, &ray, &isect) {
+                break;
             }
             let material = scene.material_of(isect.primitive);
             let bsdf = Scattering::at(material, hit.p, &path.ctx.channels);
             path.beta *= path.ctx.end_secondaries_at(&material.bsdf, &bsdf);
             let frame = Frame::from_normal(hit.n);
-            let wo_local = frame.to_local(-ray.dir);
-            if !bsdf.is_delta() {
-                out.vertices.push(LightVertex {
-                    p: hit.p,
-                    n: hit.n,
-                    p_error: hit.p_error,
-                    wo: -ray.dir,
-                    beta: path.beta,
-                    mis: path.mis,
-                    segments: path.segments,
-                    primitive: isect.primitive,
-                    hero_only: path.ctx.hero_only,
-                });
-                if self.algorithm.connects()
-                    && self.keeps(Strategy::CameraSplat)
-                    && path.segments < self.max_segments
-                {
-                    self.connect_to_camera(&hit, &bsdf, &frame, wo_local, &mut path, k, shadow, out);
-                }
-            }
-            if path.segments + 2 > self.max_segments {
+            let wo = -ray.dir;
+            let at = Vertex { hit, bsdf: &bsdf, frame: &frame, wo, wo_local: frame.to_local(wo) };
+            let next = visitor.visit(path, &at, isect.primitive);
+            if next == Next::Stop {
                 break;
             }
-            let Some(smp) = sample_bsdf(&bsdf, wo_local, TransportMode::Importance, &mut path.ctx.sampler)
-            else {
+            let Some(smp) = sample_bsdf(&bsdf, at.wo_local, path.mode, &mut path.ctx.sampler) else {
                 break;
             };
             if smp.pdf <= 0.0 || smp.f == Vec3::ZERO {
                 break;
             }
-            let cos_out = smp.wi.z.abs();
             let evaluable = smp.is_evaluable();
-            let rev = if evaluable { bsdf.pdf(smp.wi, wo_local) } else { 0.0 };
+            if next == Next::SpecularOnly && evaluable {
+                break;
+            }
+            let cos_out = smp.wi.z.abs();
+            let rev = if evaluable { bsdf.pdf(smp.wi, at.wo_local) } else { 0.0 };
             path.scatter(k, cos_out, smp.pdf, rev, evaluable);
             let step =
-                smp.f * (cos_out / smp.pdf) * path.ctx.secondaries_after(&material.bsdf, &smp, wo_local);
+                smp.f * (cos_out / smp.pdf) * path.ctx.secondaries_after(&material.bsdf, &smp, at.wo_local);
             path.beta *= step;
-            throughput *= step;
+            path.throughput *= step;
             let wi = frame.to_world(smp.wi);
             if let Some(c) = crossing(&material.bsdf, ray.dir, hit.n, path.ctx.channels.hero()) {
                 let medium = if smp.is_transmission { c.transmitted } else { c.incident };
                 absorption = path.ctx.channels.colour(medium.absorption);
             }
             if smp.is_transmission {
+                path.eta_scale *= smp.eta * smp.eta;
                 path.ctx.rays.refracted += 1;
             } else {
                 path.ctx.rays.reflected += 1;
             }
-            ray = ray.spawn(spawn_origin(&hit, wi), wi);
+            ray = ray.spawn(spawn_origin(hit, wi), wi);
             path.segments += 1;
             if path.segments > ROULETTE_DEPTH + 1 {
-                let rr = throughput.max_element();
+                let rr = path.survival();
                 if rr < 1.0 {
                     let q = (1.0 - rr).max(0.0);
                     if path.ctx.sampler.get_1d(Dim::Other) < q {
                         break;
                     }
                     path.beta /= 1.0 - q;
-                    throughput /= 1.0 - q;
+                    path.throughput /= 1.0 - q;
                 }
             }
         }
-        out.rays += path.ctx.rays;
     }
 
     /// Splat the emission point `origin` of an area light seen directly (`inv_pdf`: one over
@@ -689,23 +718,19 @@ impl<'a> Engine<'a> {
         });
     }
 
-    /// Splat the connection of light vertex `hit` to the camera (light tracing's strategy).
-    #[allow(clippy::too_many_arguments)]
+    /// Splat the connection of light vertex `at` to the camera (light tracing's strategy).
     fn connect_to_camera(
         &self,
-        hit: &SurfaceHit,
-        bsdf: &Scattering,
-        frame: &Frame,
-        wo_local: Vec3,
+        at: &Vertex,
         path: &mut SubPath,
         k: &IterationConstants,
         shadow: ShadowRays,
         out: &mut LightChunk,
     ) {
         let (beta, light_mis) = (path.beta, path.mis);
-        self.splat(hit, path, shadow, out, |_, c| {
-            let wc_local = frame.to_local(-c.dir);
-            let e = bsdf.evaluate(wo_local, wc_local, TransportMode::Importance);
+        self.splat(at.hit, path, shadow, out, |_, c| {
+            let wc_local = at.frame.to_local(-c.dir);
+            let e = at.bsdf.evaluate(at.wo_local, wc_local, TransportMode::Importance);
             if e.f == Vec3::ZERO {
                 return Vec3::ZERO;
             }
@@ -741,7 +766,6 @@ impl<'a> Engine<'a> {
         light: &LightPaths,
         rays: &mut RayCounts,
     ) -> Vec3 {
-        let scene = self.scene;
         let cam = &self.camera;
         let (channels, time) = self.channels_and_time(j, s);
         let mut ctx = PathContext::new(Sampler::new(self.sampler, self.seed, j as u64, s, 0));
@@ -749,146 +773,25 @@ impl<'a> Engine<'a> {
         let (x, y) = ((j % cam.width as usize) as f32, (j / cam.width as usize) as f32);
         let offset = ctx.sampler.get_2d(Dim::Pixel);
         let lens = if self.dims.lens { ctx.sampler.get_2d(Dim::Lens) } else { Vec2::ZERO };
-        let mut ray = cam.generate_ray_lens(Vec2::new(x, y) + offset, lens, time);
+        let ray = cam.generate_ray_lens(Vec2::new(x, y) + offset, lens, time);
         ctx.rays.primary += 1;
         let cos = ray.dir.dot(cam.forward);
         let camera_pdf_w = 1.0 / (self.pixel_area * cos * cos * cos);
-        let mut path = SubPath {
-            ctx,
-            beta: Vec3::ONE,
-            mis: Mis::camera(self.paths as f32, camera_pdf_w),
-            segments: 1,
-            specular_path: true,
+        let mis = Mis::camera(self.paths as f32, camera_pdf_w);
+        let mut path = SubPath::new(ctx, TransportMode::Radiance, Vec3::ONE, mis);
+        let mut visitor = CameraVisitor {
+            engine: self,
+            j,
+            k,
+            light,
+            shadow: ShadowRays { mode: ShadowMode::Opaque, channels, time },
+            pick: 1.0 / self.lights.max(1) as f32,
+            only_merges: self.algorithm.merges() && !self.algorithm.connects(),
+            radiance: Vec3::ZERO,
         };
-        let shadow = ShadowRays { mode: ShadowMode::Opaque, channels, time };
-        let only_merges = self.algorithm.merges() && !self.algorithm.connects();
-        let pick = 1.0 / self.lights.max(1) as f32;
-        let mut l = Vec3::ZERO;
-        let mut eta_scale = 1.0f32;
-        let mut absorption = Vec3::ZERO;
-        loop {
-            let Some(isect) = scene.intersect(&ray, f32::INFINITY) else {
-                if absorption == Vec3::ZERO && self.keeps(Strategy::EmitterHit) {
-                    let weight = match self.environment {
-                        _ if path.segments == 1 || self.only.is_some() => 1.0,
-                        None => 1.0,
-                        Some(_) if only_merges => {
-                            if path.specular_path {
-                                1.0
-                            } else {
-                                0.0
-                            }
-                        }
-                        Some(_) => {
-                            let (emit, direct) = Light::environment_pdfs(&self.sphere);
-                            mis::emitter_hit(&path.mis, pick * direct, pick * emit)
-                        }
-                    };
-                    l += path.beta * path.ctx.channels.colour(scene.settings.background) * weight;
-                }
-                break;
-            };
-            let hit = isect.hit;
-            if absorption != Vec3::ZERO {
-                path.beta *= (-absorption * hit.t).exp();
-            }
-            let wo = -ray.dir;
-            path.arrive(hit.t, hit.n.dot(wo).abs());
-            if let Some(index) = scene.light_of(isect.primitive) {
-                let emitter = &scene.lights[index as usize];
-                let le = emitter.emitted(hit.n, wo);
-                if le != Vec3::ZERO && self.keeps(Strategy::EmitterHit) {
-                    let weight = if path.segments == 1 || self.only.is_some() {
-                        1.0
-                    } else if only_merges {
-                        if path.specular_path {
-                            1.0
-                        } else {
-                            0.0
-                        }
-                    } else {
-                        let (emit, direct) = emitter.emission_pdfs(ray.origin, hit.p, hit.n, wo);
-                        mis::emitter_hit(&path.mis, pick * direct, pick * emit)
-                    };
-                    l += path.beta * path.ctx.channels.colour(le) * weight;
-                }
-            }
-            if path.segments >= self.max_segments {
-                break;
-            }
-            let material = scene.material_of(isect.primitive);
-            let bsdf = Scattering::at(material, hit.p, &path.ctx.channels);
-            path.beta *= path.ctx.end_secondaries_at(&material.bsdf, &bsdf);
-            let frame = Frame::from_normal(hit.n);
-            let wo_local = frame.to_local(wo);
-            let at = Vertex { hit: &hit, bsdf: &bsdf, frame: &frame, wo_local };
-            let mut merged = false;
-            if !bsdf.is_delta() {
-                if self.algorithm.connects() {
-                    if self.lights > 0 && self.keeps(Strategy::NextEvent) {
-                        l += path.beta * self.next_event(&at, &mut path, k, shadow, pick);
-                    }
-                    let range = if j == 0 { 0 } else { light.ends[j - 1] as usize }..light.ends[j] as usize;
-                    let connections =
-                        if self.keeps(Strategy::Connection) { &light.vertices[range] } else { &[] };
-                    for v in connections {
-                        if v.segments + path.segments + 1 > self.max_segments {
-                            break;
-                        }
-                        l += path.beta * self.connect(&at, &mut path, v, k, shadow);
-                    }
-                }
-                if let Some(grid) = light.grid {
-                    if self.keeps(Strategy::Merge) {
-                        l += path.beta * self.merge(&at, &path, k, light.vertices, grid);
-                    }
-                    merged = true;
-                }
-            }
-            let Some(smp) = sample_bsdf(&bsdf, wo_local, TransportMode::Radiance, &mut path.ctx.sampler)
-            else {
-                break;
-            };
-            if smp.pdf <= 0.0 || smp.f == Vec3::ZERO {
-                break;
-            }
-            // Photon mapping merges once: only the specular chain (multiply scattered samples
-            // of rough glass included) goes on past a merge.
-            if merged && self.algorithm == Algorithm::Ppm && smp.is_evaluable() {
-                break;
-            }
-            let cos_out = smp.wi.z.abs();
-            let evaluable = smp.is_evaluable();
-            let rev = if evaluable { bsdf.pdf(smp.wi, wo_local) } else { 0.0 };
-            path.scatter(k, cos_out, smp.pdf, rev, evaluable);
-            path.beta *=
-                smp.f * (cos_out / smp.pdf) * path.ctx.secondaries_after(&material.bsdf, &smp, wo_local);
-            let wi = frame.to_world(smp.wi);
-            if let Some(c) = crossing(&material.bsdf, ray.dir, hit.n, path.ctx.channels.hero()) {
-                let medium = if smp.is_transmission { c.transmitted } else { c.incident };
-                absorption = path.ctx.channels.colour(medium.absorption);
-            }
-            if smp.is_transmission {
-                eta_scale *= smp.eta * smp.eta;
-                path.ctx.rays.refracted += 1;
-            } else {
-                path.ctx.rays.reflected += 1;
-            }
-            ray = ray.spawn(spawn_origin(&hit, wi), wi);
-            path.segments += 1;
-            if path.segments > ROULETTE_DEPTH + 1 {
-                let rr = (path.beta * eta_scale).max_element();
-                if rr < 1.0 {
-                    let q = (1.0 - rr).max(0.0);
-                    if path.ctx.sampler.get_1d(Dim::Other) < q {
-                        break;
-                    }
-                    path.beta /= 1.0 - q;
-                }
-            }
-        }
+        self.walk(ray, &mut path, k, false, &mut visitor);
         *rays += path.ctx.rays;
-        path.ctx.channels.to_rgb(l)
+        path.ctx.channels.to_rgb(visitor.radiance)
     }
 
     /// Next-event estimation at a camera vertex, weighted against every other strategy.
@@ -1024,12 +927,174 @@ impl<'a> Engine<'a> {
     }
 }
 
-/// A camera vertex being shaded.
+/// A sub-path vertex being shaded.
 struct Vertex<'a> {
     hit: &'a SurfaceHit,
     bsdf: &'a Scattering,
     frame: &'a Frame,
+    /// The direction back along the sub-path, in the world and in the local frame.
+    wo: Vec3,
     wo_local: Vec3,
+}
+
+/// Where a sub-path's walk may go on from a vertex.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Next {
+    /// In any sampled direction.
+    Any,
+    /// Only along a specular (or multiply scattered) sample: photon mapping past its merge.
+    SpecularOnly,
+    /// Nowhere: the walk ends here.
+    Stop,
+}
+
+/// What a sub-path does along its random walk ([`Engine::walk`]): camera and light sub-paths
+/// share the walk and differ only here.
+trait WalkVisitor {
+    /// The walk left the scene; `absorbed` when through an absorbing medium.
+    fn escaped(&mut self, _path: &mut SubPath, _absorbed: bool) {}
+
+    /// The walk reached `isect` along `ray` (after the arrival's MIS update); false ends it
+    /// there, before the surface scatters.
+    fn reached(&mut self, _path: &mut SubPath, _ray: &Ray, _isect: &Intersection) -> bool {
+        true
+    }
+
+    /// The strategies at vertex `at` of primitive `primitive`; returns where the walk may go on.
+    fn visit(&mut self, path: &mut SubPath, at: &Vertex, primitive: u32) -> Next;
+}
+
+/// A light sub-path: its non-specular vertices are stored (for connections and merges) and
+/// connected to the camera.
+struct LightVisitor<'e, 'a> {
+    engine: &'e Engine<'a>,
+    k: &'e IterationConstants,
+    shadow: ShadowRays,
+    out: &'e mut LightChunk,
+}
+
+impl WalkVisitor for LightVisitor<'_, '_> {
+    fn visit(&mut self, path: &mut SubPath, at: &Vertex, primitive: u32) -> Next {
+        let e = self.engine;
+        if !at.bsdf.is_delta() {
+            self.out.vertices.push(LightVertex {
+                p: at.hit.p,
+                n: at.hit.n,
+                p_error: at.hit.p_error,
+                wo: at.wo,
+                beta: path.beta,
+                mis: path.mis,
+                segments: path.segments,
+                primitive,
+                hero_only: path.ctx.hero_only,
+            });
+            if e.algorithm.connects() && e.keeps(Strategy::CameraSplat) && path.segments < e.max_segments {
+                e.connect_to_camera(at, path, self.k, self.shadow, self.out);
+            }
+        }
+        // A light sub-path leaves at least one segment of the full path to the camera.
+        if path.segments + 2 > e.max_segments {
+            Next::Stop
+        } else {
+            Next::Any
+        }
+    }
+}
+
+/// A camera sub-path: emitters it hits, next-event estimation, connections to the vertices of
+/// its light sub-path and merges with the iteration's photons, summed in `radiance`.
+struct CameraVisitor<'e, 'a> {
+    engine: &'e Engine<'a>,
+    j: usize,
+    k: &'e IterationConstants,
+    light: &'e LightPaths<'e>,
+    shadow: ShadowRays,
+    /// The probability of picking a given light.
+    pick: f32,
+    /// Whether the method merges without connecting (`ppm`, `bpm`).
+    only_merges: bool,
+    radiance: Vec3,
+}
+
+impl CameraVisitor<'_, '_> {
+    /// The weight of emission found by the camera path itself; `densities` gives the
+    /// emitter's (emission, direct) densities of the arrival.
+    fn emitter_weight(&self, path: &SubPath, densities: impl FnOnce() -> (f32, f32)) -> f32 {
+        if path.segments == 1 || self.engine.only.is_some() {
+            1.0
+        } else if self.only_merges {
+            // Merging's paths: only a specular chain reaches an emitter by itself.
+            if path.specular_path {
+                1.0
+            } else {
+                0.0
+            }
+        } else {
+            let (emit, direct) = densities();
+            mis::emitter_hit(&path.mis, self.pick * direct, self.pick * emit)
+        }
+    }
+}
+
+impl WalkVisitor for CameraVisitor<'_, '_> {
+    fn escaped(&mut self, path: &mut SubPath, absorbed: bool) {
+        let e = self.engine;
+        if absorbed || !e.keeps(Strategy::EmitterHit) {
+            return;
+        }
+        // Without an environment light the background is no light: it is seen with weight 1.
+        let weight = match e.environment {
+            None => 1.0,
+            Some(_) => self.emitter_weight(path, || Light::environment_pdfs(&e.sphere)),
+        };
+        self.radiance += path.beta * path.ctx.channels.colour(e.scene.settings.background) * weight;
+    }
+
+    fn reached(&mut self, path: &mut SubPath, ray: &Ray, isect: &Intersection) -> bool {
+        let e = self.engine;
+        if let Some(index) = e.scene.light_of(isect.primitive) {
+            let emitter = &e.scene.lights[index as usize];
+            let (hit, wo) = (&isect.hit, -ray.dir);
+            let le = emitter.emitted(hit.n, wo);
+            if le != Vec3::ZERO && e.keeps(Strategy::EmitterHit) {
+                let weight =
+                    self.emitter_weight(path, || emitter.emission_pdfs(ray.origin, hit.p, hit.n, wo));
+                self.radiance += path.beta * path.ctx.channels.colour(le) * weight;
+            }
+        }
+        path.segments < e.max_segments
+    }
+
+    fn visit(&mut self, path: &mut SubPath, at: &Vertex, _: u32) -> Next {
+        let (e, k, light, j) = (self.engine, self.k, self.light, self.j);
+        if at.bsdf.is_delta() {
+            return Next::Any;
+        }
+        if e.algorithm.connects() {
+            if e.lights > 0 && e.keeps(Strategy::NextEvent) {
+                self.radiance += path.beta * e.next_event(at, path, k, self.shadow, self.pick);
+            }
+            let range = if j == 0 { 0 } else { light.ends[j - 1] as usize }..light.ends[j] as usize;
+            let connections = if e.keeps(Strategy::Connection) { &light.vertices[range] } else { &[] };
+            for v in connections {
+                if v.segments + path.segments + 1 > e.max_segments {
+                    break;
+                }
+                self.radiance += path.beta * e.connect(at, path, v, k, self.shadow);
+            }
+        }
+        let Some(grid) = light.grid else { return Next::Any };
+        if e.keeps(Strategy::Merge) {
+            self.radiance += path.beta * e.merge(at, path, k, light.vertices, grid);
+        }
+        // Photon mapping merges once: only the specular chain (multiply scattered samples of
+        // rough glass included) goes on past a merge.
+        if e.algorithm == Algorithm::Ppm {
+            Next::SpecularOnly
+        } else {
+            Next::Any
+        }
+    }
 }
 
 /// The light sub-paths of an iteration.
