@@ -368,7 +368,7 @@ impl Tracer<'_> {
             }
             depth += 1;
             let material = scene.material_of(isect.primitive);
-            let bsdf = Scattering::at(material, hit.p, &ctx.channels);
+            let bsdf = Scattering::at(material, hit.p, hit.uv, &ctx.channels);
             beta0 *= ctx.end_secondaries_at(&material.bsdf, &bsdf);
             let frame = Frame::from_normal(hit.n);
             // Importance mode: `wo` leads back towards the light, `wi` on towards the camera.

@@ -115,7 +115,7 @@ impl Integrator for Path {
                 break;
             }
             let material = scene.material_of(isect.primitive);
-            let bsdf = Scattering::at(material, hit.p, &ctx.channels);
+            let bsdf = Scattering::at(material, hit.p, hit.uv, &ctx.channels);
             beta *= ctx.end_secondaries_at(&material.bsdf, &bsdf);
             let frame = Frame::from_normal(hit.n);
             let wo_local = frame.to_local(wo);

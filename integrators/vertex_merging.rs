@@ -253,6 +253,8 @@ pub fn iteration_radius(r0: f32, alpha: f32, s: u32) -> f32 {
 struct LightVertex {
     p: Vec3,
     n: Vec3,
+    /// Texture coordinates of the surface here.
+    uv: Vec2,
     p_error: f32,
     /// Unit direction towards the previous vertex of the light path (where the light came from).
     wo: Vec3,
@@ -268,7 +270,7 @@ struct LightVertex {
 
 impl LightVertex {
     fn hit(&self) -> SurfaceHit {
-        SurfaceHit { t: 0.0, p: self.p, n: self.n, uv: Vec2::ZERO, p_error: self.p_error }
+        SurfaceHit { t: 0.0, p: self.p, n: self.n, uv: self.uv, p_error: self.p_error }
     }
 }
 
@@ -647,7 +649,7 @@ impl<'a> Engine<'a> {
                 break;
             }
             let material = scene.material_of(isect.primitive);
-            let bsdf = Scattering::at(material, hit.p, &path.ctx.channels);
+            let bsdf = Scattering::at(material, hit.p, hit.uv, &path.ctx.channels);
             path.beta *= path.ctx.end_secondaries_at(&material.bsdf, &bsdf);
             let frame = Frame::from_normal(hit.n);
             let wo = -ray.dir;
@@ -865,7 +867,7 @@ impl<'a> Engine<'a> {
             return Vec3::ZERO;
         }
         let material = self.scene.material_of(v.primitive);
-        let light_bsdf = Scattering::at(material, v.p, &path.ctx.channels);
+        let light_bsdf = Scattering::at(material, v.p, v.uv, &path.ctx.channels);
         let light_frame = Frame::from_normal(v.n);
         let light_wo = light_frame.to_local(v.wo);
         let light_wi = light_frame.to_local(-dir);
@@ -980,6 +982,7 @@ impl WalkVisitor for LightVisitor<'_, '_> {
             self.out.vertices.push(LightVertex {
                 p: at.hit.p,
                 n: at.hit.n,
+                uv: at.hit.uv,
                 p_error: at.hit.p_error,
                 wo: at.wo,
                 beta: path.beta,

@@ -170,7 +170,7 @@ pub(super) fn trace(
         Bsdf::Mirror { color, roughness } if glossy => {
             let frame = Frame::from_normal(n);
             let lobe = RoughConductor {
-                reflectance: channels.colour(*color),
+                reflectance: channels.colour(color.eval(hit.p, hit.uv)),
                 distribution: TrowbridgeReitz::from_roughness(*roughness),
             };
             let u = ctx.sampler.get_2d(Dim::Bsdf);
@@ -180,7 +180,8 @@ pub(super) fn trace(
             }
         }
         Bsdf::Mirror { color, .. } => {
-            l += follow(reflect(wo, n), channels.colour(*color), seg.absorption, true, ctx);
+            l +=
+                follow(reflect(wo, n), channels.colour(color.eval(hit.p, hit.uv)), seg.absorption, true, ctx);
         }
         Bsdf::Dielectric { roughness, .. } => {
             let c = crossing(&material.bsdf, ray.dir, hit.n, channels.hero())
@@ -282,7 +283,7 @@ fn glossy_direct(
         let wi_local = frame.to_local(wi);
         let f = match &material.bsdf {
             Bsdf::Mirror { color, roughness } => RoughConductor {
-                reflectance: shadow.channels.colour(*color),
+                reflectance: shadow.channels.colour(color.eval(hit.p, hit.uv)),
                 distribution: TrowbridgeReitz::from_roughness(*roughness),
             }
             .eval(wo_local, wi_local),

@@ -28,6 +28,7 @@ pub mod sampler;
 pub mod scene;
 pub mod spectrum;
 pub mod stats;
+pub mod texture;
 
 // The integrators live in the top-level `integrators/` folder, one file per method (docs/architecture.md).
 #[path = "../integrators/mod.rs"]

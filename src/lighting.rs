@@ -184,7 +184,7 @@ pub fn phong_local(
     mut illumination: impl FnMut(&crate::light::Light, Vec3) -> PointIllumination,
 ) -> Vec3 {
     let channels = &shadow.channels;
-    let color = channels.colour(material.phong_color(hit.p));
+    let color = channels.colour(material.phong_color(hit.p, hit.uv));
     let mut l = ph.ambient * color * channels.colour(scene.settings.ambient);
     // A mirror or glass already sees an area light's surface through its reflected ray: its
     // highlight stands in only for point lights, which have no surface to be seen.

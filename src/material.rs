@@ -2,43 +2,9 @@
 
 use crate::dispersion::Ior;
 use crate::spectrum::Channels;
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 
-/// How a diffuse albedo varies over a surface.
-#[derive(Clone, Debug, PartialEq)]
-pub enum Texture {
-    /// One colour everywhere.
-    Constant(Vec3),
-    /// A 3-D checkerboard with cells of side `size` (the thesis's floor).
-    Checker {
-        /// Colour of the cells whose index sum is even.
-        color1: Vec3,
-        /// Colour of the other cells.
-        color2: Vec3,
-        /// Cell edge length in scene units.
-        size: f32,
-    },
-}
-
-impl Texture {
-    /// The colour at world point `p`.
-    pub fn eval(&self, p: Vec3) -> Vec3 {
-        match self {
-            Texture::Constant(c) => *c,
-            Texture::Checker { color1, color2, size } => {
-                // A tiny bias keeps points on cell boundaries (walls, floors at integer
-                // multiples of `size`) from flickering between cells.
-                let cell = ((p / *size) + Vec3::splat(1e-4)).floor();
-                let parity = (cell.x as i64 + cell.y as i64 + cell.z as i64).rem_euclid(2);
-                if parity == 0 {
-                    *color1
-                } else {
-                    *color2
-                }
-            }
-        }
-    }
-}
+pub use crate::texture::Texture;
 
 /// Empirical Phong coefficients (Phong 1975, extended for ray tracing as in the thesis §3.2).
 ///
@@ -99,8 +65,8 @@ pub enum Bsdf {
     Diffuse(Texture),
     /// Mirror, smooth or (GGX) rough.
     Mirror {
-        /// Reflectance per channel.
-        color: Vec3,
+        /// Reflectance per channel, possibly varying over the surface.
+        color: Texture,
         /// GGX roughness (α = roughness²); 0 is a perfect mirror.
         roughness: f32,
     },
@@ -158,7 +124,7 @@ impl Material {
         let highlight = |ks: f32| Phong { ambient: 0.0, diffuse: 0.0, specular: ks, shininess: 200.0 };
         match bsdf {
             Bsdf::Diffuse(_) => Phong { ambient: 1.0, diffuse: 1.0, specular: 0.0, shininess: 1.0 },
-            Bsdf::Mirror { color, .. } => highlight(color.max_element()),
+            Bsdf::Mirror { color, .. } => highlight(color.max_value()),
             Bsdf::Dielectric { inside, outside, .. } => {
                 let (n1, n2) = (inside.ior.nominal(), outside.ior.nominal());
                 highlight(((n1 - n2) / (n1 + n2)).powi(2))
@@ -166,11 +132,11 @@ impl Material {
         }
     }
 
-    /// The surface colour `C` of the Phong model at point `p`.
-    pub fn phong_color(&self, p: Vec3) -> Vec3 {
+    /// The surface colour `C` of the Phong model at point `p` with texture coordinates `uv`.
+    pub fn phong_color(&self, p: Vec3, uv: Vec2) -> Vec3 {
         match &self.bsdf {
-            Bsdf::Diffuse(t) => t.eval(p),
-            Bsdf::Mirror { color, .. } => *color,
+            Bsdf::Diffuse(t) => t.eval(p, uv),
+            Bsdf::Mirror { color, .. } => color.eval(p, uv),
             Bsdf::Dielectric { .. } => Vec3::ONE,
         }
     }
@@ -191,16 +157,6 @@ impl Material {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn checker_alternates_and_is_stable_on_cell_boundaries() {
-        let t = Texture::Checker { color1: Vec3::ONE, color2: Vec3::ZERO, size: 0.5 };
-        assert_eq!(t.eval(Vec3::new(0.25, 0.0, 0.25)), Vec3::ONE);
-        assert_eq!(t.eval(Vec3::new(0.75, 0.0, 0.25)), Vec3::ZERO);
-        assert_eq!(t.eval(Vec3::new(-0.25, 0.0, 0.25)), Vec3::ZERO);
-        // a floor at y = 0 (a cell boundary) and one a hair below it read the same cell
-        assert_eq!(t.eval(Vec3::new(0.25, 0.0, 0.25)), t.eval(Vec3::new(0.25, -1e-6, 0.25)));
-    }
 
     #[test]
     fn swapping_an_interface_twice_is_the_identity() {

@@ -1238,6 +1238,7 @@ fn mesh_vertices_and_edges() {
                 let bsdf = Scattering::at(
                     scene.material_of(isect.primitive),
                     hit.p,
+                    hit.uv,
                     &vitrum::spectrum::Channels::Rgb,
                 );
                 let frame = Frame::from_normal(hit.n);

@@ -20,14 +20,15 @@ pub enum Scattering {
 }
 
 impl Scattering {
-    /// The scattering of `material` at world point `p` in the path's `channels`: colours as
-    /// RGB or as their spectra at the wavelengths, indices nominal or at the hero wavelength.
-    pub fn at(material: &Material, p: Vec3, channels: &Channels) -> Scattering {
+    /// The scattering of `material` at world point `p` with texture coordinates `uv` in the
+    /// path's `channels`: colours as RGB or as their spectra at the wavelengths, indices nominal
+    /// or at the hero wavelength.
+    pub fn at(material: &Material, p: Vec3, uv: Vec2, channels: &Channels) -> Scattering {
         let lambda = channels.hero();
         match &material.bsdf {
-            Bsdf::Diffuse(t) => Scattering::Diffuse(Lambert { albedo: channels.colour(t.eval(p)) }),
+            Bsdf::Diffuse(t) => Scattering::Diffuse(Lambert { albedo: channels.colour(t.eval(p, uv)) }),
             Bsdf::Mirror { color, roughness } => Scattering::Conductor(RoughConductor::new(
-                channels.colour(*color),
+                channels.colour(color.eval(p, uv)),
                 TrowbridgeReitz::from_roughness(*roughness),
             )),
             Bsdf::Dielectric { inside, outside, roughness } => Scattering::Dielectric(RoughDielectric::new(

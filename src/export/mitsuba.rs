@@ -799,7 +799,7 @@ impl<'a> Exporter<'a> {
                     x.open("bsdf", &[("type", "conductor")]);
                 }
                 x.string("material", "none");
-                x.rgb("specular_reflectance", *color);
+                x.rgb("specular_reflectance", color.constant().unwrap_or(Vec3::ONE));
                 x.close("bsdf");
                 x.close("bsdf");
             }
@@ -1115,7 +1115,7 @@ mod tests {
                     let (u, v) = (map.scale.0 * a + map.offset.0, map.scale.1 * b + map.offset.1);
                     let same = ((u - u.floor()) > 0.5) == ((v - v.floor()) > 0.5);
                     let mitsuba = if same { map.color0 } else { map.color1 };
-                    assert_eq!(mitsuba, texture.eval(p), "quad {q:?} at ({a}, {b})");
+                    assert_eq!(mitsuba, texture.eval(p, glam::Vec2::ZERO), "quad {q:?} at ({a}, {b})");
                 }
             }
         }

@@ -6,7 +6,7 @@ use glam::{Vec2, Vec3};
 
 use super::disk::circle_extent;
 use super::sphere::radial_roots;
-use super::{azimuth, point_error, seam_slack, unit_or, Bounds, Ray, SurfaceHit};
+use super::{azimuth, point_error, seam_slack, texture_frame, unit_or, Bounds, Ray, SurfaceHit};
 
 /// The wall of a cylinder between `base` and `base + axis·height`, without caps.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -24,7 +24,7 @@ impl Cylinder {
     /// Wall of radius `radius` from `base` along `axis` (normalised) for `height`.
     pub fn new(base: Vec3, axis: Vec3, radius: f32, height: f32) -> Cylinder {
         let w = unit_or(axis, Vec3::Z);
-        let (u, v) = w.any_orthonormal_pair();
+        let (u, v) = texture_frame(w);
         Cylinder { base, u, v, w, radius, height }
     }
 

@@ -4,7 +4,10 @@ use std::f32::consts::PI;
 
 use glam::{Vec2, Vec3};
 
-use super::{azimuth, planar_surface, plane_hit, plane_point, seam_slack, unit_or, Bounds, Ray, SurfaceHit};
+use super::{
+    azimuth, planar_surface, plane_hit, plane_point, seam_slack, texture_frame, unit_or, Bounds, Ray,
+    SurfaceHit,
+};
 
 /// Half-extent along each world axis of a circle of `radius` around the unit `normal`:
 /// `r·√(1 − n_i²)` along axis i.
@@ -28,7 +31,7 @@ impl Disk {
     /// Disk or annulus facing `normal` (normalised); `inner_radius` 0 gives a full disk.
     pub fn new(center: Vec3, normal: Vec3, radius: f32, inner_radius: f32) -> Disk {
         let normal = unit_or(normal, Vec3::Z);
-        Disk { center, normal, tangent: normal.any_orthonormal_pair(), radius, inner_radius }
+        Disk { center, normal, tangent: texture_frame(normal), radius, inner_radius }
     }
 
     /// Nearest hit distance in the open interval (`tmin`, `tmax`); rays in the plane miss.

@@ -297,6 +297,17 @@ pub(crate) fn unit_or(v: Vec3, fallback: Vec3) -> Vec3 {
     }
 }
 
+/// The frame `(t1, t2)` in which the angular texture coordinate of a sphere, cylinder or disk
+/// around the unit `axis` is measured: from `t1` (angle 0) towards `t2`, right-handed about the
+/// axis (`t1 × t2 = axis`). It is the orthonormal basis of Duff et al. (2017), "Building an
+/// orthonormal basis, revisited": with `s = sign(z)`, `a = −1/(s + z)`, `b = x·y·a`,
+/// `t1 = (1 + s·x²·a, s·b, −s·x)` and `t2 = (b, s + y²·a, −y)`. For +Y it is (+X, −Z), for −Y
+/// (+X, +Z), for +Z (+X, +Y).
+#[inline]
+pub fn texture_frame(axis: Vec3) -> (Vec3, Vec3) {
+    axis.any_orthonormal_pair()
+}
+
 /// Angle of `v` around a unit axis, measured in the plane of the orthonormal `frame` from
 /// `frame.0` towards `frame.1`, as a texture coordinate in [0, 1].
 #[inline]

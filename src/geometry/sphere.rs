@@ -5,7 +5,7 @@ use std::f32::consts::{PI, TAU};
 
 use glam::{Vec2, Vec3};
 
-use super::{azimuth, point_error, seam_slack, unit_or, Bounds, Ray, SurfaceHit};
+use super::{azimuth, point_error, seam_slack, texture_frame, unit_or, Bounds, Ray, SurfaceHit};
 
 /// Below this squared direction length a ray counts as parallel to a cylinder's axis (its wall
 /// hit would lie beyond 1e15 radii); it also keeps `b / 2a` and `q / a` finite.
@@ -57,7 +57,7 @@ pub struct Sphere {
 }
 
 impl Sphere {
-    /// Full sphere; its uv pole is +Y.
+    /// Full sphere; its uv pole (v = 1) is +Y.
     pub fn new(center: Vec3, radius: f32) -> Sphere {
         Sphere::clipped(center, radius, Vec3::Y, f32::INFINITY)
     }
@@ -69,7 +69,7 @@ impl Sphere {
             center,
             radius,
             axis,
-            tangent: axis.any_orthonormal_pair(),
+            tangent: texture_frame(axis),
             max_height,
             clipped: max_height < radius,
         }
@@ -103,7 +103,7 @@ impl Sphere {
             t,
             p,
             n,
-            uv: Vec2::new(azimuth(self.tangent, n), cos_theta.acos() / PI),
+            uv: Vec2::new(azimuth(self.tangent, n), 1.0 - cos_theta.acos() / PI),
             // Radially only the length of n matters: `normalize` (dot, sqrt, reciprocal,
             // product) leaves a relative error below γ(5) and scaling by r rounds once more,
             // γ(6)·r; the roundoff of q only tilts n, moving p along the surface. Adding the
@@ -172,9 +172,11 @@ mod tests {
         assert_eq!(h.p, Vec3::new(0.0, 0.0, 3.0));
         assert!(h.p_error > 0.0 && h.p_error < 1e-5);
         assert!(h.uv.cmpge(Vec2::ZERO).all() && h.uv.cmple(Vec2::ONE).all());
-        // Poles of the uv parameterisation (+Y is v = 0).
+        // Poles of the uv parameterisation: +Y is v = 1 (the top of an image), −Y is v = 0.
         let h = s.surface(&ray([0.0, 5.0, 5.0], [0.0, -1.0, 0.0]), 3.0);
-        assert_eq!((h.n, h.uv.y), (Vec3::Y, 0.0));
+        assert_eq!((h.n, h.uv.y), (Vec3::Y, 1.0));
+        let h = s.surface(&ray([0.0, -5.0, 5.0], [0.0, 1.0, 0.0]), 3.0);
+        assert_eq!((h.n, h.uv.y), (-Vec3::Y, 0.0));
     }
 
     #[test]

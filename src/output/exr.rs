@@ -405,6 +405,13 @@ pub fn read_exr_with_layer(
     Ok((image, attributes, find_u32_layer(path, &file, layer)?))
 }
 
+/// The first layer's R, G, B channels of EXR file contents `bytes` read from `path` (named in
+/// errors): image textures and environment maps.
+pub fn decode_exr_rgb(path: &Path, bytes: &[u8]) -> Result<Image, OutputError> {
+    let file = decode_all_layers(path, bytes)?;
+    Ok(decode_rgb(path, bytes, &file)?.0)
+}
+
 /// The first layer's R, G, B channels of the decoded `file` and the header attributes of its
 /// `bytes`.
 fn decode_rgb(

@@ -2,8 +2,8 @@
 
 use super::bodies::{self, BodySurface};
 use super::desc::{
-    IorDesc, LightDesc, MaterialDesc, PhongDesc, Rgb, SceneDesc, ShapeDesc, TextureDesc, IOR_TABLE_ERROR,
-    MERGING_METHODS, METHOD_TABLES, MOVED_MAX_DEPTH,
+    ColorSpaceDesc, FilterDesc, IorDesc, LightDesc, MaterialDesc, PhongDesc, Rgb, SceneDesc, ShapeDesc,
+    TextureDesc, WrapDesc, IOR_TABLE_ERROR, MERGING_METHODS, METHOD_TABLES, MOVED_MAX_DEPTH,
 };
 use super::effects::{Effect, Effects};
 use super::source::{FieldPath, SceneError, Source};
@@ -17,12 +17,14 @@ use crate::light::{EmitterShape, Light};
 use crate::material::{Bsdf, Material, Medium, Phong, Texture};
 use crate::params::{MergeParams, SsaaParams};
 use crate::sampler::SamplerKind;
-use glam::{Vec3, Vec3A};
+use crate::texture::{ColorSpace, Filter, ImageMap, ImageTexture, Wrap};
+use glam::{Vec2, Vec3, Vec3A};
 use obvhs::aabb::Aabb;
 use obvhs::cwbvh::builder::build_cwbvh;
 use obvhs::BvhBuildParams;
 use std::collections::{BTreeMap, HashMap};
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 /// Largest image the renderer accepts, in pixels (checked before any allocation).
@@ -95,7 +97,8 @@ pub fn load_default() -> Scene {
 pub fn load_str(text: &str, name: &str, dir: Option<&Path>) -> Result<Scene, SceneError> {
     let source = Source::new(name, text);
     let desc = parse(&source)?;
-    Compiler { source: &source, dir: dir.map(Path::to_path_buf) }.compile(&desc, text)
+    Compiler { source: &source, dir: dir.map(Path::to_path_buf), images: Default::default() }
+        .compile(&desc, text)
 }
 
 /// Parse the text into a [`SceneDesc`], with located errors.
@@ -316,6 +319,16 @@ pub fn content_hash_bytes(bytes: &[u8]) -> String {
 struct Compiler<'a> {
     source: &'a Source<'a>,
     dir: Option<PathBuf>,
+    /// The image files read so far, by path and colour space (each is decoded once however many
+    /// textures use it), with their content hashes in the order first read.
+    images: std::cell::RefCell<ImageCache>,
+}
+
+/// Decoded image files of a scene being compiled.
+#[derive(Default)]
+struct ImageCache {
+    maps: HashMap<(PathBuf, Option<ColorSpace>), Arc<ImageMap>>,
+    hashes: BTreeMap<PathBuf, String>,
 }
 
 /// Checks of scalar values, reported at their field.
@@ -329,6 +342,14 @@ impl Compiler<'_> {
             Ok(x)
         } else {
             Err(self.err(path, format!("must be greater than 0 (got {x})")))
+        }
+    }
+
+    fn finite(&self, path: &FieldPath, x: f32) -> Result<f32, SceneError> {
+        if x.is_finite() {
+            Ok(x)
+        } else {
+            Err(self.err(path, format!("must be a finite number (got {x})")))
         }
     }
 
@@ -373,6 +394,7 @@ impl Compiler<'_> {
         let mut warnings = Vec::new();
         // The content hashes of the files the scene reads besides its own text (meshes).
         let mut inputs = Vec::new();
+        inputs.extend(self.images.borrow().hashes.values().cloned());
         let mut lights = Vec::new();
         for (i, object) in desc.objects.iter().enumerate() {
             let path = FieldPath::from("objects").index(i);
@@ -743,29 +765,106 @@ impl Compiler<'_> {
         })
     }
 
+    /// The colour of material `path`: its `color` (or `default`), or its `texture`.
+    fn texture(
+        &self,
+        path: &FieldPath,
+        color: Option<Rgb>,
+        texture: Option<&TextureDesc>,
+        default: Rgb,
+    ) -> Result<Texture, SceneError> {
+        if color.is_some() && texture.is_some() {
+            return Err(self.err(&path.key("texture"), "give either `color` or `texture`, not both"));
+        }
+        let t = path.key("texture");
+        Ok(match texture {
+            None => Texture::Constant(self.color(&path.key("color"), color.unwrap_or(default))?),
+            Some(TextureDesc::Checker { color1, color2, size }) => Texture::Checker {
+                color1: self.color(&t.key("color1"), *color1)?,
+                color2: self.color(&t.key("color2"), *color2)?,
+                size: self.positive(&t.key("size"), *size)?,
+            },
+            Some(TextureDesc::Image { file, scale, offset, wrap, filter, colorspace }) => {
+                let scale = Vec2::new(
+                    self.positive(&t.key("scale").index(0), scale[0])?,
+                    self.positive(&t.key("scale").index(1), scale[1])?,
+                );
+                let offset = Vec2::new(
+                    self.finite(&t.key("offset").index(0), offset[0])?,
+                    self.finite(&t.key("offset").index(1), offset[1])?,
+                );
+                let colorspace = colorspace.map(|c| match c {
+                    ColorSpaceDesc::Srgb => ColorSpace::Srgb,
+                    ColorSpaceDesc::Linear => ColorSpace::Linear,
+                });
+                let map = self.image(&t.key("file"), file, colorspace)?;
+                Texture::Image(ImageTexture {
+                    map,
+                    scale,
+                    offset,
+                    wrap: match wrap {
+                        WrapDesc::Repeat => Wrap::Repeat,
+                        WrapDesc::Clamp => Wrap::Clamp,
+                    },
+                    filter: match filter {
+                        FilterDesc::Bilinear => Filter::Bilinear,
+                        FilterDesc::Nearest => Filter::Nearest,
+                    },
+                })
+            }
+        })
+    }
+
+    /// The path of a file named in the scene: relative to the scene file's folder.
+    fn resolve(&self, file: &str) -> PathBuf {
+        match &self.dir {
+            Some(d) => d.join(file),
+            None => PathBuf::from(file),
+        }
+    }
+
+    /// The bytes of the regular file `full` named at `path` (a device or a pipe is refused: it
+    /// might never end); `what` names the kind of file expected.
+    fn read_input(&self, path: &FieldPath, full: &Path, what: &str) -> Result<Vec<u8>, SceneError> {
+        match std::fs::metadata(full) {
+            Ok(m) if m.is_file() => {}
+            Ok(_) => {
+                return Err(
+                    self.err(path, format!("{} is not a regular file ({what} is expected)", full.display()))
+                )
+            }
+            Err(e) => return Err(self.err(path, format!("cannot read {}: {e}", full.display()))),
+        }
+        std::fs::read(full).map_err(|e| self.err(path, format!("cannot read {}: {e}", full.display())))
+    }
+
+    /// The texels of image `file` named at `path`, decoded once per scene and colour space.
+    fn image(
+        &self,
+        path: &FieldPath,
+        file: &str,
+        colorspace: Option<ColorSpace>,
+    ) -> Result<Arc<ImageMap>, SceneError> {
+        let full = self.resolve(file);
+        let key = (full.clone(), colorspace);
+        if let Some(map) = self.images.borrow().maps.get(&key) {
+            return Ok(map.clone());
+        }
+        let bytes = self.read_input(path, &full, "a PNG, JPEG or OpenEXR image")?;
+        let map = Arc::new(ImageMap::decode(&full, &bytes, colorspace).map_err(|e| self.err(path, e))?);
+        let mut cache = self.images.borrow_mut();
+        cache.hashes.entry(full).or_insert_with(|| content_hash_bytes(&bytes));
+        cache.maps.insert(key, map.clone());
+        Ok(map)
+    }
+
     fn material(&self, path: &FieldPath, name: &str, m: &MaterialDesc) -> Result<Material, SceneError> {
         let (bsdf, phong) = match m {
             MaterialDesc::Diffuse { color, texture, phong, .. } => {
-                if color.is_some() && texture.is_some() {
-                    return Err(self.err(&path.key("texture"), "give either `color` or `texture`, not both"));
-                }
-                let texture = match texture {
-                    None => {
-                        Texture::Constant(self.color(&path.key("color"), color.unwrap_or(Rgb::Grey(0.8)))?)
-                    }
-                    Some(TextureDesc::Checker { color1, color2, size }) => {
-                        let t = path.key("texture");
-                        Texture::Checker {
-                            color1: self.color(&t.key("color1"), *color1)?,
-                            color2: self.color(&t.key("color2"), *color2)?,
-                            size: self.positive(&t.key("size"), *size)?,
-                        }
-                    }
-                };
-                (Bsdf::Diffuse(texture), phong)
+                (Bsdf::Diffuse(self.texture(path, *color, texture.as_ref(), Rgb::Grey(0.8))?), phong)
             }
-            MaterialDesc::Mirror { color, roughness, phong } => {
-                let color = self.color(&path.key("color"), *color)?;
+            MaterialDesc::Mirror { color, texture, roughness, phong } => {
+                let color = self.texture(path, *color, texture.as_ref(), Rgb::Grey(1.0))?;
                 (
                     Bsdf::Mirror { color, roughness: self.roughness(&path.key("roughness"), *roughness)? },
                     phong,
@@ -1006,10 +1105,18 @@ impl Compiler<'_> {
 /// Record the effects a material asks for, on behalf of object `object`.
 fn material_effects(effects: &mut Effects, m: &Material, object: usize) {
     let who = format!("objects[{object}] uses material `{}`", m.name);
-    match &m.bsdf {
-        Bsdf::Diffuse(Texture::Checker { .. }) => {
-            effects.add(Effect::Textures, format!("{who}, a checker texture"))
+    let texture = match &m.bsdf {
+        Bsdf::Diffuse(t) | Bsdf::Mirror { color: t, .. } => Some(t),
+        Bsdf::Dielectric { .. } => None,
+    };
+    match texture {
+        Some(Texture::Checker { .. }) => effects.add(Effect::Textures, format!("{who}, a checker texture")),
+        Some(Texture::Image(image)) => {
+            effects.add(Effect::Textures, format!("{who}, an image texture ({})", image.map.file))
         }
+        _ => {}
+    }
+    match &m.bsdf {
         Bsdf::Diffuse(_) => {}
         Bsdf::Mirror { roughness, .. } => {
             if *roughness > 0.0 {

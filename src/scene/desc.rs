@@ -374,7 +374,7 @@ pub struct PhongDesc {
     pub shininess: Option<f32>,
 }
 
-/// A texture for a diffuse colour.
+/// A texture for a colour of a material (diffuse albedo, mirror tint).
 #[derive(Clone, Debug, Deserialize)]
 #[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
 pub enum TextureDesc {
@@ -387,6 +387,61 @@ pub enum TextureDesc {
         /// Edge length of one cell in scene units.
         size: f32,
     },
+    /// An image file (PNG, JPEG or OpenEXR) addressed by the surface's texture coordinates.
+    Image {
+        /// Path of the image, relative to the scene file.
+        file: String,
+        /// Repetitions of the image per unit of uv, along u and v (both greater than 0).
+        #[serde(default = "default_uv_scale")]
+        scale: [f32; 2],
+        /// Shift of the image in image units, added after `scale`.
+        #[serde(default)]
+        offset: [f32; 2],
+        /// What lookups outside the image read.
+        #[serde(default)]
+        wrap: WrapDesc,
+        /// How texels are combined.
+        #[serde(default)]
+        filter: FilterDesc,
+        /// How the file's values encode colour (default: `srgb` for PNG and JPEG, `linear` for EXR).
+        colorspace: Option<ColorSpaceDesc>,
+    },
+}
+
+fn default_uv_scale() -> [f32; 2] {
+    [1.0, 1.0]
+}
+
+/// `wrap` of an image texture: `repeat` (default) or `clamp`.
+#[derive(Clone, Copy, Debug, Default, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum WrapDesc {
+    /// The image tiles the plane.
+    #[default]
+    Repeat,
+    /// Border texels extend outwards.
+    Clamp,
+}
+
+/// `filter` of an image texture: `bilinear` (default) or `nearest`.
+#[derive(Clone, Copy, Debug, Default, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum FilterDesc {
+    /// Bilinear interpolation of texel centres.
+    #[default]
+    Bilinear,
+    /// The texel a point falls in.
+    Nearest,
+}
+
+/// `colorspace` of an image texture: `srgb` or `linear`.
+#[derive(Clone, Copy, Debug, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ColorSpaceDesc {
+    /// The sRGB transfer curve.
+    Srgb,
+    /// Linear values.
+    Linear,
 }
 
 /// A named material.
@@ -407,9 +462,10 @@ pub enum MaterialDesc {
     },
     /// Mirror, perfect or (with roughness) glossy.
     Mirror {
-        /// Reflectance per channel.
-        #[serde(default = "default_one_rgb")]
-        color: Rgb,
+        /// Reflectance per channel (default 1); give either this or a texture.
+        color: Option<Rgb>,
+        /// Optional texture for the reflectance.
+        texture: Option<TextureDesc>,
         /// GGX roughness in [0, 1] (α = roughness²); 0 is a perfect mirror.
         #[serde(default)]
         roughness: f32,
@@ -439,9 +495,6 @@ pub enum MaterialDesc {
     },
 }
 
-fn default_one_rgb() -> Rgb {
-    Rgb::Grey(1.0)
-}
 fn default_ior_outside() -> IorDesc {
     IorDesc::Constant(1.0)
 }

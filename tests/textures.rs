@@ -1,0 +1,265 @@
+//! Image textures and texture coordinates: the uv of every shape at known points (corners, poles,
+//! seams), an image texture rendered texel for texel, one decode per file, the scene hash over the
+//! image's bytes, and bad image input (exit 2 naming the scene line and the file, nothing written).
+
+mod common;
+
+use glam::{Vec2, Vec3};
+use std::fs;
+use std::path::Path;
+use std::process::Command;
+use vitrum::geometry::{texture_frame, Ray};
+use vitrum::material::{Bsdf, Texture};
+use vitrum::scene::{load_str, Scene};
+
+/// The uv of the first hit of the ray from `origin` along `dir` (normalised).
+fn uv_at(scene: &Scene, origin: Vec3, dir: Vec3) -> Vec2 {
+    let hit = scene.intersect(&Ray::new(origin, dir.normalize()), f32::INFINITY).expect("the ray hits");
+    hit.hit.uv
+}
+
+/// A scene of one object (`object` is the body of its `[[objects]]` table).
+fn one_object(object: &str) -> Scene {
+    let text = format!(
+        "[camera]\nposition = [0.0, 0.0, 5.0]\nlook_at = [0.0, 0.0, 0.0]\nresolution = [8, 8]\n\
+         [materials.m]\ntype = \"diffuse\"\n[[objects]]\nmaterial = \"m\"\n{object}\n"
+    );
+    load_str(&text, "uv", None).unwrap()
+}
+
+fn close(a: Vec2, b: Vec2) -> bool {
+    (a - b).abs().max_element() < 1e-5
+}
+
+#[test]
+fn the_texture_frame_of_the_vertical_axis_is_x_then_minus_z() {
+    // The documented longitude origins (scenes/README.md): +Y gives (+X, −Z), −Y gives (+X, +Z).
+    assert_eq!(texture_frame(Vec3::Y), (Vec3::X, -Vec3::Z));
+    assert_eq!(texture_frame(-Vec3::Y), (Vec3::X, Vec3::Z));
+    assert_eq!(texture_frame(Vec3::Z), (Vec3::X, Vec3::Y));
+    for axis in [Vec3::Y, -Vec3::Y, Vec3::Z, Vec3::new(1.0, 2.0, -3.0).normalize()] {
+        let (t1, t2) = texture_frame(axis);
+        assert!((t1.cross(t2) - axis).length() < 1e-6, "right-handed about {axis}");
+    }
+}
+
+#[test]
+fn quad_uv_runs_along_its_edges() {
+    let s =
+        one_object("shape = \"quad\"\ncorner = [-1.0, -0.5, 0.0]\nu = [2.0, 0.0, 0.0]\nv = [0.0, 1.0, 0.0]");
+    let at = |x: f32, y: f32| uv_at(&s, Vec3::new(x, y, 1.0), -Vec3::Z);
+    assert_eq!(at(-1.0, -0.5), Vec2::new(0.0, 0.0));
+    assert_eq!(at(1.0, -0.5), Vec2::new(1.0, 0.0));
+    assert_eq!(at(1.0, 0.5), Vec2::new(1.0, 1.0));
+    assert_eq!(at(0.0, 0.0), Vec2::new(0.5, 0.5));
+    assert_eq!(at(-0.5, 0.25), Vec2::new(0.25, 0.75));
+}
+
+#[test]
+fn disk_and_annulus_uv_are_angle_and_radial_position() {
+    // Normal +Z: the angle is measured from +X towards +Y; v is 0 on the rim, 1 at the centre.
+    let s = one_object("shape = \"disk\"\ncenter = [0.0, 0.0, 0.0]\nnormal = [0.0, 0.0, 1.0]\nradius = 1.0");
+    let at = |x: f32, y: f32| uv_at(&s, Vec3::new(x, y, 1.0), -Vec3::Z);
+    assert!(close(at(0.5, 0.0), Vec2::new(0.0, 0.5)));
+    assert!(close(at(0.0, 0.5), Vec2::new(0.25, 0.5)));
+    assert!(close(at(-0.5, 0.0), Vec2::new(0.5, 0.5)));
+    assert!(close(at(0.0, -0.999), Vec2::new(0.75, 0.001)));
+    // The seam: just below the +X direction the angle is just under 1.
+    assert!(at(0.5, -1e-3).x > 0.999);
+    // An annulus: v = 0 on the outer rim, 1 on the inner one.
+    let s = one_object(
+        "shape = \"disk\"\ncenter = [0.0, 0.0, 0.0]\nnormal = [0.0, 0.0, 1.0]\nradius = 1.0\ninner_radius = 0.5",
+    );
+    assert!(close(uv_at(&s, Vec3::new(0.75, 0.0, 1.0), -Vec3::Z), Vec2::new(0.0, 0.5)));
+    assert!(close(uv_at(&s, Vec3::new(0.0, -0.999, 1.0), -Vec3::Z), Vec2::new(0.75, 0.002)));
+}
+
+#[test]
+fn sphere_uv_is_longitude_and_latitude_with_the_top_at_the_pole() {
+    let s = one_object("shape = \"sphere\"\ncenter = [0.0, 0.0, 0.0]\nradius = 1.0");
+    // The poles: +Y is v = 1 (the top row of an image), −Y is v = 0.
+    assert_eq!(uv_at(&s, Vec3::new(0.0, 5.0, 0.0), -Vec3::Y), Vec2::new(0.0, 1.0));
+    assert_eq!(uv_at(&s, Vec3::new(0.0, -5.0, 0.0), Vec3::Y).y, 0.0);
+    // The equator: u = 0 at +X, 1/4 at −Z, 1/2 at −X, 3/4 at +Z (right-handed about +Y).
+    assert!(close(uv_at(&s, Vec3::new(5.0, 0.0, 0.0), -Vec3::X), Vec2::new(0.0, 0.5)));
+    assert!(close(uv_at(&s, Vec3::new(0.0, 0.0, -5.0), Vec3::Z), Vec2::new(0.25, 0.5)));
+    assert!(close(uv_at(&s, Vec3::new(-5.0, 0.0, 0.0), Vec3::X), Vec2::new(0.5, 0.5)));
+    assert!(close(uv_at(&s, Vec3::new(0.0, 0.0, 5.0), -Vec3::Z), Vec2::new(0.75, 0.5)));
+    // 45° north at +X: v = 3/4.
+    let d = Vec3::new(1.0, 1.0, 0.0).normalize();
+    assert!(close(uv_at(&s, d * 5.0, -d), Vec2::new(0.0, 0.75)));
+    // The seam at +X: from the +Z side the longitude is just under 1.
+    let d = Vec3::new(1.0, 0.0, 1e-3).normalize();
+    assert!(uv_at(&s, d * 5.0, -d).x > 0.999);
+}
+
+#[test]
+fn cylinder_uv_is_angle_and_height_and_its_caps_are_disks() {
+    let s = one_object(
+        "shape = \"cylinder\"\nbase = [0.0, 0.0, 0.0]\naxis = [0.0, 1.0, 0.0]\nradius = 0.5\nheight = 2.0\ncaps = true",
+    );
+    // The wall: u from +X towards −Z, v up from the base.
+    assert!(close(uv_at(&s, Vec3::new(5.0, 0.5, 0.0), -Vec3::X), Vec2::new(0.0, 0.25)));
+    assert!(close(uv_at(&s, Vec3::new(0.0, 1.5, -5.0), Vec3::Z), Vec2::new(0.25, 0.75)));
+    assert!(close(uv_at(&s, Vec3::new(0.0, 1.0, 5.0), -Vec3::Z), Vec2::new(0.75, 0.5)));
+    // The top cap (normal +Y, angle from +X towards −Z) and the bottom cap (normal −Y, angle
+    // from +X towards +Z): v is 0 on the rim, 1 at the centre.
+    assert!(close(uv_at(&s, Vec3::new(0.25, 5.0, 0.0), -Vec3::Y), Vec2::new(0.0, 0.5)));
+    assert!(close(uv_at(&s, Vec3::new(0.0, 5.0, -0.25), -Vec3::Y), Vec2::new(0.25, 0.5)));
+    assert!(close(uv_at(&s, Vec3::new(0.0, -5.0, 0.25), Vec3::Y), Vec2::new(0.25, 0.5)));
+}
+
+#[test]
+fn polygon_uv_spans_its_planar_bounding_box() {
+    // A triangle in the plane z = 0 with its first edge along +X: u along the first edge, v along
+    // normal × u, both over the bounding box of the vertices.
+    let s = one_object("shape = \"polygon\"\nvertices = [[0.0, 0.0, 0.0], [2.0, 0.0, 0.0], [0.0, 1.0, 0.0]]");
+    assert!(close(uv_at(&s, Vec3::new(0.5, 0.25, 1.0), -Vec3::Z), Vec2::new(0.25, 0.25)));
+    assert!(close(uv_at(&s, Vec3::new(1.0, 0.5, 1.0), -Vec3::Z), Vec2::new(0.5, 0.5)));
+    assert!(close(uv_at(&s, Vec3::new(0.0, 0.0, 1.0), -Vec3::Z), Vec2::ZERO));
+}
+
+#[test]
+fn composite_bodies_use_the_uv_of_their_surfaces() {
+    // A hollow sphere: the outer sphere's uv seen from outside.
+    let s =
+        one_object("shape = \"hollow_sphere\"\ncenter = [0.0, 0.0, 0.0]\nradius = 1.0\ninner_radius = 0.9");
+    assert!(close(uv_at(&s, Vec3::new(0.0, 0.0, -5.0), Vec3::Z), Vec2::new(0.25, 0.5)));
+    // ... and the inner sphere's from its centre: the same longitude and latitude.
+    assert!(close(uv_at(&s, Vec3::ZERO, -Vec3::Z), Vec2::new(0.25, 0.5)));
+    assert_eq!(uv_at(&s, Vec3::ZERO, Vec3::Y).y, 1.0);
+    // A bowl opening upwards: the outer hemisphere's pole is the axis (v = 1 on the rim plane's
+    // normal side is clipped away; the bottom is v = 0).
+    let s = one_object(
+        "shape = \"bowl\"\ncenter = [0.0, 0.0, 0.0]\naxis = [0.0, 1.0, 0.0]\nradius = 1.0\nthickness = 0.1",
+    );
+    assert_eq!(uv_at(&s, Vec3::new(0.0, -5.0, 0.0), Vec3::Y).y, 0.0);
+    assert!(close(uv_at(&s, Vec3::new(0.0, -0.5, -5.0), Vec3::Z), Vec2::new(0.25, 1.0 / 3.0)));
+}
+
+/// Write a PNG of `width` × `height` 8-bit texels, row by row from the top.
+fn write_png(path: &Path, width: u32, height: u32, texels: &[[u8; 3]]) {
+    let mut img = image::RgbImage::new(width, height);
+    for (p, v) in img.pixels_mut().zip(texels) {
+        p.0 = *v;
+    }
+    img.save(path).unwrap();
+}
+
+/// A scene whose camera sees only a quad filling the view, lit by ambient light of radiance 1
+/// alone: `raycast` renders its colour exactly.
+fn framed_quad(texture: &str) -> String {
+    format!(
+        "[camera]\nposition = [0.0, 0.0, 1.0]\nlook_at = [0.0, 0.0, 0.0]\nfov = 90.0\nresolution = [4, 4]\n\
+         [render]\nambient = 1.0\n\
+         [materials.m]\ntype = \"diffuse\"\ntexture = {texture}\n\
+         [[objects]]\nshape = \"quad\"\ncorner = [-1.0, -1.0, 0.0]\nu = [2.0, 0.0, 0.0]\nv = [0.0, 2.0, 0.0]\nmaterial = \"m\"\n"
+    )
+}
+
+#[test]
+fn an_image_on_a_quad_renders_texel_for_texel() {
+    let dir = tempfile::tempdir().unwrap();
+    // 4 × 4 texels, each a different colour; the camera's 4 × 4 pixels each see one texel.
+    let texels: Vec<[u8; 3]> = (0..16u8).map(|i| [i * 16, 255 - i * 16, (i % 4) * 80]).collect();
+    write_png(&dir.path().join("t.png"), 4, 4, &texels);
+    let text = framed_quad("{ type = \"image\", file = \"t.png\", filter = \"nearest\" }");
+    let scene = load_str(&text, "scene.toml", Some(dir.path())).unwrap();
+    let image = common::render_with(&scene, "raycast", 1, 0);
+    for (i, (pixel, texel)) in image.pixels.iter().zip(&texels).enumerate() {
+        let expected = Vec3::from_array(texel.map(|c| vitrum::texture::srgb_to_linear(c as f32 / 255.0)));
+        assert!((*pixel - expected).abs().max_element() < 1e-6, "pixel {i}: {pixel} vs {expected}");
+    }
+    // The same file read as linear values.
+    let text =
+        framed_quad("{ type = \"image\", file = \"t.png\", filter = \"nearest\", colorspace = \"linear\" }");
+    let scene = load_str(&text, "scene.toml", Some(dir.path())).unwrap();
+    let image = common::render_with(&scene, "raycast", 1, 0);
+    let expected = Vec3::from_array(texels[5].map(|c| c as f32 / 255.0));
+    assert!((image.pixels[5] - expected).abs().max_element() < 1e-6);
+}
+
+#[test]
+fn a_file_is_decoded_once_and_its_bytes_are_in_the_scene_hash() {
+    let dir = tempfile::tempdir().unwrap();
+    let png = dir.path().join("t.png");
+    write_png(&png, 2, 2, &[[10, 20, 30], [40, 50, 60], [70, 80, 90], [100, 110, 120]]);
+    let two = "[camera]\nposition = [0.0, 0.0, 5.0]\nlook_at = [0.0, 0.0, 0.0]\nresolution = [8, 8]\n\
+        [materials.a]\ntype = \"diffuse\"\ntexture = { type = \"image\", file = \"t.png\" }\n\
+        [materials.b]\ntype = \"mirror\"\ntexture = { type = \"image\", file = \"t.png\", scale = [2.0, 3.0] }\n\
+        [[objects]]\nshape = \"sphere\"\ncenter = [0.0, 0.0, 0.0]\nradius = 1.0\nmaterial = \"a\"\n\
+        [[objects]]\nshape = \"sphere\"\ncenter = [3.0, 0.0, 0.0]\nradius = 1.0\nmaterial = \"b\"\n";
+    let scene = load_str(two, "scene.toml", Some(dir.path())).unwrap();
+    let map = |name: &str| {
+        let m = scene.materials.iter().find(|m| m.name == name).unwrap();
+        match &m.bsdf {
+            Bsdf::Diffuse(Texture::Image(t)) | Bsdf::Mirror { color: Texture::Image(t), .. } => t.map.clone(),
+            other => panic!("{other:?}"),
+        }
+    };
+    assert!(std::sync::Arc::ptr_eq(&map("a"), &map("b")), "one decode for both materials");
+    assert!(scene.effects.has(vitrum::scene::Effect::Textures));
+    let before = scene.origin.hash.clone();
+    write_png(&png, 2, 2, &[[10, 20, 30], [40, 50, 60], [70, 80, 90], [100, 110, 121]]);
+    let after = load_str(two, "scene.toml", Some(dir.path())).unwrap().origin.hash;
+    assert_ne!(before, after, "the scene hash covers the image's bytes");
+}
+
+/// Render `text` as `scene.toml` in `dir` with the CLI: (exit code, stderr, whether any output
+/// file was written).
+fn render_cli(dir: &Path, text: &str) -> (Option<i32>, String, bool) {
+    fs::write(dir.join("scene.toml"), text).unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_vitrum"))
+        .current_dir(dir)
+        .args(["render", "scene.toml", "-i", "raycast", "-o", "out.exr", "--png", "out.png"])
+        .output()
+        .unwrap();
+    let written = dir.join("out.exr").exists() || dir.join("out.png").exists();
+    (out.status.code(), String::from_utf8_lossy(&out.stderr).into_owned(), written)
+}
+
+#[test]
+fn bad_images_exit_2_naming_the_line_and_the_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    write_png(&d.join("good.png"), 2, 2, &[[1, 2, 3]; 4]);
+    let good = fs::read(d.join("good.png")).unwrap();
+    fs::write(d.join("cut.png"), &good[..good.len() / 2]).unwrap();
+    fs::write(d.join("empty.png"), b"").unwrap();
+    fs::write(d.join("anim.gif"), b"GIF89a\x01\x00\x01\x00\x00\x00\x00;").unwrap();
+    fs::create_dir(d.join("folder.png")).unwrap();
+    // The texture is on line 10 of the scene text (`framed_quad`).
+    let cases = [
+        ("{ type = \"image\", file = \"missing.png\" }", "missing.png"),
+        ("{ type = \"image\", file = \"cut.png\" }", "cut.png"),
+        ("{ type = \"image\", file = \"empty.png\" }", "empty.png"),
+        ("{ type = \"image\", file = \"anim.gif\" }", "anim.gif"),
+        ("{ type = \"image\", file = \"folder.png\" }", "folder.png"),
+        ("{ type = \"image\", file = \"good.png\", scale = [-1.0, 1.0] }", "scale"),
+        ("{ type = \"image\", file = \"good.png\", wrap = \"mirror\" }", "repeat"),
+        ("{ type = \"image\", file = \"good.png\", filter = \"cubic\" }", "bilinear"),
+    ];
+    for (texture, named) in cases {
+        let (code, stderr, written) = render_cli(d, &framed_quad(texture));
+        assert_eq!(code, Some(2), "{texture}: {stderr}");
+        assert!(stderr.contains("scene.toml:10:"), "{texture}: the line is named: {stderr}");
+        assert!(stderr.contains(named), "{texture}: `{named}` is named: {stderr}");
+        assert!(!stderr.contains("panicked"), "{stderr}");
+        assert!(!written, "{texture}: nothing is written");
+    }
+    // Unreadable (permissions) where the test does not run as root.
+    let locked = d.join("locked.png");
+    fs::write(&locked, &good).unwrap();
+    use std::os::unix::fs::PermissionsExt;
+    fs::set_permissions(&locked, fs::Permissions::from_mode(0o000)).unwrap();
+    if fs::read(&locked).is_err() {
+        let (code, stderr, written) =
+            render_cli(d, &framed_quad("{ type = \"image\", file = \"locked.png\" }"));
+        assert_eq!(code, Some(2), "{stderr}");
+        assert!(stderr.contains("locked.png") && !written, "{stderr}");
+    }
+    // And the good file renders.
+    let (code, stderr, written) = render_cli(d, &framed_quad("{ type = \"image\", file = \"good.png\" }"));
+    assert_eq!(code, Some(0), "{stderr}");
+    assert!(written);
+}
