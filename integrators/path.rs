@@ -23,9 +23,6 @@ use crate::scene::effects::Support;
 use crate::scene::{Effect, Scene};
 use glam::Vec3;
 
-/// Solid-angle density of next-event samples of the environment (uniform over the sphere).
-const ENVIRONMENT_PDF: f32 = 1.0 / (4.0 * std::f32::consts::PI);
-
 /// Bounces after which Russian roulette may end a path.
 const ROULETTE_DEPTH: u32 = 3;
 
@@ -89,7 +86,7 @@ impl Integrator for Path {
         loop {
             let Some(isect) = scene.intersect(&ray, f32::INFINITY) else {
                 if absorption == Vec3::ZERO {
-                    l += beta * ctx.channels.colour(escaped(scene, skip_mis, bsdf_pdf, light_pick));
+                    l += beta * ctx.channels.colour(escaped(scene, ray.dir, skip_mis, bsdf_pdf, light_pick));
                 }
                 break;
             };
@@ -161,13 +158,16 @@ impl Integrator for Path {
     }
 }
 
-/// Radiance of the environment for a ray that leaves the scene, weighted against next-event
-/// estimation of the environment light (the plain background when there is none).
-fn escaped(scene: &Scene, skip_mis: bool, bsdf_pdf: f32, light_pick: f32) -> Vec3 {
-    if scene.environment_light().is_some() && !skip_mis {
-        scene.settings.background * power_heuristic(bsdf_pdf, light_pick * ENVIRONMENT_PDF)
-    } else {
-        scene.settings.background
+/// Radiance of the environment for a ray of direction `dir` that leaves the scene, weighted
+/// against next-event estimation of the environment light (the plain background when there is
+/// none).
+fn escaped(scene: &Scene, dir: Vec3, skip_mis: bool, bsdf_pdf: f32, light_pick: f32) -> Vec3 {
+    match scene.environment_light() {
+        Some(i) if !skip_mis => {
+            let env = &scene.lights[i];
+            env.environment_radiance(dir) * power_heuristic(bsdf_pdf, light_pick * env.environment_pdf(dir))
+        }
+        _ => scene.background(dir),
     }
 }
 

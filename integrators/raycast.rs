@@ -39,7 +39,7 @@ impl Integrator for RayCast {
 
     fn radiance(&self, scene: &Scene, _: &RenderParams, ray: &Ray, ctx: &mut PathContext) -> Vec3 {
         let Some(isect) = scene.intersect(ray, f32::INFINITY) else {
-            return ctx.channels.colour(scene.settings.background);
+            return ctx.channels.colour(scene.background(ray.dir));
         };
         let wo = -ray.dir;
         let material = scene.material_of(isect.primitive);

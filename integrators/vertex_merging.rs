@@ -630,7 +630,7 @@ impl<'a> Engine<'a> {
         let mut absorption = Vec3::ZERO;
         loop {
             let Some(isect) = scene.intersect(&ray, f32::INFINITY) else {
-                visitor.escaped(path, absorption != Vec3::ZERO);
+                visitor.escaped(path, ray.dir, absorption != Vec3::ZERO);
                 break;
             };
             let hit = &isect.hit;
@@ -818,7 +818,7 @@ impl<'a> Engine<'a> {
         let (direct_w, emit_w, cos_at_light) = if ls.delta {
             (ls.distance * ls.distance, 1.0 / (4.0 * PI), 1.0)
         } else if !ls.distance.is_finite() {
-            let (emit, direct) = Light::environment_pdfs(&self.sphere);
+            let (emit, direct) = light.environment_pdfs(&self.sphere, ls.wi);
             (direct, emit, 1.0)
         } else {
             let cos_at_light = ls.normal.dot(-ls.wi).abs();
@@ -953,8 +953,8 @@ enum Next {
 /// What a sub-path does along its random walk ([`Engine::walk`]): camera and light sub-paths
 /// share the walk and differ only here.
 trait WalkVisitor {
-    /// The walk left the scene; `absorbed` when through an absorbing medium.
-    fn escaped(&mut self, _path: &mut SubPath, _absorbed: bool) {}
+    /// The walk left the scene along `dir`; `absorbed` when through an absorbing medium.
+    fn escaped(&mut self, _path: &mut SubPath, _dir: Vec3, _absorbed: bool) {}
 
     /// The walk reached `isect` along `ray` (after the arrival's MIS update); false ends it
     /// there, before the surface scatters.
@@ -1040,7 +1040,7 @@ impl CameraVisitor<'_, '_> {
 }
 
 impl WalkVisitor for CameraVisitor<'_, '_> {
-    fn escaped(&mut self, path: &mut SubPath, absorbed: bool) {
+    fn escaped(&mut self, path: &mut SubPath, dir: Vec3, absorbed: bool) {
         let e = self.engine;
         if absorbed || !e.keeps(Strategy::EmitterHit) {
             return;
@@ -1048,9 +1048,9 @@ impl WalkVisitor for CameraVisitor<'_, '_> {
         // Without an environment light the background is no light: it is seen with weight 1.
         let weight = match e.environment {
             None => 1.0,
-            Some(_) => self.emitter_weight(path, || Light::environment_pdfs(&e.sphere)),
+            Some(i) => self.emitter_weight(path, || e.scene.lights[i].environment_pdfs(&e.sphere, dir)),
         };
-        self.radiance += path.beta * path.ctx.channels.colour(e.scene.settings.background) * weight;
+        self.radiance += path.beta * path.ctx.channels.colour(e.scene.background(dir)) * weight;
     }
 
     fn reached(&mut self, path: &mut SubPath, ray: &Ray, isect: &Intersection) -> bool {

@@ -125,7 +125,7 @@ pub(super) fn trace(
 ) -> Vec3 {
     let Some(isect) = scene.intersect(ray, f32::INFINITY) else {
         let survives = seg.absorption == Vec3::ZERO;
-        return if survives { ctx.channels.colour(scene.settings.background) } else { Vec3::ZERO };
+        return if survives { ctx.channels.colour(scene.background(ray.dir)) } else { Vec3::ZERO };
     };
     let hit = &isect.hit;
     let attenuation = if seg.absorption == Vec3::ZERO { Vec3::ONE } else { (-seg.absorption * hit.t).exp() };

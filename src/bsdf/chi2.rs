@@ -25,7 +25,8 @@ pub(crate) const TOTAL_CASES: usize = super::lambert::tests::CHI2_CASES
     + super::microfacet::tests::CHI2_CASES
     + super::rough_conductor::tests::CHI2_CASES
     + super::rough_dielectric::tests::CHI2_CASES
-    + crate::light::tests::CHI2_CASES;
+    + crate::light::tests::CHI2_CASES
+    + crate::light::environment_map::tests::CHI2_CASES;
 /// Cells expecting fewer samples than this are pooled into one.
 const MIN_EXPECTED: f64 = 5.0;
 /// Samples drawn per parallel chunk (each chunk has its own random stream).
@@ -218,6 +219,15 @@ fn adaptive_simpson(f: &dyn Fn(f64) -> f64, a: f64, b: f64, eps: f64) -> f64 {
         refine(f, lo, hi, [flo, fmid, fhi], whole, 0.5 * eps, MAX_DEPTH)
     };
     panel(a, m, fa, fm) + panel(m, b, fm, fb)
+}
+
+/// The outcome of a sampler that always returns a sample, from its `observed` counts in cells
+/// whose `expected` counts (summing to the sample count) are known exactly.
+pub(crate) fn outcome_of_counts(expected: &[f64], observed: &[u64]) -> Outcome {
+    let (chi2, dof) = pooled_chi2(expected, observed);
+    let p_value = if chi2.is_finite() { gamma_q(0.5 * dof as f64, 0.5 * chi2) } else { 0.0 };
+    let samples = observed.iter().sum::<u64>() as usize;
+    Outcome { chi2, dof, p_value, pdf_mass: 1.0, sampled_fraction: 1.0, samples, invalid: 0 }
 }
 
 /// χ² and degrees of freedom after pooling the cells that expect fewer than [`MIN_EXPECTED`].

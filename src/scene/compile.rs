@@ -13,7 +13,7 @@ use super::{
 use crate::camera::Camera;
 use crate::dispersion::Ior;
 use crate::geometry::{parallelogram_normal, try_unit, Bounds, Disk, Polygon, Quad, Shape, Sphere};
-use crate::light::{EmitterShape, Light};
+use crate::light::{EmitterShape, EnvironmentMap, Light};
 use crate::material::{Bsdf, Material, Medium, Phong, Texture};
 use crate::params::{MergeParams, SsaaParams};
 use crate::sampler::SamplerKind;
@@ -394,7 +394,6 @@ impl Compiler<'_> {
         let mut warnings = Vec::new();
         // The content hashes of the files the scene reads besides its own text (meshes).
         let mut inputs = Vec::new();
-        inputs.extend(self.images.borrow().hashes.values().cloned());
         let mut lights = Vec::new();
         for (i, object) in desc.objects.iter().enumerate() {
             let path = FieldPath::from("objects").index(i);
@@ -504,8 +503,9 @@ impl Compiler<'_> {
             let light = self.light(&path, l)?;
             let emitter = match light {
                 Light::Point { .. } | Light::Surface { .. } => None,
-                Light::Environment { radiance } => {
+                Light::Environment { radiance, ref map } => {
                     effects.add(Effect::Environment, format!("lights[{i}] is an environment light"));
+                    let radiance = radiance * map.as_ref().map_or(Vec3::ONE, |m| m.mean());
                     if settings.background != Vec3::ZERO {
                         return Err(self.err(
                             &path,
@@ -555,6 +555,8 @@ impl Compiler<'_> {
                 format!("camera.aperture = {} (focus at {})", camera.aperture, camera.focus_distance),
             );
         }
+        // Image files (textures, environment maps), once each, in the order of their paths.
+        inputs.extend(self.images.borrow().hashes.values().cloned());
         let (primitives, bvh, bvh_stats) = build_bvh(primitives, camera.shutter);
         let has_motion = primitives.iter().any(|p| p.velocity.is_some());
         Ok(Scene {
@@ -565,7 +567,7 @@ impl Compiler<'_> {
             settings,
             effects,
             objects,
-            // The scene text and every mesh it reads: an edited OBJ file is another scene.
+            // The scene text and every file it reads: an edited OBJ or image file is another scene.
             origin: SceneOrigin { name: self.source.name.clone(), hash: scene_hash(text, &inputs) },
             bvh_scale: bvh_stats.scale,
             has_motion,
@@ -1090,9 +1092,32 @@ impl Compiler<'_> {
                     radiance: self.color(&path.key("radiance"), *radiance)?,
                 }
             }
-            LightDesc::Environment { radiance } => {
-                Light::Environment { radiance: self.color(&path.key("radiance"), *radiance)? }
-            }
+            LightDesc::Environment { radiance, file, rotation, scale } => match (radiance, file) {
+                (Some(radiance), None) => {
+                    if *scale != 1.0 || *rotation != 0.0 {
+                        let key = if *scale != 1.0 { "scale" } else { "rotation" };
+                        return Err(
+                            self.err(&path.key(key), "`scale` and `rotation` apply to a map (`file`)")
+                        );
+                    }
+                    Light::Environment { radiance: self.color(&path.key("radiance"), *radiance)?, map: None }
+                }
+                (None, Some(file)) => {
+                    let scale = self.positive(&path.key("scale"), *scale)?;
+                    let rotation = self.finite(&path.key("rotation"), *rotation)?;
+                    let image = self.image(&path.key("file"), file, None)?;
+                    let map = EnvironmentMap::new((*image).clone(), rotation);
+                    Light::Environment { radiance: Vec3::splat(scale), map: Some(Arc::new(map)) }
+                }
+                (Some(_), Some(_)) => {
+                    return Err(
+                        self.err(&path.key("radiance"), "give either `radiance` or a map `file`, not both")
+                    )
+                }
+                (None, None) => {
+                    return Err(self.err(path, "an environment light needs `radiance` or a map `file`"))
+                }
+            },
             LightDesc::Sphere { center, radius, radiance } => Light::Sphere {
                 center: v(*center),
                 radius: self.positive(&path.key("radius"), *radius)?,

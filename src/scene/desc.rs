@@ -705,10 +705,20 @@ pub enum LightDesc {
         /// Emitted radiance in W/(m²·sr).
         radiance: Rgb,
     },
-    /// Constant radiance from every direction that leaves the scene (also the background).
+    /// Radiance from every direction that leaves the scene (also the background): constant, or
+    /// an equirectangular HDR map (importance-sampled).
     Environment {
-        /// Radiance in W/(m²·sr).
-        radiance: Rgb,
+        /// Constant radiance in W/(m²·sr) (without `file`).
+        radiance: Option<Rgb>,
+        /// An equirectangular image (linear OpenEXR, or PNG/JPEG decoded from sRGB), relative to
+        /// the scene file.
+        file: Option<String>,
+        /// Turn of the map about the up axis (+Y) in degrees, right-handed.
+        #[serde(default)]
+        rotation: f32,
+        /// Factor on the map's texels (greater than 0).
+        #[serde(default = "default_scale")]
+        scale: f32,
     },
     /// A spherical emitter, radiating outwards from its whole surface.
     Sphere {

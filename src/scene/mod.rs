@@ -348,6 +348,16 @@ impl Scene {
         2.0 * ((hi - lo).length() + (p - lo).length()) + 1.0
     }
 
+    /// The radiance seen along a ray of unit direction `dir` that leaves the scene: the
+    /// environment light's, or the background colour when there is none.
+    #[inline]
+    pub fn background(&self, dir: Vec3) -> Vec3 {
+        match self.environment_light() {
+            Some(i) => self.lights[i].environment_radiance(dir),
+            None => self.settings.background,
+        }
+    }
+
     /// The index of the environment light, if the scene has one.
     pub fn environment_light(&self) -> Option<usize> {
         self.lights.iter().position(|l| matches!(l, Light::Environment { .. }))

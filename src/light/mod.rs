@@ -1,5 +1,5 @@
 //! Light sources: point lights, one-sided area quads and spheres, emissive surfaces (two-sided
-//! diffuse emitters) and a constant environment.
+//! diffuse emitters) and an environment, constant or an importance-sampled HDR map.
 //!
 //! The environment is infinitely far away, so a light path cannot start on it at a point: it
 //! starts on a disk of the scene's bounding sphere's radius, perpendicular to a uniformly
@@ -8,11 +8,16 @@
 //! the scene starts on the disk. Its densities are `1/(4π)` per solid angle times `1/(π R²)` per
 //! unit disk area.
 
+pub(crate) mod environment_map;
+
+pub use environment_map::EnvironmentMap;
+
 use crate::bsdf::lambert::cosine_hemisphere;
 use crate::bsdf::Frame;
 use crate::geometry::{point_error, spawn_origin, Ray, SurfaceHit};
 use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
+use std::sync::Arc;
 
 /// A light source.
 #[derive(Clone, Debug, PartialEq)]
@@ -53,10 +58,13 @@ pub enum Light {
         /// Emitted radiance (W/(m²·sr)).
         radiance: Vec3,
     },
-    /// Constant radiance arriving from every direction that leaves the scene.
+    /// Radiance arriving from every direction that leaves the scene: constant, or an HDR map
+    /// (importance-sampled) times a scale.
     Environment {
-        /// Radiance (W/(m²·sr)).
+        /// Radiance (W/(m²·sr)) without a map; the scale of the map's texels with one.
         radiance: Vec3,
+        /// The equirectangular map, if any.
+        map: Option<Arc<EnvironmentMap>>,
     },
 }
 
@@ -225,8 +233,8 @@ impl Light {
             Light::Quad { u, v, radiance, .. } => PI * u.cross(*v).length() * *radiance,
             Light::Sphere { radius, radiance, .. } => 4.0 * PI * PI * radius * radius * *radiance,
             Light::Surface { shape, radiance } => 2.0 * PI * shape.area() * *radiance,
-            // Power is not finite for an infinitely distant light; report the radiance.
-            Light::Environment { radiance } => *radiance,
+            // Power is not finite for an infinitely distant light; report the mean radiance.
+            Light::Environment { radiance, map } => *radiance * map.as_ref().map_or(Vec3::ONE, |m| m.mean()),
         }
     }
 
@@ -246,14 +254,14 @@ impl Light {
                 normal: -d / distance,
             });
         }
-        if let Light::Environment { radiance } = self {
-            let wi = uniform_sphere(u);
+        if let Light::Environment { .. } = self {
+            let (wi, pdf) = self.sample_environment(u)?;
             return Some(LightSample {
                 position: p + wi,
                 wi,
                 distance: f32::INFINITY,
-                radiance: *radiance,
-                pdf: 1.0 / (4.0 * PI),
+                radiance: self.environment_radiance(wi),
+                pdf,
                 delta: false,
                 normal: -wi,
             });
@@ -287,11 +295,12 @@ impl Light {
     }
 
     /// Solid-angle density with which [`Light::sample_li`] from `p` picks the point `y` (normal
-    /// `n_y`) of this area light; for the environment, the density of any direction.
+    /// `n_y`) of this area light; for the environment, the density of the direction from `p`
+    /// to `y`.
     pub fn pdf_li(&self, p: Vec3, y: Vec3, n_y: Vec3) -> f32 {
         let area_pdf = match self {
             Light::Point { .. } => return 0.0,
-            Light::Environment { .. } => return 1.0 / (4.0 * PI),
+            Light::Environment { .. } => return self.environment_pdf((y - p).normalize_or(Vec3::Y)),
             Light::Quad { u, v, .. } => 1.0 / u.cross(*v).length(),
             Light::Sphere { center, radius, .. } => {
                 // hemisphere facing p
@@ -338,17 +347,18 @@ impl Light {
                     infinite: false,
                 })
             }
-            Light::Environment { radiance } => {
-                let dir = -uniform_sphere(u_dir);
+            Light::Environment { .. } => {
+                let (towards, _) = self.sample_environment(u_dir)?;
+                let dir = -towards;
                 let (t, b) = dir.any_orthonormal_pair();
                 let r = u_point.x.sqrt();
                 let phi = 2.0 * PI * u_point.y;
                 let on_disk = t * (r * phi.cos()) + b * (r * phi.sin());
                 let origin = sphere.centre + sphere.radius * (on_disk - dir);
-                let (pdf_emit, pdf_direct) = Light::environment_pdfs(sphere);
+                let (pdf_emit, pdf_direct) = self.environment_pdfs(sphere, towards);
                 Some(Emission {
                     ray: Ray::new(origin, dir),
-                    beta: radiance / (p_light * pdf_emit),
+                    beta: self.environment_radiance(towards) / (p_light * pdf_emit),
                     origin: None,
                     pdf_emit: p_light * pdf_emit,
                     pdf_direct: p_light * pdf_direct,
@@ -402,13 +412,45 @@ impl Light {
         (cos / (PI * area * sides), direct)
     }
 
-    /// The densities of the other strategies for light arriving from the environment along any
-    /// direction: `(pdf_emit, pdf_direct)` as in [`Emission`] without the light's selection
-    /// probability, `1/(4π) · 1/(π R²)` and the solid-angle density `1/(4π)` of next-event
-    /// estimation.
-    pub fn environment_pdfs(sphere: &SceneSphere) -> (f32, f32) {
-        let direct = 1.0 / (4.0 * PI);
+    /// The densities of the other strategies for light arriving from this environment from the
+    /// unit direction `towards` (pointing away from the scene): `(pdf_emit, pdf_direct)` as in
+    /// [`Emission`] without the light's selection probability, the solid-angle density of the
+    /// direction times `1/(π R²)`, and that density itself (next-event estimation); for a
+    /// constant environment `1/(4π) · 1/(π R²)` and `1/(4π)`.
+    pub fn environment_pdfs(&self, sphere: &SceneSphere, towards: Vec3) -> (f32, f32) {
+        let direct = self.environment_pdf(towards);
         (direct * sphere.disk_pdf(), direct)
+    }
+
+    /// The radiance arriving from the unit direction `towards` (pointing away from the scene)
+    /// when this is the environment; zero for every other light.
+    #[inline]
+    pub fn environment_radiance(&self, towards: Vec3) -> Vec3 {
+        match self {
+            Light::Environment { radiance, map: None } => *radiance,
+            Light::Environment { radiance, map: Some(map) } => *radiance * map.radiance(towards),
+            _ => Vec3::ZERO,
+        }
+    }
+
+    /// The solid-angle density with which the environment's direction sampling returns
+    /// `towards`: `1/(4π)` without a map, the map's density with one (0 for other lights).
+    #[inline]
+    pub fn environment_pdf(&self, towards: Vec3) -> f32 {
+        match self {
+            Light::Environment { map: None, .. } => 1.0 / (4.0 * PI),
+            Light::Environment { map: Some(map), .. } => map.pdf(towards),
+            _ => 0.0,
+        }
+    }
+
+    /// A direction towards the environment with its solid-angle density: uniform over the sphere
+    /// without a map, by the map's distribution with one.
+    fn sample_environment(&self, u: Vec2) -> Option<(Vec3, f32)> {
+        match self {
+            Light::Environment { map: Some(map), .. } => map.sample(u),
+            _ => Some((uniform_sphere(u), 1.0 / (4.0 * PI))),
+        }
     }
 
     /// Whether the light has an area (and so casts soft shadows).
@@ -618,7 +660,7 @@ pub(crate) mod tests {
     /// emits towards `p`), found by intersecting the ray with the light's shape independently.
     fn direction_pdf(light: &Light, p: Vec3, w: Vec3) -> f32 {
         let points: Vec<(Vec3, Vec3)> = match *light {
-            Light::Environment { .. } => return 1.0 / (4.0 * PI),
+            Light::Environment { .. } => return light.environment_pdf(w),
             Light::Point { .. } => return 0.0,
             Light::Quad { corner, u, v, normal, .. } => {
                 parallelogram_hit(p, w, corner, u, v).map(|y| (y, normal)).into_iter().collect()
@@ -702,7 +744,7 @@ pub(crate) mod tests {
                 },
                 radiance: Vec3::ONE,
             },
-            Light::Environment { radiance: Vec3::ONE },
+            Light::Environment { radiance: Vec3::ONE, map: None },
         ];
         let mut results = Vec::new();
         for (k, light) in lights.iter().enumerate() {
@@ -764,7 +806,7 @@ pub(crate) mod tests {
         // Every ray starts outside the bounding sphere.
         use rand::{RngExt, SeedableRng};
         let sphere = SceneSphere::around(Vec3::new(-1.0, 0.0, -2.0), Vec3::new(2.0, 1.0, 1.0));
-        let env = Light::Environment { radiance: Vec3::splat(0.7) };
+        let env = Light::Environment { radiance: Vec3::splat(0.7), map: None };
         let (centre, n, rho) = (Vec3::new(0.3, 0.6, -0.4), Vec3::new(0.3, 1.0, -0.2).normalize(), 0.4);
         let mut rng = rand_pcg::Pcg64::seed_from_u64(3);
         let count = 400_000;
@@ -796,7 +838,7 @@ pub(crate) mod tests {
             error / area
         );
         // The densities the other strategies use are the emitted ray's.
-        let (emit, direct) = Light::environment_pdfs(&sphere);
+        let (emit, direct) = env.environment_pdfs(&sphere, Vec3::Y);
         let e = env.emit(0.5, 0.0, Vec2::splat(0.3), Vec2::splat(0.6), &sphere).unwrap();
         assert!((e.pdf_emit - 0.5 * emit).abs() < 1e-9 && (e.pdf_direct - 0.5 * direct).abs() < 1e-9);
     }
