@@ -20,6 +20,10 @@ pub struct InfoArgs {
 /// Runs `vitrum info`.
 pub fn run(args: &InfoArgs) -> Result<(), CliError> {
     let scene = load_scene(args.scene.as_deref())?;
+    // Warnings go to stderr as for every command, and are listed with the scene's contents too.
+    for w in &scene.warnings {
+        eprintln!("vitrum: warning: {w}");
+    }
     let all = integrators::all();
     let support_text = |s: Support| match s {
         Support::Simulates => "simulates".to_string(),

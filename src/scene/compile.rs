@@ -532,6 +532,7 @@ impl Compiler<'_> {
             lights.push(light);
         }
 
+        warnings.extend(super::overlap::coincident_surfaces(&primitives, &objects));
         if lights.is_empty() && settings.ambient == Vec3::ZERO {
             warnings
                 .push("the scene has no lights and no ambient term: every method renders it black".into());

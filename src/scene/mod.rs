@@ -6,6 +6,7 @@ pub mod compile;
 pub mod desc;
 pub mod effects;
 pub mod mesh;
+pub mod overlap;
 pub mod source;
 mod traversal;
 
