@@ -4,6 +4,7 @@
 pub mod bodies;
 pub mod compile;
 pub mod desc;
+pub mod describe;
 pub mod effects;
 pub mod mesh;
 pub mod overlap;
