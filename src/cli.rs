@@ -29,7 +29,8 @@ pub struct Cli {
 pub enum Command {
     /// Render a scene (the embedded default scene when none is given) to an EXR file.
     Render(Box<RenderArgs>),
-    /// Describe a scene: objects, materials, lights, BVH statistics and effects.
+    /// Describe a scene in words (`--json`: the same as data): render settings, objects, materials
+    /// and their textures, lights, BVH statistics, effects, and warnings such as coincident surfaces.
     Info(InfoArgs),
     /// List the integrators.
     Integrators,

@@ -1553,3 +1553,58 @@ fn one_strategy_of_a_bidirectional_method_renders_alone() {
         assert_refused(&sandbox, &out, &[needle]);
     }
 }
+
+#[test]
+fn info_describes_materials_and_lights_in_words_and_as_data() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let scenes =
+        ["scenes/cornell-glass.toml", "scenes/glass-of-water.toml", "scenes/hard/glass-of-water-filled.toml"];
+    for scene in scenes {
+        let file = root.join(scene);
+        let out = vitrum(&["info".as_ref(), file.as_os_str()]);
+        assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
+        let text = stdout(&out);
+        for debug in ["Vec3(", "Constant(", "Cauchy {", "Medium {", "Dielectric {", "Diffuse("] {
+            assert!(!text.contains(debug), "{scene}: `{debug}` in\n{text}");
+        }
+    }
+    let text = stdout(&vitrum(&["info".as_ref(), root.join(scenes[0]).as_os_str()]));
+    let listed =
+        |name: &str, says: &str| text.lines().any(|l| l.trim_start().starts_with(name) && l.contains(says));
+    assert!(listed("floor ", "diffuse, checker (0.75, 0.75, 0.75)/(0.25, 0.25, 0.25) size 0.25"), "{text}");
+    assert!(listed("glass ", "dielectric, inside ior 1.52, outside ior 1, roughness 0"), "{text}");
+    assert!(text.contains("point at (0, 1.8, 0), intensity (5, 5, 5) W/sr"), "{text}");
+    let text = stdout(&vitrum(&["info".as_ref(), root.join(scenes[1]).as_os_str()]));
+    assert!(text.contains("ior bk7 (dispersive: n_d 1.51"), "the named glass: {text}");
+    // --json: the same content as data.
+    let out = vitrum(&["info".as_ref(), "--json".as_ref(), root.join(scenes[2]).as_os_str()]);
+    let info: Value = serde_json::from_str(&stdout(&out)).expect("one JSON object");
+    let materials = info["materials"].as_array().unwrap();
+    let kinds: Vec<(&str, &str)> =
+        materials.iter().map(|m| (m["name"].as_str().unwrap(), m["kind"].as_str().unwrap())).collect();
+    assert_eq!(
+        kinds,
+        [
+            ("furnace", "diffuse"),
+            ("glass", "dielectric"),
+            ("glass (liquid)", "dielectric"),
+            ("glass (liquid, inner)", "dielectric"),
+            ("glass (liquid surface)", "dielectric"),
+            ("glass (inner)", "dielectric"),
+        ]
+    );
+    let surface = &materials[4];
+    assert_eq!(
+        (surface["inside"]["ior"].as_f64(), surface["outside"]["ior"].as_f64()),
+        (Some(1.33), Some(1.0))
+    );
+    assert!(surface["description"]
+        .as_str()
+        .unwrap()
+        .starts_with("dielectric, inside ior 1.33, outside ior 1"));
+    assert_eq!(materials[0]["texture"]["kind"], "constant");
+    let lights = info["lights"].as_array().unwrap();
+    assert_eq!(lights[0]["kind"], "surface");
+    assert_eq!(lights[0]["geometry"]["shape"], "sphere");
+    assert_eq!(lights[0]["geometry"]["radius"], 10.0);
+}

@@ -986,7 +986,12 @@ fn thin_glass_coating() {
 
 #[test]
 fn nested_dielectrics() {
-    for name in ["glass-of-water.toml", "bowl-of-liquid.toml"] {
+    for name in [
+        "glass-of-water.toml",
+        "bowl-of-liquid.toml",
+        "glass-of-water-filled.toml",
+        "bowl-of-liquid-filled.toml",
+    ] {
         let case = name.trim_end_matches(".toml");
         let scene = load(name);
         assert!(scene.warnings.is_empty(), "{case}: {:?}", scene.warnings);

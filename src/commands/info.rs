@@ -3,6 +3,7 @@
 
 use crate::commands::support::{load_scene, CliError};
 use crate::integrators;
+use crate::scene::describe;
 use crate::scene::effects::Support;
 use serde_json::json;
 use std::path::PathBuf;
@@ -12,7 +13,8 @@ use std::path::PathBuf;
 pub struct InfoArgs {
     /// Scene file (TOML); the embedded default scene when omitted.
     pub scene: Option<PathBuf>,
-    /// Print as one JSON object.
+    /// Print the same content as one JSON object (materials, textures and lights with their `kind`,
+    /// a `description` as the text gives it, and their numbers as fields).
     #[arg(long)]
     pub json: bool,
 }
@@ -20,6 +22,10 @@ pub struct InfoArgs {
 /// Runs `vitrum info`.
 pub fn run(args: &InfoArgs) -> Result<(), CliError> {
     let scene = load_scene(args.scene.as_deref())?;
+    // Warnings go to stderr as for every command (and into the JSON with the scene's contents).
+    for w in &scene.warnings {
+        eprintln!("vitrum: warning: {w}");
+    }
     let all = integrators::all();
     let support_text = |s: Support| match s {
         Support::Simulates => "simulates".to_string(),
@@ -64,8 +70,16 @@ pub fn run(args: &InfoArgs) -> Result<(), CliError> {
             "hash": scene.origin.hash,
             "resolution": [scene.camera.width, scene.camera.height],
             "objects": scene.objects.iter().map(|o| json!({"name": o.name, "kind": o.kind, "material": o.material, "primitives": o.primitives})).collect::<Vec<_>>(),
-            "materials": scene.materials.iter().map(|m| json!({"name": m.name, "type": format!("{:?}", m.bsdf)})).collect::<Vec<_>>(),
-            "lights": scene.lights.iter().map(|l| json!({"light": format!("{l:?}"), "power_watts": l.power().to_array()})).collect::<Vec<_>>(),
+            "materials": scene.materials.iter().map(|m| {
+                let mut d = describe::material(m).json();
+                d["name"] = json!(m.name);
+                d
+            }).collect::<Vec<_>>(),
+            "lights": scene.lights.iter().map(|l| {
+                let mut d = describe::light(l).json();
+                d["power_watts"] = json!(l.power().to_array());
+                d
+            }).collect::<Vec<_>>(),
             "bvh": {"nodes": b.nodes, "primitives": b.primitives, "depth": b.depth, "build_seconds": b.build_seconds,
                     "bounds_min": b.bounds.0.to_array(), "bounds_max": b.bounds.1.to_array()},
             "effects": effects,
@@ -109,11 +123,11 @@ pub fn run(args: &InfoArgs) -> Result<(), CliError> {
     }
     println!("materials  {}", scene.materials.len());
     for m in &scene.materials {
-        println!("  {:<24} {:?}", m.name, m.bsdf);
+        println!("  {:<24} {}", m.name, describe::material(m).text);
     }
     println!("lights     {}", scene.lights.len());
     for l in &scene.lights {
-        println!("  {l:?}, power {} W", l.power());
+        println!("  {}, power {} W", describe::light(l).text, describe::vec3(l.power()));
     }
     println!(
         "bvh        CwBvh, {} nodes, {} primitives, depth {}, built in {:.3} ms, bounds {} .. {}",
@@ -121,8 +135,8 @@ pub fn run(args: &InfoArgs) -> Result<(), CliError> {
         b.primitives,
         b.depth,
         b.build_seconds * 1e3,
-        b.bounds.0,
-        b.bounds.1
+        describe::vec3(b.bounds.0),
+        describe::vec3(b.bounds.1)
     );
     if scene.effects.0.is_empty() {
         println!("effects    none (every method renders this scene fully)");
@@ -132,9 +146,6 @@ pub fn run(args: &InfoArgs) -> Result<(), CliError> {
         for i in &all {
             println!("  {:<12} {}", i.name(), support_text(i.support(u.effect)));
         }
-    }
-    for w in &scene.warnings {
-        println!("warning    {w}");
     }
     Ok(())
 }

@@ -350,40 +350,54 @@ fn ring_point(c: Vec3, (t1, t2): (Vec3, Vec3), axis: Vec3, rho: f32, z: f32, k: 
     c + rho * (co * t1 + s * t2) + z * axis
 }
 
-/// The kept zone of a clipped sphere, `(p − c)·axis <= max_height`, from the pole at −axis up to
-/// the clipping circle, with outward vertex normals; `None` when nothing is kept.
+/// The kept zone of a clipped sphere, `min_height <= (p − c)·axis <= max_height`, from the pole
+/// at −axis (or the lower clipping circle) up to the upper clipping circle, with outward vertex
+/// normals; `None` when nothing is kept.
 fn sphere_zone(s: &Sphere, shift: Vec3) -> Option<Mesh> {
     let (c, r, axis) = (s.center() + shift, s.radius(), s.axis());
     let cos_max = (-(s.max_height() as f64) / r as f64).clamp(-1.0, 1.0);
-    if cos_max >= 1.0 {
+    let cos_min = (-(s.min_height() as f64) / r as f64).clamp(-1.0, 1.0);
+    if cos_max >= cos_min {
         return None;
     }
-    let theta_max = cos_max.acos();
-    let rings = ((SEGMENTS as f64 / 2.0 * theta_max / std::f64::consts::PI).ceil() as usize).max(4);
+    let (theta_min, theta_max) = (cos_min.acos(), cos_max.acos());
+    // A zone that starts at the pole is a fan around it; one that starts at a circle is bands.
+    let pole = theta_min == 0.0;
+    let span = theta_max - theta_min;
+    let rings = ((SEGMENTS as f64 / 2.0 * span / std::f64::consts::PI).ceil() as usize).max(4);
     let fr = frame(axis);
     let mut mesh = Mesh { normals: Some(Vec::new()), ..Mesh::default() };
     let add = |mesh: &mut Mesh, p: Vec3| {
         mesh.positions.push(p);
         mesh.normals.as_mut().expect("smooth mesh").push(((p - c) / r).normalize_or(-axis));
     };
-    add(&mut mesh, c - r * axis);
-    for j in 1..=rings {
+    if pole {
+        add(&mut mesh, c - r * axis);
+    }
+    let circle = |cos: f64| ((1.0 - cos * cos).max(0.0).sqrt(), cos);
+    let first = if pole { 1 } else { 0 };
+    for j in first..=rings {
         let (sin, cos) = if j == rings {
-            ((1.0 - cos_max * cos_max).max(0.0).sqrt(), cos_max)
+            circle(cos_max)
+        } else if j == 0 {
+            circle(cos_min)
         } else {
-            (theta_max * j as f64 / rings as f64).sin_cos()
+            (theta_min + span * j as f64 / rings as f64).sin_cos()
         };
         let (rho, z) = ((r as f64 * sin) as f32, (-(r as f64) * cos) as f32);
         for k in 0..SEGMENTS {
             add(&mut mesh, ring_point(c, fr, axis, rho, z, k));
         }
     }
-    let ring = |j: usize, k: usize| (1 + (j - 1) * SEGMENTS + k % SEGMENTS) as u32;
+    // Vertex k of ring j (after the pole vertex, when there is one).
+    let ring = |j: usize, k: usize| (first + (j - first) * SEGMENTS + k % SEGMENTS) as u32;
     for k in 0..SEGMENTS {
-        let f = [0, ring(1, k), ring(1, k + 1)];
-        let out = mesh.positions[f[1] as usize] - c;
-        mesh.triangle(f, out);
-        for j in 1..rings {
+        if pole {
+            let f = [0, ring(1, k), ring(1, k + 1)];
+            let out = mesh.positions[f[1] as usize] - c;
+            mesh.triangle(f, out);
+        }
+        for j in first..rings {
             let (a, b, cc, d) = (ring(j, k), ring(j, k + 1), ring(j + 1, k + 1), ring(j + 1, k));
             let out = mesh.positions[a as usize] + mesh.positions[cc as usize] - 2.0 * c;
             mesh.triangle([a, b, cc], out);
@@ -1118,6 +1132,21 @@ mod tests {
                     assert_eq!(mitsuba, texture.eval(p, glam::Vec2::ZERO), "quad {q:?} at ({a}, {b})");
                 }
             }
+        }
+    }
+
+    #[test]
+    fn a_sphere_zone_starts_where_the_cap_below_it_ends() {
+        // A bowl's inner wall split at a liquid level 0.15 below the rim.
+        let (c, axis) = (Vec3::new(0.0, 0.5, 0.0), Vec3::Y);
+        let cap = sphere_zone(&Sphere::clipped(c, 0.46, axis, -0.15), Vec3::ZERO).unwrap();
+        let zone = sphere_zone(&Sphere::zone(c, 0.46, axis, -0.15, 0.0), Vec3::ZERO).unwrap();
+        assert_eq!(cap.positions[cap.positions.len() - SEGMENTS..], zone.positions[..SEGMENTS]);
+        let top = zone.positions[zone.positions.len() - SEGMENTS..].to_vec();
+        assert!(top.iter().all(|p| (p.y - c.y).abs() < 1e-6), "the zone ends at the rim plane");
+        for f in &zone.faces {
+            let p = f.map(|i| zone.positions[i as usize]);
+            assert!((p[1] - p[0]).cross(p[2] - p[0]).dot(p[0] + p[1] + p[2] - 3.0 * c) > 0.0);
         }
     }
 

@@ -43,15 +43,17 @@ pub(crate) fn radial_roots(f: Vec3, d: Vec3, radius: f32) -> Option<(f32, f32)> 
     Some(if t0 <= t1 { (t0, t1) } else { (t1, t0) })
 }
 
-/// A sphere, or the part of it with `(p − center)·axis <= max_height`.
+/// A sphere, or the zone of it with `min_height <= (p − center)·axis <= max_height` (one or two
+/// clipping planes).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Sphere {
     center: Vec3,
     radius: f32,
-    /// Pole of the uv parameterisation and normal of the clipping plane (unit).
+    /// Pole of the uv parameterisation and normal of the clipping planes (unit).
     axis: Vec3,
     /// Tangents completing `axis` to an orthonormal frame (uv longitude origin).
     tangent: (Vec3, Vec3),
+    min_height: f32,
     max_height: f32,
     clipped: bool,
 }
@@ -64,14 +66,21 @@ impl Sphere {
 
     /// Sphere keeping only points with `(p − center)·axis <= max_height` (axis is normalised).
     pub fn clipped(center: Vec3, radius: f32, axis: Vec3, max_height: f32) -> Sphere {
+        Sphere::zone(center, radius, axis, f32::NEG_INFINITY, max_height)
+    }
+
+    /// The zone of the sphere between two planes normal to `axis` (normalised): the points with
+    /// `min_height <= (p − center)·axis <= max_height` (a bowl's inner wall above a liquid).
+    pub fn zone(center: Vec3, radius: f32, axis: Vec3, min_height: f32, max_height: f32) -> Sphere {
         let axis = unit_or(axis, Vec3::Y);
         Sphere {
             center,
             radius,
             axis,
             tangent: texture_frame(axis),
+            min_height,
             max_height,
-            clipped: max_height < radius,
+            clipped: max_height < radius || min_height > -radius,
         }
     }
 
@@ -84,14 +93,16 @@ impl Sphere {
         if t0 >= tmax || t1 <= tmin {
             return None;
         }
-        let limit = if self.clipped {
-            self.max_height + seam_slack(self.radius, self.center, f)
-        } else {
-            f32::INFINITY
-        };
-        [t0, t1]
-            .into_iter()
-            .find(|&t| t > tmin && t < tmax && (!self.clipped || (f + t * ray.dir).dot(self.axis) <= limit))
+        let slack = if self.clipped { seam_slack(self.radius, self.center, f) } else { 0.0 };
+        let (low, high) = (self.min_height - slack, self.max_height + slack);
+        [t0, t1].into_iter().find(|&t| {
+            t > tmin
+                && t < tmax
+                && (!self.clipped || {
+                    let h = (f + t * ray.dir).dot(self.axis);
+                    h <= high && h >= low
+                })
+        })
     }
 
     /// Full hit record for a hit at `t`, with the point reprojected onto the sphere.
@@ -132,7 +143,12 @@ impl Sphere {
         self.max_height
     }
 
-    /// Whether the clipping plane cuts the sphere (a bowl's hemisphere).
+    /// The kept part is `(p − center)·axis >= min_height` (−infinity without a lower plane).
+    pub fn min_height(&self) -> f32 {
+        self.min_height
+    }
+
+    /// Whether a clipping plane cuts the sphere (a bowl's hemisphere, a zone).
     pub fn is_clipped(&self) -> bool {
         self.clipped
     }
@@ -142,10 +158,11 @@ impl Sphere {
         Bounds { min: self.center - self.radius, max: self.center + self.radius }
     }
 
-    /// Area of the kept part: the zone of height `min(max_height, r) + r`.
+    /// Area of the kept part: 2πr times the height of the zone (Archimedes).
     pub fn area(&self) -> f32 {
-        let h = self.max_height.clamp(-self.radius, self.radius);
-        TAU * self.radius * (h + self.radius)
+        let hi = self.max_height.clamp(-self.radius, self.radius);
+        let lo = self.min_height.clamp(-self.radius, self.radius);
+        TAU * self.radius * (hi - lo).max(0.0)
     }
 }
 
@@ -280,6 +297,36 @@ mod tests {
         // Half sphere area.
         assert!(close(s.area(), TAU, 1e-5));
         assert!(close(Sphere::new(Vec3::ZERO, 1.0).area(), 2.0 * TAU, 1e-5));
+    }
+
+    #[test]
+    fn zone_keeps_the_band_between_its_planes_and_meets_the_cap_below() {
+        // The unit sphere between heights −0.5 and 0, and the cap below −0.5 that completes it.
+        let zone = Sphere::zone(Vec3::ZERO, 1.0, Vec3::Y, -0.5, 0.0);
+        let cap = Sphere::clipped(Vec3::ZERO, 1.0, Vec3::Y, -0.5);
+        assert!(zone.is_clipped());
+        assert!(zone.intersect(&ray([-5.0, -0.25, 0.0], [1.0, 0.0, 0.0]), 0.0, f32::INFINITY).is_some());
+        assert_eq!(zone.intersect(&ray([-5.0, -0.75, 0.0], [1.0, 0.0, 0.0]), 0.0, f32::INFINITY), None);
+        assert_eq!(zone.intersect(&ray([-5.0, 0.25, 0.0], [1.0, 0.0, 0.0]), 0.0, f32::INFINITY), None);
+        // Straight down through the centre: both poles lie outside the band.
+        assert_eq!(zone.intersect(&ray([0.0, 5.0, 0.0], [0.0, -1.0, 0.0]), 0.0, f32::INFINITY), None);
+        assert!(close(zone.area(), TAU * 0.5, 1e-5));
+        assert!(close(
+            zone.area() + cap.area() + Sphere::clipped(Vec3::ZERO, 1.0, -Vec3::Y, 0.0).area(),
+            2.0 * TAU,
+            1e-5
+        ));
+        // Every ray through the seam circle at height −0.5 hits the zone or the cap.
+        let mut rng = Pcg32::seed_from_u64(7);
+        for _ in 0..2000 {
+            let phi = rng.random::<f32>() * TAU;
+            let rho = (1.0f32 - 0.25).sqrt();
+            let target = Vec3::new(rho * phi.cos(), -0.5, rho * phi.sin());
+            let origin = random_unit(&mut rng) * 5.0;
+            let r = Ray::new(origin, (target - origin).normalize());
+            let hit = |s: &Sphere| s.intersect(&r, 0.0, f32::INFINITY).is_some();
+            assert!(hit(&zone) || hit(&cap), "a ray through the seam at {target} slipped through");
+        }
     }
 
     /// Exact (f64) test of the f32 ray against the f32-parameterised bowl and rim: whether one

@@ -1,9 +1,10 @@
 //! Scene compilation: text → [`SceneDesc`] → validated, expanded, BVH-accelerated [`Scene`].
 
-use super::bodies::{self, BodySurface};
+use super::bodies::{self, BodySurface, Interface, Liquid};
 use super::desc::{
-    ColorSpaceDesc, FilterDesc, IorDesc, LightDesc, MaterialDesc, PhongDesc, Rgb, SceneDesc, ShapeDesc,
-    TextureDesc, WrapDesc, IOR_TABLE_ERROR, MERGING_METHODS, METHOD_TABLES, MOVED_MAX_DEPTH,
+    ColorSpaceDesc, FilterDesc, IorDesc, LightDesc, LiquidDesc, MaterialDesc, PhongDesc, Rgb, SceneDesc,
+    ShapeDesc, TextureDesc, WrapDesc, IOR_TABLE_ERROR, LIQUIDS, MERGING_METHODS, METHOD_TABLES,
+    MOVED_MAX_DEPTH,
 };
 use super::effects::{Effect, Effects};
 use super::source::{FieldPath, SceneError, Source};
@@ -386,8 +387,6 @@ impl Compiler<'_> {
             material_index.insert(name.clone(), materials.len() as u32);
             materials.push(material);
         }
-        // Inner surfaces of hollow bodies use the interface seen from the other side.
-        let mut swapped_index: HashMap<u32, u32> = HashMap::new();
 
         let mut primitives = Vec::new();
         let mut objects = Vec::new();
@@ -427,6 +426,7 @@ impl Compiler<'_> {
                 effects.add(Effect::Meshes, format!("objects[{i}] is a triangle mesh"));
             }
             material_effects(&mut effects, &materials[material as usize], i);
+            let liquid = self.liquid(&path, &object.shape, &materials[material as usize])?;
             let velocity = match object.velocity {
                 Some(v) => Some(self.finite_vector(&path.key("velocity"), v)?).filter(|v| *v != Vec3::ZERO),
                 None => None,
@@ -485,14 +485,24 @@ impl Compiler<'_> {
                 material: object.material.clone(),
                 primitives: surfaces.len(),
             });
-            for (shape, swapped) in surfaces {
-                let material = if swapped {
-                    *swapped_index.entry(material).or_insert_with(|| {
-                        materials.push(materials[material as usize].swapped_interface());
-                        materials.len() as u32 - 1
-                    })
-                } else {
+            for (shape, interface) in surfaces {
+                // Inner surfaces of hollow bodies use the interface seen from the other side,
+                // filled vessels their liquid's interfaces: derived materials, made once each.
+                let material = if interface == Interface::Material {
                     material
+                } else {
+                    let mut derived = interface.material(&materials[material as usize], liquid.as_ref());
+                    match materials.iter().position(|m| *m == derived) {
+                        Some(k) => k as u32,
+                        None => {
+                            if materials.iter().any(|m| m.name == derived.name) {
+                                derived.name = format!("{} of objects[{i}]", derived.name);
+                            }
+                            material_effects(&mut effects, &derived, i);
+                            materials.push(derived);
+                            materials.len() as u32 - 1
+                        }
+                    }
                 };
                 primitives.push(Primitive { shape, material, light: emitter, object: object_id, velocity });
             }
@@ -545,6 +555,7 @@ impl Compiler<'_> {
             lights.push(light);
         }
 
+        warnings.extend(super::overlap::coincident_surfaces(&primitives, &objects));
         if lights.is_empty() && settings.ambient == Vec3::ZERO {
             warnings
                 .push("the scene has no lights and no ambient term: every method renders it black".into());
@@ -907,7 +918,7 @@ impl Compiler<'_> {
         Ok(match shape {
             ShapeDesc::Sphere { center, radius } => {
                 let r = self.positive(&path.key("radius"), *radius)?;
-                vec![(Shape::Sphere(Box::new(Sphere::new(v(*center), r))), false)]
+                vec![(Shape::Sphere(Box::new(Sphere::new(v(*center), r))), Interface::Material)]
             }
             ShapeDesc::Cylinder { base, axis, radius, height, caps } => {
                 let axis = self.direction(&path.key("axis"), *axis)?;
@@ -925,7 +936,7 @@ impl Compiler<'_> {
                         format!("must be smaller than radius {r} (got {ri})"),
                     ));
                 }
-                vec![(Shape::Disk(Box::new(Disk::new(v(*center), n, r, ri))), false)]
+                vec![(Shape::Disk(Box::new(Disk::new(v(*center), n, r, ri))), Interface::Material)]
             }
             ShapeDesc::Quad { corner, u, v: edge_v } => {
                 let (u, ev) = (v(*u), v(*edge_v));
@@ -935,12 +946,12 @@ impl Compiler<'_> {
                         "u and v must be non-zero and not parallel (the quad has no area)",
                     ));
                 }
-                vec![(Shape::Quad(Box::new(Quad::new(v(*corner), u, ev))), false)]
+                vec![(Shape::Quad(Box::new(Quad::new(v(*corner), u, ev))), Interface::Material)]
             }
             ShapeDesc::Polygon { vertices } => {
                 let verts = vertices.iter().map(|p| v(*p)).collect();
                 let polygon = Polygon::new(verts).map_err(|e| self.err(&path.key("vertices"), e))?;
-                vec![(Shape::Polygon(Box::new(polygon)), false)]
+                vec![(Shape::Polygon(Box::new(polygon)), Interface::Material)]
             }
             ShapeDesc::Mesh { file, scale, translate } => {
                 let scale = self.positive(&path.key("scale"), *scale)?;
@@ -972,7 +983,7 @@ impl Compiler<'_> {
                         full.display()
                     ));
                 }
-                triangles.into_iter().map(|t| (Shape::Triangle(t), false)).collect()
+                triangles.into_iter().map(|t| (Shape::Triangle(t), Interface::Material)).collect()
             }
             ShapeDesc::HollowSphere { center, radius, inner_radius } => {
                 let r = self.positive(&path.key("radius"), *radius)?;
@@ -985,7 +996,7 @@ impl Compiler<'_> {
                 }
                 bodies::hollow_sphere(v(*center), r, ri)
             }
-            ShapeDesc::Bowl { center, axis, radius, thickness } => {
+            ShapeDesc::Bowl { center, axis, radius, thickness, fill, .. } => {
                 let axis = self.direction(&path.key("axis"), *axis)?;
                 let r = self.positive(&path.key("radius"), *radius)?;
                 let t = self.positive(&path.key("thickness"), *thickness)?;
@@ -995,9 +1006,21 @@ impl Compiler<'_> {
                         format!("must be smaller than radius {r} and large enough to change it (got {t})"),
                     ));
                 }
-                bodies::bowl(v(*center), axis, r, t)
+                let inner = r - t;
+                if let Some(d) = *fill {
+                    if !(d >= 0.0 && d < inner) {
+                        return Err(self.err(
+                            &path.key("fill"),
+                            format!(
+                                "the liquid's depth below the rim plane must be in [0, {inner}) (0: full to \
+                                 the rim; the inner radius {inner}: empty) (got {d})"
+                            ),
+                        ));
+                    }
+                }
+                bodies::bowl(v(*center), axis, r, t, *fill)
             }
-            ShapeDesc::DrinkingGlass { base, axis, radius, height, wall, bottom } => {
+            ShapeDesc::DrinkingGlass { base, axis, radius, height, wall, bottom, fill, .. } => {
                 let axis = self.direction(&path.key("axis"), *axis)?;
                 let r = self.positive(&path.key("radius"), *radius)?;
                 let h = self.positive(&path.key("height"), *height)?;
@@ -1013,9 +1036,75 @@ impl Compiler<'_> {
                         self.err(&path.key("bottom"), format!("must be smaller than height {h} (got {b})"))
                     );
                 }
-                bodies::drinking_glass(v(*base), axis, r, h, w, b)
+                let cavity = h - b;
+                if let Some(f) = *fill {
+                    if !(f > 0.0 && f <= cavity) {
+                        return Err(self.err(
+                            &path.key("fill"),
+                            format!(
+                                "the liquid's height above the cavity floor must be in (0, {cavity}] \
+                                 (height − bottom: full to the rim) (got {f})"
+                            ),
+                        ));
+                    }
+                }
+                bodies::drinking_glass(v(*base), axis, [r, h, w, b], *fill)
             }
         })
+    }
+
+    /// The liquid of a filled vessel (`fill` and `liquid` of a bowl or drinking glass), checked:
+    /// `None` for an empty one. The vessel's material must be a dielectric.
+    fn liquid(
+        &self,
+        path: &FieldPath,
+        shape: &ShapeDesc,
+        body: &Material,
+    ) -> Result<Option<Liquid>, SceneError> {
+        let (fill, liquid) = match shape {
+            ShapeDesc::Bowl { fill, liquid, .. } | ShapeDesc::DrinkingGlass { fill, liquid, .. } => {
+                (fill, liquid)
+            }
+            _ => return Ok(None),
+        };
+        if fill.is_none() {
+            return match liquid {
+                Some(_) => {
+                    Err(self
+                        .err(&path.key("liquid"), "a liquid needs `fill`, the level it fills the vessel to"))
+                }
+                None => Ok(None),
+            };
+        }
+        if !matches!(body.bsdf, Bsdf::Dielectric { .. }) {
+            return Err(self.err(
+                &path.key("material"),
+                format!("a filled vessel must be made of a dielectric (`{}` is not one)", body.name),
+            ));
+        }
+        let at = path.key("liquid");
+        Ok(Some(match liquid.as_ref().unwrap_or(&LiquidDesc::Named("water".into())) {
+            LiquidDesc::Named(name) => {
+                let Some(&(name, n)) = LIQUIDS.iter().find(|(l, _)| l.eq_ignore_ascii_case(name)) else {
+                    let known: Vec<&str> = LIQUIDS.iter().map(|l| l.0).collect();
+                    return Err(self.err(
+                        &at,
+                        format!(
+                            "unknown liquid `{name}`; known: {} (or a table {{ ior = 1.333, absorption = [r, g, b] }})",
+                            known.join(", ")
+                        ),
+                    ));
+                };
+                Liquid { name: name.to_string(), medium: Medium::clear(n) }
+            }
+            LiquidDesc::Medium { ior, absorption } => Liquid {
+                name: "liquid".into(),
+                medium: Medium {
+                    ior: self.ior(&at.key("ior"), ior)?,
+                    absorption: self.color(&at.key("absorption"), *absorption)?,
+                },
+            },
+        }))
     }
 
     /// A light's area must be a finite, normal positive number: sampling a point on it divides

@@ -554,6 +554,51 @@ impl<'de> Deserialize<'de> for IorDesc {
         d.deserialize_any(Visitor)
     }
 }
+/// The liquid in a filled vessel: a name from [`LIQUIDS`] (`"water"`) or a table
+/// `{ ior = 1.333, absorption = [r, g, b] }` (absorption per scene unit, default 0).
+#[derive(Clone, Debug, PartialEq)]
+pub enum LiquidDesc {
+    /// A liquid from [`LIQUIDS`].
+    Named(String),
+    /// A liquid given by its medium.
+    Medium {
+        /// Refractive index (any form `ior` takes in a material).
+        ior: IorDesc,
+        /// Beer–Lambert absorption coefficient per scene unit.
+        absorption: Rgb,
+    },
+}
+
+/// The named liquids and their (constant) refractive indices at 589 nm.
+pub const LIQUIDS: [(&str, f32); 3] = [("water", 1.333), ("ethanol", 1.361), ("olive_oil", 1.47)];
+
+impl<'de> Deserialize<'de> for LiquidDesc {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<LiquidDesc, D::Error> {
+        #[derive(Deserialize)]
+        #[serde(deny_unknown_fields)]
+        struct Table {
+            ior: IorDesc,
+            #[serde(default = "default_zero_rgb")]
+            absorption: Rgb,
+        }
+        struct Visitor;
+        impl<'de> serde::de::Visitor<'de> for Visitor {
+            type Value = LiquidDesc;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str("a liquid: a name (\"water\") or { ior = 1.333, absorption = [r, g, b] }")
+            }
+            fn visit_str<E: serde::de::Error>(self, v: &str) -> Result<LiquidDesc, E> {
+                Ok(LiquidDesc::Named(v.to_string()))
+            }
+            fn visit_map<A: serde::de::MapAccess<'de>>(self, map: A) -> Result<LiquidDesc, A::Error> {
+                let t = Table::deserialize(serde::de::value::MapAccessDeserializer::new(map))?;
+                Ok(LiquidDesc::Medium { ior: t.ior, absorption: t.absorption })
+            }
+        }
+        d.deserialize_any(Visitor)
+    }
+}
+
 fn default_axis() -> Vec3Desc {
     [0.0, 1.0, 0.0]
 }
@@ -660,6 +705,13 @@ pub enum ShapeDesc {
         radius: f32,
         /// Wall thickness.
         thickness: f32,
+        /// Fill with a liquid up to this depth *below the rim plane*, in [0, radius − thickness):
+        /// 0 is full to the rim. Absent: empty.
+        #[serde(default)]
+        fill: Option<f32>,
+        /// The liquid (default `"water"` when `fill` is given).
+        #[serde(default)]
+        liquid: Option<LiquidDesc>,
     },
     /// A cylindrical drinking glass, open at the top.
     DrinkingGlass {
@@ -676,6 +728,13 @@ pub enum ShapeDesc {
         wall: f32,
         /// Thickness of the solid base.
         bottom: f32,
+        /// Fill with a liquid up to this height *above the cavity floor*, in (0, height − bottom]:
+        /// `height − bottom` is full to the rim. Absent: empty.
+        #[serde(default)]
+        fill: Option<f32>,
+        /// The liquid (default `"water"` when `fill` is given).
+        #[serde(default)]
+        liquid: Option<LiquidDesc>,
     },
 }
 

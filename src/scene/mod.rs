@@ -4,8 +4,10 @@
 pub mod bodies;
 pub mod compile;
 pub mod desc;
+pub mod describe;
 pub mod effects;
 pub mod mesh;
+pub mod overlap;
 pub mod source;
 mod traversal;
 

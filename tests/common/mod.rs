@@ -158,3 +158,43 @@ radiance = 1.0
     );
     load_str(&text, "furnace", None).unwrap()
 }
+
+/// A render with independent sampling and its per-pixel variance.
+pub fn render_with_variance(scene: &Scene, method: &str, size: u32, spp: u32, seed: u64) -> (Image, Image) {
+    let integrator = create(method).unwrap();
+    let mut opts = RenderOptions::for_method(scene, integrator.as_ref(), spp);
+    opts.resolution = Some((size, size));
+    opts.sampler = SamplerKind::Independent;
+    opts.seed = seed;
+    let out = render_opts(scene, method, &opts);
+    assert_eq!(out.non_finite_samples, 0, "{method}: non-finite samples");
+    (out.image, out.variance.expect("two samples or more keep a variance"))
+}
+
+/// χ² of the 8×8 block means of `a` against `b` in their own variances, and the block count.
+pub fn block_chi2(a: &(Image, Image), b: &(Image, Image)) -> (f64, usize) {
+    let (w, h) = (a.0.width, a.0.height);
+    let mut chi2 = 0.0;
+    let mut blocks = 0;
+    for by in (0..h).step_by(8) {
+        for bx in (0..w).step_by(8) {
+            let (mut ma, mut mb, mut va, mut vb) = (0.0f64, 0.0, 0.0, 0.0);
+            for y in by..by + 8 {
+                for x in bx..bx + 8 {
+                    let i = y * w + x;
+                    ma += a.0.pixels[i].element_sum() as f64 / 3.0;
+                    mb += b.0.pixels[i].element_sum() as f64 / 3.0;
+                    // Channels may be fully correlated: the variance of their mean is at most
+                    // the square of the mean of their standard errors.
+                    va += (a.1.pixels[i].max(Vec3::ZERO).powf(0.5).element_sum() as f64 / 3.0).powi(2);
+                    vb += (b.1.pixels[i].max(Vec3::ZERO).powf(0.5).element_sum() as f64 / 3.0).powi(2);
+                }
+            }
+            if va + vb > 0.0 {
+                chi2 += (ma - mb).powi(2) / (va + vb);
+                blocks += 1;
+            }
+        }
+    }
+    (chi2, blocks)
+}
