@@ -347,7 +347,7 @@ impl Tracer<'_> {
         if let Some((origin, inv_pdf)) = emission.origin {
             let channels = ctx.channels;
             self.connect(&origin, &mut ctx, shadow, out, |wc| {
-                channels.colour(light.emitted(origin.n, wc)) * (wc.dot(origin.n).abs() * inv_pdf)
+                channels.colour(light.emitted(&origin, wc)) * (wc.dot(origin.n).abs() * inv_pdf)
             });
         }
 

@@ -98,7 +98,7 @@ impl Integrator for Path {
             // Emission reached by BSDF sampling (or seen directly), weighted against NEE.
             if let Some(index) = scene.light_of(isect.primitive) {
                 let light = &scene.lights[index as usize];
-                let le = light.emitted(hit.n, wo);
+                let le = light.emitted(&hit, wo);
                 if le != Vec3::ZERO {
                     let w = if skip_mis {
                         1.0

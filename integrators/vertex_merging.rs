@@ -715,7 +715,7 @@ impl<'a> Engine<'a> {
         out: &mut LightChunk,
     ) {
         self.splat(origin, path, shadow, out, |ctx, c| {
-            let le = light.emitted(origin.n, -c.dir) * (c.dir.dot(origin.n).abs() * inv_pdf);
+            let le = light.emitted(origin, -c.dir) * (c.dir.dot(origin.n).abs() * inv_pdf);
             ctx.channels.colour(le)
         });
     }
@@ -1058,7 +1058,7 @@ impl WalkVisitor for CameraVisitor<'_, '_> {
         if let Some(index) = e.scene.light_of(isect.primitive) {
             let emitter = &e.scene.lights[index as usize];
             let (hit, wo) = (&isect.hit, -ray.dir);
-            let le = emitter.emitted(hit.n, wo);
+            let le = emitter.emitted(hit, wo);
             if le != Vec3::ZERO && e.keeps(Strategy::EmitterHit) {
                 let weight =
                     self.emitter_weight(path, || emitter.emission_pdfs(ray.origin, hit.p, hit.n, wo));

@@ -222,7 +222,7 @@ pub fn phong_local(
 /// Radiance emitted by the primitive of `hit` towards `wo`, if it is a light's emitting side (RGB).
 pub fn emitted(scene: &Scene, primitive: u32, hit: &SurfaceHit, wo: Vec3) -> Vec3 {
     match scene.light_of(primitive) {
-        Some(i) => scene.lights[i as usize].emitted(hit.n, wo),
+        Some(i) => scene.lights[i as usize].emitted(hit, wo),
         None => Vec3::ZERO,
     }
 }

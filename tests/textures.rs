@@ -263,3 +263,69 @@ fn bad_images_exit_2_naming_the_line_and_the_file() {
     assert_eq!(code, Some(0), "{stderr}");
     assert!(written);
 }
+
+/// A scene text of a diffuse floor lit from 1 m above by `emitters` (objects), seen from below
+/// the emitters looking down at the floor only.
+fn lit_floor(emitters: &str) -> String {
+    format!(
+        "[camera]\nposition = [0.0, 0.6, 0.0]\nlook_at = [0.0, 0.0, 0.0]\nup = [0.0, 0.0, -1.0]\nfov = 60.0\nresolution = [16, 16]\n\
+         [materials.floor]\ntype = \"diffuse\"\ncolor = 0.5\n\
+         [[objects]]\nshape = \"quad\"\ncorner = [-2.0, 0.0, 2.0]\nu = [4.0, 0.0, 0.0]\nv = [0.0, 0.0, -4.0]\nmaterial = \"floor\"\n{emitters}"
+    )
+}
+
+#[test]
+fn a_textured_emitter_lights_as_its_texels_would_one_by_one() {
+    // An emitting quad of 1 m × 1 m at y = 1 whose image is two texels, left (−x) and right
+    // (+x), against the same light made of two constant halves: the floor below must look the
+    // same within noise (`path`: next-event estimation reads the texel at the sampled point, BSDF
+    // sampling at the hit, and MIS joins them).
+    let dir = tempfile::tempdir().unwrap();
+    write_png(&dir.path().join("halves.png"), 2, 1, &[[255, 64, 0], [0, 128, 255]]);
+    let textured = lit_floor(
+        "[materials.glow]\ntype = \"diffuse\"\ncolor = 0.0\nemission = 3.0\n\
+         emission_texture = { type = \"image\", file = \"halves.png\", filter = \"nearest\", colorspace = \"linear\" }\n\
+         [[objects]]\nshape = \"quad\"\ncorner = [-0.5, 1.0, -0.5]\nu = [1.0, 0.0, 0.0]\nv = [0.0, 0.0, 1.0]\nmaterial = \"glow\"\n",
+    );
+    let (a, b) = ([255.0f32, 64.0, 0.0], [0.0f32, 128.0, 255.0]);
+    let c = |t: [f32; 3]| format!("[{}, {}, {}]", 3.0 * t[0] / 255.0, 3.0 * t[1] / 255.0, 3.0 * t[2] / 255.0);
+    let halves = lit_floor(&format!(
+        "[materials.left]\ntype = \"diffuse\"\ncolor = 0.0\nemission = {}\n\
+         [materials.right]\ntype = \"diffuse\"\ncolor = 0.0\nemission = {}\n\
+         [[objects]]\nshape = \"quad\"\ncorner = [-0.5, 1.0, -0.5]\nu = [0.5, 0.0, 0.0]\nv = [0.0, 0.0, 1.0]\nmaterial = \"left\"\n\
+         [[objects]]\nshape = \"quad\"\ncorner = [0.0, 1.0, -0.5]\nu = [0.5, 0.0, 0.0]\nv = [0.0, 0.0, 1.0]\nmaterial = \"right\"\n",
+        c(a),
+        c(b)
+    ));
+    let textured = load_str(&textured, "textured.toml", Some(dir.path())).unwrap();
+    let halves = load_str(&halves, "halves.toml", Some(dir.path())).unwrap();
+    assert!(textured.effects.has(vitrum::scene::Effect::Textures));
+    let k = 16;
+    let (ma, sa) = common::mean_and_error(&textured, "path", 4, k);
+    let (mb, sb) = common::mean_and_error(&halves, "path", 4, k);
+    // 4 × 4 blocks: every block and channel within 4.5 standard errors of the difference.
+    let mut worst = 0.0f32;
+    for by in 0..4 {
+        for bx in 0..4 {
+            let (mut da, mut db, mut va, mut vb) = (Vec3::ZERO, Vec3::ZERO, Vec3::ZERO, Vec3::ZERO);
+            for y in by * 4..by * 4 + 4 {
+                for x in bx * 4..bx * 4 + 4 {
+                    let i = y * 16 + x;
+                    da += ma[i];
+                    db += mb[i];
+                    va += sa[i] * sa[i];
+                    vb += sb[i] * sb[i];
+                }
+            }
+            let z = (da - db).abs() / (va + vb).powf(0.5).max(Vec3::splat(1e-9));
+            worst = worst.max(z.max_element());
+        }
+    }
+    println!("textured emitter vs two constant halves: largest block difference {worst:.2} standard errors");
+    assert!(worst < 4.5, "{worst}");
+    // The left and right halves of the floor differ in colour as the texels do (the image is not
+    // mirrored: +x, the image's right, is the right of the picture).
+    let left: Vec3 = (0..16).flat_map(|y| (0..4).map(move |x| y * 16 + x)).map(|i| ma[i]).sum();
+    let right: Vec3 = (0..16).flat_map(|y| (12..16).map(move |x| y * 16 + x)).map(|i| ma[i]).sum();
+    assert!(left.x > 1.3 * right.x && right.z > 1.3 * left.z, "{left} {right}");
+}

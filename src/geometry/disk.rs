@@ -16,6 +16,16 @@ pub(crate) fn circle_extent(normal: Vec3, radius: f32) -> Vec3 {
     radius * (Vec3::ONE - normal * normal).max(Vec3::ZERO).sqrt()
 }
 
+/// Texture coordinates of the point `q` (relative to the centre) of a disk of `radius` with a hole
+/// of `inner_radius`: the angle about its normal measured in `frame` ([`texture_frame`] of the
+/// normal), and the radial position, 0 on the outer rim and 1 at the centre (or the inner rim).
+#[inline]
+pub fn disk_uv(frame: (Vec3, Vec3), q: Vec3, radius: f32, inner_radius: f32) -> Vec2 {
+    let width = radius - inner_radius;
+    let v = if width > 0.0 { (radius - q.length()) / width } else { 0.0 };
+    Vec2::new(azimuth(frame, q), v.clamp(0.0, 1.0))
+}
+
 /// A disk of radius `radius` around `center`, with a hole of `inner_radius` (an annulus if > 0).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Disk {
@@ -48,10 +58,7 @@ impl Disk {
     /// Full hit record for a hit at `t`, with the point projected onto the plane.
     pub fn surface(&self, ray: &Ray, t: f32) -> SurfaceHit {
         let q = plane_point(self.normal, self.center, ray, t);
-        let dist = q.length();
-        let width = self.radius - self.inner_radius;
-        let v = if width > 0.0 { (self.radius - dist) / width } else { 0.0 };
-        let uv = Vec2::new(azimuth(self.tangent, q), v.clamp(0.0, 1.0));
+        let uv = disk_uv(self.tangent, q, self.radius, self.inner_radius);
         planar_surface(self.normal, self.center, q, t, uv)
     }
 

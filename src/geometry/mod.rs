@@ -13,10 +13,10 @@ mod sphere;
 mod triangle;
 
 pub use cylinder::Cylinder;
-pub use disk::Disk;
+pub use disk::{disk_uv, Disk};
 pub use polygon::Polygon;
 pub use quad::Quad;
-pub use sphere::Sphere;
+pub use sphere::{sphere_uv, Sphere};
 pub use triangle::{ShearedRay, Triangle};
 
 use glam::{Vec2, Vec3};

@@ -43,6 +43,15 @@ pub(crate) fn radial_roots(f: Vec3, d: Vec3, radius: f32) -> Option<(f32, f32)> 
     Some(if t0 <= t1 { (t0, t1) } else { (t1, t0) })
 }
 
+/// Texture coordinates of the point of a sphere with unit outward normal `n`: the longitude about
+/// the unit `axis` measured in `frame` ([`texture_frame`] of the axis), and the latitude, 1 at the
+/// pole `axis` and 0 at the opposite one.
+#[inline]
+pub fn sphere_uv(axis: Vec3, frame: (Vec3, Vec3), n: Vec3) -> Vec2 {
+    let cos_theta = n.dot(axis).clamp(-1.0, 1.0);
+    Vec2::new(azimuth(frame, n), 1.0 - cos_theta.acos() / PI)
+}
+
 /// A sphere, or the zone of it with `min_height <= (p − center)·axis <= max_height` (one or two
 /// clipping planes).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -109,12 +118,11 @@ impl Sphere {
     pub fn surface(&self, ray: &Ray, t: f32) -> SurfaceHit {
         let n = unit_or((ray.origin - self.center) + t * ray.dir, self.axis);
         let p = self.center + n * self.radius;
-        let cos_theta = n.dot(self.axis).clamp(-1.0, 1.0);
         SurfaceHit {
             t,
             p,
             n,
-            uv: Vec2::new(azimuth(self.tangent, n), 1.0 - cos_theta.acos() / PI),
+            uv: sphere_uv(self.axis, self.tangent, n),
             // Radially only the length of n matters: `normalize` (dot, sqrt, reciprocal,
             // product) leaves a relative error below γ(5) and scaling by r rounds once more,
             // γ(6)·r; the roundoff of q only tilts n, moving p along the surface. Adding the

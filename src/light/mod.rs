@@ -14,7 +14,8 @@ pub use environment_map::EnvironmentMap;
 
 use crate::bsdf::lambert::cosine_hemisphere;
 use crate::bsdf::Frame;
-use crate::geometry::{point_error, spawn_origin, Ray, SurfaceHit};
+use crate::geometry::{disk_uv, point_error, spawn_origin, sphere_uv, texture_frame, Ray, SurfaceHit};
+use crate::texture::Texture;
 use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
 use std::sync::Arc;
@@ -55,8 +56,10 @@ pub enum Light {
     Surface {
         /// The emitting geometry.
         shape: EmitterShape,
-        /// Emitted radiance (W/(m²·sr)).
+        /// Emitted radiance (W/(m²·sr)); with a texture, the factor on its colours.
         radiance: Vec3,
+        /// How the emission varies over the surface (by its texture coordinates), if it does.
+        texture: Option<Texture>,
     },
     /// Radiance arriving from every direction that leaves the scene: constant, or an HDR map
     /// (importance-sampled) times a scale.
@@ -155,6 +158,18 @@ impl EmitterShape {
         }
     }
 
+    /// The texture coordinates of the point `p` (normal `n`) that [`sample`](Self::sample) made
+    /// from `u`, as the object's shape gives them to a ray's hit (see `scenes/README.md`).
+    pub fn uv_at(&self, u: Vec2, p: Vec3, n: Vec3) -> Vec2 {
+        match *self {
+            EmitterShape::Quad { .. } => u,
+            EmitterShape::Sphere { .. } => sphere_uv(Vec3::Y, texture_frame(Vec3::Y), n),
+            EmitterShape::Disk { center, normal, radius, inner_radius } => {
+                disk_uv(texture_frame(normal), p - center, radius, inner_radius)
+            }
+        }
+    }
+
     /// A representative point (for the deterministic methods, which see an emitter as a point).
     pub fn centre(&self) -> Vec3 {
         match *self {
@@ -232,7 +247,9 @@ impl Light {
             Light::Point { intensity, .. } => 4.0 * std::f32::consts::PI * *intensity,
             Light::Quad { u, v, radiance, .. } => PI * u.cross(*v).length() * *radiance,
             Light::Sphere { radius, radiance, .. } => 4.0 * PI * PI * radius * radius * *radiance,
-            Light::Surface { shape, radiance } => 2.0 * PI * shape.area() * *radiance,
+            Light::Surface { shape, radiance, texture } => {
+                2.0 * PI * shape.area() * *radiance * texture.as_ref().map_or(1.0, Texture::max_value)
+            }
             // Power is not finite for an infinitely distant light; report the mean radiance.
             Light::Environment { radiance, map } => *radiance * map.as_ref().map_or(Vec3::ONE, |m| m.mean()),
         }
@@ -266,13 +283,18 @@ impl Light {
                 normal: -wi,
             });
         }
-        let (y, n) = match self {
-            Light::Quad { corner, u: eu, v: ev, normal, .. } => (*corner + u.x * *eu + u.y * *ev, *normal),
+        let (y, n, uv) = match self {
+            Light::Quad { corner, u: eu, v: ev, normal, .. } => {
+                (*corner + u.x * *eu + u.y * *ev, *normal, Vec2::ZERO)
+            }
             Light::Sphere { center, radius, .. } => {
                 let s = self.sample_point(p, u);
-                (s.position, (s.position - *center) / *radius)
+                (s.position, (s.position - *center) / *radius, Vec2::ZERO)
             }
-            Light::Surface { shape, .. } => shape.sample(u),
+            Light::Surface { shape, texture, .. } => {
+                let (y, n) = shape.sample(u);
+                (y, n, if texture.is_some() { shape.uv_at(u, y, n) } else { Vec2::ZERO })
+            }
             Light::Point { .. } | Light::Environment { .. } => unreachable!("handled above"),
         };
         let d = y - p;
@@ -281,7 +303,7 @@ impl Light {
             return None;
         }
         let wi = d / distance;
-        let radiance = self.emitted(n, -wi);
+        let radiance = self.emitted(&emitter_point(y, n, uv, 0.0), -wi);
         let pdf = self.pdf_li(p, y, n);
         (radiance != Vec3::ZERO && pdf > 0.0 && pdf.is_finite()).then_some(LightSample {
             position: y,
@@ -369,27 +391,34 @@ impl Light {
             }
             Light::Quad { corner, u, v, normal, radiance } => {
                 let p = corner + u_point.x * u + u_point.y * v;
-                let hit = emitter_point(p, normal, point_error(p, (u.abs() + v.abs()).max_element(), 8));
+                let hit = emitter_point(
+                    p,
+                    normal,
+                    Vec2::ZERO,
+                    point_error(p, (u.abs() + v.abs()).max_element(), 8),
+                );
                 let area = u.cross(v).length();
                 area_emission(hit, area, 1.0 / area, radiance, None, u_dir, p_light)
             }
             Light::Sphere { center, radius, radiance } => {
                 let n = uniform_sphere(u_point);
                 let p = center + radius * n;
-                let hit = emitter_point(p, n, point_error(p, radius, 8));
+                let hit = emitter_point(p, n, Vec2::ZERO, point_error(p, radius, 8));
                 // Next-event estimation samples the hemisphere facing the shading point, which
                 // every emitted ray's next vertex is in.
                 let direct = 1.0 / (2.0 * PI * radius * radius);
                 area_emission(hit, 4.0 * PI * radius * radius, direct, radiance, None, u_dir, p_light)
             }
-            Light::Surface { shape, radiance } => {
+            Light::Surface { shape, ref texture, .. } => {
                 let (p, n) = shape.sample(u_point);
                 let local = match shape {
                     EmitterShape::Sphere { radius, .. } | EmitterShape::Disk { radius, .. } => radius,
                     EmitterShape::Quad { u, v, .. } => (u.abs() + v.abs()).max_element(),
                 };
-                let hit = emitter_point(p, n, point_error(p, local, 8));
+                let uv = if texture.is_some() { shape.uv_at(u_point, p, n) } else { Vec2::ZERO };
+                let hit = emitter_point(p, n, uv, point_error(p, local, 8));
                 let area = shape.area();
+                let radiance = self.emitted(&hit, n);
                 area_emission(hit, area, 1.0 / area, radiance, Some(side), u_dir, p_light)
             }
         }
@@ -458,13 +487,15 @@ impl Light {
         !matches!(self, Light::Point { .. })
     }
 
-    /// Radiance leaving the emitter's surface at a point with outward normal `n` towards `wo`.
-    pub fn emitted(&self, n: Vec3, wo: Vec3) -> Vec3 {
+    /// Radiance leaving the emitter's surface at the point `at` (its outward normal, and its
+    /// texture coordinates for a textured emitter) towards `wo`.
+    pub fn emitted(&self, at: &SurfaceHit, wo: Vec3) -> Vec3 {
         match self {
             Light::Point { .. } | Light::Environment { .. } => Vec3::ZERO,
-            Light::Surface { radiance, .. } => *radiance,
+            Light::Surface { radiance, texture: None, .. } => *radiance,
+            Light::Surface { radiance, texture: Some(t), .. } => *radiance * t.eval(at.p, at.uv),
             Light::Quad { radiance, .. } | Light::Sphere { radiance, .. } => {
-                if n.dot(wo) > 0.0 {
+                if at.n.dot(wo) > 0.0 {
                     *radiance
                 } else {
                     Vec3::ZERO
@@ -480,10 +511,12 @@ impl Light {
     pub fn sample_point(&self, p: Vec3, u: Vec2) -> PointIllumination {
         match self {
             Light::Point { .. } | Light::Environment { .. } => self.as_point_from(p),
-            Light::Surface { shape, radiance } => {
+            Light::Surface { shape, texture, .. } => {
                 let (y, n) = shape.sample(u);
                 let cos = (p - y).normalize_or_zero().dot(n).abs();
-                PointIllumination { position: y, intensity: *radiance * shape.area() * cos }
+                let uv = if texture.is_some() { shape.uv_at(u, y, n) } else { Vec2::ZERO };
+                let radiance = self.emitted(&emitter_point(y, n, uv, 0.0), n);
+                PointIllumination { position: y, intensity: radiance * shape.area() * cos }
             }
             Light::Quad { corner, u: eu, v: ev, normal, radiance } => {
                 let y = *corner + u.x * *eu + u.y * *ev;
@@ -538,15 +571,17 @@ impl Light {
             Light::Sphere { center, radius, radiance } => {
                 PointIllumination { position: *center, intensity: *radiance * PI * radius * radius }
             }
-            Light::Surface { shape, radiance } => {
+            Light::Surface { shape, texture, .. } => {
                 let centre = shape.centre();
-                let (_, n) = shape.sample(Vec2::splat(0.5));
+                let (y, n) = shape.sample(Vec2::splat(0.5));
+                let uv = if texture.is_some() { shape.uv_at(Vec2::splat(0.5), y, n) } else { Vec2::ZERO };
+                let radiance = self.emitted(&emitter_point(centre, n, uv, 0.0), n);
                 let cos = match shape {
                     // a sphere shows the same projected area πr² from everywhere
                     EmitterShape::Sphere { .. } => 0.25,
                     _ => (p - centre).normalize_or_zero().dot(n).abs(),
                 };
-                PointIllumination { position: centre, intensity: *radiance * shape.area() * cos }
+                PointIllumination { position: centre, intensity: radiance * shape.area() * cos }
             }
             // The deterministic methods see the environment only where rays leave the scene.
             Light::Environment { .. } => PointIllumination { position: p + Vec3::Y, intensity: Vec3::ZERO },
@@ -554,9 +589,10 @@ impl Light {
     }
 }
 
-/// A point on an emitter as a surface hit (for spawning rays from it).
-fn emitter_point(p: Vec3, n: Vec3, p_error: f32) -> SurfaceHit {
-    SurfaceHit { t: 0.0, p, n, uv: Vec2::ZERO, p_error }
+/// A point on an emitter with texture coordinates `uv` as a surface hit (for spawning rays from
+/// it and reading its emission).
+fn emitter_point(p: Vec3, n: Vec3, uv: Vec2, p_error: f32) -> SurfaceHit {
+    SurfaceHit { t: 0.0, p, n, uv, p_error }
 }
 
 /// Emission from a Lambertian emitter of area `area` at `hit`: a cosine-distributed direction
@@ -606,8 +642,11 @@ pub(crate) mod tests {
     fn only_the_inside_of_a_sphere_is_enclosed() {
         let center = Vec3::new(0.5, 1.0, -2.0);
         let sphere = Light::Sphere { center, radius: 0.05, radiance: Vec3::ONE };
-        let ball =
-            Light::Surface { shape: EmitterShape::Sphere { center, radius: 0.05 }, radiance: Vec3::ONE };
+        let ball = Light::Surface {
+            shape: EmitterShape::Sphere { center, radius: 0.05 },
+            radiance: Vec3::ONE,
+            texture: None,
+        };
         for light in [&sphere, &ball] {
             assert!(light.encloses(center));
             assert!(light.encloses(center + Vec3::new(0.0, 0.049, 0.0)));
@@ -692,9 +731,45 @@ pub(crate) mod tests {
         };
         points
             .into_iter()
-            .filter(|&(y, n)| light.emitted(n, (p - y).normalize()) != Vec3::ZERO)
+            .filter(|&(y, n)| {
+                light.emitted(&emitter_point(y, n, Vec2::ZERO, 0.0), (p - y).normalize()) != Vec3::ZERO
+            })
             .map(|(y, n)| light.pdf_li(p, y, n))
             .sum()
+    }
+
+    #[test]
+    fn sampled_emitter_points_carry_the_uv_a_ray_hit_there_gets() {
+        use crate::geometry::{Disk, Quad, Shape, Sphere};
+        use rand::{RngExt, SeedableRng};
+        let (center, normal) = (Vec3::new(0.2, -0.3, 0.5), Vec3::new(0.3, 1.0, -0.4).normalize());
+        let (corner, eu, ev) =
+            (Vec3::new(-1.0, 0.5, 0.0), Vec3::new(2.0, 0.0, 0.3), Vec3::new(0.0, 1.5, 0.0));
+        let cases: [(EmitterShape, Shape); 3] = [
+            (EmitterShape::Sphere { center, radius: 0.7 }, Shape::Sphere(Box::new(Sphere::new(center, 0.7)))),
+            (
+                EmitterShape::Disk { center, normal, radius: 0.9, inner_radius: 0.2 },
+                Shape::Disk(Box::new(Disk::new(center, normal, 0.9, 0.2))),
+            ),
+            (EmitterShape::Quad { corner, u: eu, v: ev }, Shape::Quad(Box::new(Quad::new(corner, eu, ev)))),
+        ];
+        let mut rng = rand_pcg::Pcg64::seed_from_u64(5);
+        for (emitter, shape) in &cases {
+            for _ in 0..500 {
+                let u = Vec2::new(rng.random(), rng.random());
+                let (p, n) = emitter.sample(u);
+                // A ray towards the point from outside, along the normal's side.
+                let origin = p + n * 3.0;
+                let ray = Ray::new(origin, (p - origin).normalize());
+                let t = shape.intersect(&ray, 0.0, f32::INFINITY).expect("the ray hits the sampled point");
+                let hit = shape.surface(&ray, t);
+                let uv = emitter.uv_at(u, p, n);
+                // Away from the angular seam, the two agree to roundoff.
+                let d = (hit.uv - uv).abs();
+                let d = Vec2::new(d.x.min(1.0 - d.x), d.y);
+                assert!(d.max_element() < 2e-4, "{emitter:?}: hit {} vs sampled {uv}", hit.uv);
+            }
+        }
     }
 
     #[test]
@@ -717,6 +792,7 @@ pub(crate) mod tests {
             Light::Surface {
                 shape: EmitterShape::Sphere { center: Vec3::new(0.3, 0.4, 0.2), radius: 1.0 },
                 radiance: Vec3::ONE,
+                texture: None,
             },
             Light::Surface {
                 shape: EmitterShape::Quad {
@@ -725,6 +801,7 @@ pub(crate) mod tests {
                     v: Vec3::new(2.0, 0.0, 0.0),
                 },
                 radiance: Vec3::ONE,
+                texture: None,
             },
             Light::Surface {
                 shape: EmitterShape::Disk {
@@ -734,6 +811,7 @@ pub(crate) mod tests {
                     inner_radius: 0.3,
                 },
                 radiance: Vec3::ONE,
+                texture: None,
             },
             Light::Surface {
                 shape: EmitterShape::Disk {
@@ -743,6 +821,7 @@ pub(crate) mod tests {
                     inner_radius: 0.0,
                 },
                 radiance: Vec3::ONE,
+                texture: None,
             },
             Light::Environment { radiance: Vec3::ONE, map: None },
         ];

@@ -453,9 +453,16 @@ impl Compiler<'_> {
                 );
             }
             let emitter = match &desc.materials[&object.material] {
-                MaterialDesc::Diffuse { emission: Some(e), .. } => {
-                    let m = FieldPath::from("materials").key(&object.material).key("emission");
-                    let radiance = self.color(&m, *e)?;
+                MaterialDesc::Diffuse { emission, emission_texture, .. }
+                    if emission.is_some() || emission_texture.is_some() =>
+                {
+                    let material_path = FieldPath::from("materials").key(&object.material);
+                    let m = material_path.key("emission");
+                    let radiance = self.color(&m, emission.unwrap_or(Rgb::Grey(1.0)))?;
+                    let texture = match emission_texture {
+                        Some(t) => Some(self.texture_of(&material_path.key("emission_texture"), t)?),
+                        None => None,
+                    };
                     if velocity.is_some() {
                         return Err(self.err(&path.key("velocity"), "an emitting object cannot move"));
                     }
@@ -467,7 +474,13 @@ impl Compiler<'_> {
                         _ => "radius",
                     };
                     self.emitter_area(&path.key(size), shape.area())?;
-                    let light = Light::Surface { shape, radiance };
+                    if texture.as_ref().is_some_and(Texture::varies) {
+                        effects.add(
+                            Effect::Textures,
+                            format!("objects[{i}] emits through a texture (material `{}`)", object.material),
+                        );
+                    }
+                    let light = Light::Surface { shape, radiance, texture };
                     self.finite_power(&m, &light)?;
                     effects.add(
                         Effect::SoftShadows,
@@ -789,15 +802,21 @@ impl Compiler<'_> {
         if color.is_some() && texture.is_some() {
             return Err(self.err(&path.key("texture"), "give either `color` or `texture`, not both"));
         }
-        let t = path.key("texture");
+        match texture {
+            None => Ok(Texture::Constant(self.color(&path.key("color"), color.unwrap_or(default))?)),
+            Some(t) => self.texture_of(&path.key("texture"), t),
+        }
+    }
+
+    /// The texture described at `t`.
+    fn texture_of(&self, t: &FieldPath, texture: &TextureDesc) -> Result<Texture, SceneError> {
         Ok(match texture {
-            None => Texture::Constant(self.color(&path.key("color"), color.unwrap_or(default))?),
-            Some(TextureDesc::Checker { color1, color2, size }) => Texture::Checker {
+            TextureDesc::Checker { color1, color2, size } => Texture::Checker {
                 color1: self.color(&t.key("color1"), *color1)?,
                 color2: self.color(&t.key("color2"), *color2)?,
                 size: self.positive(&t.key("size"), *size)?,
             },
-            Some(TextureDesc::Image { file, scale, offset, wrap, filter, colorspace }) => {
+            TextureDesc::Image { file, scale, offset, wrap, filter, colorspace } => {
                 let scale = Vec2::new(
                     self.positive(&t.key("scale").index(0), scale[0])?,
                     self.positive(&t.key("scale").index(1), scale[1])?,

@@ -454,8 +454,11 @@ pub enum MaterialDesc {
         color: Option<Rgb>,
         /// Optional texture for the albedo.
         texture: Option<TextureDesc>,
-        /// Radiance emitted from both sides of the surface, W/(m²·sr) (spheres, quads, disks).
+        /// Radiance emitted from both sides of the surface, W/(m²·sr) (spheres, quads, disks);
+        /// with `emission_texture`, the factor on its colours (default 1).
         emission: Option<Rgb>,
+        /// A texture for the emitted radiance (an image or a checker).
+        emission_texture: Option<TextureDesc>,
         /// Empirical Phong terms.
         #[serde(default)]
         phong: PhongDesc,

@@ -219,12 +219,24 @@ pub fn light(l: &Light) -> Description {
             ),
             json!({"center": arr(center), "radius": num(radius), "radiance": arr(radiance)}),
         ),
-        Light::Surface { shape, radiance } => {
+        Light::Surface { shape, radiance, texture: None } => {
             let (s, sj) = emitter_shape(shape);
             Description::new(
                 "surface",
                 format!("emitting surface: {s}, radiance {} W/(m²·sr) on both sides", vec3(*radiance)),
                 json!({"geometry": sj, "radiance": arr(radiance)}),
+            )
+        }
+        Light::Surface { shape, radiance, texture: Some(t) } => {
+            let ((s, sj), t) = (emitter_shape(shape), texture(t));
+            Description::new(
+                "surface",
+                format!(
+                    "emitting surface: {s}, radiance {} × {} W/(m²·sr) on both sides",
+                    vec3(*radiance),
+                    t.text
+                ),
+                json!({"geometry": sj, "radiance": arr(radiance), "texture": t.json()}),
             )
         }
         Light::Environment { radiance, map: None } => Description::new(
