@@ -11,6 +11,9 @@ committed files can be rebuilt byte for byte:
   horizontal colour band in the faculty's spirit (a deep blue stripe between two thin light ones).
 - poster.png (256x320): a framed poster: a dark frame, a pale mount and a picture of a glass
   sphere's caustic (concentric rings brightening to a focus) over a gradient.
+- uv-grid.png (256x256): a test image for texture coordinates (scenes/figures/texture-coordinates.toml):
+  8 x 8 cells whose red grows with u (left to right) and green with v (bottom to top), white grid
+  lines, a black corner mark at uv (0, 0) (bottom left) and a blue one at (1, 1) (top right).
 - sky.exr (256x128, half float, linear): an equirectangular sky in vitrum's (Mitsuba's) layout,
   +Y up: a gradient from a blue zenith to a pale horizon, a dim ground below the horizon, and a
   sun disk of angular radius 2.5 degrees at elevation 35 degrees, towards (-0.42, 0, -0.91) in
@@ -77,6 +80,18 @@ def poster(x, y):
     return (base[0] + glow, base[1] + glow * 0.9, base[2] + glow * 0.6)
 
 
+def uv_grid(x, y, size=256):
+    u, v = (x + 0.5) / size, 1.0 - (y + 0.5) / size  # v up from the bottom row
+    if u < 0.12 and v < 0.12:
+        return (0, 0, 0)
+    if u > 0.88 and v > 0.88:
+        return (30, 60, 255)
+    if x % 32 in (0, 31) or y % 32 in (0, 31):
+        return (255, 255, 255)
+    cu, cv = int(u * 8) / 7, int(v * 8) / 7
+    return (40 + 200 * cu, 40 + 200 * cv, 60)
+
+
 SUN = (math.radians(35.0), (-0.42, -0.91))  # elevation; azimuth direction (x, z)
 SUN_RADIUS = math.radians(2.5)
 
@@ -105,6 +120,7 @@ def main():
     write_png(os.path.join(OUT, "tiles.png"), 256, 256, tiles)
     write_png(os.path.join(OUT, "plaster.png"), 256, 256, plaster)
     write_png(os.path.join(OUT, "poster.png"), 256, 320, poster)
+    write_png(os.path.join(OUT, "uv-grid.png"), 256, 256, uv_grid)
     write_exr(os.path.join(OUT, "sky.exr"), 256, 128, sky)
     for name in sorted(os.listdir(OUT)):
         print(name, os.path.getsize(os.path.join(OUT, name)), "bytes")
