@@ -2,11 +2,13 @@
 
 use super::bodies::{self, BodySurface};
 use super::desc::{
-    IorDesc, LightDesc, MaterialDesc, PhongDesc, Rgb, SceneDesc, ShapeDesc, TextureDesc, IOR_TABLE_ERROR,
-    MERGING_METHODS, METHOD_TABLES, MOVED_MAX_DEPTH,
+    IorDesc, LightDesc, MaterialDesc, PhongDesc, Rgb, SceneDesc, ShapeDesc, TextureDesc, TransformDesc,
+    Vec3Desc, IOR_TABLE_ERROR, MERGING_METHODS, METHOD_TABLES, MOVED_MAX_DEPTH,
 };
 use super::effects::{Effect, Effects};
+use super::mesh::MeshPlacement;
 use super::source::{FieldPath, SceneError, Source};
+use super::transform::{rotation, Transform};
 use super::{
     BvhStats, ObjectSummary, Primitive, RenderSettings, Scene, SceneOrigin, SpectralMode, DEFAULT_SCENE,
 };
@@ -388,7 +390,20 @@ impl Compiler<'_> {
                 ));
             };
             let kind = shape_kind(&object.shape);
-            let surfaces = self.shape(&path, &object.shape, &mut warnings, &mut inputs)?;
+            let transform = match &object.transform {
+                Some(t) => Some(self.transform(&path.key("transform"), t)?),
+                None => None,
+            };
+            // (NaN cannot reach here: the parser refuses it.) A transformed analytic shape is the shape with transformed defining numbers; its
+            // numbers as written are checked first, so that messages quote the file's values.
+            let placed = match &transform {
+                Some(t) if !matches!(object.shape, ShapeDesc::Mesh { .. }) => {
+                    self.shape(&path, &object.shape, None, &mut warnings, &mut inputs)?;
+                    std::borrow::Cow::Owned(self.placed(&path, &object.shape, t)?)
+                }
+                _ => std::borrow::Cow::Borrowed(&object.shape),
+            };
+            let surfaces = self.shape(&path, &placed, transform.as_ref(), &mut warnings, &mut inputs)?;
             if surfaces.iter().any(|(s, _)| !within_extent(s.bounds())) {
                 // Only a mesh (vertices × scale) can get here: every other number is checked.
                 let at = match object.shape {
@@ -438,7 +453,7 @@ impl Compiler<'_> {
                     if velocity.is_some() {
                         return Err(self.err(&path.key("velocity"), "an emitting object cannot move"));
                     }
-                    let shape = emitter_shape(&object.shape).ok_or_else(|| {
+                    let shape = emitter_shape(&placed).ok_or_else(|| {
                         self.err(&path.key("material"), "emission is supported on spheres, quads and disks")
                     })?;
                     let size = match object.shape {
@@ -795,10 +810,121 @@ impl Compiler<'_> {
         Ok(Material { name: name.to_string(), bsdf, phong })
     }
 
+    /// The `transform` table of an object, checked.
+    fn transform(&self, path: &FieldPath, t: &TransformDesc) -> Result<Transform, SceneError> {
+        let scale = match t.scale {
+            None => Vec3::ONE,
+            Some(s) => {
+                let axes = s.axes();
+                if let Some(bad) = axes.iter().find(|x| **x <= 0.0) {
+                    return Err(self.err(
+                        &path.key("scale"),
+                        format!(
+                            "every factor must be greater than 0 (got {bad}): a zero scale flattens the \
+                             object and a negative one mirrors it inside out"
+                        ),
+                    ));
+                }
+                Vec3::from_array(axes)
+            }
+        };
+        let rotation = match t.rotate {
+            None => None,
+            Some(r) => Some(rotation(self.direction(&path.key("rotate").key("axis"), r.axis)?, r.angle)),
+        };
+        let translate = t.translate.map_or(Vec3::ZERO, Vec3::from_array);
+        Ok(Transform { scale, rotation, translate })
+    }
+
+    /// An analytic shape (or composite body) with `t` applied to its defining numbers: points
+    /// transformed, directions rotated, lengths scaled (spheres, cylinders and disks, and the
+    /// bodies made of them, only by a uniform scale); a quad's edges and a polygon's vertices
+    /// take any scale. A mesh is returned as it is (its vertices are transformed as it loads).
+    fn placed(&self, path: &FieldPath, shape: &ShapeDesc, t: &Transform) -> Result<ShapeDesc, SceneError> {
+        let point = |x: &Vec3Desc| t.point(Vec3::from_array(*x)).to_array();
+        let edge = |x: &Vec3Desc| t.vector(Vec3::from_array(*x)).to_array();
+        let direction = |x: &Vec3Desc| t.rotate(Vec3::from_array(*x)).to_array();
+        let uniform = || {
+            t.uniform_scale().ok_or_else(|| {
+                self.err(
+                    &path.key("transform").key("scale"),
+                    format!(
+                        "a {} cannot be scaled by different factors per axis: it is analytic and stays \
+                         round (a sphere cannot become an ellipsoid, a circle an ellipse); give one \
+                         number, or model it as a mesh (quads, polygons and meshes take any scale)",
+                        shape_kind(shape)
+                    ),
+                )
+            })
+        };
+        Ok(match shape {
+            ShapeDesc::Sphere { center, radius } => {
+                let s = uniform()?;
+                ShapeDesc::Sphere { center: point(center), radius: radius * s }
+            }
+            ShapeDesc::Cylinder { base, axis, radius, height, caps } => {
+                let s = uniform()?;
+                ShapeDesc::Cylinder {
+                    base: point(base),
+                    axis: direction(axis),
+                    radius: radius * s,
+                    height: height * s,
+                    caps: *caps,
+                }
+            }
+            ShapeDesc::Disk { center, normal, radius, inner_radius } => {
+                let s = uniform()?;
+                ShapeDesc::Disk {
+                    center: point(center),
+                    normal: direction(normal),
+                    radius: radius * s,
+                    inner_radius: inner_radius * s,
+                }
+            }
+            ShapeDesc::Quad { corner, u, v } => {
+                ShapeDesc::Quad { corner: point(corner), u: edge(u), v: edge(v) }
+            }
+            ShapeDesc::Polygon { vertices } => {
+                ShapeDesc::Polygon { vertices: vertices.iter().map(point).collect() }
+            }
+            ShapeDesc::Mesh { .. } => shape.clone(),
+            ShapeDesc::HollowSphere { center, radius, inner_radius } => {
+                let s = uniform()?;
+                ShapeDesc::HollowSphere {
+                    center: point(center),
+                    radius: radius * s,
+                    inner_radius: inner_radius * s,
+                }
+            }
+            ShapeDesc::Bowl { center, axis, radius, thickness } => {
+                let s = uniform()?;
+                ShapeDesc::Bowl {
+                    center: point(center),
+                    axis: direction(axis),
+                    radius: radius * s,
+                    thickness: thickness * s,
+                }
+            }
+            ShapeDesc::DrinkingGlass { base, axis, radius, height, wall, bottom } => {
+                let s = uniform()?;
+                ShapeDesc::DrinkingGlass {
+                    base: point(base),
+                    axis: direction(axis),
+                    radius: radius * s,
+                    height: height * s,
+                    wall: wall * s,
+                    bottom: bottom * s,
+                }
+            }
+        })
+    }
+
+    /// The surfaces of a shape; `transform` places a mesh (analytic shapes arrive placed).
     fn shape(
         &self,
         path: &FieldPath,
         shape: &ShapeDesc,
+        transform: Option<&Transform>,
         warnings: &mut Vec<String>,
         inputs: &mut Vec<String>,
     ) -> Result<Vec<BodySurface>, SceneError> {
@@ -861,8 +987,10 @@ impl Compiler<'_> {
                             .err(&path.key("file"), format!("cannot read OBJ file {}: {e}", full.display())))
                     }
                 }
-                let mesh = super::mesh::load_obj(&full, scale, v(*translate))
-                    .map_err(|e| self.err(&path.key("file"), e))?;
+                let placement =
+                    MeshPlacement { scale, translate: v(*translate), transform: transform.copied() };
+                let mesh =
+                    super::mesh::load_obj(&full, &placement).map_err(|e| self.err(&path.key("file"), e))?;
                 let (triangles, degenerate) = (mesh.triangles, mesh.degenerate);
                 inputs.push(mesh.hash);
                 if degenerate > 0 {

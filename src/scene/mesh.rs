@@ -1,12 +1,40 @@
 //! Triangle meshes from Wavefront OBJ files.
 
+use super::transform::Transform;
 use crate::geometry::Triangle;
 use glam::Vec3;
 use std::path::Path;
 
+/// Where a mesh's vertices go: `scale·p + translate` (the mesh's own fields), then the object's
+/// `transform` when it has one.
+#[derive(Clone, Copy, Debug)]
+pub struct MeshPlacement {
+    /// Uniform scale of the file's coordinates (> 0).
+    pub scale: f32,
+    /// Translation after `scale`.
+    pub translate: Vec3,
+    /// The object's transform, applied after `scale` and `translate`.
+    pub transform: Option<Transform>,
+}
+
+impl MeshPlacement {
+    /// The placement that leaves the file's coordinates as they are.
+    pub const IDENTITY: MeshPlacement = MeshPlacement { scale: 1.0, translate: Vec3::ZERO, transform: None };
+
+    /// A vertex of the file placed in the scene.
+    #[inline]
+    pub fn point(&self, p: Vec3) -> Vec3 {
+        let q = p * self.scale + self.translate;
+        match &self.transform {
+            Some(t) => t.point(q),
+            None => q,
+        }
+    }
+}
+
 /// An OBJ file's triangles.
 pub struct ObjMesh {
-    /// The triangles after `scale` then `translate`.
+    /// The triangles, placed ([`MeshPlacement`]).
     pub triangles: Vec<Triangle>,
     /// Degenerate triangles skipped.
     pub degenerate: usize,
@@ -14,8 +42,8 @@ pub struct ObjMesh {
     pub hash: String,
 }
 
-/// The triangles of an OBJ file after `scale` then `translate` (materials are not read).
-pub fn load_obj(path: &Path, scale: f32, translate: Vec3) -> Result<ObjMesh, String> {
+/// The triangles of an OBJ file, placed by `placement` (materials are not read).
+pub fn load_obj(path: &Path, placement: &MeshPlacement) -> Result<ObjMesh, String> {
     let cannot = |e: &dyn std::fmt::Display| format!("cannot load OBJ file {}: {e}", path.display());
     let bytes = std::fs::read(path).map_err(|e| cannot(&e))?;
     let hash = super::compile::content_hash_bytes(&bytes);
@@ -31,7 +59,7 @@ pub fn load_obj(path: &Path, scale: f32, translate: Vec3) -> Result<ObjMesh, Str
         let vertex = |i: u32| -> Option<Vec3> {
             let i = i as usize * 3;
             let p = m.positions.get(i..i + 3)?;
-            Some(Vec3::new(p[0], p[1], p[2]) * scale + translate)
+            Some(placement.point(Vec3::new(p[0], p[1], p[2])))
         };
         for tri in m.indices.chunks_exact(3) {
             let (Some(a), Some(b), Some(c)) = (vertex(tri[0]), vertex(tri[1]), vertex(tri[2])) else {

@@ -7,6 +7,7 @@ pub mod desc;
 pub mod effects;
 pub mod mesh;
 pub mod source;
+pub mod transform;
 mod traversal;
 
 pub use compile::{load, load_default, load_str};
