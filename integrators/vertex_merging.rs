@@ -268,7 +268,7 @@ struct LightVertex {
 
 impl LightVertex {
     fn hit(&self) -> SurfaceHit {
-        SurfaceHit { t: 0.0, p: self.p, n: self.n, uv: Vec2::ZERO, p_error: self.p_error }
+        SurfaceHit { t: 0.0, p: self.p, n: self.n, shading_n: self.n, uv: Vec2::ZERO, p_error: self.p_error }
     }
 }
 

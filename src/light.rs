@@ -514,7 +514,7 @@ impl Light {
 
 /// A point on an emitter as a surface hit (for spawning rays from it).
 fn emitter_point(p: Vec3, n: Vec3, p_error: f32) -> SurfaceHit {
-    SurfaceHit { t: 0.0, p, n, uv: Vec2::ZERO, p_error }
+    SurfaceHit { t: 0.0, p, n, shading_n: n, uv: Vec2::ZERO, p_error }
 }
 
 /// Emission from a Lambertian emitter of area `area` at `hit`: a cosine-distributed direction

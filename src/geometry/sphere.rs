@@ -103,6 +103,7 @@ impl Sphere {
             t,
             p,
             n,
+            shading_n: n,
             uv: Vec2::new(azimuth(self.tangent, n), cos_theta.acos() / PI),
             // Radially only the length of n matters: `normalize` (dot, sqrt, reciprocal,
             // product) leaves a relative error below γ(5) and scaling by r rounds once more,

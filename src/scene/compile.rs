@@ -11,10 +11,13 @@ use super::source::{FieldPath, SceneError, Source};
 use super::transform::{rotation, Transform};
 use super::{
     BvhStats, ObjectSummary, Primitive, RenderSettings, Scene, SceneOrigin, SpectralMode, DEFAULT_SCENE,
+    NO_ATTRIBUTES,
 };
 use crate::camera::Camera;
 use crate::dispersion::Ior;
-use crate::geometry::{parallelogram_normal, try_unit, Bounds, Disk, Polygon, Quad, Shape, Sphere};
+use crate::geometry::{
+    parallelogram_normal, try_unit, Bounds, Disk, Polygon, Quad, Shape, Sphere, VertexAttributes,
+};
 use crate::light::{EmitterShape, Light};
 use crate::material::{Bsdf, Material, Medium, Phong, Texture};
 use crate::params::{MergeParams, SsaaParams};
@@ -376,6 +379,10 @@ impl Compiler<'_> {
         // The content hashes of the files the scene reads besides its own text (meshes).
         let mut inputs = Vec::new();
         let mut lights = Vec::new();
+        // Mesh triangles' vertex attributes, and per primitive the index of its own (or
+        // NO_ATTRIBUTES).
+        let mut attributes = Vec::new();
+        let mut attribute_index = Vec::new();
         for (i, object) in desc.objects.iter().enumerate() {
             let path = FieldPath::from("objects").index(i);
             let Some(&material) = material_index.get(&object.material) else {
@@ -398,12 +405,21 @@ impl Compiler<'_> {
             // numbers as written are checked first, so that messages quote the file's values.
             let placed = match &transform {
                 Some(t) if !matches!(object.shape, ShapeDesc::Mesh { .. }) => {
-                    self.shape(&path, &object.shape, None, &mut warnings, &mut inputs)?;
+                    self.shape(&path, &object.shape, None, &mut warnings, &mut inputs, &mut Vec::new())?;
                     std::borrow::Cow::Owned(self.placed(&path, &object.shape, t)?)
                 }
                 _ => std::borrow::Cow::Borrowed(&object.shape),
             };
-            let surfaces = self.shape(&path, &placed, transform.as_ref(), &mut warnings, &mut inputs)?;
+            // A mesh's per-triangle uv and normals, in the order of its surfaces.
+            let mut mesh_attributes = Vec::new();
+            let surfaces = self.shape(
+                &path,
+                &placed,
+                transform.as_ref(),
+                &mut warnings,
+                &mut inputs,
+                &mut mesh_attributes,
+            )?;
             if surfaces.iter().any(|(s, _)| !within_extent(s.bounds())) {
                 // Only a mesh (vertices × scale) can get here: every other number is checked.
                 let at = match object.shape {
@@ -479,7 +495,7 @@ impl Compiler<'_> {
                 material: object.material.clone(),
                 primitives: surfaces.len(),
             });
-            for (shape, swapped) in surfaces {
+            for (k, (shape, swapped)) in surfaces.into_iter().enumerate() {
                 let material = if swapped {
                     *swapped_index.entry(material).or_insert_with(|| {
                         materials.push(materials[material as usize].swapped_interface());
@@ -488,6 +504,13 @@ impl Compiler<'_> {
                 } else {
                     material
                 };
+                match mesh_attributes.get(k).filter(|a| !a.is_empty()) {
+                    Some(a) => {
+                        attribute_index.push(attributes.len() as u32);
+                        attributes.push(*a);
+                    }
+                    None => attribute_index.push(NO_ATTRIBUTES),
+                }
                 primitives.push(Primitive { shape, material, light: emitter, object: object_id, velocity });
             }
         }
@@ -521,6 +544,7 @@ impl Compiler<'_> {
                 let bsdf = Bsdf::Diffuse(Texture::Constant(Vec3::ZERO));
                 let phong = Phong { ambient: 0.0, diffuse: 0.0, specular: 0.0, shininess: 1.0 };
                 materials.push(Material { name: format!("light #{i}"), bsdf, phong });
+                attribute_index.push(NO_ATTRIBUTES);
                 primitives.push(Primitive {
                     shape,
                     material: emitter_material,
@@ -549,6 +573,12 @@ impl Compiler<'_> {
             );
         }
         let (primitives, bvh, bvh_stats) = build_bvh(primitives, camera.shutter);
+        if attributes.is_empty() {
+            // Scenes without uv or normals never look the index up.
+            attribute_index = Vec::new();
+        } else {
+            permute_in_place(&mut attribute_index, &bvh.primitive_indices);
+        }
         let has_motion = primitives.iter().any(|p| p.velocity.is_some());
         Ok(Scene {
             primitives,
@@ -565,6 +595,8 @@ impl Compiler<'_> {
             bvh_stats,
             warnings,
             bvh,
+            attributes,
+            attribute_index,
         })
     }
 
@@ -927,6 +959,7 @@ impl Compiler<'_> {
         transform: Option<&Transform>,
         warnings: &mut Vec<String>,
         inputs: &mut Vec<String>,
+        attributes: &mut Vec<VertexAttributes>,
     ) -> Result<Vec<BodySurface>, SceneError> {
         let v = Vec3::from_array;
         Ok(match shape {
@@ -992,6 +1025,9 @@ impl Compiler<'_> {
                 let mesh =
                     super::mesh::load_obj(&full, &placement).map_err(|e| self.err(&path.key("file"), e))?;
                 let (triangles, degenerate) = (mesh.triangles, mesh.degenerate);
+                if mesh.has_uv || mesh.has_normals {
+                    *attributes = mesh.attributes;
+                }
                 inputs.push(mesh.hash);
                 if degenerate > 0 {
                     warnings.push(format!(

@@ -15,7 +15,7 @@ pub use effects::{Effect, EffectUse, Effects};
 pub use source::SceneError;
 
 use crate::camera::Camera;
-use crate::geometry::{Ray, Shape, SurfaceHit};
+use crate::geometry::{Ray, Shape, SurfaceHit, VertexAttributes};
 use crate::light::{Light, SceneSphere};
 use crate::material::Material;
 use crate::params::{MergeParams, SsaaParams};
@@ -27,6 +27,9 @@ use std::collections::BTreeMap;
 
 /// The text of the embedded default scene (the thesis's Cornell box with glass bodies).
 pub const DEFAULT_SCENE: &str = include_str!("../../scenes/cornell-glass.toml");
+
+/// The attribute index of a primitive without vertex attributes.
+pub(crate) const NO_ATTRIBUTES: u32 = u32::MAX;
 
 /// One BVH primitive: a shape with its material, the light it emits for (if any), and the
 /// object of the scene file it came from.
@@ -206,6 +209,11 @@ pub struct Scene {
     /// Warnings found while compiling (degenerate triangles skipped, …).
     pub warnings: Vec<String>,
     bvh: CwBvh,
+    /// The vertex attributes (uv, shading normals) of mesh triangles that have them.
+    attributes: Vec<VertexAttributes>,
+    /// Per primitive (in BVH order), its index into `attributes` or [`NO_ATTRIBUTES`]; empty
+    /// when no primitive has attributes.
+    attribute_index: Vec<u32>,
     /// Whether any primitive moves (only then does traversal look at velocities).
     has_motion: bool,
 
@@ -237,7 +245,7 @@ impl Scene {
         }?;
         let primitive = primitive as u32;
         let prim = &prims[primitive as usize];
-        let hit = match prim.velocity {
+        let mut hit = match prim.velocity {
             None => prim.shape.surface_with(ray, t, bary),
             Some(v) => {
                 let mut h = prim.shape.surface(&moved(ray, v), t);
@@ -247,6 +255,11 @@ impl Scene {
                 h
             }
         };
+        if let Some(&a) = self.attribute_index.get(primitive as usize) {
+            if a != NO_ATTRIBUTES {
+                self.attributes[a as usize].apply(&mut hit);
+            }
+        }
         Some(Intersection { hit, primitive })
     }
 
