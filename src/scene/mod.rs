@@ -338,6 +338,13 @@ impl Scene {
         best
     }
 
+    /// The vertex attributes (OBJ `vt`, `vn`) of a primitive, if it is a mesh triangle that has
+    /// them.
+    pub fn vertex_attributes(&self, primitive: u32) -> Option<&VertexAttributes> {
+        let a = *self.attribute_index.get(primitive as usize)?;
+        (a != NO_ATTRIBUTES).then(|| &self.attributes[a as usize])
+    }
+
     /// The material of a primitive.
     #[inline]
     pub fn material_of(&self, primitive: u32) -> &Material {
