@@ -488,6 +488,17 @@ fn bad_transforms_are_refused_at_their_field() {
         assert!(e.contains(&format!("field `objects[0].{field}`")), "{transform}: {e}");
         assert!(e.contains(needle), "{transform}: {e}");
     }
+    // A transform that makes a valid shape invalid, or too large, is named.
+    let e = refused(
+        "shape = \"quad\"\ncorner = [0.0, 0.0, 0.0]\nu = [1.0, 0.0, 0.0]\nv = [0.0, 1e-15, 0.0]\ntransform = { scale = 1e-35 }",
+    );
+    assert!(
+        e.contains("field `objects[0].transform`") && e.contains("the transformed shape is invalid"),
+        "{e}"
+    );
+    let e =
+        refused("shape = \"sphere\"\ncenter = [0.0, 0.0, 0.0]\nradius = 1e15\ntransform = { scale = 1e15 }");
+    assert!(e.contains("field `objects[0].transform`") && e.contains("beyond"), "{e}");
     // A transformed shape's numbers are checked as written.
     let e =
         refused("shape = \"sphere\"\ncenter = [0.0, 0.0, 0.0]\nradius = -1.0\ntransform = { scale = 3.0 }");

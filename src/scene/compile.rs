@@ -412,18 +412,24 @@ impl Compiler<'_> {
             };
             // A mesh's per-triangle uv and normals, in the order of its surfaces.
             let mut mesh_attributes = Vec::new();
-            let surfaces = self.shape(
-                &path,
-                &placed,
-                transform.as_ref(),
-                &mut warnings,
-                &mut inputs,
-                &mut mesh_attributes,
-            )?;
+            let surfaces = self
+                .shape(&path, &placed, transform.as_ref(), &mut warnings, &mut inputs, &mut mesh_attributes)
+                .map_err(|e| match (e, &placed) {
+                    // The numbers as written passed: the transform made the shape invalid.
+                    (SceneError::Invalid { field, message, .. }, std::borrow::Cow::Owned(_)) => self.err(
+                        &path.key("transform"),
+                        format!(
+                            "the transformed shape is invalid (`{field}` after the transform: {message})"
+                        ),
+                    ),
+                    (e, _) => e,
+                })?;
             if surfaces.iter().any(|(s, _)| !within_extent(s.bounds())) {
-                // Only a mesh (vertices × scale) can get here: every other number is checked.
+                // Only a mesh (vertices × scale) or a transform can get here: every other number
+                // is checked.
                 let at = match object.shape {
                     ShapeDesc::Mesh { .. } => path.key("file"),
+                    _ if object.transform.is_some() => path.key("transform"),
                     _ => path.clone(),
                 };
                 return Err(self.err(

@@ -1,10 +1,10 @@
 #!/usr/bin/env python3
-"""Write smooth-sphere.obj: a UV sphere of radius 1 at the origin with vertex normals (vn, the
+"""Write scenes/meshes/smooth-sphere.obj: a UV sphere of radius 1 at the origin with vertex normals (vn, the
 normalised position: smooth shading) and texture coordinates (vt: u = longitude / 360°,
 v = colatitude / 180°, with a seam column and pole texels of their own, so that faces index
 positions and texture coordinates separately).
 
-    python3 scenes/meshes/make_smooth_sphere.py [RINGS]   (default 16: 960 triangles)
+    python3 scripts/meshes/make_smooth_sphere.py [RINGS]   (default 16: 960 triangles)
 """
 import math
 import sys
@@ -14,7 +14,7 @@ segments = 2 * rings
 out = [
     f"# UV sphere, radius 1, centred at the origin: {rings} rings x {segments} segments,",
     f"# {4 * rings * rings - 4 * rings} triangles wound outwards. vn = the normalised position (smooth shading);",
-    "# vt = (longitude / 360, colatitude / 180). Written by make_smooth_sphere.py.",
+    "# vt = (longitude / 360, colatitude / 180). Written by scripts/meshes/make_smooth_sphere.py.",
 ]
 # Positions and normals: the poles once, the rings shared around the seam.
 out.append("v 0 1 0")
@@ -64,5 +64,8 @@ for j in range(segments):
         out.append(f"f {a} {b} {c}")
         out.append(f"f {b} {d} {c}")
     out.append(f"f {corner(rings, j)} {corner(rings - 1, j)} {corner(rings - 1, j + 1)}")
-with open(__file__.replace("make_smooth_sphere.py", "smooth-sphere.obj"), "w") as f:
+import os
+
+target = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "scenes", "meshes", "smooth-sphere.obj")
+with open(target, "w") as f:
     f.write("\n".join(out) + "\n")
