@@ -90,7 +90,7 @@
 
 use super::splat_film::{CameraTarget, SampleSplats, SplatBuffer};
 use super::{pick_light, sample_bsdf, Integrator, PathContext, RenderParams, DEFAULT_PATH_DEPTH};
-use crate::bsdf::{Frame, Scattering, TransportMode};
+use crate::bsdf::{Scattering, ShadingFrame, TransportMode};
 use crate::camera::Camera;
 use crate::geometry::{spawn_origin, Ray, SurfaceHit};
 use crate::light::SceneSphere;
@@ -370,9 +370,10 @@ impl Tracer<'_> {
             let material = scene.material_of(isect.primitive);
             let bsdf = Scattering::at(material, hit.p, hit.uv, &ctx.channels);
             beta0 *= ctx.end_secondaries_at(&material.bsdf, &bsdf);
-            let frame = Frame::from_normal(hit.n);
             // Importance mode: `wo` leads back towards the light, `wi` on towards the camera.
-            let wo_local = frame.to_local(-ray.dir);
+            let wo = -ray.dir;
+            let frame = ShadingFrame::at(&hit, wo);
+            let wo_local = frame.to_local(wo);
             if !bsdf.is_delta() {
                 let beta = beta0 * throughput;
                 // Rough glass: its multiply scattered light by a one-walk estimate, seeded here so
@@ -387,7 +388,7 @@ impl Tracer<'_> {
                     if let Some(rng) = walk.as_mut() {
                         f += bsdf.eval_multiple(wo_local, wc_local, TransportMode::Importance, rng);
                     }
-                    beta * f * wc_local.z.abs()
+                    beta * f * (wc_local.z.abs() * frame.factor(wo, wc, TransportMode::Importance))
                 });
             }
             if depth >= self.params.max_depth {
@@ -400,7 +401,12 @@ impl Tracer<'_> {
                 break;
             }
             let wi = frame.to_world(s.wi);
-            throughput *= s.f * (s.wi.z.abs() / s.pdf) * ctx.secondaries_after(&material.bsdf, &s, wo_local);
+            let shading = frame.factor(wo, wi, TransportMode::Importance);
+            if shading == 0.0 {
+                break;
+            }
+            throughput *=
+                s.f * (s.wi.z.abs() / s.pdf) * ctx.secondaries_after(&material.bsdf, &s, wo_local) * shading;
             if let Some(c) = crossing(&material.bsdf, ray.dir, hit.n, ctx.channels.hero()) {
                 let medium = if s.is_transmission { c.transmitted } else { c.incident };
                 absorption = ctx.channels.colour(medium.absorption);

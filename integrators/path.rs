@@ -15,7 +15,7 @@
 //! on with the hero wavelength alone ([`PathContext::secondaries_after`]).
 
 use super::{pick_light, sample_bsdf, Integrator, PathContext, RenderParams};
-use crate::bsdf::{Frame, Scattering, TransportMode};
+use crate::bsdf::{Scattering, ShadingFrame, TransportMode};
 use crate::geometry::{spawn_origin, Ray, SurfaceHit};
 use crate::lighting::{crossing, transmittance, ShadowMode, ShadowRays};
 use crate::sampler::Dim;
@@ -114,7 +114,7 @@ impl Integrator for Path {
             let material = scene.material_of(isect.primitive);
             let bsdf = Scattering::at(material, hit.p, hit.uv, &ctx.channels);
             beta *= ctx.end_secondaries_at(&material.bsdf, &bsdf);
-            let frame = Frame::from_normal(hit.n);
+            let frame = ShadingFrame::at(&hit, wo);
             let wo_local = frame.to_local(wo);
             if !bsdf.is_delta() && !scene.lights.is_empty() {
                 l += beta * next_event(scene, &bsdf, &frame, wo_local, &hit, ray.time, light_pick, ctx);
@@ -126,7 +126,12 @@ impl Integrator for Path {
                 break;
             }
             let wi = frame.to_world(s.wi);
-            beta *= s.f * (s.wi.z.abs() / s.pdf) * ctx.secondaries_after(&material.bsdf, &s, wo_local);
+            let shading = frame.factor(wo, wi, TransportMode::Radiance);
+            if shading == 0.0 {
+                break;
+            }
+            beta *=
+                s.f * (s.wi.z.abs() / s.pdf) * ctx.secondaries_after(&material.bsdf, &s, wo_local) * shading;
             skip_mis = !s.is_evaluable();
             bsdf_pdf = s.pdf;
             if let Some(c) = crossing(&material.bsdf, ray.dir, hit.n, ctx.channels.hero()) {
@@ -177,7 +182,7 @@ fn escaped(scene: &Scene, dir: Vec3, skip_mis: bool, bsdf_pdf: f32, light_pick: 
 fn next_event(
     scene: &Scene,
     bsdf: &Scattering,
-    frame: &Frame,
+    frame: &ShadingFrame,
     wo_local: Vec3,
     hit: &SurfaceHit,
     time: f32,
@@ -189,7 +194,8 @@ fn next_event(
     let u = ctx.sampler.get_2d(Dim::Light);
     let Some(ls) = light.sample_li(hit.p, u) else { return Vec3::ZERO };
     let wi_local = frame.to_local(ls.wi);
-    let f = bsdf.eval(wo_local, wi_local, TransportMode::Radiance) * wi_local.z.abs();
+    let f = bsdf.eval(wo_local, wi_local, TransportMode::Radiance)
+        * (wi_local.z.abs() * frame.factor(Vec3::ZERO, ls.wi, TransportMode::Radiance));
     if f == Vec3::ZERO {
         return Vec3::ZERO;
     }

@@ -69,7 +69,7 @@ use super::splat_film::{CameraTarget, SampleSplats, SplatBuffer};
 use super::{
     pick_light, sample_bsdf, Integrator, MergeParams, PathContext, RenderParams, Strategy, DEFAULT_PATH_DEPTH,
 };
-use crate::bsdf::{Frame, Scattering, TransportMode};
+use crate::bsdf::{Scattering, ShadingFrame, TransportMode};
 use crate::camera::{Camera, CameraConnection};
 use crate::geometry::{spawn_origin, Ray, SurfaceHit};
 use crate::light::{Light, SceneSphere};
@@ -255,6 +255,8 @@ struct LightVertex {
     n: Vec3,
     /// Texture coordinates of the surface here.
     uv: Vec2,
+    /// The shading normal.
+    ns: Vec3,
     p_error: f32,
     /// Unit direction towards the previous vertex of the light path (where the light came from).
     wo: Vec3,
@@ -270,7 +272,7 @@ struct LightVertex {
 
 impl LightVertex {
     fn hit(&self) -> SurfaceHit {
-        SurfaceHit { t: 0.0, p: self.p, n: self.n, uv: self.uv, p_error: self.p_error }
+        SurfaceHit { t: 0.0, p: self.p, n: self.n, shading_n: self.ns, uv: self.uv, p_error: self.p_error }
     }
 }
 
@@ -651,8 +653,8 @@ impl<'a> Engine<'a> {
             let material = scene.material_of(isect.primitive);
             let bsdf = Scattering::at(material, hit.p, hit.uv, &path.ctx.channels);
             path.beta *= path.ctx.end_secondaries_at(&material.bsdf, &bsdf);
-            let frame = Frame::from_normal(hit.n);
             let wo = -ray.dir;
+            let frame = ShadingFrame::at(hit, wo);
             let at = Vertex { hit, bsdf: &bsdf, frame: &frame, wo, wo_local: frame.to_local(wo) };
             let next = visitor.visit(path, &at, isect.primitive);
             if next == Next::Stop {
@@ -668,14 +670,20 @@ impl<'a> Engine<'a> {
             if next == Next::SpecularOnly && evaluable {
                 break;
             }
+            let wi = frame.to_world(smp.wi);
+            let shading = frame.factor(wo, wi, path.mode);
+            if shading == 0.0 {
+                break;
+            }
             let cos_out = smp.wi.z.abs();
             let rev = if evaluable { bsdf.pdf(smp.wi, at.wo_local) } else { 0.0 };
             path.scatter(k, cos_out, smp.pdf, rev, evaluable);
-            let step =
-                smp.f * (cos_out / smp.pdf) * path.ctx.secondaries_after(&material.bsdf, &smp, at.wo_local);
+            let step = smp.f
+                * (cos_out / smp.pdf)
+                * path.ctx.secondaries_after(&material.bsdf, &smp, at.wo_local)
+                * shading;
             path.beta *= step;
             path.throughput *= step;
-            let wi = frame.to_world(smp.wi);
             if let Some(c) = crossing(&material.bsdf, ray.dir, hit.n, path.ctx.channels.hero()) {
                 let medium = if smp.is_transmission { c.transmitted } else { c.incident };
                 absorption = path.ctx.channels.colour(medium.absorption);
@@ -741,7 +749,7 @@ impl<'a> Engine<'a> {
             let camera_pdf_a = cos_v / (self.pixel_area * c.dist2 * c.cos * c.cos * c.cos);
             let weight =
                 self.weighted(mis::camera_splat(&light_mis, k, camera_pdf_a / self.paths as f32, e.pdf_rev));
-            beta * e.f * (weight * cos_v)
+            beta * e.f * (weight * cos_v * at.frame.factor(at.wo, -c.dir, TransportMode::Importance))
         });
     }
 
@@ -810,6 +818,9 @@ impl<'a> Engine<'a> {
         let light = &self.scene.lights[index];
         let Some(ls) = light.sample_li(at.hit.p, u) else { return Vec3::ZERO };
         let wi_local = at.frame.to_local(ls.wi);
+        if at.frame.factor(at.wo, ls.wi, TransportMode::Radiance) == 0.0 {
+            return Vec3::ZERO;
+        }
         let e = at.bsdf.evaluate(at.wo_local, wi_local, TransportMode::Radiance);
         if e.f == Vec3::ZERO {
             return Vec3::ZERO;
@@ -862,13 +873,16 @@ impl<'a> Engine<'a> {
         }
         let dir = d / dist2.sqrt();
         let wi_local = at.frame.to_local(dir);
+        if at.frame.factor(at.wo, dir, TransportMode::Radiance) == 0.0 {
+            return Vec3::ZERO;
+        }
         let camera = at.bsdf.evaluate(at.wo_local, wi_local, TransportMode::Radiance);
         if camera.f == Vec3::ZERO {
             return Vec3::ZERO;
         }
         let material = self.scene.material_of(v.primitive);
         let light_bsdf = Scattering::at(material, v.p, v.uv, &path.ctx.channels);
-        let light_frame = Frame::from_normal(v.n);
+        let light_frame = ShadingFrame::at(&v.hit(), v.wo);
         let light_wo = light_frame.to_local(v.wo);
         let light_wi = light_frame.to_local(-dir);
         let light = light_bsdf.evaluate(light_wo, light_wi, TransportMode::Importance);
@@ -892,7 +906,7 @@ impl<'a> Engine<'a> {
         if visible == Vec3::ZERO {
             return Vec3::ZERO;
         }
-        let g = cos_camera * cos_light / dist2;
+        let g = cos_camera * cos_light / dist2 * light_frame.factor(v.wo, -dir, TransportMode::Importance);
         camera.f * light.f * v.beta * visible * (weight * g * joined(path.ctx.hero_only, v.hero_only))
     }
 
@@ -910,6 +924,9 @@ impl<'a> Engine<'a> {
         grid.query(vertices, at.hit.p, k.radius, |i| {
             let v = &vertices[i];
             if v.segments + path.segments > self.max_segments {
+                return;
+            }
+            if at.frame.factor(at.wo, v.wo, TransportMode::Radiance) == 0.0 {
                 return;
             }
             let wi_local = at.frame.to_local(v.wo);
@@ -933,7 +950,7 @@ impl<'a> Engine<'a> {
 struct Vertex<'a> {
     hit: &'a SurfaceHit,
     bsdf: &'a Scattering,
-    frame: &'a Frame,
+    frame: &'a ShadingFrame,
     /// The direction back along the sub-path, in the world and in the local frame.
     wo: Vec3,
     wo_local: Vec3,
@@ -983,6 +1000,7 @@ impl WalkVisitor for LightVisitor<'_, '_> {
                 p: at.hit.p,
                 n: at.hit.n,
                 uv: at.hit.uv,
+                ns: at.hit.shading_n,
                 p_error: at.hit.p_error,
                 wo: at.wo,
                 beta: path.beta,

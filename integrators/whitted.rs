@@ -15,7 +15,7 @@ use super::{ends_secondaries, Integrator, PathContext, RenderParams};
 use crate::bsdf::microfacet::TrowbridgeReitz;
 use crate::bsdf::rough_conductor::RoughConductor;
 use crate::bsdf::rough_dielectric::{RoughDielectric, TransportMode};
-use crate::bsdf::Frame;
+use crate::bsdf::{Frame, ShadingFrame};
 use crate::geometry::{spawn_origin, Ray, SurfaceHit};
 use crate::lighting::{crossing, dielectric_reflectance, emitted, phong_local, ShadowMode, ShadowRays};
 use crate::material::{Bsdf, Material, Phong};
@@ -152,10 +152,22 @@ pub(super) fn trace(
     if seg.depth >= params.max_depth {
         return attenuation * l;
     }
-    // The normal on the side the ray came from.
-    let n = if hit.n.dot(wo) >= 0.0 { hit.n } else { -hit.n };
-    // Weighted radiance along a secondary ray (nothing when its weight is negligible).
-    let follow = |dir: Vec3, weight: Vec3, absorption: Vec3, count_emission: bool, ctx: &mut PathContext| {
+    // The (shading) normal on the side the ray came from.
+    let ns = ShadingFrame::normal(hit, wo);
+    let n = if ns.dot(wo) >= 0.0 { ns } else { -ns };
+    let smooth = ns != hit.n;
+    // Weighted radiance along a secondary ray (nothing when its weight is negligible, or when a
+    // direction from a shading normal lies on the other side of the geometric surface than
+    // `transmitted` says).
+    let follow = |dir: Vec3,
+                  transmitted: bool,
+                  weight: Vec3,
+                  absorption: Vec3,
+                  count_emission: bool,
+                  ctx: &mut PathContext| {
+        if smooth && (dir.dot(hit.n) * wo.dot(hit.n) > 0.0) == transmitted {
+            return Vec3::ZERO;
+        }
         let Some(next_seg) = seg.next(weight, absorption, count_emission) else { return Vec3::ZERO };
         if dir.dot(hit.n) * wo.dot(hit.n) > 0.0 {
             ctx.rays.reflected += 1;
@@ -176,19 +188,25 @@ pub(super) fn trace(
             let u = ctx.sampler.get_2d(Dim::Bsdf);
             if let Some(s) = lobe.sample(frame.to_local(wo), u).filter(|s| s.pdf > 0.0) {
                 let wi = frame.to_world(s.wi);
-                l += follow(wi, s.f * (s.wi.z.abs() / s.pdf), seg.absorption, !s.is_evaluable(), ctx);
+                l += follow(wi, false, s.f * (s.wi.z.abs() / s.pdf), seg.absorption, !s.is_evaluable(), ctx);
             }
         }
         Bsdf::Mirror { color, .. } => {
-            l +=
-                follow(reflect(wo, n), channels.colour(color.eval(hit.p, hit.uv)), seg.absorption, true, ctx);
+            l += follow(
+                reflect(wo, n),
+                false,
+                channels.colour(color.eval(hit.p, hit.uv)),
+                seg.absorption,
+                true,
+                ctx,
+            );
         }
         Bsdf::Dielectric { roughness, .. } => {
             let c = crossing(&material.bsdf, ray.dir, hit.n, channels.hero())
                 .expect("a dielectric has two sides");
             if glossy {
-                // Local frame on the outward normal: eta = n_inside / n_outside.
-                let frame = Frame::from_normal(hit.n);
+                // Local frame on the outward (shading) normal: eta = n_inside / n_outside.
+                let frame = Frame::from_normal(ns);
                 let (n_in, n_out) = if ray.dir.dot(hit.n) < 0.0 { (c.n_t, c.n_i) } else { (c.n_i, c.n_t) };
                 let lobe = RoughDielectric {
                     eta: n_in / n_out,
@@ -201,7 +219,8 @@ pub(super) fn trace(
                     let wi = frame.to_world(s.wi);
                     let medium = if s.is_transmission { c.transmitted } else { c.incident };
                     let absorption = channels.colour(medium.absorption);
-                    l += follow(wi, s.f * (s.wi.z.abs() / s.pdf), absorption, !s.is_evaluable(), ctx);
+                    let weight = s.f * (s.wi.z.abs() / s.pdf);
+                    l += follow(wi, s.is_transmission, weight, absorption, !s.is_evaluable(), ctx);
                 }
             } else {
                 let transmitted = refract(wo, n, c.n_t / c.n_i);
@@ -209,11 +228,11 @@ pub(super) fn trace(
                     Some(_) => dielectric_reflectance(wo.dot(n), c.n_i, c.n_t, params.reflectance),
                     None => 1.0,
                 };
-                l +=
-                    follow(reflect(wo, n), Vec3::splat(r), channels.colour(c.incident.absorption), true, ctx);
+                let absorption = channels.colour(c.incident.absorption);
+                l += follow(reflect(wo, n), false, Vec3::splat(r), absorption, true, ctx);
                 if let Some(wt) = transmitted {
                     let absorption = channels.colour(c.transmitted.absorption);
-                    l += follow(wt, Vec3::splat(1.0 - r), absorption, true, ctx);
+                    l += follow(wt, true, Vec3::splat(1.0 - r), absorption, true, ctx);
                 }
             }
         }
@@ -269,7 +288,7 @@ fn glossy_direct(
     ctx: &mut PathContext,
 ) -> Vec3 {
     let shadow = ShadowRays { mode: ShadowMode::Opaque, ..shadow };
-    let frame = Frame::from_normal(hit.n);
+    let frame = ShadingFrame::at(hit, wo);
     let wo_local = frame.to_local(wo);
     let mut l = Vec3::ZERO;
     for (index, light) in scene.lights.iter().enumerate() {
@@ -294,7 +313,7 @@ fn glossy_direct(
             .eval(wo_local, wi_local, TransportMode::Radiance),
             Bsdf::Diffuse(_) => Vec3::ZERO,
         };
-        if f == Vec3::ZERO {
+        if f == Vec3::ZERO || frame.factor(wo, wi, TransportMode::Radiance) == 0.0 {
             continue;
         }
         let vis = crate::lighting::transmittance(

@@ -192,8 +192,10 @@ pub fn phong_local(
     if ph.diffuse == 0.0 && ph.specular == 0.0 {
         return l;
     }
-    // Two-sided shading: the normal facing the viewer.
-    let n = if hit.n.dot(wo) >= 0.0 { hit.n } else { -hit.n };
+    // Two-sided shading: the (shading) normal facing the viewer.
+    let ns = crate::bsdf::ShadingFrame::normal(hit, wo);
+    let n = if ns.dot(wo) >= 0.0 { ns } else { -ns };
+    let smooth = ns != hit.n;
     for (index, light) in scene.lights.iter().enumerate() {
         let source = illumination(light, hit.p);
         let to_light = source.position - hit.p;
@@ -201,6 +203,10 @@ pub fn phong_local(
         let wi = to_light / dist2.sqrt();
         let cos = n.dot(wi);
         if cos <= 0.0 || source.intensity == Vec3::ZERO {
+            continue;
+        }
+        // A light below the geometric surface does not shine through it.
+        if smooth && wi.dot(hit.n) * wo.dot(hit.n) <= 0.0 {
             continue;
         }
         let vis = transmittance(scene, hit, source.position, Some(index as u32), shadow, rays);

@@ -23,6 +23,7 @@ const EXPECTED: &[(&str, &str)] = &[
     ("hollow-spheres.toml", "textures"),
     ("motion-blur.toml", "motion-blur,textures"),
     ("shapes-gallery.toml", "soft-shadows,textures,meshes"),
+    ("smooth-glass.toml", "textures,meshes"),
     ("soft-shadows.toml", "soft-shadows,textures"),
 ];
 

@@ -35,8 +35,14 @@ fn glass_sphere_shadow_follows_the_two_crossing_fresnel_profile() {
     // Floor points at impact parameter b below the sphere, light straight above (far away).
     for k in 0..100 {
         let b = k as f32 / 100.0;
-        let from =
-            SurfaceHit { t: 1.0, p: Vec3::new(b, 0.0, 0.0), n: Vec3::Y, uv: Vec2::ZERO, p_error: 1e-6 };
+        let from = SurfaceHit {
+            t: 1.0,
+            p: Vec3::new(b, 0.0, 0.0),
+            n: Vec3::Y,
+            shading_n: Vec3::Y,
+            uv: Vec2::ZERO,
+            p_error: 1e-6,
+        };
         let t = transmittance(&scene, &from, Vec3::new(b, 1e4, 0.0), None, shadow, &mut rays);
         let cos = (1.0 - b * b).sqrt();
         let single = 1.0 - fresnel_dielectric(cos, 1.5);
@@ -45,6 +51,13 @@ fn glass_sphere_shadow_follows_the_two_crossing_fresnel_profile() {
         assert!(t.x > 0.0, "black rim at b = {b}");
     }
     // Outside the silhouette the light is unobstructed.
-    let from = SurfaceHit { t: 1.0, p: Vec3::new(1.01, 0.0, 0.0), n: Vec3::Y, uv: Vec2::ZERO, p_error: 1e-6 };
+    let from = SurfaceHit {
+        t: 1.0,
+        p: Vec3::new(1.01, 0.0, 0.0),
+        n: Vec3::Y,
+        shading_n: Vec3::Y,
+        uv: Vec2::ZERO,
+        p_error: 1e-6,
+    };
     assert_eq!(transmittance(&scene, &from, Vec3::new(1.01, 1e4, 0.0), None, shadow, &mut rays), Vec3::ONE);
 }

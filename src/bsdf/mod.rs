@@ -63,6 +63,86 @@ impl Frame {
     }
 }
 
+/// The frame a BSDF is evaluated in at a surface hit: around the shading normal, with the
+/// geometric normal kept for the side tests (pbrt-v4's treatment; `docs/architecture.md`,
+/// "Shading normals"). For analytic shapes and flat triangles both normals are the same and
+/// every factor is exactly 1.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ShadingFrame {
+    /// The local frame: around the shading normal, or the geometric one where `wo` lies on
+    /// different sides of the two.
+    pub frame: Frame,
+    /// The geometric normal.
+    pub ng: Vec3,
+    /// Whether the frame's normal differs from the geometric one.
+    smooth: bool,
+}
+
+impl ShadingFrame {
+    /// The frame at `hit` for the direction `wo` back along the path (world space).
+    #[inline]
+    pub fn at(hit: &crate::geometry::SurfaceHit, wo: Vec3) -> ShadingFrame {
+        let n = ShadingFrame::normal(hit, wo);
+        ShadingFrame { frame: Frame::from_normal(n), ng: hit.n, smooth: n != hit.n }
+    }
+
+    /// The normal of [`ShadingFrame::at`] without the frame: the shading normal, or the
+    /// geometric one where `wo` lies on different sides of the two (seen from below its shading
+    /// surface but above its geometric one, near a smooth mesh's silhouette, the flat face is
+    /// all there is).
+    #[inline]
+    pub fn normal(hit: &crate::geometry::SurfaceHit, wo: Vec3) -> Vec3 {
+        let (ns, ng) = (hit.shading_n, hit.n);
+        if ns == ng || (wo.dot(ns) > 0.0) != (wo.dot(ng) > 0.0) {
+            ng
+        } else {
+            ns
+        }
+    }
+
+    /// World-space `v` in the local frame.
+    #[inline]
+    pub fn to_local(&self, v: Vec3) -> Vec3 {
+        self.frame.to_local(v)
+    }
+
+    /// Local-frame `v` in world space.
+    #[inline]
+    pub fn to_world(&self, v: Vec3) -> Vec3 {
+        self.frame.to_world(v)
+    }
+
+    /// The factor that multiplies f(wo, wi)·|cos θi| (cosine in the shading frame) for the
+    /// world directions `wo` (back along the path) and `wi` (on along it): 0 when `wi` lies on
+    /// different sides of the shading and the geometric surface (it would leak through the
+    /// surface, or reflect where the geometry transmits); for importance transport (light
+    /// paths), Veach's adjoint correction |wo·ns|·|wi·ng| / (|wo·ng|·|wi·ns|), which keeps light
+    /// tracing consistent with the radiance of camera paths; 1 otherwise and always 1 at a flat
+    /// hit. (`wo` is read for importance transport only.)
+    #[inline]
+    pub fn factor(&self, wo: Vec3, wi: Vec3, mode: TransportMode) -> f32 {
+        if !self.smooth {
+            return 1.0;
+        }
+        let (ns, ng) = (self.frame.n, self.ng);
+        let (si, gi) = (wi.dot(ns), wi.dot(ng));
+        if si * gi <= 0.0 {
+            return 0.0;
+        }
+        match mode {
+            TransportMode::Radiance => 1.0,
+            TransportMode::Importance => {
+                let denominator = (wo.dot(ng) * si).abs();
+                if denominator == 0.0 {
+                    0.0
+                } else {
+                    (wo.dot(ns) * gi).abs() / denominator
+                }
+            }
+        }
+    }
+}
+
 /// One sampled scattering direction.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct BsdfSample {
@@ -121,6 +201,43 @@ mod tests {
     use super::*;
     use rand::{RngExt, SeedableRng};
     use rand_pcg::Pcg32;
+
+    #[test]
+    fn shading_frame_factor_is_one_flat_zero_across_and_adjoint_for_importance() {
+        use crate::geometry::SurfaceHit;
+        let hit = |shading_n: Vec3| SurfaceHit {
+            t: 1.0,
+            p: Vec3::ZERO,
+            n: Vec3::Z,
+            shading_n,
+            uv: glam::Vec2::ZERO,
+            p_error: 0.0,
+        };
+        let wo = Vec3::new(0.3, 0.1, 0.9).normalize();
+        let wi = Vec3::new(-0.5, 0.2, 0.4).normalize();
+        // A flat hit: the frame of the geometric normal and factor 1 for any pair.
+        let flat = ShadingFrame::at(&hit(Vec3::Z), wo);
+        assert_eq!(flat.frame, Frame::from_normal(Vec3::Z));
+        for mode in [TransportMode::Radiance, TransportMode::Importance] {
+            assert_eq!(flat.factor(wo, wi, mode), 1.0);
+            assert_eq!(flat.factor(wo, -wi, mode), 1.0);
+        }
+        // Tilted shading normal: wi below the shading surface but above the geometric one → 0.
+        let ns = Vec3::new(0.5, 0.0, 1.0).normalize();
+        let smooth = ShadingFrame::at(&hit(ns), wo);
+        assert_eq!(smooth.frame.n, ns);
+        let across = Vec3::new(-1.0, 0.0, 0.3).normalize();
+        assert!(across.dot(ns) < 0.0 && across.dot(Vec3::Z) > 0.0);
+        assert_eq!(smooth.factor(wo, across, TransportMode::Radiance), 0.0);
+        assert_eq!(smooth.factor(wo, across, TransportMode::Importance), 0.0);
+        assert_eq!(smooth.factor(wo, wi, TransportMode::Radiance), 1.0);
+        let adjoint = (wo.dot(ns) * wi.dot(Vec3::Z)).abs() / (wo.dot(Vec3::Z) * wi.dot(ns)).abs();
+        assert!((smooth.factor(wo, wi, TransportMode::Importance) - adjoint).abs() < 1e-6);
+        assert!((adjoint - 1.0).abs() > 0.05, "the example must test something: {adjoint}");
+        // wo on different sides of the two surfaces: the flat face.
+        let grazing = Vec3::new(-1.0, 0.0, 0.2).normalize();
+        assert_eq!(ShadingFrame::at(&hit(ns), grazing).frame.n, Vec3::Z);
+    }
 
     #[test]
     fn frame_is_orthonormal_right_handed_and_invertible() {

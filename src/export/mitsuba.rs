@@ -9,7 +9,7 @@
 //! | cylinder wall | `cylinder` (uncapped; caps are separate disks already) |
 //! | disk / annulus | `disk` with `to_world` / flat `ply` ring |
 //! | quad | `rectangle` with `to_world` |
-//! | polygon, mesh triangles | flat `ply` mesh (`face_normals`) |
+//! | polygon, mesh triangles | flat `ply` mesh (`face_normals`); a mesh with OBJ `vn`: smooth vertex normals |
 //! | diffuse | `twosided` + `diffuse` (a checker on an axis-aligned quad: `checkerboard`) |
 //! | mirror | `twosided` + `conductor` / `roughconductor` (`material="none"`, GGX, α = roughness²) |
 //! | dielectric | `dielectric` / `roughdielectric`, `int_ior` = inside (opposite the normal), `ext_ior` = outside |
@@ -913,6 +913,9 @@ impl<'a> Exporter<'a> {
                 Shape::Triangle(_) => {
                     // All triangles of this object with this material, as one mesh.
                     let mut mesh = Mesh::default();
+                    // Corners' shading normals (OBJ `vn`), the face's where a triangle has none.
+                    let mut normals = Vec::new();
+                    let mut smooth = false;
                     for (later, &j) in order.iter().enumerate().skip(pos) {
                         let other = &scene.primitives[j];
                         if other.object != prim.object
@@ -925,10 +928,28 @@ impl<'a> Exporter<'a> {
                             let base = mesh.positions.len() as u32;
                             mesh.positions.extend(t.vertices().map(|v| v + shift));
                             mesh.faces.push([base, base + 1, base + 2]);
+                            let face = t.normal();
+                            match scene.vertex_attributes(j as u32).and_then(|a| a.normals) {
+                                Some(ns) => {
+                                    smooth = true;
+                                    normals.extend(ns.map(|n| {
+                                        let n = n.normalize_or(face);
+                                        if n.dot(face) < 0.0 {
+                                            -n
+                                        } else {
+                                            n
+                                        }
+                                    }));
+                                }
+                                None => normals.extend([face; 3]),
+                            }
                             done[later] = true;
                         }
                     }
-                    Geometry::Mesh { mesh, smooth: false }
+                    if smooth {
+                        mesh.normals = Some(normals);
+                    }
+                    Geometry::Mesh { mesh, smooth }
                 }
             };
             self.shape(x, prim, &name, geometry, shift);

@@ -61,6 +61,7 @@ impl Cylinder {
             t,
             p,
             n,
+            shading_n: n,
             uv: Vec2::new(azimuth((self.u, self.v), n), v.clamp(0.0, 1.0)),
             // Radially, as for the sphere, n·r is within γ(6)·r of the wall (roundoff of
             // `q − z·w` only tilts n, moving p along the wall); z·w carries the roundoff of the

@@ -17,7 +17,7 @@ pub use disk::{disk_uv, Disk};
 pub use polygon::Polygon;
 pub use quad::Quad;
 pub use sphere::{sphere_uv, Sphere};
-pub use triangle::{ShearedRay, Triangle};
+pub use triangle::{ShearedRay, Triangle, VertexAttributes};
 
 use glam::{Vec2, Vec3};
 use std::cell::OnceCell;
@@ -61,7 +61,13 @@ pub struct SurfaceHit {
     /// The hit point, refined onto the surface where the shape allows it.
     pub p: Vec3,
     /// Unit geometric normal on the shape's *outside*: the side its interface calls outside.
+    /// Ray origins are offset along it, and it decides which side of an interface a direction
+    /// lies on.
     pub n: Vec3,
+    /// Unit shading normal, on the same side as `n`: a mesh's interpolated vertex normal
+    /// (OBJ `vn`), else exactly `n`. BSDFs are evaluated in a frame around it
+    /// ([`crate::bsdf::ShadingFrame`]).
+    pub shading_n: Vec3,
     /// Surface parameterisation in [0,1]² (used by textures).
     pub uv: Vec2,
     /// Conservative bound on the absolute error of every coordinate of `p`.
@@ -357,6 +363,7 @@ pub(crate) fn planar_surface(n: Vec3, reference: Vec3, q: Vec3, t: f32, uv: Vec2
         t,
         p,
         n,
+        shading_n: n,
         uv,
         // After the projection the residual off-plane component of q is the roundoff of
         // `q − (q·n)n`: γ(3)·|q|₂ from the dot product plus two roundings, γ(5)·|q|₂; one more

@@ -122,6 +122,7 @@ impl Sphere {
             t,
             p,
             n,
+            shading_n: n,
             uv: sphere_uv(self.axis, self.tangent, n),
             // Radially only the length of n matters: `normalize` (dot, sqrt, reciprocal,
             // product) leaves a relative error below γ(5) and scaling by r rounds once more,

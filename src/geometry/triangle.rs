@@ -2,7 +2,42 @@
 
 use glam::{Vec2, Vec3};
 
-use super::{bounds_of, gamma, point_error, unit_or, Bounds, Ray, SurfaceHit, MACHINE_EPSILON};
+use super::{bounds_of, gamma, point_error, try_unit, unit_or, Bounds, Ray, SurfaceHit, MACHINE_EPSILON};
+
+/// Per-vertex data of a mesh triangle (OBJ `vt` and `vn`), interpolated at a hit by its
+/// barycentrics. Kept apart from [`Triangle`], which stays small for traversal.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct VertexAttributes {
+    /// Texture coordinates of the three vertices.
+    pub uv: Option<[Vec2; 3]>,
+    /// Normals of the three vertices (unit, or zero where the file's is zero).
+    pub normals: Option<[Vec3; 3]>,
+}
+
+impl VertexAttributes {
+    /// Whether there is anything to interpolate.
+    pub fn is_empty(&self) -> bool {
+        self.uv.is_none() && self.normals.is_none()
+    }
+
+    /// `hit`, a hit record of the triangle (whose uv holds its barycentrics (b1, b2)), with the
+    /// interpolated uv and the interpolated, normalised shading normal turned to the side of the
+    /// geometric normal (where the vertex normals cancel, the shading normal stays the
+    /// geometric one).
+    #[inline]
+    pub fn apply(&self, hit: &mut SurfaceHit) {
+        let (b1, b2) = (hit.uv.x, hit.uv.y);
+        let b0 = 1.0 - b1 - b2;
+        if let Some([n0, n1, n2]) = self.normals {
+            if let Some(ns) = try_unit(b0 * n0 + b1 * n1 + b2 * n2) {
+                hit.shading_n = if ns.dot(hit.n) < 0.0 { -ns } else { ns };
+            }
+        }
+        if let Some([t0, t1, t2]) = self.uv {
+            hit.uv = b0 * t0 + b1 * t1 + b2 * t2;
+        }
+    }
+}
 
 /// A triangle counter-clockwise around its normal `normalize((p1 − p0) × (p2 − p0))`.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -186,7 +221,7 @@ impl Triangle {
         let p = b0 * p0 + b1 * p1 + b2 * p2;
         // pbrt-v4's bound for a barycentric interpolation: γ(7)·Σ|b_i·p_i|.
         let abs_sum = (b0 * p0).abs() + (b1 * p1).abs() + (b2 * p2).abs();
-        SurfaceHit { t, p, n, uv: Vec2::new(b1, b2), p_error: gamma(7) * abs_sum.max_element() }
+        SurfaceHit { t, p, n, shading_n: n, uv: Vec2::new(b1, b2), p_error: gamma(7) * abs_sum.max_element() }
     }
 
     /// Full hit record for a hit at `t`; uv = barycentrics (b1, b2).
@@ -201,7 +236,7 @@ impl Triangle {
             None => {
                 let p = ray.at(t);
                 let largest = p0.abs().max(p1.abs()).max(p2.abs()).max_element();
-                SurfaceHit { t, p, n, uv: Vec2::ZERO, p_error: point_error(p, largest, 8) }
+                SurfaceHit { t, p, n, shading_n: n, uv: Vec2::ZERO, p_error: point_error(p, largest, 8) }
             }
         }
     }

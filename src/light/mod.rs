@@ -592,7 +592,7 @@ impl Light {
 /// A point on an emitter with texture coordinates `uv` as a surface hit (for spawning rays from
 /// it and reading its emission).
 fn emitter_point(p: Vec3, n: Vec3, uv: Vec2, p_error: f32) -> SurfaceHit {
-    SurfaceHit { t: 0.0, p, n, uv, p_error }
+    SurfaceHit { t: 0.0, p, n, shading_n: n, uv, p_error }
 }
 
 /// Emission from a Lambertian emitter of area `area` at `hit`: a cosine-distributed direction

@@ -3,17 +3,22 @@
 use super::bodies::{self, BodySurface, Interface, Liquid};
 use super::desc::{
     ColorSpaceDesc, FilterDesc, IorDesc, LightDesc, LiquidDesc, MaterialDesc, PhongDesc, Rgb, SceneDesc,
-    ShapeDesc, TextureDesc, WrapDesc, IOR_TABLE_ERROR, LIQUIDS, MERGING_METHODS, METHOD_TABLES,
-    MOVED_MAX_DEPTH,
+    ShapeDesc, TextureDesc, TransformDesc, Vec3Desc, WrapDesc, IOR_TABLE_ERROR, LIQUIDS, MERGING_METHODS,
+    METHOD_TABLES, MOVED_MAX_DEPTH,
 };
 use super::effects::{Effect, Effects};
+use super::mesh::MeshPlacement;
 use super::source::{FieldPath, SceneError, Source};
+use super::transform::{rotation, Transform};
 use super::{
     BvhStats, ObjectSummary, Primitive, RenderSettings, Scene, SceneOrigin, SpectralMode, DEFAULT_SCENE,
+    NO_ATTRIBUTES,
 };
 use crate::camera::Camera;
 use crate::dispersion::Ior;
-use crate::geometry::{parallelogram_normal, try_unit, Bounds, Disk, Polygon, Quad, Shape, Sphere};
+use crate::geometry::{
+    parallelogram_normal, try_unit, Bounds, Disk, Polygon, Quad, Shape, Sphere, VertexAttributes,
+};
 use crate::light::{EmitterShape, EnvironmentMap, Light};
 use crate::material::{Bsdf, Material, Medium, Phong, Texture};
 use crate::params::{MergeParams, SsaaParams};
@@ -394,6 +399,10 @@ impl Compiler<'_> {
         // The content hashes of the files the scene reads besides its own text (meshes).
         let mut inputs = Vec::new();
         let mut lights = Vec::new();
+        // Mesh triangles' vertex attributes, and per primitive the index of its own (or
+        // NO_ATTRIBUTES).
+        let mut attributes = Vec::new();
+        let mut attribute_index = Vec::new();
         for (i, object) in desc.objects.iter().enumerate() {
             let path = FieldPath::from("objects").index(i);
             let Some(&material) = material_index.get(&object.material) else {
@@ -408,11 +417,39 @@ impl Compiler<'_> {
                 ));
             };
             let kind = shape_kind(&object.shape);
-            let surfaces = self.shape(&path, &object.shape, &mut warnings, &mut inputs)?;
+            let transform = match &object.transform {
+                Some(t) => Some(self.transform(&path.key("transform"), t)?),
+                None => None,
+            };
+            // (NaN cannot reach here: the parser refuses it.) A transformed analytic shape is the shape with transformed defining numbers; its
+            // numbers as written are checked first, so that messages quote the file's values.
+            let placed = match &transform {
+                Some(t) if !matches!(object.shape, ShapeDesc::Mesh { .. }) => {
+                    self.shape(&path, &object.shape, None, &mut warnings, &mut inputs, &mut Vec::new())?;
+                    std::borrow::Cow::Owned(self.placed(&path, &object.shape, t)?)
+                }
+                _ => std::borrow::Cow::Borrowed(&object.shape),
+            };
+            // A mesh's per-triangle uv and normals, in the order of its surfaces.
+            let mut mesh_attributes = Vec::new();
+            let surfaces = self
+                .shape(&path, &placed, transform.as_ref(), &mut warnings, &mut inputs, &mut mesh_attributes)
+                .map_err(|e| match (e, &placed) {
+                    // The numbers as written passed: the transform made the shape invalid.
+                    (SceneError::Invalid { field, message, .. }, std::borrow::Cow::Owned(_)) => self.err(
+                        &path.key("transform"),
+                        format!(
+                            "the transformed shape is invalid (`{field}` after the transform: {message})"
+                        ),
+                    ),
+                    (e, _) => e,
+                })?;
             if surfaces.iter().any(|(s, _)| !within_extent(s.bounds())) {
-                // Only a mesh (vertices × scale) can get here: every other number is checked.
+                // Only a mesh (vertices × scale) or a transform can get here: every other number
+                // is checked.
                 let at = match object.shape {
                     ShapeDesc::Mesh { .. } => path.key("file"),
+                    _ if object.transform.is_some() => path.key("transform"),
                     _ => path.clone(),
                 };
                 return Err(self.err(
@@ -466,7 +503,7 @@ impl Compiler<'_> {
                     if velocity.is_some() {
                         return Err(self.err(&path.key("velocity"), "an emitting object cannot move"));
                     }
-                    let shape = emitter_shape(&object.shape).ok_or_else(|| {
+                    let shape = emitter_shape(&placed).ok_or_else(|| {
                         self.err(&path.key("material"), "emission is supported on spheres, quads and disks")
                     })?;
                     let size = match object.shape {
@@ -498,7 +535,7 @@ impl Compiler<'_> {
                 material: object.material.clone(),
                 primitives: surfaces.len(),
             });
-            for (shape, interface) in surfaces {
+            for (k, (shape, interface)) in surfaces.into_iter().enumerate() {
                 // Inner surfaces of hollow bodies use the interface seen from the other side,
                 // filled vessels their liquid's interfaces: derived materials, made once each.
                 let material = if interface == Interface::Material {
@@ -517,6 +554,13 @@ impl Compiler<'_> {
                         }
                     }
                 };
+                match mesh_attributes.get(k).filter(|a| !a.is_empty()) {
+                    Some(a) => {
+                        attribute_index.push(attributes.len() as u32);
+                        attributes.push(*a);
+                    }
+                    None => attribute_index.push(NO_ATTRIBUTES),
+                }
                 primitives.push(Primitive { shape, material, light: emitter, object: object_id, velocity });
             }
         }
@@ -551,6 +595,7 @@ impl Compiler<'_> {
                 let bsdf = Bsdf::Diffuse(Texture::Constant(Vec3::ZERO));
                 let phong = Phong { ambient: 0.0, diffuse: 0.0, specular: 0.0, shininess: 1.0 };
                 materials.push(Material { name: format!("light #{i}"), bsdf, phong });
+                attribute_index.push(NO_ATTRIBUTES);
                 primitives.push(Primitive {
                     shape,
                     material: emitter_material,
@@ -582,6 +627,12 @@ impl Compiler<'_> {
         // Image files (textures, environment maps), once each, in the order of their paths.
         inputs.extend(self.images.borrow().hashes.values().cloned());
         let (primitives, bvh, bvh_stats) = build_bvh(primitives, camera.shutter);
+        if attributes.is_empty() {
+            // Scenes without uv or normals never look the index up.
+            attribute_index = Vec::new();
+        } else {
+            permute_in_place(&mut attribute_index, &bvh.primitive_indices);
+        }
         let has_motion = primitives.iter().any(|p| p.velocity.is_some());
         Ok(Scene {
             primitives,
@@ -598,6 +649,8 @@ impl Compiler<'_> {
             bvh_stats,
             warnings,
             bvh,
+            attributes,
+            attribute_index,
         })
     }
 
@@ -926,12 +979,128 @@ impl Compiler<'_> {
         Ok(Material { name: name.to_string(), bsdf, phong })
     }
 
+    /// The `transform` table of an object, checked.
+    fn transform(&self, path: &FieldPath, t: &TransformDesc) -> Result<Transform, SceneError> {
+        let scale = match t.scale {
+            None => Vec3::ONE,
+            Some(s) => {
+                let axes = s.axes();
+                if let Some(bad) = axes.iter().find(|x| **x <= 0.0) {
+                    return Err(self.err(
+                        &path.key("scale"),
+                        format!(
+                            "every factor must be greater than 0 (got {bad}): a zero scale flattens the \
+                             object and a negative one mirrors it inside out"
+                        ),
+                    ));
+                }
+                Vec3::from_array(axes)
+            }
+        };
+        let rotation = match t.rotate {
+            None => None,
+            Some(r) => Some(rotation(self.direction(&path.key("rotate").key("axis"), r.axis)?, r.angle)),
+        };
+        let translate = t.translate.map_or(Vec3::ZERO, Vec3::from_array);
+        Ok(Transform { scale, rotation, translate })
+    }
+
+    /// An analytic shape (or composite body) with `t` applied to its defining numbers: points
+    /// transformed, directions rotated, lengths scaled (spheres, cylinders and disks, and the
+    /// bodies made of them, only by a uniform scale); a quad's edges and a polygon's vertices
+    /// take any scale. A mesh is returned as it is (its vertices are transformed as it loads).
+    fn placed(&self, path: &FieldPath, shape: &ShapeDesc, t: &Transform) -> Result<ShapeDesc, SceneError> {
+        let point = |x: &Vec3Desc| t.point(Vec3::from_array(*x)).to_array();
+        let edge = |x: &Vec3Desc| t.vector(Vec3::from_array(*x)).to_array();
+        let direction = |x: &Vec3Desc| t.rotate(Vec3::from_array(*x)).to_array();
+        let uniform = || {
+            t.uniform_scale().ok_or_else(|| {
+                self.err(
+                    &path.key("transform").key("scale"),
+                    format!(
+                        "a {} cannot be scaled by different factors per axis: it is analytic and stays \
+                         round (a sphere cannot become an ellipsoid, a circle an ellipse); give one \
+                         number, or model it as a mesh (quads, polygons and meshes take any scale)",
+                        shape_kind(shape)
+                    ),
+                )
+            })
+        };
+        Ok(match shape {
+            ShapeDesc::Sphere { center, radius } => {
+                let s = uniform()?;
+                ShapeDesc::Sphere { center: point(center), radius: radius * s }
+            }
+            ShapeDesc::Cylinder { base, axis, radius, height, caps } => {
+                let s = uniform()?;
+                ShapeDesc::Cylinder {
+                    base: point(base),
+                    axis: direction(axis),
+                    radius: radius * s,
+                    height: height * s,
+                    caps: *caps,
+                }
+            }
+            ShapeDesc::Disk { center, normal, radius, inner_radius } => {
+                let s = uniform()?;
+                ShapeDesc::Disk {
+                    center: point(center),
+                    normal: direction(normal),
+                    radius: radius * s,
+                    inner_radius: inner_radius * s,
+                }
+            }
+            ShapeDesc::Quad { corner, u, v } => {
+                ShapeDesc::Quad { corner: point(corner), u: edge(u), v: edge(v) }
+            }
+            ShapeDesc::Polygon { vertices } => {
+                ShapeDesc::Polygon { vertices: vertices.iter().map(point).collect() }
+            }
+            ShapeDesc::Mesh { .. } => shape.clone(),
+            ShapeDesc::HollowSphere { center, radius, inner_radius } => {
+                let s = uniform()?;
+                ShapeDesc::HollowSphere {
+                    center: point(center),
+                    radius: radius * s,
+                    inner_radius: inner_radius * s,
+                }
+            }
+            ShapeDesc::Bowl { center, axis, radius, thickness, fill, liquid } => {
+                let s = uniform()?;
+                ShapeDesc::Bowl {
+                    center: point(center),
+                    axis: direction(axis),
+                    radius: radius * s,
+                    thickness: thickness * s,
+                    fill: fill.map(|f| f * s),
+                    liquid: liquid.clone(),
+                }
+            }
+            ShapeDesc::DrinkingGlass { base, axis, radius, height, wall, bottom, fill, liquid } => {
+                let s = uniform()?;
+                ShapeDesc::DrinkingGlass {
+                    base: point(base),
+                    axis: direction(axis),
+                    radius: radius * s,
+                    height: height * s,
+                    wall: wall * s,
+                    bottom: bottom * s,
+                    fill: fill.map(|f| f * s),
+                    liquid: liquid.clone(),
+                }
+            }
+        })
+    }
+
+    /// The surfaces of a shape; `transform` places a mesh (analytic shapes arrive placed).
     fn shape(
         &self,
         path: &FieldPath,
         shape: &ShapeDesc,
+        transform: Option<&Transform>,
         warnings: &mut Vec<String>,
         inputs: &mut Vec<String>,
+        attributes: &mut Vec<VertexAttributes>,
     ) -> Result<Vec<BodySurface>, SceneError> {
         let v = Vec3::from_array;
         Ok(match shape {
@@ -992,9 +1161,14 @@ impl Compiler<'_> {
                             .err(&path.key("file"), format!("cannot read OBJ file {}: {e}", full.display())))
                     }
                 }
-                let mesh = super::mesh::load_obj(&full, scale, v(*translate))
-                    .map_err(|e| self.err(&path.key("file"), e))?;
+                let placement =
+                    MeshPlacement { scale, translate: v(*translate), transform: transform.copied() };
+                let mesh =
+                    super::mesh::load_obj(&full, &placement).map_err(|e| self.err(&path.key("file"), e))?;
                 let (triangles, degenerate) = (mesh.triangles, mesh.degenerate);
+                if mesh.has_uv || mesh.has_normals {
+                    *attributes = mesh.attributes;
+                }
                 inputs.push(mesh.hash);
                 if degenerate > 0 {
                     warnings.push(format!(

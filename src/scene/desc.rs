@@ -617,12 +617,92 @@ pub struct ObjectDesc {
     pub name: Option<String>,
     /// Material name (a key of `[materials]`).
     pub material: String,
-    /// Linear motion in scene units per unit of shutter time (motion blur).
+    /// Linear motion in scene units per unit of shutter time (motion blur), in world space.
     #[serde(default)]
     pub velocity: Option<Vec3Desc>,
+    /// Placement of the shape: scale, then rotate, then translate.
+    #[serde(default)]
+    pub transform: Option<TransformDesc>,
     /// The geometry.
     #[serde(flatten)]
     pub shape: ShapeDesc,
+}
+
+/// `transform = { scale = s | [sx, sy, sz], rotate = { axis = [x, y, z], angle = DEG }, translate
+/// = [x, y, z] }`: applied in the order scale, rotate, translate; every part optional.
+#[derive(Clone, Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TransformDesc {
+    /// Scale factor, one for all axes or one per axis (all > 0), applied first.
+    #[serde(default)]
+    pub scale: Option<ScaleDesc>,
+    /// Rotation about an axis through the origin, applied after scaling.
+    #[serde(default)]
+    pub rotate: Option<RotateDesc>,
+    /// Translation, applied last.
+    #[serde(default)]
+    pub translate: Option<Vec3Desc>,
+}
+
+/// A rotation by `angle` degrees about `axis` (right-handed).
+#[derive(Clone, Copy, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RotateDesc {
+    /// The axis direction (non-zero; normalised).
+    pub axis: Vec3Desc,
+    /// The angle in degrees, counter-clockwise seen from the tip of the axis.
+    pub angle: f32,
+}
+
+/// A scale written as one number (uniform) or as `[sx, sy, sz]`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum ScaleDesc {
+    /// The same factor on every axis.
+    Uniform(f32),
+    /// One factor per axis.
+    Axes([f32; 3]),
+}
+
+impl ScaleDesc {
+    /// The factor per axis.
+    pub fn axes(self) -> [f32; 3] {
+        match self {
+            ScaleDesc::Uniform(s) => [s; 3],
+            ScaleDesc::Axes(a) => a,
+        }
+    }
+}
+
+impl<'de> Deserialize<'de> for ScaleDesc {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<ScaleDesc, D::Error> {
+        struct Visitor;
+        impl<'de> serde::de::Visitor<'de> for Visitor {
+            type Value = ScaleDesc;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str("a scale: one number (uniform) or [sx, sy, sz]")
+            }
+            fn visit_f64<E: serde::de::Error>(self, v: f64) -> Result<ScaleDesc, E> {
+                Ok(ScaleDesc::Uniform(v as f32))
+            }
+            fn visit_i64<E: serde::de::Error>(self, v: i64) -> Result<ScaleDesc, E> {
+                Ok(ScaleDesc::Uniform(v as f32))
+            }
+            fn visit_u64<E: serde::de::Error>(self, v: u64) -> Result<ScaleDesc, E> {
+                Ok(ScaleDesc::Uniform(v as f32))
+            }
+            fn visit_seq<A: serde::de::SeqAccess<'de>>(self, mut seq: A) -> Result<ScaleDesc, A::Error> {
+                let mut c = [0.0f32; 3];
+                for (i, axis) in c.iter_mut().enumerate() {
+                    *axis = seq.next_element()?.ok_or_else(|| serde::de::Error::invalid_length(i, &self))?;
+                }
+                if seq.next_element::<f32>()?.is_some() {
+                    return Err(serde::de::Error::invalid_length(4, &self));
+                }
+                Ok(ScaleDesc::Axes(c))
+            }
+        }
+        d.deserialize_any(Visitor)
+    }
 }
 
 /// The geometry of an object, chosen by `shape = "..."`.

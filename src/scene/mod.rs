@@ -9,6 +9,7 @@ pub mod effects;
 pub mod mesh;
 pub mod overlap;
 pub mod source;
+pub mod transform;
 mod traversal;
 
 pub use compile::{load, load_default, load_str};
@@ -16,7 +17,7 @@ pub use effects::{Effect, EffectUse, Effects};
 pub use source::SceneError;
 
 use crate::camera::Camera;
-use crate::geometry::{Ray, Shape, SurfaceHit};
+use crate::geometry::{Ray, Shape, SurfaceHit, VertexAttributes};
 use crate::light::{Light, SceneSphere};
 use crate::material::Material;
 use crate::params::{MergeParams, SsaaParams};
@@ -28,6 +29,9 @@ use std::collections::BTreeMap;
 
 /// The text of the embedded default scene (the thesis's Cornell box with glass bodies).
 pub const DEFAULT_SCENE: &str = include_str!("../../scenes/cornell-glass.toml");
+
+/// The attribute index of a primitive without vertex attributes.
+pub(crate) const NO_ATTRIBUTES: u32 = u32::MAX;
 
 /// One BVH primitive: a shape with its material, the light it emits for (if any), and the
 /// object of the scene file it came from.
@@ -207,6 +211,11 @@ pub struct Scene {
     /// Warnings found while compiling (degenerate triangles skipped, …).
     pub warnings: Vec<String>,
     bvh: CwBvh,
+    /// The vertex attributes (uv, shading normals) of mesh triangles that have them.
+    attributes: Vec<VertexAttributes>,
+    /// Per primitive (in BVH order), its index into `attributes` or [`NO_ATTRIBUTES`]; empty
+    /// when no primitive has attributes.
+    attribute_index: Vec<u32>,
     /// Whether any primitive moves (only then does traversal look at velocities).
     has_motion: bool,
 
@@ -238,7 +247,7 @@ impl Scene {
         }?;
         let primitive = primitive as u32;
         let prim = &prims[primitive as usize];
-        let hit = match prim.velocity {
+        let mut hit = match prim.velocity {
             None => prim.shape.surface_with(ray, t, bary),
             Some(v) => {
                 let mut h = prim.shape.surface(&moved(ray, v), t);
@@ -248,6 +257,11 @@ impl Scene {
                 h
             }
         };
+        if let Some(&a) = self.attribute_index.get(primitive as usize) {
+            if a != NO_ATTRIBUTES {
+                self.attributes[a as usize].apply(&mut hit);
+            }
+        }
         Some(Intersection { hit, primitive })
     }
 
@@ -324,6 +338,13 @@ impl Scene {
             t * inv
         });
         best
+    }
+
+    /// The vertex attributes (OBJ `vt`, `vn`) of a primitive, if it is a mesh triangle that has
+    /// them.
+    pub fn vertex_attributes(&self, primitive: u32) -> Option<&VertexAttributes> {
+        let a = *self.attribute_index.get(primitive as usize)?;
+        (a != NO_ATTRIBUTES).then(|| &self.attributes[a as usize])
     }
 
     /// The material of a primitive.
