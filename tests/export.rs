@@ -573,3 +573,218 @@ fn bad_input_exits_with_code_2_and_writes_nothing() {
         std::fs::read_dir(dir.path()).unwrap().map(|e| (e.unwrap().file_name(), ())).collect();
     assert!(entries.is_empty(), "{entries:?}");
 }
+
+/// The texels of an image file written by the export (beside the XML) or read by a scene.
+fn decode(path: &Path) -> vitrum::texture::ImageMap {
+    let bytes = std::fs::read(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    vitrum::texture::ImageMap::decode(path, &bytes, None).unwrap()
+}
+
+/// The 16 numbers of a `<transform name=...><matrix value=.../></transform>` child.
+fn matrix(e: &Element, name: &str) -> Vec<f32> {
+    let t = e.kids("transform").find(|t| t.attr("name") == Some(name)).unwrap_or_else(|| panic!("no {name}"));
+    floats(t.kids("matrix").next().unwrap().attr("value").unwrap())
+}
+
+#[test]
+fn textured_box_writes_image_textures_as_bitmaps_with_their_texels() {
+    let e = export("textured-box.toml");
+    let dir = e.xml.parent().unwrap().to_path_buf();
+    let mut bitmaps = Vec::new();
+    e.root.all("texture", &mut bitmaps);
+    // floor, three plaster walls, poster
+    assert_eq!(bitmaps.len(), 5);
+    let mut files = std::collections::BTreeSet::new();
+    for b in &bitmaps {
+        assert_eq!(b.attr("type"), Some("bitmap"));
+        assert_eq!(b.attr("name"), Some("reflectance"));
+        assert_eq!(b.param("boolean", "raw"), Some("true"));
+        assert_eq!(b.param("string", "filter_type"), Some("bilinear"));
+        let file = b.param("string", "filename").unwrap();
+        assert!(file.starts_with("scene-textures/") && file.ends_with(".exr"), "{file}");
+        files.insert(file.to_string());
+    }
+    // each image once: tiles, plaster, poster
+    assert_eq!(files.len(), 3, "{files:?}");
+    let by_name =
+        |part: &str| bitmaps.iter().find(|b| b.param("string", "filename").unwrap().contains(part)).unwrap();
+    // the floor: tiles at scale 2 × 2; Mitsuba's rectangle uv is vitrum's (a, b), its bitmap's
+    // y runs down from the top row: (x, y) = (2a, 1 − 2b)
+    let floor = by_name("tiles");
+    assert_eq!(floor.param("string", "wrap_mode"), Some("repeat"));
+    assert_eq!(
+        matrix(floor, "to_uv"),
+        [2.0, 0.0, 0.0, 0.0, 0.0, -2.0, 0.0, 1.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0]
+    );
+    let plaster = by_name("plaster");
+    assert_eq!(matrix(plaster, "to_uv")[..8], [2.0, 0.0, 0.0, 0.0, 0.0, -1.0, 0.0, 1.0]);
+    let poster = by_name("poster");
+    assert_eq!(poster.param("string", "wrap_mode"), Some("clamp"));
+    assert_eq!(matrix(poster, "to_uv")[..8], [1.0, 0.0, 0.0, 0.0, 0.0, -1.0, 0.0, 1.0]);
+    // the files decode to the scene's own (linear) texels
+    for name in ["tiles", "plaster", "poster"] {
+        let written = decode(&dir.join(by_name(name).param("string", "filename").unwrap()));
+        let original = decode(&scene("textures").join(format!("{name}.png")));
+        assert_eq!((written.width, written.height), (original.width, original.height), "{name}");
+        assert!(written.texels == original.texels, "{name}: the texels differ");
+    }
+    // exact: no note about textures
+    let stderr = String::from_utf8_lossy(&e.output.stderr);
+    assert!(!stderr.lines().any(|l| l.contains("note:") && l.contains("texture")), "{stderr}");
+}
+
+#[test]
+fn glass_in_sky_writes_the_environment_map_as_an_envmap() {
+    let e = export("glass-in-sky.toml");
+    let emitters: Vec<_> = e.root.kids("emitter").collect();
+    assert_eq!(emitters.len(), 1, "the envmap alone, no constant background");
+    let env = emitters[0];
+    assert_eq!(env.attr("type"), Some("envmap"));
+    assert_eq!(env.param("float", "scale"), Some("1"));
+    assert_eq!(
+        matrix(env, "to_world"),
+        [1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0]
+    );
+    let file = e.xml.parent().unwrap().join(env.param("string", "filename").unwrap());
+    let written = decode(&file);
+    let sky = decode(&scene("textures").join("sky.exr"));
+    // resampled 4×: 4 columns per texel, 4 rows per row plus one (rows on the poles)
+    assert_eq!((written.width, written.height), (4 * sky.width, 4 * sky.height + 1));
+    for (j, row) in [(1, 0), (2, 0), (3, 0), (6, 1), (4 * 37 + 2, 37)] {
+        for (i, column) in [(0, 0), (3, 0), (4 * 100 + 1, 100)] {
+            assert_eq!(written.texel(i, j), sky.texel(column, row), "({i}, {j})");
+        }
+    }
+    // a row on a texel edge holds the mean of the two rows
+    assert_eq!(written.texel(8, 4 * 40), 0.5 * (sky.texel(2, 39) + sky.texel(2, 40)));
+    let stderr = String::from_utf8_lossy(&e.output.stderr);
+    assert!(stderr.contains("environment map") && stderr.contains("bilinear"), "{stderr}");
+}
+
+#[test]
+fn textures_on_other_shapes_rotated_maps_and_what_cannot_be_mapped() {
+    let dir = tempfile::tempdir().unwrap();
+    let textures = dir.path().join("textures");
+    std::fs::create_dir(&textures).unwrap();
+    let image = vitrum::image::Image {
+        width: 3,
+        height: 1,
+        pixels: vec![
+            glam::Vec3::new(0.1, 0.2, 0.3),
+            glam::Vec3::new(0.5, 0.5, 0.5),
+            glam::Vec3::new(0.9, 0.0, 0.3),
+        ],
+    };
+    let path = textures.join("strip.exr");
+    std::fs::write(&path, vitrum::output::exr::encode_exr_rgb(&path, &image).unwrap()).unwrap();
+    let sky = vitrum::image::Image { width: 4, height: 2, pixels: vec![glam::Vec3::splat(2.0); 8] };
+    let sky_path = textures.join("sky.exr");
+    std::fs::write(&sky_path, vitrum::output::exr::encode_exr_rgb(&sky_path, &sky).unwrap()).unwrap();
+    let scene_file = dir.path().join("shapes.toml");
+    std::fs::write(
+        &scene_file,
+        r#"
+[camera]
+position = [0.0, 1.0, 4.0]
+look_at = [0.0, 0.5, 0.0]
+up = [0.0, 1.0, 0.0]
+fov = 40.0
+resolution = [64, 48]
+
+[materials.strip]
+type = "diffuse"
+texture = { type = "image", file = "textures/strip.exr", filter = "nearest" }
+
+[materials.tinted]
+type = "mirror"
+texture = { type = "image", file = "textures/strip.exr", scale = [2.0, 1.0] }
+
+[[objects]]
+name = "ball"
+shape = "sphere"
+center = [0.0, 0.5, 0.0]
+radius = 0.5
+material = "strip"
+
+[[objects]]
+name = "can"
+shape = "cylinder"
+base = [1.0, 0.0, 0.0]
+axis = [0.0, 1.0, 0.0]
+radius = 0.3
+height = 0.6
+material = "strip"
+
+[[objects]]
+name = "bowl"
+shape = "bowl"
+center = [-1.2, 0.5, 0.0]
+axis = [0.0, 1.0, 0.0]
+radius = 0.4
+thickness = 0.05
+material = "strip"
+
+[[objects]]
+name = "mirror"
+shape = "quad"
+corner = [-1.0, 0.0, -1.0]
+u = [2.0, 0.0, 0.0]
+v = [0.0, 1.5, 0.0]
+material = "tinted"
+
+[[lights]]
+type = "environment"
+file = "textures/sky.exr"
+rotation = 90.0
+scale = 0.5
+"#,
+    )
+    .unwrap();
+    let e = export_with(&scene_file, &[]);
+    // the sphere is placed by its texture frame (t1, t2, axis) = (+X, −Z, +Y), scaled by r
+    let sphere = e.shapes("sphere").into_iter().next().unwrap();
+    assert_eq!(
+        matrix(sphere, "to_world")[..12],
+        [0.5, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5, 0.0, -0.5, 0.0, 0.0]
+    );
+    let bitmap = |s: &Element| -> Vec<f32> {
+        let b = e.bsdf_of(s);
+        let mut t = Vec::new();
+        b.all("texture", &mut t);
+        assert_eq!(t.len(), 1);
+        matrix(t[0], "to_uv")
+    };
+    // sphere: vitrum (u, v) = (x, 1 − y) of Mitsuba's; the bitmap y = 1 − v = Mitsuba's y
+    assert_eq!(bitmap(sphere)[..8], [1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0]);
+    let can = e.shapes("cylinder").into_iter().next().unwrap();
+    assert_eq!(matrix(can, "to_world")[..12], [0.3, 0.0, 0.0, 1.0, 0.0, 0.0, 0.6, 0.0, 0.0, -0.3, 0.0, 0.0]);
+    assert_eq!(bitmap(can)[..8], [1.0, 0.0, 0.0, 0.0, 0.0, -1.0, 0.0, 1.0]);
+    // the mirror's tint is a bitmap in its conductor
+    let mirror = e.shapes("rectangle").into_iter().next().unwrap();
+    let conductor = e.bsdf_of(mirror).kids("bsdf").next().unwrap();
+    assert_eq!(conductor.attr("type"), Some("conductor"));
+    let tint = conductor.kids("texture").next().unwrap();
+    assert_eq!(tint.attr("name"), Some("specular_reflectance"));
+    assert_eq!(matrix(tint, "to_uv")[..8], [2.0, 0.0, 0.0, 0.0, 0.0, -1.0, 0.0, 1.0]);
+    // the 3×1 image is written 3×2 (Mitsuba up-samples images below 2×2), its row repeated
+    let file = e.xml.parent().unwrap().join(tint.param("string", "filename").unwrap());
+    let written = decode(&file);
+    assert_eq!((written.width, written.height), (3, 2));
+    assert_eq!(written.texels[..3], written.texels[3..]);
+    assert_eq!(written.texels[..3], image.pixels[..]);
+    // the bowl's tessellated hemispheres carry no uv: the mean colour, with a note
+    let stderr = String::from_utf8_lossy(&e.output.stderr);
+    assert!(stderr.contains("bowl") && stderr.contains("mean colour"), "{stderr}");
+    let bowl = e.shapes("ply").into_iter().find(|s| e.bsdf_of(s).attr("type") == Some("twosided")).unwrap();
+    let mean = floats(e.bsdf_of(bowl).kids("bsdf").next().unwrap().param("rgb", "reflectance").unwrap());
+    assert!((mean[0] - 0.5).abs() < 1e-6 && (mean[1] - 0.7 / 3.0).abs() < 1e-6, "{mean:?}");
+    // the map: rotated 90° about +Y (+Z to +X), with its scale
+    let env = e.root.kids("emitter").next().unwrap();
+    assert_eq!(env.attr("type"), Some("envmap"));
+    assert_eq!(env.param("float", "scale"), Some("0.5"));
+    let m = matrix(env, "to_world");
+    let close = |a: &[f32], b: &[f32]| a.iter().zip(b).all(|(x, y)| (x - y).abs() < 1e-6);
+    assert!(close(&m[..12], &[0.0, 0.0, 1.0, 0.0, 0.0, 1.0, 0.0, 0.0, -1.0, 0.0, 0.0, 0.0]), "{m:?}");
+    let map = decode(&e.xml.parent().unwrap().join(env.param("string", "filename").unwrap()));
+    assert!(map.texels.iter().all(|t| *t == glam::Vec3::splat(2.0)));
+}

@@ -12,7 +12,8 @@ pub struct ExportArgs {
     /// Target format: `mitsuba` (Mitsuba 3 XML; see docs/mitsuba-export.md).
     #[arg(long, value_parser = ["mitsuba"], default_value = "mitsuba")]
     pub format: String,
-    /// Output file (.xml); mesh files go to a folder beside it, `<name>-meshes/`.
+    /// Output file (.xml); mesh files go to a folder beside it, `<name>-meshes/`, image files
+    /// (textures, the environment map) to `<name>-textures/`.
     #[arg(short, long)]
     pub output: PathBuf,
     /// Samples per pixel, written as the XML default `spp` (default from the scene file).
@@ -41,7 +42,7 @@ pub fn run(args: &ExportArgs) -> Result<(), CliError> {
         return Err(CliError::BadInput("--spp 0: at least one sample per pixel".into()));
     }
     let stem = args.output.file_stem().map_or_else(|| "scene".into(), |s| s.to_string_lossy().into_owned());
-    let mut opts = mitsuba::Options::from_scene(&scene, &format!("{stem}-meshes"));
+    let mut opts = mitsuba::Options::from_scene(&scene, &stem);
     opts.spp = args.spp.unwrap_or(opts.spp);
     opts.max_depth = args.max_depth.unwrap_or(opts.max_depth);
     opts.resolution = args.resolution.unwrap_or(opts.resolution);
@@ -51,11 +52,11 @@ pub fn run(args: &ExportArgs) -> Result<(), CliError> {
     let out = mitsuba::export(&scene, &opts);
 
     // Stage every file first and publish the XML last: a failure never leaves an XML file that
-    // refers to missing meshes.
+    // refers to missing meshes or images.
     let failure = |e: crate::output::OutputError| CliError::Failure(e.to_string());
     let folder = args.output.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
     let mut staged = Vec::new();
-    for mesh in &out.meshes {
+    for mesh in out.meshes.iter().chain(&out.textures) {
         let path = folder.join(&mesh.path);
         if let Some(dir) = path.parent() {
             std::fs::create_dir_all(dir).map_err(|e| {
@@ -82,7 +83,11 @@ pub fn run(args: &ExportArgs) -> Result<(), CliError> {
             0 => String::new(),
             n => format!(" and {n} mesh file(s) in {}", folder.join(&opts.mesh_folder).display()),
         };
-        eprintln!("export: Mitsuba 3 scene -> {}{meshes}", args.output.display());
+        let images = match out.textures.len() {
+            0 => String::new(),
+            n => format!(" and {n} image file(s) in {}", folder.join(&opts.texture_folder).display()),
+        };
+        eprintln!("export: Mitsuba 3 scene -> {}{meshes}{images}", args.output.display());
     }
     Ok(())
 }

@@ -11,12 +11,13 @@
 //! | quad | `rectangle` with `to_world` |
 //! | polygon, mesh triangles | flat `ply` mesh (`face_normals`); a mesh with OBJ `vn`: smooth vertex normals |
 //! | diffuse | `twosided` + `diffuse` (a checker on an axis-aligned quad: `checkerboard`) |
+//! | image texture (diffuse colour, mirror tint) | `bitmap` of the linear texels as EXR, `raw`, `to_uv` per shape kind |
 //! | mirror | `twosided` + `conductor` / `roughconductor` (`material="none"`, GGX, α = roughness²) |
 //! | dielectric | `dielectric` / `roughdielectric`, `int_ior` = inside (opposite the normal), `ext_ior` = outside |
 //! | absorption | `homogeneous` interior/exterior media (pure absorbers) with `volpath` |
 //! | point / quad / sphere light | `point` / `rectangle` + `area` / `sphere` + `area` |
 //! | emissive surface (two-sided) | its shape + one-sided `area` emitter |
-//! | environment light / background | `constant` emitter |
+//! | environment light / background | `constant` emitter; with a map `envmap` (the map resampled) |
 //! | camera | `perspective` (`thinlens` with an aperture), `fov_axis="y"`, `hdrfilm`, `box` filter |
 //! | `max_depth` d (bounces) | `max_depth` d + 1 (path segments) |
 //!
@@ -24,10 +25,14 @@
 //! single precision), so nothing is rounded on the way.
 
 use super::ExtraFile;
+use crate::geometry::texture_frame;
 use crate::geometry::{Disk, Polygon, Quad, Shape, Sphere};
+use crate::image::Image;
+use crate::light::EnvironmentMap;
 use crate::light::Light;
 use crate::material::{Bsdf, Material, Texture};
 use crate::scene::{Primitive, Scene};
+use crate::texture::{Filter, ImageMap, ImageTexture, Wrap};
 use glam::{DVec3, Vec3};
 use std::collections::BTreeSet;
 use std::fmt::Write as _;
@@ -78,31 +83,39 @@ pub struct Options {
     pub resolution: (u32, u32),
     /// Folder, relative to the XML file, for mesh files (written with `/` in the XML).
     pub mesh_folder: String,
+    /// Folder, relative to the XML file, for image files: textures and environment maps.
+    pub texture_folder: String,
 }
 
 impl Options {
     /// The scene's own settings (samples, depth, resolution) with the `path` integrator: the
-    /// depth of `[render.path] max_depth`, else the default depth of vitrum's `path`.
-    pub fn from_scene(scene: &Scene, mesh_folder: &str) -> Options {
+    /// depth of `[render.path] max_depth`, else the default depth of vitrum's `path`. Mesh files
+    /// go to `{stem}-meshes/`, images to `{stem}-textures/`, `stem` being the XML file's name
+    /// without `.xml`.
+    pub fn from_scene(scene: &Scene, stem: &str) -> Options {
         let path = crate::integrators::create("path").expect("`path` is registered");
         Options {
             spp: scene.settings.spp,
             max_depth: scene.settings.max_depth(path.as_ref(), None),
             integrator: MitsubaIntegrator::Path,
             resolution: (scene.camera.width, scene.camera.height),
-            mesh_folder: mesh_folder.to_string(),
+            mesh_folder: format!("{stem}-meshes"),
+            texture_folder: format!("{stem}-textures"),
         }
     }
 }
 
-/// The result of an export: the XML text, the mesh files it refers to, and what did not
-/// translate exactly (also written as comments at the top of the XML).
+/// The result of an export: the XML text, the mesh and image files it refers to, and what did
+/// not translate exactly (also written as comments at the top of the XML).
 #[derive(Clone, Debug)]
 pub struct MitsubaExport {
     /// The scene as Mitsuba 3 XML.
     pub xml: String,
     /// Mesh files (binary little-endian PLY) with paths relative to the XML file's folder.
     pub meshes: Vec<ExtraFile>,
+    /// Image files (float32 linear RGB OpenEXR: image textures and the environment map) with
+    /// paths relative to the XML file's folder.
+    pub textures: Vec<ExtraFile>,
     /// Approximations and dropped features, one sentence each.
     pub notes: Vec<String>,
 }
@@ -484,13 +497,144 @@ fn checker_on_quad(q: &Quad, shift: Vec3, color1: Vec3, color2: Vec3, size: f32)
     Some(CheckerMap { scale: (sx, sy), offset: (tx, ty), color0, color1 })
 }
 
+/// How a Mitsuba shape's texture coordinates relate to vitrum's on the same surface: vitrum's
+/// uv = `m` · Mitsuba's uv + `t` (rows of `m` give u and v). Each exported shape kind has a fixed
+/// one, measured against Mitsuba 3.9 (docs/mitsuba-export.md, "Textures").
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct UvFrame {
+    m: [[f64; 2]; 2],
+    t: [f64; 2],
+}
+
+impl UvFrame {
+    /// `rectangle` with `to_world` [u/2, v/2, n, centre]: Mitsuba's uv is ((x + 1)/2, (y + 1)/2)
+    /// of its local square, which is (a, b) of `corner + a·u + b·v`, vitrum's quad uv.
+    /// `cylinder` with `to_world` [r·t₁, r·t₂, h·axis, base]: Mitsuba's (φ/2π from local x
+    /// towards y, local z) is vitrum's (angle from t₁ towards t₂, height fraction).
+    const SAME: UvFrame = UvFrame { m: [[1.0, 0.0], [0.0, 1.0]], t: [0.0, 0.0] };
+    /// `sphere` with `to_world` [r·t₁, r·t₂, r·axis, centre]: Mitsuba's (φ/2π, θ/π from local
+    /// +z) is vitrum's (u, 1 − v).
+    const SPHERE: UvFrame = UvFrame { m: [[1.0, 0.0], [0.0, -1.0]], t: [0.0, 1.0] };
+    /// `disk` with `to_world` [r·t₁, r·t₂, n, centre]: Mitsuba's (radius fraction, φ/2π) is
+    /// vitrum's (v = 1 − radius fraction, u = angle): vitrum u = Mitsuba v, v = 1 − Mitsuba u.
+    const DISK: UvFrame = UvFrame { m: [[0.0, 1.0], [-1.0, 0.0]], t: [0.0, 1.0] };
+}
+
+/// Mitsuba's `bitmap` `to_uv` for `image` on a shape with uv frame `frame`, as the images of
+/// the uv axes x, y and of the origin (2-D, in the xy plane).
+///
+/// vitrum reads the image at st = uv·scale + offset, s from the left edge and t **up** from the
+/// bottom edge; Mitsuba's bitmap reads the image at (x, y) with y **down** from the top row
+/// (measured: uv (0, 0) is the top-left texel). So (x, y) = (s, 1 − t) with st from vitrum's uv,
+/// itself `frame` of Mitsuba's uv.
+fn bitmap_to_uv(image: &ImageTexture, frame: UvFrame) -> (DVec3, DVec3, DVec3) {
+    let (su, sv) = (image.scale.x as f64, image.scale.y as f64);
+    let (ou, ov) = (image.offset.x as f64, image.offset.y as f64);
+    let UvFrame { m, t } = frame;
+    let x = DVec3::new(su * m[0][0], -sv * m[1][0], 0.0);
+    let y = DVec3::new(su * m[0][1], -sv * m[1][1], 0.0);
+    let origin = DVec3::new(su * t[0] + ou, 1.0 - ov - sv * t[1], 0.0);
+    (x, y, origin)
+}
+
+/// The texels of `map` as an image for Mitsuba's `bitmap`, which up-samples (with a tent
+/// filter) images narrower or lower than 2 texels: such images get their one column or row
+/// repeated, which reads the same under nearest and bilinear lookups and either wrap mode.
+fn bitmap_texels(map: &ImageMap) -> Image {
+    let (w, h) = (map.width.max(2), map.height.max(2));
+    let mut image = Image::new(w, h);
+    for y in 0..h {
+        for x in 0..w {
+            image.pixels[y * w + x] = map.texel(x.min(map.width - 1), y.min(map.height - 1));
+        }
+    }
+    image
+}
+
+/// At most this many texels in an environment map written resampled (see [`envmap_texels`]).
+const ENVMAP_TEXEL_BUDGET: usize = 1 << 21;
+
+/// The largest resampling factor of environment maps.
+const ENVMAP_MAX_FACTOR: usize = 4;
+
+/// vitrum's environment map as texels for Mitsuba's `envmap`, times `tint`, and the factor k
+/// it was resampled by (1: the texels as they are).
+///
+/// vitrum's map is piecewise constant (the texel a direction falls in). Mitsuba's interpolates
+/// bilinearly between grid points, measured on 3.9.1: column i' of a W'-wide image at
+/// u = (i' + ½)/W' (texel centres, as vitrum's), row j' of an H'-high image at v = j'/(H' − 1)
+/// (the first and last rows on the poles, unlike vitrum's centres at (j + ½)/H). Written k
+/// times finer, W' = k·W columns and H' = k·H + 1 rows, each grid point holding vitrum's
+/// texel at its direction (a row on a texel edge, every k-th, the mean of the two rows it
+/// separates), Mitsuba's map equals vitrum's except within 1/(2k) texel of texel edges, where
+/// it ramps linearly across the edge (symmetrically, so the power is the same to first order).
+/// Maps too large to resample within [`ENVMAP_TEXEL_BUDGET`] are written as they are (k = 1).
+fn envmap_texels(map: &ImageMap, tint: Vec3) -> (Image, usize) {
+    let (w, h) = (map.width, map.height);
+    let k = ((ENVMAP_TEXEL_BUDGET / (w * h).max(1)) as f64).sqrt().floor() as usize;
+    let k = k.min(ENVMAP_MAX_FACTOR);
+    if k < 2 {
+        let mut image = Image::new(w, h);
+        for (p, t) in image.pixels.iter_mut().zip(&map.texels) {
+            *p = *t * tint;
+        }
+        return (image, 1);
+    }
+    let (wk, hk) = (k * w, k * h + 1);
+    let mut image = Image::new(wk, hk);
+    for j in 0..hk {
+        let row = |r: usize| -> Vec<Vec3> { (0..w).map(|i| map.texel(i, r.min(h - 1))).collect() };
+        let values = if j % k == 0 {
+            // On the edge between vitrum's rows j/k − 1 and j/k (the poles: the row itself).
+            let (above, below) = (row((j / k).saturating_sub(1)), row(j / k));
+            above.iter().zip(&below).map(|(a, b)| 0.5 * (*a + *b)).collect()
+        } else {
+            row(j / k)
+        };
+        for i in 0..wk {
+            image.pixels[j * wk + i] = values[i / k] * tint;
+        }
+    }
+    (image, k)
+}
+
 /// Everything that belongs to one exported shape element.
 enum Geometry {
-    Sphere { center: Vec3, radius: f32 },
-    Cylinder { p0: Vec3, p1: Vec3, radius: f32 },
+    Sphere { center: Vec3, radius: f32, axis: Vec3 },
+    Cylinder { p0: Vec3, p1: Vec3, radius: f32, axis: Vec3, height: f32 },
     Disk { center: Vec3, normal: Vec3, radius: f32 },
     Rectangle { corner: Vec3, u: Vec3, v: Vec3 },
     Mesh { mesh: Mesh, smooth: bool },
+}
+
+/// How to write a texture on one shape: the checkerboard on an axis-aligned quad, and the uv
+/// frame of the shape kind (`None` for meshes, which carry no texture coordinates).
+struct TextureSite {
+    checker: Option<CheckerMap>,
+    uv: Option<UvFrame>,
+    /// The object's name, for notes.
+    object: String,
+}
+
+/// The material's colour texture when it varies over the surface (a diffuse colour or a
+/// mirror tint).
+fn varying_texture(m: &Material) -> Option<&Texture> {
+    match &m.bsdf {
+        Bsdf::Diffuse(t) | Bsdf::Mirror { color: t, .. } if t.varies() => Some(t),
+        _ => None,
+    }
+}
+
+/// The mean colour of a texture (a checker's two colours equally, an image's texels).
+fn mean_color(t: &Texture) -> Vec3 {
+    match t {
+        Texture::Constant(c) => *c,
+        Texture::Checker { color1, color2, .. } => 0.5 * (*color1 + *color2),
+        Texture::Image(image) => {
+            let texels = &image.map.texels;
+            texels.iter().sum::<Vec3>() / texels.len().max(1) as f32
+        }
+    }
 }
 
 struct Exporter<'a> {
@@ -498,6 +642,9 @@ struct Exporter<'a> {
     opts: &'a Options,
     notes: Vec<String>,
     meshes: Vec<ExtraFile>,
+    textures: Vec<ExtraFile>,
+    /// Image files written so far: the map (by address) and its path in the XML.
+    image_files: Vec<(*const ImageMap, String)>,
     /// Shared BSDFs referenced by shapes (material indices).
     used_materials: BTreeSet<usize>,
     /// Absorption coefficients of media, by id number.
@@ -513,6 +660,8 @@ impl<'a> Exporter<'a> {
             opts,
             notes: Vec::new(),
             meshes: Vec::new(),
+            textures: Vec::new(),
+            image_files: Vec::new(),
             used_materials: BTreeSet::new(),
             media: Vec::new(),
             with_media: false,
@@ -587,7 +736,7 @@ impl<'a> Exporter<'a> {
         xml.out.push_str(&shapes.out);
         xml.out.push_str(&emitters.out);
         xml.close("scene");
-        MitsubaExport { xml: xml.out, meshes: self.meshes, notes: self.notes }
+        MitsubaExport { xml: xml.out, meshes: self.meshes, textures: self.textures, notes: self.notes }
     }
 
     /// Notes on materials that do not translate exactly, and whether media are needed.
@@ -744,8 +893,9 @@ impl<'a> Exporter<'a> {
         }
     }
 
-    /// One BSDF element (with `id` when shared).
-    fn bsdf(&mut self, x: &mut Xml, m: &Material, id: Option<&str>, checker: Option<&CheckerMap>) {
+    /// One BSDF element (with `id` when shared; `site` for a texture that varies, written inline
+    /// in its shape).
+    fn bsdf(&mut self, x: &mut Xml, m: &Material, id: Option<&str>, site: Option<&TextureSite>) {
         let with_id = |kind: &'static str| -> Vec<(&'static str, String)> {
             let mut a = vec![("type", kind.to_string())];
             if let Some(id) = id {
@@ -761,45 +911,7 @@ impl<'a> Exporter<'a> {
             Bsdf::Diffuse(texture) => {
                 open(x, with_id("twosided"));
                 x.open("bsdf", &[("type", "diffuse")]);
-                match texture {
-                    Texture::Constant(c) => x.rgb("reflectance", *c),
-                    Texture::Checker { color1, color2, size } => match checker {
-                        Some(map) => {
-                            x.comment(&format!(
-                                "vitrum's 3-D checker (cells of {} scene units) on this axis-aligned quad, \
-                                 mapped exactly onto its uv",
-                                num(*size)
-                            ));
-                            x.open("texture", &[("type", "checkerboard"), ("name", "reflectance")]);
-                            x.rgb("color0", map.color0);
-                            x.rgb("color1", map.color1);
-                            x.affine(
-                                "to_uv",
-                                DVec3::new(map.scale.0, 0.0, 0.0),
-                                DVec3::new(0.0, map.scale.1, 0.0),
-                                DVec3::Z,
-                                DVec3::new(map.offset.0, map.offset.1, 0.0),
-                            );
-                            x.close("texture");
-                        }
-                        None => {
-                            self.note(format!(
-                                "material `{}`: the 3-D world-space checker texture is written as its mean colour \
-                                 where it lies on anything but an axis-aligned quad (Mitsuba's checkerboard is \
-                                 uv-based)",
-                                m.name
-                            ));
-                            x.comment("vitrum's 3-D checker texture, as its mean colour");
-                            x.rgb("reflectance", 0.5 * (*color1 + *color2));
-                        }
-                    },
-                    #[allow(unreachable_patterns)]
-                    other => {
-                        // New texture kinds: extend here.
-                        self.note(format!("material `{}`: texture {other:?} is written as grey 0.5", m.name));
-                        x.rgb("reflectance", Vec3::splat(0.5));
-                    }
-                }
+                self.texture(x, "reflectance", m, texture, site);
                 x.close("bsdf");
                 x.close("bsdf");
             }
@@ -813,7 +925,7 @@ impl<'a> Exporter<'a> {
                     x.open("bsdf", &[("type", "conductor")]);
                 }
                 x.string("material", "none");
-                x.rgb("specular_reflectance", color.constant().unwrap_or(Vec3::ONE));
+                self.texture(x, "specular_reflectance", m, color, site);
                 x.close("bsdf");
                 x.close("bsdf");
             }
@@ -849,6 +961,104 @@ impl<'a> Exporter<'a> {
         }
     }
 
+    /// The colour property `name` of material `m` from `texture` (a constant, or a texture
+    /// element when `site` says how to place it on its shape).
+    fn texture(
+        &mut self,
+        x: &mut Xml,
+        name: &str,
+        m: &Material,
+        texture: &Texture,
+        site: Option<&TextureSite>,
+    ) {
+        let object = site.map_or("", |s| s.object.as_str());
+        match texture {
+            Texture::Constant(c) => x.rgb(name, *c),
+            Texture::Checker { color1, color2, size } => match site.and_then(|s| s.checker.as_ref()) {
+                Some(map) => {
+                    x.comment(&format!(
+                        "vitrum's 3-D checker (cells of {} scene units) on this axis-aligned quad, \
+                         mapped exactly onto its uv",
+                        num(*size)
+                    ));
+                    x.open("texture", &[("type", "checkerboard"), ("name", name)]);
+                    x.rgb("color0", map.color0);
+                    x.rgb("color1", map.color1);
+                    x.affine(
+                        "to_uv",
+                        DVec3::new(map.scale.0, 0.0, 0.0),
+                        DVec3::new(0.0, map.scale.1, 0.0),
+                        DVec3::Z,
+                        DVec3::new(map.offset.0, map.offset.1, 0.0),
+                    );
+                    x.close("texture");
+                }
+                None => {
+                    self.note(format!(
+                        "material `{}`: the 3-D world-space checker texture is written as its mean colour \
+                         where it lies on anything but an axis-aligned quad (Mitsuba's checkerboard is \
+                         uv-based)",
+                        m.name
+                    ));
+                    x.comment("vitrum's 3-D checker texture, as its mean colour");
+                    x.rgb(name, 0.5 * (*color1 + *color2));
+                }
+            },
+            Texture::Image(image) => {
+                let file = match site.and_then(|s| s.uv) {
+                    Some(frame) => self.texture_file(&image.map).map(|f| (f, frame)),
+                    None => {
+                        self.note(format!(
+                            "{object}: the image texture {} of material `{}` is written as the image's mean \
+                             colour (the exported mesh has no texture coordinates)",
+                            image.map.file, m.name
+                        ));
+                        None
+                    }
+                };
+                let Some((file, frame)) = file else {
+                    x.comment(&format!("image texture {}, as its mean colour", image.map.file));
+                    x.rgb(name, mean_color(texture));
+                    return;
+                };
+                x.comment(&format!(
+                    "image texture {} ({}x{}, {}): its linear texels as float32 EXR (raw: no colour conversion); \
+                     to_uv maps this shape's uv to vitrum's image coordinates (scale, offset, t up)",
+                    image.map.file,
+                    image.map.width,
+                    image.map.height,
+                    image.map.colorspace.name()
+                ));
+                x.open("texture", &[("type", "bitmap"), ("name", name)]);
+                x.string("filename", &file);
+                x.boolean("raw", true);
+                x.string(
+                    "filter_type",
+                    match image.filter {
+                        Filter::Nearest => "nearest",
+                        Filter::Bilinear => "bilinear",
+                    },
+                );
+                x.string(
+                    "wrap_mode",
+                    match image.wrap {
+                        Wrap::Repeat => "repeat",
+                        Wrap::Clamp => "clamp",
+                    },
+                );
+                let (ux, uy, origin) = bitmap_to_uv(image, frame);
+                x.affine("to_uv", ux, uy, DVec3::Z, origin);
+                x.close("texture");
+            }
+            #[allow(unreachable_patterns)]
+            other => {
+                // New texture kinds: extend here.
+                self.note(format!("material `{}`: texture {other:?} is written as grey 0.5", m.name));
+                x.rgb(name, Vec3::splat(0.5));
+            }
+        }
+    }
+
     /// The id of the medium with absorption `sigma`, added if new.
     fn medium(&mut self, sigma: Vec3) -> String {
         let i = match self.media.iter().position(|&m| m == sigma) {
@@ -870,6 +1080,39 @@ impl<'a> Exporter<'a> {
             contents: mesh.to_ply(),
         });
         format!("{}/{file}", self.opts.mesh_folder)
+    }
+
+    /// Store an image file (float32 linear RGB EXR) named after `name` and return its path as
+    /// the XML refers to it; `None` (with a note) if it cannot be encoded.
+    fn image_file(&mut self, name: &str, image: &Image) -> Option<String> {
+        let base = slug(name);
+        let file =
+            format!("{:03}-{}.exr", self.textures.len(), if base.is_empty() { "image" } else { &base });
+        let path = PathBuf::from(&self.opts.texture_folder).join(&file);
+        match crate::output::exr::encode_exr_rgb(&path, image) {
+            Ok(contents) => {
+                self.textures.push(ExtraFile { path, contents });
+                Some(format!("{}/{file}", self.opts.texture_folder))
+            }
+            Err(e) => {
+                self.note(format!("{name}: the image could not be encoded ({e})"));
+                None
+            }
+        }
+    }
+
+    /// The file of an image texture's texels, written once per map.
+    fn texture_file(&mut self, map: &std::sync::Arc<ImageMap>) -> Option<String> {
+        let key = std::sync::Arc::as_ptr(map);
+        if let Some((_, path)) = self.image_files.iter().find(|(k, _)| *k == key) {
+            return Some(path.clone());
+        }
+        let stem = std::path::Path::new(&map.file)
+            .file_stem()
+            .map_or_else(|| "texture".to_string(), |s| s.to_string_lossy().into_owned());
+        let path = self.image_file(&stem, &bitmap_texels(map))?;
+        self.image_files.push((key, path.clone()));
+        Some(path)
     }
 
     /// Where a primitive is drawn: its position at mid-shutter.
@@ -896,11 +1139,15 @@ impl<'a> Exporter<'a> {
                     Some(mesh) => Geometry::Mesh { mesh, smooth: true },
                     None => continue,
                 },
-                Shape::Sphere(s) => Geometry::Sphere { center: s.center() + shift, radius: s.radius() },
+                Shape::Sphere(s) => {
+                    Geometry::Sphere { center: s.center() + shift, radius: s.radius(), axis: s.axis() }
+                }
                 Shape::Cylinder(c) => Geometry::Cylinder {
                     p0: c.base() + shift,
                     p1: c.base() + c.axis() * c.height() + shift,
                     radius: c.radius(),
+                    axis: c.axis(),
+                    height: c.height(),
                 },
                 Shape::Disk(d) if d.inner_radius() > 0.0 => {
                     Geometry::Mesh { mesh: annulus(d, shift), smooth: false }
@@ -958,25 +1205,59 @@ impl<'a> Exporter<'a> {
 
     /// One `<shape>` with its BSDF, emitter and media.
     fn shape(&mut self, x: &mut Xml, prim: &Primitive, name: &str, geometry: Geometry, shift: Vec3) {
+        let material = &self.scene.materials[prim.material as usize];
+        let texture = varying_texture(material);
+        // Spheres and cylinders are placed by a frame only when an image needs their uv.
+        let image = matches!(texture, Some(Texture::Image(_)));
         let mut checker = None;
-        match &geometry {
-            Geometry::Sphere { center, radius } => {
+        let uv = match &geometry {
+            Geometry::Sphere { center, radius, axis } => {
                 x.comment(&format!("{name}: sphere"));
                 x.open("shape", &[("type", "sphere")]);
-                x.point("center", *center);
-                x.float("radius", *radius);
+                if image {
+                    x.comment("to_world [r·t1, r·t2, r·axis, centre]: Mitsuba's uv (φ/2π, θ/π) is vitrum's (u, 1 − v)");
+                    let (t1, t2) = texture_frame(*axis);
+                    let r = *radius as f64;
+                    x.affine(
+                        "to_world",
+                        t1.as_dvec3() * r,
+                        t2.as_dvec3() * r,
+                        axis.as_dvec3() * r,
+                        center.as_dvec3(),
+                    );
+                } else {
+                    x.point("center", *center);
+                    x.float("radius", *radius);
+                }
+                Some(UvFrame::SPHERE)
             }
-            Geometry::Cylinder { p0, p1, radius } => {
+            Geometry::Cylinder { p0, p1, radius, axis, height } => {
                 x.comment(&format!("{name}: cylinder wall (Mitsuba's cylinder has no caps; caps are disks)"));
                 x.open("shape", &[("type", "cylinder")]);
-                x.point("p0", *p0);
-                x.point("p1", *p1);
-                x.float("radius", *radius);
+                if image {
+                    x.comment("to_world [r·t1, r·t2, h·axis, base]: Mitsuba's uv (φ/2π, height fraction) is vitrum's");
+                    let (t1, t2) = texture_frame(*axis);
+                    let r = *radius as f64;
+                    let h = *height as f64;
+                    x.affine(
+                        "to_world",
+                        t1.as_dvec3() * r,
+                        t2.as_dvec3() * r,
+                        axis.as_dvec3() * h,
+                        p0.as_dvec3(),
+                    );
+                } else {
+                    x.point("p0", *p0);
+                    x.point("p1", *p1);
+                    x.float("radius", *radius);
+                }
+                Some(UvFrame::SAME)
             }
             Geometry::Disk { center, normal, radius } => {
                 x.comment(&format!("{name}: disk (Mitsuba's unit disk in the xy plane, normal +z)"));
                 x.open("shape", &[("type", "disk")]);
-                let (t1, t2) = frame(*normal);
+                // vitrum's texture frame: Mitsuba's disk uv is then a fixed map of vitrum's.
+                let (t1, t2) = texture_frame(*normal);
                 let r = *radius as f64;
                 x.affine(
                     "to_world",
@@ -985,6 +1266,7 @@ impl<'a> Exporter<'a> {
                     normal.as_dvec3(),
                     center.as_dvec3(),
                 );
+                Some(UvFrame::DISK)
             }
             Geometry::Rectangle { corner, u, v } => {
                 x.comment(&format!(
@@ -995,11 +1277,12 @@ impl<'a> Exporter<'a> {
                 let n = u.cross(v).normalize_or_zero();
                 let centre = corner.as_dvec3() + 0.5 * (u + v);
                 x.affine("to_world", 0.5 * u, 0.5 * v, n, centre);
-                if let (Shape::Quad(q), Bsdf::Diffuse(Texture::Checker { color1, color2, size })) =
-                    (&prim.shape, &self.scene.materials[prim.material as usize].bsdf)
+                if let (Shape::Quad(q), Some(Texture::Checker { color1, color2, size })) =
+                    (&prim.shape, texture)
                 {
                     checker = checker_on_quad(q, shift, *color1, *color2, *size);
                 }
+                Some(UvFrame::SAME)
             }
             Geometry::Mesh { mesh, smooth } => {
                 let what = match prim.shape {
@@ -1013,8 +1296,9 @@ impl<'a> Exporter<'a> {
                 x.open("shape", &[("type", "ply")]);
                 x.string("filename", &file);
                 x.boolean("face_normals", !smooth);
+                None
             }
-        }
+        };
         // A two-sided emissive sphere around the camera is seen from inside: emit inwards.
         let flip = match (prim.light.map(|l| &self.scene.lights[l as usize]), &prim.shape) {
             (Some(Light::Surface { .. }), Shape::Sphere(s)) => {
@@ -1025,9 +1309,11 @@ impl<'a> Exporter<'a> {
         if flip {
             x.boolean("flip_normals", true);
         }
-        let m = &self.scene.materials[prim.material as usize];
-        if checker.is_some() {
-            self.bsdf(x, m, None, checker.as_ref());
+        let m = material;
+        if texture.is_some() {
+            // A varying texture depends on the shape (its uv frame, a checker's cells): inline.
+            let site = TextureSite { checker, uv, object: name.to_string() };
+            self.bsdf(x, m, None, Some(&site));
         } else {
             self.used_materials.insert(prim.material as usize);
             x.leaf("ref", &[("id", &self.material_id(prim.material as usize))]);
@@ -1071,6 +1357,48 @@ impl<'a> Exporter<'a> {
         x.close("shape");
     }
 
+    /// An environment map light as Mitsuba's `envmap`: the map resampled for Mitsuba's bilinear
+    /// grid (see [`envmap_texels`]) as a float32 EXR, the scale `radiance` (as `scale` when grey,
+    /// else multiplied into the texels) and the rotation about +Y as `to_world`.
+    fn envmap(&mut self, x: &mut Xml, radiance: Vec3, map: &EnvironmentMap) {
+        let grey = radiance.x == radiance.y && radiance.y == radiance.z;
+        let tint = if grey { Vec3::ONE } else { radiance };
+        let (texels, k) = envmap_texels(map.image(), tint);
+        let (w, h) = (map.image().width, map.image().height);
+        if k == 1 {
+            self.note(format!(
+                "environment map {} ({w}x{h}): written as it is (too large to resample); Mitsuba interpolates \
+                 it bilinearly with its first and last rows on the poles, vitrum reads the nearest texel with \
+                 texel centres at (j + 1/2)/{h}: they differ within a texel",
+                map.image().file
+            ));
+        } else {
+            self.note(format!(
+                "environment map {} ({w}x{h}): vitrum reads the nearest texel, Mitsuba's envmap interpolates \
+                 bilinearly; the map is written resampled {k}x ({}x{}) so that the two differ only within \
+                 1/{} texel of texel edges (a linear ramp across each edge)",
+                map.image().file,
+                texels.width,
+                texels.height,
+                2 * k
+            ));
+        }
+        let Some(file) = self.image_file("environment", &texels) else { return };
+        x.comment(&format!(
+            "environment map {} ({w}x{h}, the direction layout of Mitsuba's envmap, +Y up), resampled {k}x \
+             for Mitsuba's bilinear grid; rotated {} degrees about +Y",
+            map.image().file,
+            num(map.rotation_degrees())
+        ));
+        x.open("emitter", &[("type", "envmap")]);
+        x.string("filename", &file);
+        x.float("scale", if grey { radiance.x } else { 1.0 });
+        let angle = (map.rotation_degrees() as f64).to_radians();
+        let (c, s) = (angle.cos(), angle.sin());
+        x.affine("to_world", DVec3::new(c, 0.0, -s), DVec3::Y, DVec3::new(s, 0.0, c), DVec3::ZERO);
+        x.close("emitter");
+    }
+
     /// Lights without a surface of their own, and the background.
     fn emitters(&mut self, x: &mut Xml) {
         for light in &self.scene.lights {
@@ -1084,8 +1412,9 @@ impl<'a> Exporter<'a> {
                 }
                 // Written with their surface (the primitive that carries the light).
                 Light::Quad { .. } | Light::Sphere { .. } | Light::Surface { .. } => {}
+                Light::Environment { radiance, map: Some(map) } => self.envmap(x, *radiance, map),
                 // The compiled scene's background is the environment's radiance: written below.
-                Light::Environment { .. } => {}
+                Light::Environment { map: None, .. } => {}
                 #[allow(unreachable_patterns)]
                 other => {
                     // New light kinds: extend here.
@@ -1094,7 +1423,9 @@ impl<'a> Exporter<'a> {
             }
         }
         let background = self.scene.settings.background;
-        if background != Vec3::ZERO {
+        let map = self.scene.lights.iter().any(|l| matches!(l, Light::Environment { map: Some(_), .. }));
+        // With a map the background is the map's mean radiance: the envmap is written instead.
+        if background != Vec3::ZERO && !map {
             x.comment("environment light (render.background): radiance of every ray that leaves the scene");
             x.open("emitter", &[("type", "constant")]);
             x.rgb("radiance", background);
@@ -1154,6 +1485,172 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// Mitsuba 3's texture coordinates of a point `p` on a shape whose `to_world` has the
+    /// columns `x`, `y`, `z` and origin `o` (sphere.cpp, disk.cpp, cylinder.cpp; measured with
+    /// the `aov` integrator on 3.9.1).
+    fn mitsuba_uv(kind: &str, p: Vec3, (x, y, z, o): (Vec3, Vec3, Vec3, Vec3)) -> (f64, f64) {
+        let m = glam::Mat3::from_cols(x, y, z).inverse();
+        let l = (m * (p - o)).as_dvec3();
+        let phi = l.y.atan2(l.x).rem_euclid(std::f64::consts::TAU) / std::f64::consts::TAU;
+        match kind {
+            "sphere" => (phi, (l.z / l.length()).clamp(-1.0, 1.0).acos() / std::f64::consts::PI),
+            "disk" => ((l.x * l.x + l.y * l.y).sqrt(), phi),
+            "cylinder" => (phi, l.z),
+            _ => ((l.x + 1.0) / 2.0, (l.y + 1.0) / 2.0),
+        }
+    }
+
+    /// The uv frames turn Mitsuba's uv on the exported shape into vitrum's uv at the same point,
+    /// for spheres, disks and cylinders with tilted axes and for quads.
+    #[test]
+    fn uv_frames_map_mitsubas_uv_to_vitrums() {
+        use crate::geometry::{Cylinder, Ray};
+        let apply = |f: UvFrame, (a, b): (f64, f64)| {
+            (f.m[0][0] * a + f.m[0][1] * b + f.t[0], f.m[1][0] * a + f.m[1][1] * b + f.t[1])
+        };
+        let mut rng = rand_pcg::Pcg32::new(3, 5);
+        use rand::RngExt;
+        for _ in 0..200 {
+            let axis = Vec3::new(
+                rng.random_range(-1.0..1.0),
+                rng.random_range(-1.0..1.0),
+                rng.random_range(-1.0..1.0),
+            )
+            .normalize();
+            let c = Vec3::new(0.3, -0.2, 0.5);
+            let dir = -Vec3::new(
+                rng.random_range(-1.0..1.0),
+                rng.random_range(-1.0..1.0),
+                rng.random_range(-1.0..1.0),
+            )
+            .normalize();
+            let (t1, t2) = texture_frame(axis);
+            let circle = |a: f32| a.cos() * t1 + a.sin() * t2;
+            // sphere of radius 0.7 around c with its pole along `axis`
+            let sphere = Sphere::clipped(c, 0.7, axis, f32::INFINITY);
+            let ray = Ray::new(c - 3.0 * dir, dir);
+            let hit = sphere.surface(&ray, sphere.intersect(&ray, 0.0, 10.0).unwrap());
+            let mi = mitsuba_uv("sphere", hit.p, (0.7 * t1, 0.7 * t2, 0.7 * axis, c));
+            let (u, v) = apply(UvFrame::SPHERE, mi);
+            assert!(
+                (u - hit.uv.x as f64).abs() < 1e-4 && (v - hit.uv.y as f64).abs() < 1e-4,
+                "sphere {mi:?} {}",
+                hit.uv
+            );
+            // disk of radius 0.6 facing `axis`, hit at a random point
+            let disk = Disk::new(c, axis, 0.6, 0.0);
+            let q = c + 0.6
+                * rng.random_range(0.05f32..0.95)
+                * circle(rng.random_range(0.0..std::f32::consts::TAU)).normalize();
+            let ray = Ray::new(q + axis, -axis);
+            let hit = disk.surface(&ray, disk.intersect(&ray, 0.0, 10.0).unwrap());
+            let mi = mitsuba_uv("disk", hit.p, (0.6 * t1, 0.6 * t2, axis, c));
+            let (u, v) = apply(UvFrame::DISK, mi);
+            assert!(
+                (u - hit.uv.x as f64).abs() < 1e-4 && (v - hit.uv.y as f64).abs() < 1e-4,
+                "disk {mi:?} {}",
+                hit.uv
+            );
+            // cylinder wall of radius 0.4, height 1.3 along `axis`, hit from outside
+            let cyl = Cylinder::new(c, axis, 0.4, 1.3);
+            let side = circle(rng.random_range(0.0..std::f32::consts::TAU)).normalize();
+            let q = c + rng.random_range(0.05f32..1.25) * axis + 0.4 * side;
+            let ray = Ray::new(q + side, -side);
+            let hit = cyl.surface(&ray, cyl.intersect(&ray, 0.0, 10.0).unwrap());
+            let mi = mitsuba_uv("cylinder", hit.p, (0.4 * t1, 0.4 * t2, 1.3 * axis, c));
+            let (u, v) = apply(UvFrame::SAME, mi);
+            assert!(
+                (u - hit.uv.x as f64).abs() < 1e-4 && (v - hit.uv.y as f64).abs() < 1e-4,
+                "cylinder {mi:?} {}",
+                hit.uv
+            );
+        }
+    }
+
+    /// A bitmap lookup through the exported `to_uv` reads the texel vitrum's lookup reads, for
+    /// scaled, offset and clamped textures (Mitsuba's nearest lookup: texel ⌊x·W⌋, ⌊y·H⌋ with y
+    /// down from the top row).
+    #[test]
+    fn bitmap_to_uv_reads_vitrums_texels() {
+        use crate::texture::ColorSpace;
+        let (w, h) = (5usize, 3usize);
+        let texels = (0..w * h).map(|i| Vec3::new(i as f32, 0.0, 1.0)).collect();
+        let map = std::sync::Arc::new(ImageMap {
+            width: w,
+            height: h,
+            texels,
+            file: "t".into(),
+            colorspace: ColorSpace::Linear,
+        });
+        let mut rng = rand_pcg::Pcg32::new(9, 1);
+        use rand::RngExt;
+        for wrap in [Wrap::Repeat, Wrap::Clamp] {
+            let image = ImageTexture {
+                map: map.clone(),
+                scale: glam::Vec2::new(1.7, 0.6),
+                offset: glam::Vec2::new(-0.3, 0.45),
+                wrap,
+                filter: Filter::Nearest,
+            };
+            for frame in [UvFrame::SAME, UvFrame::SPHERE, UvFrame::DISK] {
+                let (ux, uy, o) = bitmap_to_uv(&image, frame);
+                for _ in 0..500 {
+                    let (a, b) = (rng.random_range(0.0..1.0f64), rng.random_range(0.0..1.0f64));
+                    let uv = glam::Vec2::new(
+                        (frame.m[0][0] * a + frame.m[0][1] * b + frame.t[0]) as f32,
+                        (frame.m[1][0] * a + frame.m[1][1] * b + frame.t[1]) as f32,
+                    );
+                    let (x, y) = (ux.x * a + uy.x * b + o.x, ux.y * a + uy.y * b + o.y);
+                    let index = |c: f64, n: usize| match wrap {
+                        Wrap::Repeat => ((c * n as f64).floor() as i64).rem_euclid(n as i64) as usize,
+                        Wrap::Clamp => ((c * n as f64).floor() as i64).clamp(0, n as i64 - 1) as usize,
+                    };
+                    let (i, j) = (index(x, w), index(y, h));
+                    // Points within roundoff of a texel edge may fall either way.
+                    let near_edge = |c: f64, n: usize| ((c * n as f64) - (c * n as f64).round()).abs() < 1e-4;
+                    if near_edge(x, w) || near_edge(y, h) {
+                        continue;
+                    }
+                    assert_eq!(map.texel(i, j), image.lookup(uv), "{wrap:?} {frame:?} at ({a}, {b})");
+                }
+            }
+        }
+    }
+
+    /// The resampled environment map holds vitrum's radiance at Mitsuba's grid directions (rows
+    /// off texel edges) and the mean of the two rows on an edge.
+    #[test]
+    fn resampled_environment_map_matches_vitrum_on_mitsubas_grid() {
+        use crate::texture::ColorSpace;
+        let (w, h) = (8usize, 4usize);
+        let texels = (0..w * h).map(|i| Vec3::new((i % 7) as f32, (i / w) as f32, 1.0)).collect();
+        let image =
+            ImageMap { width: w, height: h, texels, file: "sky".into(), colorspace: ColorSpace::Linear };
+        let env = EnvironmentMap::new(image.clone(), 0.0);
+        let (out, k) = envmap_texels(&image, Vec3::new(1.0, 2.0, 0.5));
+        assert_eq!((k, out.width, out.height), (ENVMAP_MAX_FACTOR, k * w, k * h + 1));
+        let (pi, tau) = (std::f32::consts::PI, std::f32::consts::TAU);
+        for j in 0..out.height {
+            for i in 0..out.width {
+                let (u, v) = ((i as f32 + 0.5) / out.width as f32, j as f32 / (out.height - 1) as f32);
+                let (phi, theta) = (tau * u, pi * v);
+                let dir = Vec3::new(phi.sin() * theta.sin(), theta.cos(), -phi.cos() * theta.sin());
+                let got = out.pixels[j * out.width + i];
+                if j % k != 0 {
+                    assert_eq!(got, env.radiance(dir) * Vec3::new(1.0, 2.0, 0.5), "grid point ({i}, {j})");
+                } else {
+                    let (a, b) = ((j / k).saturating_sub(1), (j / k).min(h - 1));
+                    let mean = 0.5 * (image.texel(i / k, a) + image.texel(i / k, b));
+                    assert_eq!(got, mean * Vec3::new(1.0, 2.0, 0.5), "edge row {j}");
+                }
+            }
+        }
+        // Too large to resample: as it is.
+        let big = ImageMap { width: 2048, height: 1024, texels: vec![Vec3::ONE; 2048 * 1024], ..image };
+        let (out, k) = envmap_texels(&big, Vec3::ONE);
+        assert_eq!((k, out.width, out.height), (1, 2048, 1024));
     }
 
     #[test]

@@ -150,6 +150,22 @@ fn stage_rgb_exr(
     encode_and_stage(path, |bytes| file.write().to_buffered(bytes))
 }
 
+/// `image` as the bytes of a plain float32 RGB EXR file (ZIP-compressed scanlines, one unnamed
+/// layer, no render metadata): textures and environment maps written for other renderers.
+pub fn encode_exr_rgb(path: &Path, image: &Image) -> Result<Vec<u8>, OutputError> {
+    check_pixel_count(path, image)?;
+    let width = image.width;
+    let pixels = SpecificChannels::rgb(|p: Vec2<usize>| {
+        let c = image.pixels[p.y() * width + p.x()];
+        (c.x, c.y, c.z)
+    });
+    let layer =
+        Layer::new((image.width, image.height), LayerAttributes::default(), Encoding::SMALL_LOSSLESS, pixels);
+    let mut bytes = Cursor::new(Vec::new());
+    exr::image::Image::from_layer(layer).write().to_buffered(&mut bytes).map_err(|e| exr_error(path, e))?;
+    Ok(bytes.into_inner())
+}
+
 /// Encode an EXR file in memory with `encode`, then stage its bytes (see [`stage_bytes`]).
 fn encode_and_stage(
     path: &Path,
