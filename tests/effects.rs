@@ -19,12 +19,14 @@ const EXPECTED: &[(&str, &str)] = &[
     ("drinking-glass.toml", "soft-shadows,textures"),
     ("frosted-glass.toml", "soft-shadows,glossy,textures"),
     ("glass-bowl.toml", "textures"),
+    ("glass-in-sky.toml", "environment"),
     ("glass-of-water.toml", "dispersion,soft-shadows,textures"),
     ("hollow-spheres.toml", "textures"),
     ("motion-blur.toml", "motion-blur,textures"),
     ("shapes-gallery.toml", "soft-shadows,textures,meshes"),
     ("smooth-glass.toml", "textures,meshes"),
     ("soft-shadows.toml", "soft-shadows,textures"),
+    ("textured-box.toml", "soft-shadows,textures"),
 ];
 
 fn scenes_dir() -> PathBuf {

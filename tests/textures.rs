@@ -329,3 +329,31 @@ fn a_textured_emitter_lights_as_its_texels_would_one_by_one() {
     let right: Vec3 = (0..16).flat_map(|y| (12..16).map(move |x| y * 16 + x)).map(|i| ma[i]).sum();
     assert!(left.x > 1.3 * right.x && right.z > 1.3 * left.z, "{left} {right}");
 }
+
+#[test]
+fn an_image_on_a_mesh_needs_its_texture_coordinates() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    write_png(&d.join("t.png"), 2, 2, &[[10, 20, 30]; 4]);
+    fs::write(d.join("plain.obj"), "v -1 -1 0\nv 1 -1 0\nv 0 1 0\nf 1 2 3\n").unwrap();
+    fs::write(
+        d.join("mapped.obj"),
+        "v -1 -1 0\nv 1 -1 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0.5 1\nf 1/1 2/2 3/3\n",
+    )
+    .unwrap();
+    let scene = |obj: &str| {
+        format!(
+            "[camera]\nposition = [0.0, 0.0, 3.0]\nlook_at = [0.0, 0.0, 0.0]\nresolution = [4, 4]\n\
+             [materials.m]\ntype = \"diffuse\"\ntexture = {{ type = \"image\", file = \"t.png\" }}\n\
+             [[objects]]\nshape = \"mesh\"\nfile = \"{obj}\"\nmaterial = \"m\"\n\
+             [[lights]]\ntype = \"point\"\nposition = [0.0, 0.0, 2.0]\nintensity = 1.0\n"
+        )
+    };
+    let (code, stderr, written) = render_cli(d, &scene("plain.obj"));
+    assert_eq!(code, Some(2), "{stderr}");
+    assert!(stderr.contains("plain.obj") && stderr.contains("vt") && stderr.contains("t.png"), "{stderr}");
+    assert!(stderr.contains("objects[0].file") && !written, "{stderr}");
+    let (code, stderr, written) = render_cli(d, &scene("mapped.obj"));
+    assert_eq!(code, Some(0), "{stderr}");
+    assert!(written);
+}

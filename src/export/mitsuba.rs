@@ -1336,15 +1336,22 @@ impl<'a> Exporter<'a> {
                     x.rgb("radiance", *radiance);
                     x.close("emitter");
                 }
-                Light::Surface { radiance, .. } => {
+                Light::Surface { radiance, texture, .. } => {
                     self.note(format!(
                         "{name}: vitrum's emissive surface emits on both sides, Mitsuba's area emitter on one: \
                          written emitting {}",
                         if flip { "inwards (the camera is inside it)" } else { "along its normal" }
                     ));
+                    let radiance = match texture {
+                        Some(t) => {
+                            self.note(format!("{name}: the emission texture is written as its mean colour"));
+                            *radiance * mean_color(t)
+                        }
+                        None => *radiance,
+                    };
                     x.comment("emissive material: one-sided area emitter (vitrum's emits on both sides)");
                     x.open("emitter", &[("type", "area")]);
-                    x.rgb("radiance", *radiance);
+                    x.rgb("radiance", radiance);
                     x.close("emitter");
                 }
                 #[allow(unreachable_patterns)]

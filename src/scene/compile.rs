@@ -444,6 +444,24 @@ impl Compiler<'_> {
                     ),
                     (e, _) => e,
                 })?;
+            if let ShapeDesc::Mesh { file, .. } = &object.shape {
+                let image = match &materials[material as usize].bsdf {
+                    Bsdf::Diffuse(Texture::Image(t)) | Bsdf::Mirror { color: Texture::Image(t), .. } => {
+                        Some(t)
+                    }
+                    _ => None,
+                };
+                if let Some(t) = image.filter(|_| mesh_attributes.iter().all(|a| a.uv.is_none())) {
+                    return Err(self.err(
+                        &path.key("file"),
+                        format!(
+                            "{file} has no texture coordinates (`vt` lines), which the image texture {} of \
+                             material `{}` needs",
+                            t.map.file, object.material
+                        ),
+                    ));
+                }
+            }
             if surfaces.iter().any(|(s, _)| !within_extent(s.bounds())) {
                 // Only a mesh (vertices × scale) or a transform can get here: every other number
                 // is checked.
