@@ -289,3 +289,184 @@ fn liquids_by_name_and_bad_liquids() {
     let err = scene::load_str(&t, "glass.toml", None).err().unwrap().to_string();
     assert!(err.contains("objects[0].material") && err.contains("dielectric"), "{err}");
 }
+
+/// The three meshes of `scenes/hard/meshes/make_bowl.py` (glass/air, glass/liquid, liquid/air:
+/// rim centre at the origin, outer radius 0.5, wall 0.04, the liquid 0.15 below the rim) with
+/// `lon` segments around the axis and `lat` rings on the outer wall (the script's 48 and 12; its
+/// inner wall has 10 rings below the liquid and 3 above, scaled here by `lat / 12`), written to
+/// `dir` as `glass-air.obj`, `glass-liquid.obj` and `liquid-air.obj`.
+fn write_bowl_meshes(dir: &std::path::Path, lon: usize, lat: usize) {
+    use std::f64::consts::PI;
+    use std::fmt::Write;
+    let (r_out, r_in, depth) = (0.5f64, 0.46f64, 0.15f64);
+    // A ring of the sphere of `radius` at polar angle `polar` from the bottom pole, rounded as the
+    // script prints it (so that the meshes share their seams exactly).
+    let ring = |radius: f64, polar: f64| -> Vec<[f64; 3]> {
+        let (y, rho) = (-radius * polar.cos(), radius * polar.sin());
+        (0..lon)
+            .map(|k| {
+                let a = 2.0 * PI * k as f64 / lon as f64;
+                [rho * a.cos(), y, rho * a.sin()].map(|x| format!("{x:.7}").parse().unwrap())
+            })
+            .collect()
+    };
+    struct Mesh {
+        v: Vec<[f64; 3]>,
+        f: Vec<[usize; 3]>,
+    }
+    impl Mesh {
+        fn add(&mut self, points: &[[f64; 3]]) -> Vec<usize> {
+            let start = self.v.len();
+            self.v.extend_from_slice(points);
+            (start..start + points.len()).collect()
+        }
+        fn tri(&mut self, a: usize, b: usize, c: usize, outward: [f64; 3]) {
+            let (pa, pb, pc) = (self.v[a], self.v[b], self.v[c]);
+            let e1 = [pb[0] - pa[0], pb[1] - pa[1], pb[2] - pa[2]];
+            let e2 = [pc[0] - pa[0], pc[1] - pa[1], pc[2] - pa[2]];
+            let n =
+                [e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]];
+            let (b, c) =
+                if n[0] * outward[0] + n[1] * outward[1] + n[2] * outward[2] < 0.0 { (c, b) } else { (b, c) };
+            self.f.push([a, b, c]);
+        }
+        fn band(&mut self, r0: &[usize], r1: &[usize], outward: impl Fn([f64; 3]) -> [f64; 3]) {
+            let n = r0.len();
+            for k in 0..n {
+                let (a, b, c, d) = (r0[k], r0[(k + 1) % n], r1[k], r1[(k + 1) % n]);
+                let centre =
+                    [0, 1, 2].map(|j| (self.v[a][j] + self.v[b][j] + self.v[c][j] + self.v[d][j]) / 4.0);
+                self.tri(a, b, d, outward(centre));
+                self.tri(a, d, c, outward(centre));
+            }
+        }
+        fn fan(&mut self, centre: usize, r: &[usize], outward: impl Fn([f64; 3]) -> [f64; 3]) {
+            let n = r.len();
+            for k in 0..n {
+                self.tri(centre, r[k], r[(k + 1) % n], outward(self.v[centre]));
+            }
+        }
+        fn write(&self, path: std::path::PathBuf) {
+            let mut text = String::new();
+            for p in &self.v {
+                writeln!(text, "v {} {} {}", p[0], p[1], p[2]).unwrap();
+            }
+            for t in &self.f {
+                writeln!(text, "f {} {} {}", t[0] + 1, t[1] + 1, t[2] + 1).unwrap();
+            }
+            std::fs::write(path, text).unwrap();
+        }
+    }
+    let away = |p: [f64; 3]| p;
+    let towards = |p: [f64; 3]| p.map(|x| -x);
+    let up = |_: [f64; 3]| [0.0, 1.0, 0.0];
+    let (below, above) = ((10 * lat).div_ceil(12), (3 * lat).div_ceil(12));
+    let level = (depth / r_in).acos();
+    let outer: Vec<_> = (1..=lat).map(|i| ring(r_out, PI / 2.0 * i as f64 / lat as f64)).collect();
+    let inner_lo: Vec<_> = (1..=below).map(|i| ring(r_in, level * i as f64 / below as f64)).collect();
+    let inner_hi: Vec<_> =
+        (1..=above).map(|i| ring(r_in, level + (PI / 2.0 - level) * i as f64 / above as f64)).collect();
+    let level_ring = inner_lo.last().unwrap().clone();
+
+    let mut g = Mesh { v: vec![], f: vec![] };
+    let pole = g.add(&[[0.0, -r_out, 0.0]])[0];
+    let rings: Vec<_> = outer.iter().map(|r| g.add(r)).collect();
+    g.fan(pole, &rings[0], away);
+    for w in rings.windows(2) {
+        g.band(&w[0], &w[1], away);
+    }
+    let rim_inner = g.add(inner_hi.last().unwrap());
+    g.band(rings.last().unwrap(), &rim_inner, up);
+    let mut hi = vec![g.add(&level_ring)];
+    hi.extend(inner_hi[..inner_hi.len() - 1].iter().map(|r| g.add(r)));
+    hi.push(rim_inner);
+    for w in hi.windows(2) {
+        g.band(&w[0], &w[1], towards);
+    }
+    g.write(dir.join("glass-air.obj"));
+
+    let mut w = Mesh { v: vec![], f: vec![] };
+    let pole = w.add(&[[0.0, -r_in, 0.0]])[0];
+    let rings: Vec<_> = inner_lo.iter().map(|r| w.add(r)).collect();
+    w.fan(pole, &rings[0], towards);
+    for p in rings.windows(2) {
+        w.band(&p[0], &p[1], towards);
+    }
+    w.write(dir.join("glass-liquid.obj"));
+
+    let mut s = Mesh { v: vec![], f: vec![] };
+    let centre = s.add(&[[0.0, level_ring[0][1], 0.0]])[0];
+    let r = s.add(&level_ring);
+    s.fan(centre, &r, up);
+    s.write(dir.join("liquid-air.obj"));
+}
+
+/// `bowl-of-liquid-filled.toml` (the analytic one-object bowl), or `bowl-of-liquid.toml` (three
+/// hand-written triangle meshes) with its meshes replaced by those of `mesh_dir` when given; both
+/// with absorbing glass and liquid.
+fn absorbing_bowl(one_object: bool, mesh_dir: Option<&std::path::Path>) -> Scene {
+    let glass = toml::Value::try_from([0.6f32, 0.2, 0.3]).unwrap();
+    let liquid = toml::Value::try_from([2.0f32, 0.6, 0.1]).unwrap();
+    if one_object {
+        return variant("bowl-of-liquid-filled.toml", |t| {
+            let m = t["materials"].as_table_mut().unwrap();
+            m["glass"].as_table_mut().unwrap().insert("absorption".into(), glass);
+            let o = t["objects"].as_array_mut().unwrap()[0].as_table_mut().unwrap();
+            let mut l = toml::Table::new();
+            l.insert("ior".into(), toml::Value::Float(1.36));
+            l.insert("absorption".into(), liquid);
+            o.insert("liquid".into(), l.into());
+        });
+    }
+    variant("bowl-of-liquid.toml", |t| {
+        let m = t["materials"].as_table_mut().unwrap();
+        let mut set = |name: &str, key: &str, v: &toml::Value| {
+            m[name].as_table_mut().unwrap().insert(key.into(), v.clone());
+        };
+        // Each mesh's normals point out of the medium named first.
+        set("glass_air", "absorption", &glass);
+        set("glass_liquid", "absorption", &glass);
+        set("glass_liquid", "absorption_outside", &liquid);
+        set("liquid_air", "absorption", &liquid);
+        if let Some(dir) = mesh_dir {
+            for (o, file) in t["objects"].as_array_mut().unwrap().iter_mut().zip([
+                "glass-air",
+                "glass-liquid",
+                "liquid-air",
+            ]) {
+                let path = dir.join(format!("{file}.obj")).display().to_string();
+                o.as_table_mut().unwrap().insert("file".into(), path.into());
+            }
+        }
+    })
+}
+
+#[test]
+fn the_one_object_bowl_of_liquid_is_what_the_hand_written_meshes_converge_to() {
+    // The hand-written bowl is a tessellation of the one-object bowl's interfaces: `path` at
+    // 32×32, 64 samples per pixel, with absorbing glass and liquid (so that path lengths show),
+    // block χ² of the 8×8 block means in their standard errors. The shipped meshes (48 segments,
+    // 12 rings) differ by their facets; regenerated 8× finer around and 4× along, the difference
+    // is at the noise floor: below the 99.99% quantile of χ² for the blocks with variance.
+    let one = render_with_variance(&absorbing_bowl(true, None), "path", 32, 64, 1);
+    let darkest = one.0.pixels.iter().map(|p| p.min_element()).fold(1.0, f32::min);
+    assert!(darkest < 0.8, "the absorption must show (darkest pixel {darkest})");
+    let shipped = render_with_variance(&absorbing_bowl(false, None), "path", 32, 64, 2);
+    let (coarse, blocks) = block_chi2(&one, &shipped);
+    let dir = tempfile::tempdir().unwrap();
+    write_bowl_meshes(dir.path(), 384, 48);
+    let fine = render_with_variance(&absorbing_bowl(false, Some(dir.path())), "path", 32, 64, 3);
+    let (fine_chi2, fine_blocks) = block_chi2(&one, &fine);
+    println!(
+        "bowl, one object vs hand-written meshes: χ² {coarse:.1} over {blocks} blocks (shipped 48 x 12), \
+         {fine_chi2:.1} over {fine_blocks} (384 x 48)"
+    );
+    // 99.99% quantiles of χ² by degrees of freedom.
+    let bound =
+        |n: usize| [(8, 31.8), (12, 39.1), (16, 45.9)].iter().find(|q| q.0 == n).map(|q| q.1).unwrap();
+    assert!(
+        fine_chi2 < bound(fine_blocks),
+        "fine tessellation: block χ² {fine_chi2} over {fine_blocks} blocks"
+    );
+    assert!(fine_chi2 < coarse, "the difference shrinks with the tessellation ({coarse} → {fine_chi2})");
+}
