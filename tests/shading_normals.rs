@@ -2,6 +2,8 @@
 //! analytic sphere, the closer the finer it is tessellated, and a smooth-shaded glass mesh in a
 //! white furnace stays white.
 
+mod common;
+
 use std::f64::consts::PI;
 use std::fmt::Write;
 use std::path::Path;
@@ -158,12 +160,9 @@ fn smooth_triangulated_glass_sphere_converges_to_the_analytic_one() {
     assert!(chi2[1].0 < coarse.0, "12 rings: mean z² {} (4 rings: {})", chi2[1].0, coarse.0);
 }
 
-#[test]
-fn white_furnace_with_a_smooth_glass_mesh_stays_one() {
-    // Lossless glass under a white sky: every pixel's expectation is 1. The estimate is the image
-    // mean over independent renders (each render's mean is one sample).
-    let dir = tempfile::tempdir().unwrap();
-    std::fs::write(dir.path().join("sphere.obj"), smooth_sphere_obj(24)).unwrap();
+/// A smooth-shaded glass mesh sphere (24 rings) under a white sky of radiance 1, in `dir`.
+fn smooth_glass_furnace(dir: &Path) -> Scene {
+    std::fs::write(dir.join("sphere.obj"), smooth_sphere_obj(24)).unwrap();
     let text = r#"
 [camera]
 position = [0.0, 0.0, 4.0]
@@ -183,7 +182,37 @@ material = "glass"
 type = "environment"
 radiance = 1.0
 "#;
-    let scene = load_str(text, "furnace", Some(dir.path())).unwrap();
+    load_str(text, "furnace", Some(dir)).unwrap()
+}
+
+#[test]
+fn the_bidirectional_methods_keep_the_smooth_glass_furnace_as_path_does() {
+    // Light paths through shading normals carry Veach's adjoint factor and the engine's MIS
+    // weights mix shading and geometric cosines: bpt and vcm must conserve the furnace's energy
+    // as path does. Image means of 8 independent renders each (each render's mean one sample):
+    // every method within 1% of 1, and bpt and vcm within 4 standard errors of path.
+    let dir = tempfile::tempdir().unwrap();
+    let scene = smooth_glass_furnace(dir.path());
+    let (path_mean, path_error) = common::image_mean_and_error(&scene, "path", 8, 8);
+    println!("path: {path_mean:.5} ± {path_error:.5}");
+    for method in ["bpt", "vcm"] {
+        let (mean, error) = common::image_mean_and_error(&scene, method, 4, 8);
+        println!("{method}: {mean:.5} ± {error:.5}");
+        assert!((mean - 1.0).abs() <= 0.01, "{method}: furnace {mean} ± {error}");
+        let z = (mean - path_mean).abs() / (error * error + path_error * path_error).sqrt().max(1e-9);
+        assert!(
+            z < 4.0,
+            "{method} {mean} ± {error} vs path {path_mean} ± {path_error}: {z:.1} standard errors"
+        );
+    }
+}
+
+#[test]
+fn white_furnace_with_a_smooth_glass_mesh_stays_one() {
+    // Lossless glass under a white sky: every pixel's expectation is 1. The estimate is the image
+    // mean over independent renders (each render's mean is one sample).
+    let dir = tempfile::tempdir().unwrap();
+    let scene = smooth_glass_furnace(dir.path());
     // The pixels whose centre sees the glass: the sphere's silhouette is at tan 14.48° = 0.258
     // from the centre of the image, whose half height is tan 15° = 0.268.
     let size = 24;
