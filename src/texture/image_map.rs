@@ -142,8 +142,8 @@ impl ImageMap {
                 let (x, y) = (x - 0.5, y - 0.5);
                 let (x0, y0) = (x.floor(), y.floor());
                 let (fx, fy) = (x - x0, y - y0);
-                let (i0, i1) = (wrap_index(x0, self.width, wrap), wrap_index(x0 + 1.0, self.width, wrap));
-                let (j0, j1) = (wrap_index(y0, self.height, wrap), wrap_index(y0 + 1.0, self.height, wrap));
+                let (i0, i1) = wrap_pair(x0, self.width, wrap);
+                let (j0, j1) = wrap_pair(y0, self.height, wrap);
                 let top = self.texel(i0, j0) * (1.0 - fx) + self.texel(i1, j0) * fx;
                 let bottom = self.texel(i0, j1) * (1.0 - fx) + self.texel(i1, j1) * fx;
                 top * (1.0 - fy) + bottom * fy
@@ -152,20 +152,39 @@ impl ImageMap {
     }
 }
 
-/// The index in `0..n` of the integer-valued texel coordinate `i` under `wrap` (non-finite
-/// coordinates read texel 0).
+/// The integer-valued texel coordinate `i` as an integer, saturated far outside any image
+/// (non-finite coordinates, which the shapes never make, become 0).
+#[inline]
+fn texel_coordinate(i: f32) -> i64 {
+    if i.is_finite() {
+        i.clamp(-1e15, 1e15) as i64
+    } else {
+        0
+    }
+}
+
+/// The indices in `0..n` of the texel at the integer-valued coordinate `i` and of its right (or
+/// lower) neighbour under `wrap`: one integer remainder for both.
+#[inline]
+fn wrap_pair(i: f32, n: usize, wrap: Wrap) -> (usize, usize) {
+    let (i, n) = (texel_coordinate(i), n as i64);
+    match wrap {
+        Wrap::Repeat => {
+            let a = i.rem_euclid(n);
+            (a as usize, if a + 1 == n { 0 } else { a as usize + 1 })
+        }
+        Wrap::Clamp => (i.clamp(0, n - 1) as usize, (i + 1).clamp(0, n - 1) as usize),
+    }
+}
+
+/// The index in `0..n` of the integer-valued texel coordinate `i` under `wrap`.
 #[inline]
 fn wrap_index(i: f32, n: usize, wrap: Wrap) -> usize {
-    if !i.is_finite() {
-        return 0;
+    let (i, n) = (texel_coordinate(i), n as i64);
+    match wrap {
+        Wrap::Repeat => i.rem_euclid(n) as usize,
+        Wrap::Clamp => i.clamp(0, n - 1) as usize,
     }
-    let n_f = n as f32;
-    let i = match wrap {
-        Wrap::Repeat => i.rem_euclid(n_f),
-        Wrap::Clamp => i.clamp(0.0, n_f - 1.0),
-    };
-    // rem_euclid can round up to n for tiny negative inputs.
-    (i as usize).min(n - 1)
 }
 
 #[cfg(test)]
