@@ -23,6 +23,7 @@ impl Scattering {
     /// The scattering of `material` at world point `p` with texture coordinates `uv` in the
     /// path's `channels`: colours as RGB or as their spectra at the wavelengths, indices nominal
     /// or at the hero wavelength.
+    #[inline(always)]
     pub fn at(material: &Material, p: Vec3, uv: Vec2, channels: &Channels) -> Scattering {
         let lambda = channels.hero();
         match &material.bsdf {
