@@ -285,6 +285,21 @@ mod tests {
     }
 
     #[test]
+    fn jpeg_files_decode_from_srgb() {
+        // A flat grey JPEG: lossy, but a uniform block survives to within a unit of 8 bits.
+        let mut img = image::RgbImage::new(8, 8);
+        img.pixels_mut().for_each(|p| p.0 = [128, 128, 128]);
+        let mut bytes = Vec::new();
+        img.write_to(&mut std::io::Cursor::new(&mut bytes), image::ImageFormat::Jpeg).unwrap();
+        let m = ImageMap::decode(Path::new("a.jpg"), &bytes, None).unwrap();
+        assert_eq!((m.width, m.height, m.colorspace), (8, 8, ColorSpace::Srgb));
+        let expected = srgb_to_linear(128.0 / 255.0);
+        for t in &m.texels {
+            assert!((t.x - expected).abs() < 0.005 && (t.y - expected).abs() < 0.005, "{t} vs {expected}");
+        }
+    }
+
+    #[test]
     fn exr_texels_are_exact_and_linear() {
         let dir = std::env::temp_dir().join(format!("vitrum-texture-exr-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
