@@ -64,23 +64,7 @@ fn a_constant_map_renders_as_the_constant_environment() {
     let (b, sb) = common::mean_and_error(&mapped, "path", 8, k);
     // 4 × 4 blocks of 4 × 4 pixels: each block mean agrees within 4.5 standard errors of the
     // difference (48 block-channel comparisons; a correct renderer fails one with p ≈ 3e-4).
-    let mut worst = 0.0f32;
-    for by in 0..4 {
-        for bx in 0..4 {
-            let (mut ma, mut mb, mut va, mut vb) = (Vec3::ZERO, Vec3::ZERO, Vec3::ZERO, Vec3::ZERO);
-            for y in by * 4..by * 4 + 4 {
-                for x in bx * 4..bx * 4 + 4 {
-                    let i = y * 16 + x;
-                    ma += a[i] / 16.0;
-                    mb += b[i] / 16.0;
-                    va += sa[i] * sa[i] / 256.0;
-                    vb += sb[i] * sb[i] / 256.0;
-                }
-            }
-            let z = (ma - mb).abs() / (va + vb).powf(0.5).max(Vec3::splat(1e-6));
-            worst = worst.max(z.max_element());
-        }
-    }
+    let worst = common::largest_block_z(&a, &sa, &b, &sb, 16, 4);
     println!("constant map vs constant environment: largest block difference {worst:.2} standard errors");
     assert!(worst < 4.5, "{worst}");
 }

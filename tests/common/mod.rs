@@ -48,6 +48,30 @@ pub fn mean_and_error(scene: &Scene, integrator: &str, spp: u32, k: u64) -> (Vec
     (mean, error)
 }
 
+/// The largest difference, in standard errors of the difference, between the block means of two
+/// per-pixel means (`a` with errors `sa`, `b` with `sb`, images `width` pixels wide) over square
+/// blocks of `block` × `block` pixels, channel by channel. Pixels are independent renders' means,
+/// so a block's variance is the sum of its pixels' squared errors.
+pub fn largest_block_z(a: &[Vec3], sa: &[Vec3], b: &[Vec3], sb: &[Vec3], width: usize, block: usize) -> f32 {
+    let height = a.len() / width;
+    let mut worst = 0.0f32;
+    for by in (0..height).step_by(block) {
+        for bx in (0..width).step_by(block) {
+            let (mut da, mut db, mut va, mut vb) = (Vec3::ZERO, Vec3::ZERO, Vec3::ZERO, Vec3::ZERO);
+            for y in by..(by + block).min(height) {
+                for x in bx..(bx + block).min(width) {
+                    let i = y * width + x;
+                    (da, db) = (da + a[i], db + b[i]);
+                    (va, vb) = (va + sa[i] * sa[i], vb + sb[i] * sb[i]);
+                }
+            }
+            let z = (da - db).abs() / (va + vb).powf(0.5).max(Vec3::splat(1e-9));
+            worst = worst.max(z.max_element());
+        }
+    }
+    worst
+}
+
 /// The mean over all pixels and its standard error, from `k` independent renders: each render's
 /// image mean is one sample, so pixels that share random numbers (the photons of an iteration,
 /// a light path's splats) do not make the error look smaller than it is.
