@@ -182,3 +182,24 @@ file = "bad.obj"
     let e = load_str(text, "scene.toml", Some(dir.path())).err().expect("refused").to_string();
     assert!(e.contains("objects[0].file") && e.contains("bad.obj"), "{e}");
 }
+
+#[test]
+fn info_says_which_meshes_carry_texture_coordinates_and_normals() {
+    let run = |args: &[&str]| {
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_vitrum")).args(args).output().unwrap();
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        String::from_utf8(out.stdout).unwrap()
+    };
+    let dir = env!("CARGO_MANIFEST_DIR");
+    let text = run(&["info", &format!("{dir}/scenes/smooth-glass.toml")]);
+    assert!(text.lines().any(|l| l.contains("mesh") && l.contains("with vt and vn")), "{text}");
+    let gallery = run(&["info", &format!("{dir}/scenes/shapes-gallery.toml")]);
+    assert!(!gallery.contains("with vt"), "the icosahedron has neither: {gallery}");
+    let json: serde_json::Value =
+        serde_json::from_str(&run(&["info", &format!("{dir}/scenes/smooth-glass.toml"), "--json"])).unwrap();
+    let mesh = json["objects"].as_array().unwrap().iter().find(|o| o["kind"] == "mesh").unwrap();
+    assert_eq!(
+        (mesh["texture_coordinates"].as_bool(), mesh["vertex_normals"].as_bool()),
+        (Some(true), Some(true))
+    );
+}

@@ -69,7 +69,7 @@ pub fn run(args: &InfoArgs) -> Result<(), CliError> {
                        "spectral": settings.spectral.name(), "sampler": settings.sampler.name(), "methods": depths},
             "hash": scene.origin.hash,
             "resolution": [scene.camera.width, scene.camera.height],
-            "objects": scene.objects.iter().map(|o| json!({"name": o.name, "kind": o.kind, "material": o.material, "primitives": o.primitives})).collect::<Vec<_>>(),
+            "objects": scene.objects.iter().map(|o| json!({"name": o.name, "kind": o.kind, "material": o.material, "primitives": o.primitives, "texture_coordinates": o.mesh_attributes.0, "vertex_normals": o.mesh_attributes.1})).collect::<Vec<_>>(),
             "materials": scene.materials.iter().map(|m| {
                 let mut d = describe::material(m).json();
                 d["name"] = json!(m.name);
@@ -119,7 +119,16 @@ pub fn run(args: &InfoArgs) -> Result<(), CliError> {
     }
     println!("objects    {}", scene.objects.len());
     for o in &scene.objects {
-        println!("  {:<24} {:<16} material {:<12} {} primitive(s)", o.name, o.kind, o.material, o.primitives);
+        let attributes = match o.mesh_attributes {
+            (false, false) => "",
+            (true, false) => ", with vt",
+            (false, true) => ", with vn (smooth)",
+            (true, true) => ", with vt and vn (smooth)",
+        };
+        println!(
+            "  {:<24} {:<16} material {:<12} {} primitive(s){attributes}",
+            o.name, o.kind, o.material, o.primitives
+        );
     }
     println!("materials  {}", scene.materials.len());
     for m in &scene.materials {

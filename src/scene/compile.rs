@@ -552,6 +552,10 @@ impl Compiler<'_> {
                 kind: kind.to_string(),
                 material: object.material.clone(),
                 primitives: surfaces.len(),
+                mesh_attributes: (
+                    mesh_attributes.iter().any(|a| a.uv.is_some()),
+                    mesh_attributes.iter().any(|a| a.normals.is_some()),
+                ),
             });
             for (k, (shape, interface)) in surfaces.into_iter().enumerate() {
                 // Inner surfaces of hollow bodies use the interface seen from the other side,
@@ -626,6 +630,7 @@ impl Compiler<'_> {
                     kind: kind.into(),
                     material: format!("light #{i}"),
                     primitives: 1,
+                    mesh_attributes: (false, false),
                 });
             }
             lights.push(light);

@@ -160,6 +160,9 @@ pub struct ObjectSummary {
     pub material: String,
     /// How many BVH primitives it expanded into.
     pub primitives: usize,
+    /// For a mesh, whether its triangles carry texture coordinates (`vt`) and vertex normals
+    /// (`vn`, shading normals): `(uv, normals)`; `(false, false)` for every other object.
+    pub mesh_attributes: (bool, bool),
 }
 
 /// Where the scene came from: its display name and a hash of its text and meshes.
