@@ -5,7 +5,6 @@
 //! docs/architecture.md). Run with `cargo bench --bench texture_cost`.
 
 use criterion::{criterion_group, criterion_main, Criterion};
-use glam::Vec3;
 use std::hint::black_box;
 use std::path::Path;
 use vitrum::integrators::create;
@@ -25,9 +24,8 @@ fn with_mean_colours(scene: &mut Scene) {
             Bsdf::Diffuse(t) | Bsdf::Mirror { color: t, .. } => t,
             Bsdf::Dielectric { .. } => continue,
         };
-        if let Texture::Image(image) = t {
-            let texels = &image.map.texels;
-            *t = Texture::Constant(texels.iter().sum::<Vec3>() / texels.len() as f32);
+        if let Texture::Image(_) = t {
+            *t = Texture::Constant(t.mean());
         }
     }
 }

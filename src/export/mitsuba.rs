@@ -625,18 +625,6 @@ fn varying_texture(m: &Material) -> Option<&Texture> {
     }
 }
 
-/// The mean colour of a texture (a checker's two colours equally, an image's texels).
-fn mean_color(t: &Texture) -> Vec3 {
-    match t {
-        Texture::Constant(c) => *c,
-        Texture::Checker { color1, color2, .. } => 0.5 * (*color1 + *color2),
-        Texture::Image(image) => {
-            let texels = &image.map.texels;
-            texels.iter().sum::<Vec3>() / texels.len().max(1) as f32
-        }
-    }
-}
-
 struct Exporter<'a> {
     scene: &'a Scene,
     opts: &'a Options,
@@ -1018,7 +1006,7 @@ impl<'a> Exporter<'a> {
                 };
                 let Some((file, frame)) = file else {
                     x.comment(&format!("image texture {}, as its mean colour", image.map.file));
-                    x.rgb(name, mean_color(texture));
+                    x.rgb(name, texture.mean());
                     return;
                 };
                 x.comment(&format!(
@@ -1345,7 +1333,7 @@ impl<'a> Exporter<'a> {
                     let radiance = match texture {
                         Some(t) => {
                             self.note(format!("{name}: the emission texture is written as its mean colour"));
-                            *radiance * mean_color(t)
+                            *radiance * t.mean()
                         }
                         None => *radiance,
                     };

@@ -241,14 +241,15 @@ pub struct PointIllumination {
 }
 
 impl Light {
-    /// Total emitted power (W), as `vitrum info` reports it.
+    /// Total emitted power (W), as `vitrum info` reports it (a textured emitter with its
+    /// texture's mean colour, exact where the texture coordinates are uniform over the area).
     pub fn power(&self) -> Vec3 {
         match self {
             Light::Point { intensity, .. } => 4.0 * std::f32::consts::PI * *intensity,
             Light::Quad { u, v, radiance, .. } => PI * u.cross(*v).length() * *radiance,
             Light::Sphere { radius, radiance, .. } => 4.0 * PI * PI * radius * radius * *radiance,
             Light::Surface { shape, radiance, texture } => {
-                2.0 * PI * shape.area() * *radiance * texture.as_ref().map_or(1.0, Texture::max_value)
+                2.0 * PI * shape.area() * *radiance * texture.as_ref().map_or(Vec3::ONE, Texture::mean)
             }
             // Power is not finite for an infinitely distant light; report the mean radiance.
             Light::Environment { radiance, map } => *radiance * map.as_ref().map_or(Vec3::ONE, |m| m.mean()),

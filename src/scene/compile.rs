@@ -934,16 +934,21 @@ impl Compiler<'_> {
     /// The bytes of the regular file `full` named at `path` (a device or a pipe is refused: it
     /// might never end); `what` names the kind of file expected.
     fn read_input(&self, path: &FieldPath, full: &Path, what: &str) -> Result<Vec<u8>, SceneError> {
-        match std::fs::metadata(full) {
-            Ok(m) if m.is_file() => {}
-            Ok(_) => {
-                return Err(
-                    self.err(path, format!("{} is not a regular file ({what} is expected)", full.display()))
-                )
-            }
-            Err(e) => return Err(self.err(path, format!("cannot read {}: {e}", full.display()))),
-        }
+        self.regular_file(path, full, what, "")?;
         std::fs::read(full).map_err(|e| self.err(path, format!("cannot read {}: {e}", full.display())))
+    }
+
+    /// Whether the file `full` named at `path` is a regular file (a device such as `/dev/zero` or
+    /// a pipe is refused: reading it might never end); `what` names the kind of file expected,
+    /// `kind` prefixes the file in the message when it cannot be read (`"OBJ file "`).
+    fn regular_file(&self, path: &FieldPath, full: &Path, what: &str, kind: &str) -> Result<(), SceneError> {
+        match std::fs::metadata(full) {
+            Ok(m) if m.is_file() => Ok(()),
+            Ok(_) => {
+                Err(self.err(path, format!("{} is not a regular file ({what} is expected)", full.display())))
+            }
+            Err(e) => Err(self.err(path, format!("cannot read {kind}{}: {e}", full.display()))),
+        }
     }
 
     /// The texels of image `file` named at `path`, decoded once per scene and colour space.
@@ -1166,24 +1171,8 @@ impl Compiler<'_> {
             }
             ShapeDesc::Mesh { file, scale, translate } => {
                 let scale = self.positive(&path.key("scale"), *scale)?;
-                let full = match &self.dir {
-                    Some(d) => d.join(file),
-                    None => PathBuf::from(file),
-                };
-                // Only regular files: a device (`/dev/zero`) or a pipe would never end.
-                match std::fs::metadata(&full) {
-                    Ok(m) if m.is_file() => {}
-                    Ok(_) => {
-                        return Err(self.err(
-                            &path.key("file"),
-                            format!("{} is not a regular file (an OBJ file is expected)", full.display()),
-                        ))
-                    }
-                    Err(e) => {
-                        return Err(self
-                            .err(&path.key("file"), format!("cannot read OBJ file {}: {e}", full.display())))
-                    }
-                }
+                let full = self.resolve(file);
+                self.regular_file(&path.key("file"), &full, "an OBJ file", "OBJ file ")?;
                 let placement =
                     MeshPlacement { scale, translate: v(*translate), transform: transform.copied() };
                 let mesh =

@@ -260,10 +260,8 @@ impl Scene {
                 h
             }
         };
-        if let Some(&a) = self.attribute_index.get(primitive as usize) {
-            if a != NO_ATTRIBUTES {
-                self.attributes[a as usize].apply(&mut hit);
-            }
+        if let Some(a) = self.vertex_attributes(primitive) {
+            a.apply(&mut hit);
         }
         Some(Intersection { hit, primitive })
     }
@@ -345,6 +343,7 @@ impl Scene {
 
     /// The vertex attributes (OBJ `vt`, `vn`) of a primitive, if it is a mesh triangle that has
     /// them.
+    #[inline]
     pub fn vertex_attributes(&self, primitive: u32) -> Option<&VertexAttributes> {
         let a = *self.attribute_index.get(primitive as usize)?;
         (a != NO_ATTRIBUTES).then(|| &self.attributes[a as usize])

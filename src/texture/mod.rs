@@ -90,6 +90,19 @@ impl Texture {
         }
     }
 
+    /// The mean colour: a checker's two colours equally, an image's texels equally (the mean over
+    /// the surface where its uv is uniform over the area, as on a quad).
+    pub fn mean(&self) -> Vec3 {
+        match self {
+            Texture::Constant(c) => *c,
+            Texture::Checker { color1, color2, .. } => 0.5 * (*color1 + *color2),
+            Texture::Image(image) => {
+                let texels = &image.map.texels;
+                texels.iter().sum::<Vec3>() / texels.len().max(1) as f32
+            }
+        }
+    }
+
     /// Whether the colour depends on where on the surface it is read.
     pub fn varies(&self) -> bool {
         !matches!(self, Texture::Constant(_))
@@ -133,6 +146,7 @@ mod tests {
         let texture = Texture::Image(t);
         assert_eq!(texture.eval(Vec3::splat(9.0), Vec2::new(0.3, 0.5)), Vec3::X);
         assert_eq!(texture.max_value(), 1.0);
+        assert_eq!(texture.mean(), Vec3::new(0.5, 0.5, 0.0));
         assert!(texture.varies() && texture.constant().is_none());
     }
 }
