@@ -1,6 +1,6 @@
 //! The `vitrum` command line: the clap definition of every command and the dispatch to
 //! [`crate::commands`], where each command lives (`render`, `info`, `integrators`, `export`,
-//! `diff`, `converge`, `compare`, `merge`).
+//! `diff`, `converge`, `compare`, `report`, `merge`).
 //!
 //! Exit codes: 0 success; 2 bad input (options, scene file, image file) with a message naming
 //! the problem; 1 any other failure; 130 a render interrupted by Ctrl-C (see
@@ -42,6 +42,8 @@ pub enum Command {
     Converge(Box<crate::commands::converge::ConvergeArgs>),
     /// Render with several methods at equal time (or samples): a figure and a table.
     Compare(Box<crate::commands::compare::CompareArgs>),
+    /// Render every scene × method at equal time (or samples) into one interactive HTML page.
+    Report(Box<crate::commands::report::ReportArgs>),
     /// Combine render parts (shards, checkpoints) of one render into one image.
     Merge(crate::commands::merge::MergeArgs),
 }
@@ -62,6 +64,7 @@ pub fn main() -> i32 {
         Command::Diff(args) => crate::commands::diff::run(&args),
         Command::Converge(args) => crate::commands::converge::run(&args),
         Command::Compare(args) => crate::commands::compare::run(&args),
+        Command::Report(args) => crate::commands::report::run(&args),
         Command::Merge(args) => crate::commands::merge::run(&args),
         Command::Integrators => {
             for i in integrators::all() {

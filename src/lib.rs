@@ -24,6 +24,7 @@ pub mod params;
 pub mod parts;
 pub mod reference;
 pub mod render;
+pub mod report;
 pub mod sampler;
 pub mod scene;
 pub mod spectrum;

@@ -590,6 +590,13 @@ fn region_pairs<'a>(
     })
 }
 
+/// Efficiency, 1/(MSE·seconds), only for a render whose error is variance: its split known and
+/// not biased (unbiased, or unresolved: the variance estimate explains more than the whole
+/// error). `None` otherwise: the efficiency of a biased render would reward its bias.
+pub fn efficiency(split: Option<&Split>, mse: f64, seconds: f64) -> Option<f64> {
+    split.filter(|s| !s.biased()).map(|_| 1.0 / (mse * seconds.max(1e-9)))
+}
+
 /// The split of a render by `method` (see [`split`]): with the render's own variance; with none
 /// for a method of one fixed, deterministic pattern ([`Progression::Fixed`]: `ssaa`), whose error
 /// is all bias; `None` (unknown) for any other render without a variance (a single sample, or a

@@ -23,6 +23,7 @@ use crate::metrics::{self, Crop, Metrics, MetricsError, Split};
 use crate::output::exr::{read_variance, stage_exr, ExrMetadata};
 use crate::output::{stage, OutputError, Staged};
 use crate::render::{self, Budget, Progression, RenderOutput};
+use crate::report::{Layer, Report, Section, TableRow};
 use crate::scene::Scene;
 use indicatif::{MultiProgress, ProgressBar, ProgressDrawTarget, ProgressStyle};
 use std::fmt::Write as _;
@@ -85,7 +86,7 @@ pub struct CompareArgs {
 }
 
 /// Parses a positive, finite number of seconds.
-fn parse_seconds(s: &str) -> Result<f64, String> {
+pub(crate) fn parse_seconds(s: &str) -> Result<f64, String> {
     let t: f64 = s.trim().parse().map_err(|_| format!("`{s}` is not a number of seconds"))?;
     if !(t.is_finite() && t > 0.0) || Duration::try_from_secs_f64(t).is_err() {
         return Err(format!("`{s}`: must be a positive, finite number of seconds"));
@@ -103,7 +104,7 @@ enum ReferenceSource {
 }
 
 /// Everything `compare` will do, checked before the first render.
-struct Plan {
+pub(crate) struct Plan {
     scene: Scene,
     scene_name: String,
     methods: Vec<Box<dyn Integrator>>,
@@ -156,10 +157,9 @@ impl Row {
         }
     }
 
-    /// 1/(MSE·seconds), only for a render whose error is variance: split known and not biased
-    /// (unbiased, or unresolved: the variance estimate explains more than the whole error).
+    /// 1/(MSE·seconds) where the error is variance ([`metrics::efficiency`]).
     fn efficiency(&self) -> Option<f64> {
-        self.split.filter(|s| !s.biased()).map(|_| 1.0 / (self.metrics.mse * self.out.seconds.max(1e-9)))
+        metrics::efficiency(self.split.as_ref(), self.metrics.mse, self.out.seconds)
     }
 
     /// The split's verdict ([`Split::status`]), or "unknown" (no variance to split the error with).
@@ -176,7 +176,7 @@ struct Reference {
 
 impl Plan {
     /// Checks every input; any problem is bad input (exit 2) and nothing has been rendered.
-    fn new(args: &CompareArgs) -> Result<Plan, CliError> {
+    pub(crate) fn new(args: &CompareArgs) -> Result<Plan, CliError> {
         let bad = |m: String| CliError::BadInput(m);
         let methods = parse_integrators(&args.integrators)?;
         for (i, m) in methods.iter().enumerate() {
@@ -313,7 +313,7 @@ impl Plan {
 }
 
 /// The output folder must be a folder, or be creatable in an existing one.
-fn check_out_folder(out: &Path) -> Result<(), CliError> {
+pub(crate) fn check_out_folder(out: &Path) -> Result<(), CliError> {
     if out.exists() {
         if !out.is_dir() {
             return Err(CliError::BadInput(format!("--out {}: is a file, not a folder", out.display())));
@@ -336,14 +336,15 @@ fn same_file(a: &Path, b: &Path) -> bool {
     matches!((a.canonicalize(), b.canonicalize()), (Ok(a), Ok(b)) if a == b)
 }
 
-/// Progress bars on stderr, drawn only when it is a terminal: methods done, and the current render.
-struct Bars {
+/// Progress bars on stderr, drawn only when it is a terminal: renders done, and the current render.
+pub(crate) struct Bars {
     multi: MultiProgress,
     overall: ProgressBar,
 }
 
 impl Bars {
-    fn new(steps: u64, quiet: bool) -> Bars {
+    /// Bars for `steps` renders in all, the overall bar labelled `label`.
+    pub(crate) fn new(label: &str, steps: u64, quiet: bool) -> Bars {
         let target = if !quiet && std::io::stderr().is_terminal() {
             ProgressDrawTarget::stderr()
         } else {
@@ -352,9 +353,11 @@ impl Bars {
         let multi = MultiProgress::with_draw_target(target);
         let overall = multi.add(ProgressBar::new(steps));
         overall.set_style(
-            ProgressStyle::with_template("compare     [{bar:40}] {pos}/{len} renders, {elapsed} elapsed")
-                .expect("valid template")
-                .progress_chars("=> "),
+            ProgressStyle::with_template(&format!(
+                "{label:<11} [{{bar:40}}] {{pos}}/{{len}} renders, {{elapsed}} elapsed"
+            ))
+            .expect("valid template")
+            .progress_chars("=> "),
         );
         Bars { multi, overall }
     }
@@ -370,19 +373,101 @@ impl Bars {
         bar.set_message(name.to_string());
         bar
     }
+
+    /// Prints `line` above the bars.
+    pub(crate) fn println(&self, line: &str) {
+        self.multi.suspend(|| eprintln!("{line}"));
+    }
+
+    /// Runs `f` (which prints) with the bars hidden.
+    pub(crate) fn multi_suspend(&self, f: impl FnOnce()) {
+        self.multi.suspend(f);
+    }
+
+    /// Clears the bars at the end of the run.
+    pub(crate) fn finish(&self) {
+        self.overall.finish_and_clear();
+    }
+}
+
+/// What one scene's comparison produced: the reference and one row per method.
+pub(crate) struct Outcome {
+    reference: Reference,
+    /// "path, 1024 spp (.vitrum-cache/….exr)": where the reference came from.
+    reference_text: String,
+    rows: Vec<Row>,
+}
+
+impl Plan {
+    /// The renders this plan makes: one per method, and the reference unless it is a file.
+    pub(crate) fn renders(&self) -> u64 {
+        let cached = matches!(self.reference, ReferenceSource::Cached(..));
+        self.methods.len() as u64 + u64::from(cached)
+    }
+
+    /// The warnings of the scene, printed before rendering.
+    pub(crate) fn warnings(&self) -> &[String] {
+        &self.scene.warnings
+    }
 }
 
 /// Runs `vitrum compare`.
 pub fn run(args: &CompareArgs) -> Result<(), CliError> {
     let plan = Plan::new(args)?;
-    for w in &plan.scene.warnings {
+    for w in plan.warnings() {
         eprintln!("vitrum: warning: {w}");
     }
     let pool = args.render.pool()?;
-    let cached = matches!(plan.reference, ReferenceSource::Cached(..));
-    let bars = Bars::new(plan.methods.len() as u64 + cached as u64, args.quiet);
-    let failure = |e: OutputError| CliError::Failure(e.to_string());
+    let bars = Bars::new("compare", plan.renders(), args.quiet);
+    let outcome = render_scene(&plan, args, &pool, &bars);
+    bars.finish();
+    let outcome = outcome?;
+    let report = Report {
+        title: format!("vitrum compare: {}", plan.scene_name),
+        sections: vec![section(&plan, &outcome, "")],
+        command: command_line(),
+        machine: crate::report::machine::describe(),
+    };
+    publish(&plan, &outcome, Some(&report))?;
+    if !args.quiet {
+        print_summary(&outcome);
+        eprintln!(
+            "compare: {} method(s) -> {} (index.html, compare.png, compare.csv, compare.md, METHOD.exr)",
+            outcome.rows.len(),
+            plan.out.display()
+        );
+    }
+    Ok(())
+}
 
+/// The command line as it was typed, for the report's footer.
+pub(crate) fn command_line() -> String {
+    std::env::args().collect::<Vec<_>>().join(" ")
+}
+
+/// One line per method: spp, seconds, errors and the bias split.
+pub(crate) fn print_summary(outcome: &Outcome) {
+    for row in &outcome.rows {
+        eprintln!(
+            "{:<11} {:>6} spp {:>8} s  relMSE {:<9} MSE {:<9} {}",
+            row.method,
+            format_spp(row.spp()),
+            format_seconds(row.out.seconds),
+            format_number(row.metrics.rel_mse),
+            format_number(row.metrics.mse),
+            split_text(row)
+        );
+    }
+}
+
+/// Renders (or reads) the reference and every method of `plan`, measuring each against the
+/// reference; `bars` advance by one per render.
+pub(crate) fn render_scene(
+    plan: &Plan,
+    args: &CompareArgs,
+    pool: &rayon::ThreadPool,
+    bars: &Bars,
+) -> Result<Outcome, CliError> {
     let (reference, reference_text) = match &plan.reference {
         ReferenceSource::File(image, variance, text) => {
             (Reference { image: image.clone(), variance: variance.clone() }, text.clone())
@@ -399,7 +484,7 @@ pub fn run(args: &CompareArgs) -> Result<(), CliError> {
             bars.overall.inc(1);
             let r = r?;
             if !args.quiet {
-                eprintln!("{}", plan_ref.describe(&r));
+                bars.println(&plan_ref.describe(&r));
             }
             let text = format!("{}, {} spp ({})", plan_ref.method.name(), r.spp, r.path.display());
             (Reference { image: r.image, variance: r.variance }, text)
@@ -438,32 +523,42 @@ pub fn run(args: &CompareArgs) -> Result<(), CliError> {
         bar.finish_and_clear();
         bars.overall.inc(1);
         if out.non_finite_samples > 0 {
-            eprintln!(
+            bars.println(&format!(
                 "vitrum: warning: {}: {} sample(s) were NaN or infinite",
                 method.name(),
                 out.non_finite_samples
-            );
+            ));
         }
         let row = Row::new(method.as_ref(), out, opts.seed, &reference, plan.exposure)
             .map_err(|e| CliError::Failure(format!("{}: {e}", method.name())))?;
         rows.push(row);
     }
-    bars.overall.finish_and_clear();
+    Ok(Outcome { reference, reference_text, rows })
+}
 
+/// The reference description without its (possibly long) file path.
+fn short_reference(text: &str) -> &str {
+    text.split(" (").next().unwrap_or(text)
+}
+
+/// The static figure of `outcome`, laid out by [`compose::compose`].
+fn figure(plan: &Plan, outcome: &Outcome) -> Result<Canvas, CliError> {
     let title = format!(
         "{} · {} · {}x{} · reference: {}",
         plan.scene_name,
         plan.budget_text(),
         plan.size.0,
         plan.size.1,
-        short_reference(&reference_text)
+        short_reference(&outcome.reference_text)
     );
-    let errors = rows
+    let errors = outcome
+        .rows
         .iter()
-        .map(|row| metrics::relative_squared_error(&row.out.image, &reference.image))
+        .map(|row| metrics::relative_squared_error(&row.out.image, &outcome.reference.image))
         .collect::<Result<Vec<_>, _>>()
         .map_err(|e| CliError::Failure(e.to_string()))?;
-    let panels: Vec<Panel> = rows
+    let panels: Vec<Panel> = outcome
+        .rows
         .iter()
         .zip(&errors)
         .map(|(row, error)| Panel {
@@ -475,47 +570,82 @@ pub fn run(args: &CompareArgs) -> Result<(), CliError> {
             error,
         })
         .collect();
-    let figure = compose::compose(&title, &panels, plan.exposure, plan.crop);
-    let csv = csv_table(&rows);
-    let markdown = markdown_table(&plan, &rows, &reference_text, reference.variance.is_some());
+    Ok(compose::compose(&title, &panels, plan.exposure, plan.crop))
+}
 
-    publish(&plan, &rows, &figure, &csv, &markdown).map_err(failure)?;
-    if !args.quiet {
-        for row in &rows {
-            eprintln!(
-                "{:<11} {:>6} spp {:>8} s  relMSE {:<9} MSE {:<9} {}",
-                row.method,
-                format_spp(row.spp()),
-                format_seconds(row.out.seconds),
-                format_number(row.metrics.rel_mse),
-                format_number(row.metrics.mse),
-                split_text(row)
-            );
-        }
-        eprintln!(
-            "compare: {} method(s) -> {} (compare.png, compare.csv, compare.md, METHOD.exr)",
-            rows.len(),
-            plan.out.display()
-        );
+/// The report section of one scene's comparison; `files` is where its EXR renders and tables
+/// are, relative to the page ("" when beside it).
+pub(crate) fn section(plan: &Plan, outcome: &Outcome, files: &str) -> Section {
+    let scene = &plan.scene;
+    let objects: Vec<String> =
+        scene.objects.iter().map(|o| format!("{} ({}, {})", o.name, o.kind, o.material)).collect();
+    let effects = scene.effects.names();
+    let details = vec![
+        ("scene file".to_string(), format!("{} (hash {})", scene.origin.name, scene.origin.hash)),
+        ("budget".to_string(), plan.budget_text()),
+        ("resolution".to_string(), format!("{}x{}", plan.size.0, plan.size.1)),
+        ("reference".to_string(), outcome.reference_text.clone()),
+        ("effects".to_string(), if effects.is_empty() { "none".to_string() } else { effects }),
+        ("objects".to_string(), objects.join("; ")),
+    ];
+    let layer_note = |row: &Row| {
+        format!("{} spp, {} s, seed {}", format_spp(row.spp()), format_seconds(row.out.seconds), row.seed)
+    };
+    Section {
+        scene: plan.scene_name.clone(),
+        details,
+        exposure: plan.exposure,
+        reference: Layer {
+            label: "reference".into(),
+            note: outcome.reference_text.clone(),
+            image: outcome.reference.image.clone(),
+        },
+        layers: outcome
+            .rows
+            .iter()
+            .map(|row| Layer {
+                label: row.method.to_string(),
+                note: layer_note(row),
+                image: row.out.image.clone(),
+            })
+            .collect(),
+        rows: outcome
+            .rows
+            .iter()
+            .map(|r| TableRow {
+                method: r.method.to_string(),
+                spp: r.spp(),
+                seconds: r.out.seconds,
+                rays: r.out.rays.total(),
+                mrays_per_second: mrays_per_second(&r.out),
+                mse: r.metrics.mse,
+                rel_mse: r.metrics.rel_mse,
+                efficiency: r.efficiency(),
+                status: r.status().to_string(),
+            })
+            .collect(),
+        convergence: Vec::new(),
+        files: files.to_string(),
     }
-    Ok(())
 }
 
-/// The reference description without its (possibly long) file path.
-fn short_reference(text: &str) -> &str {
-    text.split(" (").next().unwrap_or(text)
-}
-
-/// Encodes every output, then publishes them together; on failure nothing is left behind (and a
-/// folder created for them is removed again).
-fn publish(plan: &Plan, rows: &[Row], figure: &Canvas, csv: &str, markdown: &str) -> Result<(), OutputError> {
-    let created = !plan.out.exists();
+/// Encodes every output of `outcome` (and the `report` page, when given), then publishes them
+/// together; on failure nothing is left behind (and a folder created for them is removed again).
+pub(crate) fn publish(plan: &Plan, outcome: &Outcome, report: Option<&Report>) -> Result<(), CliError> {
+    let figure = figure(plan, outcome)?;
+    let csv = csv_table(&outcome.rows);
+    let markdown =
+        markdown_table(plan, &outcome.rows, &outcome.reference_text, outcome.reference.variance.is_some());
+    let out = &plan.out;
+    let created = !out.exists();
+    let data_created = !out.join(crate::report::data::FOLDER).exists();
+    let failure = |e: OutputError| CliError::Failure(e.to_string());
     if created {
-        std::fs::create_dir(&plan.out).map_err(|e| OutputError::io(&plan.out, e))?;
+        std::fs::create_dir(out).map_err(|e| failure(OutputError::io(out, e)))?;
     }
     let result = (|| {
         let mut staged: Vec<Staged> = Vec::new();
-        for row in rows {
+        for row in &outcome.rows {
             let meta = ExrMetadata {
                 version: crate::VERSION.to_string(),
                 integrator: row.method.to_string(),
@@ -526,18 +656,26 @@ fn publish(plan: &Plan, rows: &[Row], figure: &Canvas, csv: &str, markdown: &str
                 scene: format!("{} ({})", plan.scene.origin.name, plan.scene.origin.hash),
                 effects: plan.scene.effects.names(),
             };
-            staged.push(stage_exr(&plan.out.join(format!("{}.exr", row.method)), &row.out.image, &meta)?);
+            staged.push(stage_exr(&out.join(format!("{}.exr", row.method)), &row.out.image, &meta)?);
         }
-        staged.push(figure.stage_png(&plan.out.join("compare.png"))?);
-        staged.push(stage_text(&plan.out.join("compare.csv"), csv)?);
-        staged.push(stage_text(&plan.out.join("compare.md"), markdown)?);
+        staged.push(figure.stage_png(&out.join("compare.png"))?);
+        staged.push(stage_text(&out.join("compare.csv"), &csv)?);
+        staged.push(stage_text(&out.join("compare.md"), &markdown)?);
+        if let Some(report) = report {
+            staged.extend(crate::report::stage(out, report)?);
+        }
         staged.into_iter().try_for_each(Staged::commit)
     })();
-    if result.is_err() && created {
-        // Only empty: the staged files removed themselves when dropped.
-        let _ = std::fs::remove_dir(&plan.out);
+    if result.is_err() {
+        // Only empty folders: the staged files removed themselves when dropped.
+        if data_created {
+            let _ = std::fs::remove_dir(out.join(crate::report::data::FOLDER));
+        }
+        if created {
+            let _ = std::fs::remove_dir(out);
+        }
     }
-    result
+    result.map_err(failure)
 }
 
 /// Prepares a text file for publishing.

@@ -21,7 +21,8 @@
 //! checkpoint, rewritten after every integrator so that a stopped run keeps what it measured),
 //! `relmse-spp.svg|png` and `relmse-seconds.svg|png` (log-log, the fitted slope in the legend),
 //! `converge.json` (the reference, the budget, how each method's checkpoints were made and its
-//! fitted slopes) and with `--exr` the image of every checkpoint, `METHOD-Nspp.exr`.
+//! fitted slopes), `index.html` (the interactive report of [`crate::report`]: each method's last
+//! checkpoint against the reference, the table and the plots) and with `--exr` the image of every checkpoint, `METHOD-Nspp.exr`.
 //!
 //! Progressive checkpoints are plain renders with the scene's sampler when it does not depend on
 //! the sample count (Sobol', the default, and independent), and draw independent samples with the
@@ -39,6 +40,7 @@ use crate::metrics::{self, split_csv, Metrics, MetricsError, Split};
 use crate::output::exr::{read_variance, stage_exr, ExrMetadata};
 use crate::output::{write_atomically, OutputError};
 use crate::render::{self, Budget, Growth, RenderOutput};
+use crate::report::{self as page, Layer, Report, Section, TableRow};
 use crate::scene::Scene;
 use indicatif::{MultiProgress, ProgressBar, ProgressStyle};
 use serde_json::json;
@@ -282,6 +284,8 @@ struct MethodSummary {
     growth: Growth,
     regime: Regime,
     last: Option<Row>,
+    /// The image of the last checkpoint, for the report's viewer.
+    image: Option<Image>,
 }
 
 /// Where a method's error falls like variance, and where it stops at a bias floor.
@@ -440,7 +444,7 @@ fn render_rows(
     pool: &rayon::ThreadPool,
     (index, method): (usize, &dyn Integrator),
     reference: &Reference,
-) -> Result<(Growth, Vec<Row>), CliError> {
+) -> Result<(Growth, Vec<Row>, Option<Image>), CliError> {
     let scene = &plan.scene;
     let cached = matches!(plan.reference, ReferenceSource::Cached(..));
     let opts = args.render.options(scene, method, plan.budget);
@@ -454,10 +458,14 @@ fn render_rows(
     let progress = |done: u64, total: u64| bars.update(&bar, step, done, total);
     let mut error: Option<CliError> = None;
     let mut rows: Vec<Row> = Vec::new();
+    let mut last: Option<Image> = None;
     let mut checkpoint = |out: &RenderOutput| {
         if error.is_none() {
             match measure(args, scene, method, opts.seed, reference, out) {
-                Ok(row) => rows.push(row),
+                Ok(row) => {
+                    rows.push(row);
+                    last = Some(out.image.clone());
+                }
                 Err(e) => error = Some(e),
             }
         }
@@ -467,7 +475,76 @@ fn render_rows(
     bar.finish_and_clear();
     match error {
         Some(e) => Err(e),
-        None => Ok((growth, rows)),
+        None => Ok((growth, rows, last)),
+    }
+}
+
+/// The report section of a convergence run: the last checkpoint of every method in the viewer
+/// and the table, every checkpoint in the plots.
+fn report_section(
+    plan: &Plan,
+    summaries: &[MethodSummary],
+    rows: &[Row],
+    reference: &Reference,
+    reference_text: &str,
+) -> Section {
+    let scene = &plan.scene;
+    let mine = |name: &str| -> Vec<Row> { rows.iter().filter(|r| r.integrator == name).cloned().collect() };
+    let budget = match plan.budget {
+        Budget::Samples(n) => format!("progressive, checkpoints at powers of two up to {n} spp"),
+        Budget::Time(t) => format!("progressive, {} s per method", format_number(t.as_secs_f64())),
+    };
+    let details = vec![
+        ("scene file".to_string(), format!("{} (hash {})", scene.origin.name, scene.origin.hash)),
+        ("budget".to_string(), budget),
+        ("resolution".to_string(), format!("{}x{}", plan.width, plan.height)),
+        ("reference".to_string(), reference_text.to_string()),
+        ("viewer and table".to_string(), "each method's last checkpoint".to_string()),
+    ];
+    let with_image = || summaries.iter().filter_map(|s| Some((s, s.image.as_ref()?, s.last.as_ref()?)));
+    Section {
+        scene: Path::new(&scene.origin.name)
+            .file_name()
+            .map_or_else(|| scene.origin.name.clone(), |n| n.to_string_lossy().into_owned()),
+        details,
+        exposure: scene.settings.exposure,
+        reference: Layer {
+            label: "reference".into(),
+            note: reference_text.to_string(),
+            image: reference.image.clone(),
+        },
+        layers: with_image()
+            .map(|(s, image, last)| Layer {
+                label: s.name.to_string(),
+                note: format!("{} spp, {} s", last.spp, format_number(last.seconds)),
+                image: image.clone(),
+            })
+            .collect(),
+        rows: with_image()
+            .map(|(s, _, last)| TableRow {
+                method: s.name.to_string(),
+                spp: f64::from(last.spp),
+                seconds: last.seconds,
+                rays: last.rays,
+                mrays_per_second: last.rays as f64 / last.seconds.max(1e-9) / 1e6,
+                mse: last.metrics.mse,
+                rel_mse: last.metrics.rel_mse,
+                efficiency: metrics::efficiency(last.split.as_ref(), last.metrics.mse, last.seconds),
+                status: TableRow::status_of(last.split.as_ref()),
+            })
+            .collect(),
+        convergence: summaries
+            .iter()
+            .map(|s| {
+                let mine = mine(s.name);
+                page::Series {
+                    method: s.name.to_string(),
+                    points: mine.iter().map(|r| (f64::from(r.spp), r.seconds, r.metrics.rel_mse)).collect(),
+                    legend: format!("{}: {}", s.name, s.regime.describe(&mine)),
+                }
+            })
+            .collect(),
+        files: String::new(),
     }
 }
 
@@ -522,12 +599,13 @@ pub fn run(args: &ConvergeArgs) -> Result<(), CliError> {
     let mut summaries = Vec::new();
     let csv_path = args.out.join("converge.csv");
     for (index, method) in plan.methods.iter().enumerate() {
-        let (growth, method_rows) = match &plan.renders {
+        let (growth, method_rows, last_image) = match &plan.renders {
             Some(renders) => {
                 let mut mine: Vec<&super::RenderFile> =
                     renders.iter().filter(|r| r.method.name() == method.name()).collect();
                 mine.sort_by_key(|r| r.out.spp);
                 let mut rows = Vec::with_capacity(mine.len());
+                let last = mine.last().map(|r| r.out.image.clone());
                 for r in mine {
                     let mut out = r.out.clone();
                     if out.variance.is_none() {
@@ -536,7 +614,7 @@ pub fn run(args: &ConvergeArgs) -> Result<(), CliError> {
                     }
                     rows.push(measure(args, scene, method.as_ref(), r.seed, &reference, &out)?);
                 }
-                (Growth::Fresh(PRECOMPUTED), rows)
+                (Growth::Fresh(PRECOMPUTED), rows, last)
             }
             None => render_rows(args, &plan, &bars, &pool, (index, method.as_ref()), &reference)?,
         };
@@ -545,6 +623,7 @@ pub fn run(args: &ConvergeArgs) -> Result<(), CliError> {
             growth,
             regime: regime(&method_rows),
             last: method_rows.last().cloned(),
+            image: last_image,
         });
         rows.extend(method_rows);
         write_text(&csv_path, &csv(&rows)).map_err(failure)?;
@@ -633,6 +712,13 @@ pub fn run(args: &ConvergeArgs) -> Result<(), CliError> {
     let json_path = args.out.join("converge.json");
     write_text(&json_path, &(serde_json::to_string_pretty(&summary).expect("JSON") + "\n"))
         .map_err(failure)?;
+    let report = Report {
+        title: format!("vitrum converge: {short}"),
+        sections: vec![report_section(&plan, &summaries, &rows, &reference, &reference_text)],
+        command: super::compare::command_line(),
+        machine: crate::report::machine::describe(),
+    };
+    crate::report::write(&args.out, &report).map_err(failure)?;
 
     if !args.quiet {
         for s in &summaries {
@@ -652,7 +738,12 @@ pub fn run(args: &ConvergeArgs) -> Result<(), CliError> {
                 s.regime.describe(&mine),
             );
         }
-        eprintln!("converge -> {}, {}", csv_path.display(), json_path.display());
+        eprintln!(
+            "converge -> {}, {}, {}",
+            csv_path.display(),
+            json_path.display(),
+            args.out.join("index.html").display()
+        );
     }
     Ok(())
 }

@@ -1,6 +1,6 @@
 //! Every command: `render` (and its parts: shards, checkpoints, resume), `info`, `export`, and the
 //! research commands `diff` (error metrics), `converge` (error against samples and seconds),
-//! `compare` (equal-time figures and tables) and `merge` (render parts into one image). Each
+//! `compare` (equal-time figures and tables), `report` (every scene × method in one page) and `merge` (render parts into one image). Each
 //! lives in its own module with its clap arguments and a `run` function; [`crate::cli`]
 //! dispatches to them, and what they share is in [`support`]. Nothing here imports the CLI.
 
@@ -12,6 +12,7 @@ pub mod info;
 pub mod merge;
 pub mod parts;
 pub mod render;
+pub mod report;
 pub mod support;
 
 use crate::integrators::{self, Integrator, RenderParams};

@@ -31,7 +31,7 @@ const MIN_MAP_SIDE: usize = 256;
 
 /// matplotlib's viridis sampled at every 17th of its 256 entries (t = 0, 1/15, …, 1), in sRGB;
 /// linear interpolation between them stays within 7/255 of the full table.
-const VIRIDIS: [Rgb; 16] = [
+pub const VIRIDIS: [Rgb; 16] = [
     [68, 1, 84],
     [72, 26, 108],
     [71, 47, 125],

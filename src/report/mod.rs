@@ -1,0 +1,147 @@
+//! The interactive HTML report: one self-contained folder that opens offline from `file://`.
+//!
+//! `vitrum compare`, `vitrum converge` and `vitrum report` describe what they measured as a
+//! [`Report`] (one [`Section`] per scene: its images, its table, its convergence curves) and
+//! [`stage`] turns it into files, published together with the command's other outputs:
+//!
+//! - `index.html`: the page. Every text from a scene or the command line is HTML-escaped
+//!   ([`page::escape`]); the section's numbers travel as JSON in a
+//!   `<script type="application/json">` element, escaped so that no `</script>` can end it.
+//! - `report.js`, `report.css`: the viewer (no external script, font or request).
+//! - `data/S-NAME.js`: one file per image, the linear RGB values as IEEE half floats
+//!   (little-endian, row-major, top row first, 6 bytes per pixel) in base64, which a
+//!   `<script>` element loads: a `file://` page may not `fetch()` its neighbours. An 800×800
+//!   image takes 5.1 MB (4/3 of its 3.84 MB of halves). Finite values beyond half's range are
+//!   stored as ±65504; NaN stays NaN.
+//!
+//! The browser tone-maps the data itself, as the PNG previews do (`crate::output::png`):
+//! `v·2^EV` clamped to \[0, 1\], then the sRGB curve (or `v^(1/γ)`), rounded to 8 bits; NaN is
+//! magenta. Error maps are the per-pixel relative squared error of
+//! [`crate::metrics::relative_squared_error`], in viridis on a log scale shared by the section's
+//! methods ([`crate::figure::colormap::log_range`] of them all). Files depend only on the report's
+//! content, so the same renders give the same bytes.
+
+pub mod data;
+pub mod machine;
+pub mod page;
+
+use crate::image::Image;
+use crate::metrics::Split;
+use crate::output::{stage_bytes, OutputError, Staged};
+use std::path::Path;
+
+/// The viewer's script, written beside the page.
+const SCRIPT: &str = include_str!("assets/report.js");
+/// The page's style sheet.
+const STYLE: &str = include_str!("assets/report.css");
+
+/// A whole report: a title, one section per scene, and what made it.
+#[derive(Clone, Debug)]
+pub struct Report {
+    /// The page title (escaped when written).
+    pub title: String,
+    /// One section per scene.
+    pub sections: Vec<Section>,
+    /// The command line that made the report, shown in the footer.
+    pub command: String,
+    /// The machine it ran on ([`machine::describe`]), shown in the footer.
+    pub machine: String,
+}
+
+/// One scene's viewer, table and convergence plot.
+#[derive(Clone, Debug)]
+pub struct Section {
+    /// The scene's display name (its file name).
+    pub scene: String,
+    /// Labelled facts shown above the viewer: budget, resolution, reference, objects, ….
+    pub details: Vec<(String, String)>,
+    /// The exposure the viewer starts at, in stops.
+    pub exposure: f32,
+    /// The reference every layer is measured against.
+    pub reference: Layer,
+    /// The methods' renders, in the table's order.
+    pub layers: Vec<Layer>,
+    /// The table: one row per method.
+    pub rows: Vec<TableRow>,
+    /// Error against samples and seconds, one series per method; empty when there is none.
+    pub convergence: Vec<Series>,
+    /// Where the section's files (EXR, CSV) are, relative to the page; empty if beside it.
+    pub files: String,
+}
+
+/// One image of a viewer.
+#[derive(Clone, Debug)]
+pub struct Layer {
+    /// The tab's label: the method's name, or "reference".
+    pub label: String,
+    /// A short description under the tab (e.g. "64 spp, 1.2 s").
+    pub note: String,
+    /// The linear RGB image.
+    pub image: Image,
+}
+
+/// One method's row of the table.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TableRow {
+    /// The method.
+    pub method: String,
+    /// Samples per pixel (a mean for adaptive methods).
+    pub spp: f64,
+    /// Render seconds.
+    pub seconds: f64,
+    /// Rays traced.
+    pub rays: u64,
+    /// Millions of rays per second.
+    pub mrays_per_second: f64,
+    /// Mean squared error against the reference.
+    pub mse: f64,
+    /// Relative MSE against the reference.
+    pub rel_mse: f64,
+    /// 1/(MSE·seconds) where the error is variance ([`crate::metrics::efficiency`]).
+    pub efficiency: Option<f64>,
+    /// The bias verdict ([`Split::status`], or "unknown").
+    pub status: String,
+}
+
+impl TableRow {
+    /// The verdict of `split` as the table shows it.
+    pub fn status_of(split: Option<&Split>) -> String {
+        split.map_or("unknown", Split::status).to_string()
+    }
+}
+
+/// One method's convergence: relMSE at each checkpoint.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Series {
+    /// The method.
+    pub method: String,
+    /// (samples per pixel, seconds, relMSE) of each checkpoint, in order.
+    pub points: Vec<(f64, f64, f64)>,
+    /// The legend text (fitted slope, plateau).
+    pub legend: String,
+}
+
+/// Encodes the report's files for the folder `dir` (created, with its `data` subfolder, if
+/// missing), to be published with the command's other outputs by [`Staged::commit`].
+pub fn stage(dir: &Path, report: &Report) -> Result<Vec<Staged>, OutputError> {
+    let data_dir = dir.join(data::FOLDER);
+    std::fs::create_dir_all(&data_dir).map_err(|e| OutputError::io(&data_dir, e))?;
+    let mut staged = vec![
+        stage_bytes(&dir.join("index.html"), page::html(report).as_bytes())?,
+        stage_bytes(&dir.join("report.js"), SCRIPT.as_bytes())?,
+        stage_bytes(&dir.join("report.css"), STYLE.as_bytes())?,
+    ];
+    for (s, section) in report.sections.iter().enumerate() {
+        for layer in std::iter::once(&section.reference).chain(&section.layers) {
+            let key = data::key(s, &layer.label);
+            let text = data::script(&key, &layer.image);
+            staged.push(stage_bytes(&dir.join(data::file_name(&key)), text.as_bytes())?);
+        }
+    }
+    Ok(staged)
+}
+
+/// Writes the report into `dir` (see [`stage`]); for a report that is the only output.
+pub fn write(dir: &Path, report: &Report) -> Result<(), OutputError> {
+    stage(dir, report)?.into_iter().try_for_each(Staged::commit)
+}
