@@ -151,7 +151,23 @@ fn equal_samples_write_the_documented_figure_a_table_row_and_an_exr_per_method()
     let folder = sandbox.path("out/cmp");
     assert_eq!(
         sandbox.files("out/cmp"),
-        ["compare.csv", "compare.md", "compare.png", "path.exr", "raycast.exr", "whitted.exr"]
+        [
+            "compare.csv",
+            "compare.md",
+            "compare.png",
+            "data",
+            "index.html",
+            "path.exr",
+            "raycast.exr",
+            "report.css",
+            "report.js",
+            "whitted.exr"
+        ]
+    );
+    // The report's data: the reference and one file per method.
+    assert_eq!(
+        sandbox.files("out/cmp/data"),
+        ["s0-path.js", "s0-raycast.js", "s0-reference.js", "s0-whitted.js"]
     );
     assert_eq!(png_size(&folder.join("compare.png")), expected_figure_size(SIZE, 3, None));
     let (csv, md) = table_methods(&folder);
