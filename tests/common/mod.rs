@@ -8,6 +8,8 @@ use vitrum::render::{render, RenderOptions, RenderOutput};
 use vitrum::sampler::SamplerKind;
 use vitrum::scene::{load_str, Scene};
 
+pub mod browser;
+
 /// A render of `scene` by `integrator` with the given options.
 pub fn render_opts(scene: &Scene, integrator: &str, opts: &RenderOptions) -> RenderOutput {
     render(scene, create(integrator).unwrap().as_ref(), opts, &|_, _| {})
