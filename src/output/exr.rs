@@ -163,7 +163,9 @@ pub fn encode_exr_rgb(path: &Path, image: &Image) -> Result<Vec<u8>, OutputError
         Layer::new((image.width, image.height), LayerAttributes::default(), Encoding::SMALL_LOSSLESS, pixels);
     let mut bytes = Cursor::new(Vec::new());
     exr::image::Image::from_layer(layer).write().to_buffered(&mut bytes).map_err(|e| exr_error(path, e))?;
-    Ok(bytes.into_inner())
+    let mut bytes = bytes.into_inner();
+    sort_header_attributes(&mut bytes);
+    Ok(bytes)
 }
 
 /// Encode an EXR file in memory with `encode`, then stage its bytes (see [`stage_bytes`]).
@@ -174,7 +176,55 @@ fn encode_and_stage(
     let mut bytes = Cursor::new(Vec::new());
     // Errors name the final path: the temporary name means nothing to the user.
     encode(&mut bytes).map_err(|e| exr_error(path, e))?;
-    stage_bytes(path, bytes.get_ref())
+    let mut bytes = bytes.into_inner();
+    sort_header_attributes(&mut bytes);
+    stage_bytes(path, &bytes)
+}
+
+/// Puts the attributes of every header of the EXR file `bytes` in the order of their names, so
+/// that the same image and metadata give the same bytes: the `exr` crate writes custom attributes
+/// in the order of a `HashMap`, which changes from process to process. A header keeps its
+/// length, so the offset table after it stays valid. Bytes that are not a well-formed header are
+/// left as they are.
+fn sort_header_attributes(bytes: &mut [u8]) {
+    const MULTIPART: u32 = 0x1000;
+    let Some(version) = bytes.get(4..8) else { return };
+    let multipart = u32::from_le_bytes(version.try_into().expect("4 bytes")) & MULTIPART != 0;
+    let mut at = 8;
+    loop {
+        let Some(end) = sort_one_header(bytes, at) else { return };
+        at = end + 1;
+        if !multipart || bytes.get(at).is_none_or(|&b| b == 0) {
+            return;
+        }
+    }
+}
+
+/// Sorts the attributes of the header that starts at `start`; returns the position of its
+/// terminating null byte, or `None` (and changes nothing) when the bytes are not a header.
+fn sort_one_header(bytes: &mut [u8], start: usize) -> Option<usize> {
+    let null_after = |from: usize| bytes.get(from..)?.iter().position(|&b| b == 0).map(|k| from + k);
+    let mut records: Vec<(usize, usize, usize)> = Vec::new(); // (start, name end, end)
+    let mut at = start;
+    loop {
+        let name_end = null_after(at)?;
+        if name_end == at {
+            break;
+        }
+        let type_end = null_after(name_end + 1)?;
+        let size = i32::from_le_bytes(bytes.get(type_end + 1..type_end + 5)?.try_into().ok()?);
+        let end = (type_end + 5).checked_add(usize::try_from(size).ok()?)?;
+        if end > bytes.len() {
+            return None;
+        }
+        records.push((at, name_end, end));
+        at = end;
+    }
+    let mut sorted = records.clone();
+    sorted.sort_by(|a, b| bytes[a.0..a.1].cmp(&bytes[b.0..b.1]));
+    let header: Vec<u8> = sorted.iter().flat_map(|&(from, _, to)| bytes[from..to].to_vec()).collect();
+    bytes[start..at].copy_from_slice(&header);
+    Some(at)
 }
 
 /// An extra float32 channel of an EXR file, one value per pixel in row-major order.
@@ -537,6 +587,45 @@ mod tests {
 
     fn bits(image: &Image) -> Vec<[u32; 3]> {
         image.pixels.iter().map(|p| p.to_array().map(f32::to_bits)).collect()
+    }
+
+    /// The attribute names of the (single-part) header of the EXR file `bytes`, in file order.
+    fn attribute_names(bytes: &[u8]) -> Vec<String> {
+        let mut names = Vec::new();
+        let mut at = 8;
+        while bytes[at] != 0 {
+            let name_end = at + bytes[at..].iter().position(|&b| b == 0).unwrap();
+            let type_end = name_end + 1 + bytes[name_end + 1..].iter().position(|&b| b == 0).unwrap();
+            let size = i32::from_le_bytes(bytes[type_end + 1..type_end + 5].try_into().unwrap()) as usize;
+            names.push(String::from_utf8(bytes[at..name_end].to_vec()).unwrap());
+            at = type_end + 5 + size;
+        }
+        names
+    }
+
+    #[test]
+    fn the_same_render_gives_the_same_bytes_with_sorted_attributes() {
+        let dir = tempfile::tempdir().unwrap();
+        let (a, b) = (dir.path().join("a.exr"), dir.path().join("b.exr"));
+        // Each write builds its own attribute map, whose order is random.
+        let mut files = Vec::new();
+        for _ in 0..4 {
+            write_exr(&a, &test_image(), &test_metadata()).unwrap();
+            files.push(std::fs::read(&a).unwrap());
+        }
+        assert!(files.windows(2).all(|w| w[0] == w[1]), "the bytes changed between writes");
+        let names = attribute_names(&files[0]);
+        assert!(names.len() > 10 && names.contains(&"vitrum:integrator".to_string()), "{names:?}");
+        assert!(names.windows(2).all(|w| w[0] < w[1]), "not in name order: {names:?}");
+        // The sorted file reads back whole.
+        std::fs::write(&b, &files[0]).unwrap();
+        let (image, attributes) = read_exr(&b).unwrap();
+        assert_eq!(bits(&image), bits(&test_image()));
+        assert_eq!(attributes.get("vitrum:spp").map(String::as_str), Some("64"));
+        // Bytes that are not a header are left alone.
+        let mut junk = vec![0x76, 0x2f, 0x31, 0x01, 2, 0, 0, 0, b'x', 0];
+        sort_header_attributes(&mut junk);
+        assert_eq!(junk, [0x76, 0x2f, 0x31, 0x01, 2, 0, 0, 0, b'x', 0]);
     }
 
     #[test]
