@@ -405,7 +405,12 @@ fn converge_records_growing_checkpoints_and_a_one_over_n_error() {
         .map(|e| e.unwrap().file_name().into_string().unwrap())
         .collect();
     names.sort();
-    assert_eq!(names.len(), 2 + 4 + 16, "{names:?}");
+    // CSV and JSON, four plots, 16 checkpoints, and the report: index.html, report.js,
+    // report.css and data/.
+    assert_eq!(names.len(), 2 + 4 + 16 + 4, "{names:?}");
+    for name in ["index.html", "report.js", "report.css", "data"] {
+        assert!(names.iter().any(|n| n == name), "{name} missing: {names:?}");
+    }
 }
 
 #[test]

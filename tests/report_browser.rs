@@ -234,6 +234,12 @@ fn the_page_shows_the_exr_values_tone_mapped_and_answers_every_control() {
     assert_eq!(state(&mut browser)["zoom"].as_f64().unwrap(), 2.0 * zoom);
     let readout = browser.eval("document.querySelector('.readout').dataset.x + ',' + document.querySelector('.readout').dataset.y").unwrap();
     assert_eq!(readout, format!("{x},{y}"), "the pixel under the cursor stays under it");
+    // Dragging pans by the distance dragged (device pixel ratio 1).
+    let before = state(&mut browser);
+    browser.drag((page_x, page_y), (page_x + 40.0, page_y - 24.0)).unwrap();
+    let after = state(&mut browser);
+    assert_eq!(after["ox"].as_f64().unwrap(), before["ox"].as_f64().unwrap() + 40.0, "{after}");
+    assert_eq!(after["oy"].as_f64().unwrap(), before["oy"].as_f64().unwrap() - 24.0, "{after}");
     // Zoom is shared by the methods: switching keeps it.
     browser.press("3").unwrap();
     assert_eq!(state(&mut browser)["zoom"].as_f64().unwrap(), 2.0 * zoom);
