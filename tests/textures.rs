@@ -18,13 +18,38 @@ fn uv_at(scene: &Scene, origin: Vec3, dir: Vec3) -> Vec2 {
     hit.hit.uv
 }
 
-/// A scene of one object (`object` is the body of its `[[objects]]` table).
-fn one_object(object: &str) -> Scene {
+/// A scene of one object (`object` is the body of its `[[objects]]` table) whose material is
+/// `material` (the body of its table).
+fn one_object_of(object: &str, material: &str) -> Scene {
     let text = format!(
         "[camera]\nposition = [0.0, 0.0, 5.0]\nlook_at = [0.0, 0.0, 0.0]\nresolution = [8, 8]\n\
-         [materials.m]\ntype = \"diffuse\"\n[[objects]]\nmaterial = \"m\"\n{object}\n"
+         [materials.m]\n{material}\n[[objects]]\nmaterial = \"m\"\n{object}\n"
     );
-    load_str(&text, "uv", None).unwrap()
+    let scenes = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
+    load_str(&text, "uv", Some(&scenes)).unwrap()
+}
+
+/// A scene of one object with an image texture, so that its hits carry their uv.
+fn one_object(object: &str) -> Scene {
+    one_object_of(
+        object,
+        "type = \"diffuse\"\ntexture = { type = \"image\", file = \"textures/uv-grid.png\" }",
+    )
+}
+
+#[test]
+fn hits_skip_the_angular_uv_where_no_texture_reads_it() {
+    // Spheres, cylinders and disks pay an atan2 for their uv; without an image texture anywhere
+    // (a checker reads the position) their hits carry zero instead.
+    let sphere = "shape = \"sphere\"\ncenter = [0.0, 0.0, 0.0]\nradius = 1.0";
+    let disk = "shape = \"disk\"\ncenter = [0.0, 0.0, 0.0]\nnormal = [0.0, 0.0, 1.0]\nradius = 1.0";
+    let plain = "type = \"diffuse\"\ntexture = { type = \"checker\", color1 = [1.0, 1.0, 1.0], color2 = [0.0, 0.0, 0.0], size = 0.5 }";
+    let origin = Vec3::new(0.3, 0.4, 5.0);
+    for object in [sphere, disk] {
+        assert_eq!(uv_at(&one_object_of(object, plain), origin, -Vec3::Z), Vec2::ZERO, "{object}");
+        let uv = uv_at(&one_object(object), origin, -Vec3::Z);
+        assert!(uv.x > 0.0 && uv.y > 0.0, "{object}: {uv}");
+    }
 }
 
 fn close(a: Vec2, b: Vec2) -> bool {

@@ -52,6 +52,13 @@ impl Cylinder {
 
     /// Full hit record for a hit at `t`, with the radial component reprojected onto the wall.
     pub fn surface(&self, ray: &Ray, t: f32) -> SurfaceHit {
+        self.surface_uv(ray, t, true)
+    }
+
+    /// [`Cylinder::surface`], with texture coordinates only where `with_uv` (else zero: the
+    /// azimuth costs an `atan2`).
+    #[inline]
+    pub fn surface_uv(&self, ray: &Ray, t: f32, with_uv: bool) -> SurfaceHit {
         let q = (ray.origin - self.base) + t * ray.dir;
         let z = q.dot(self.w);
         let n = unit_or(q - z * self.w, self.u);
@@ -62,7 +69,7 @@ impl Cylinder {
             p,
             n,
             shading_n: n,
-            uv: Vec2::new(azimuth((self.u, self.v), n), v.clamp(0.0, 1.0)),
+            uv: if with_uv { Vec2::new(azimuth((self.u, self.v), n), v.clamp(0.0, 1.0)) } else { Vec2::ZERO },
             // Radially, as for the sphere, n·r is within γ(6)·r of the wall (roundoff of
             // `q − z·w` only tilts n, moving p along the wall); z·w carries the roundoff of the
             // dot product, γ(4)·|z|, along the axis; summing the two rounds twice more: γ(8)

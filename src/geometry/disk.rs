@@ -57,8 +57,15 @@ impl Disk {
 
     /// Full hit record for a hit at `t`, with the point projected onto the plane.
     pub fn surface(&self, ray: &Ray, t: f32) -> SurfaceHit {
+        self.surface_uv(ray, t, true)
+    }
+
+    /// [`Disk::surface`], with texture coordinates only where `with_uv` (else zero: the angle
+    /// costs an `atan2`).
+    #[inline]
+    pub fn surface_uv(&self, ray: &Ray, t: f32, with_uv: bool) -> SurfaceHit {
         let q = plane_point(self.normal, self.center, ray, t);
-        let uv = disk_uv(self.tangent, q, self.radius, self.inner_radius);
+        let uv = if with_uv { disk_uv(self.tangent, q, self.radius, self.inner_radius) } else { Vec2::ZERO };
         planar_surface(self.normal, self.center, q, t, uv)
     }
 

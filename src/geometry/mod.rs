@@ -204,11 +204,16 @@ impl Shape {
         }
     }
 
-    /// [`Shape::surface`], with the barycentrics [`Shape::hit_sheared`] found for a triangle.
+    /// [`Shape::surface`], with the barycentrics [`Shape::hit_sheared`] found for a triangle, and
+    /// the angular texture coordinates of spheres, cylinders and disks only where `with_uv` (else
+    /// zero; they cost an `atan2` per hit, which a scene whose textures read no uv never needs).
     #[inline]
-    pub fn surface_with(&self, ray: &Ray, t: f32, bary: Option<[f32; 3]>) -> SurfaceHit {
+    pub fn surface_with(&self, ray: &Ray, t: f32, bary: Option<[f32; 3]>, with_uv: bool) -> SurfaceHit {
         match (self, bary) {
             (Shape::Triangle(s), Some(bary)) => s.surface_at(ray, t, bary),
+            (Shape::Sphere(s), _) => s.surface_uv(ray, t, with_uv),
+            (Shape::Cylinder(s), _) => s.surface_uv(ray, t, with_uv),
+            (Shape::Disk(s), _) => s.surface_uv(ray, t, with_uv),
             _ => self.surface(ray, t),
         }
     }

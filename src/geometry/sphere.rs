@@ -116,6 +116,13 @@ impl Sphere {
 
     /// Full hit record for a hit at `t`, with the point reprojected onto the sphere.
     pub fn surface(&self, ray: &Ray, t: f32) -> SurfaceHit {
+        self.surface_uv(ray, t, true)
+    }
+
+    /// [`Sphere::surface`], with texture coordinates only where `with_uv` (else zero: they cost
+    /// an `atan2` and an `acos`).
+    #[inline]
+    pub fn surface_uv(&self, ray: &Ray, t: f32, with_uv: bool) -> SurfaceHit {
         let n = unit_or((ray.origin - self.center) + t * ray.dir, self.axis);
         let p = self.center + n * self.radius;
         SurfaceHit {
@@ -123,7 +130,7 @@ impl Sphere {
             p,
             n,
             shading_n: n,
-            uv: sphere_uv(self.axis, self.tangent, n),
+            uv: if with_uv { sphere_uv(self.axis, self.tangent, n) } else { Vec2::ZERO },
             // Radially only the length of n matters: `normalize` (dot, sqrt, reciprocal,
             // product) leaves a relative error below γ(5) and scaling by r rounds once more,
             // γ(6)·r; the roundoff of q only tilts n, moving p along the surface. Adding the

@@ -657,6 +657,7 @@ impl Compiler<'_> {
             permute_in_place(&mut attribute_index, &bvh.primitive_indices);
         }
         let has_motion = primitives.iter().any(|p| p.velocity.is_some());
+        let reads_surface_uv = reads_surface_uv(&materials, &lights);
         Ok(Scene {
             primitives,
             materials,
@@ -669,6 +670,7 @@ impl Compiler<'_> {
             origin: SceneOrigin { name: self.source.name.clone(), hash: scene_hash(text, &inputs) },
             bvh_scale: bvh_stats.scale,
             has_motion,
+            reads_surface_uv,
             bvh_stats,
             warnings,
             bvh,
@@ -1422,6 +1424,16 @@ impl Compiler<'_> {
 }
 
 /// Record the effects a material asks for, on behalf of object `object`.
+/// Whether a texture of the scene reads the uv of a hit: an image texture on a material (diffuse
+/// albedo, mirror tint) or on an emitter. Checkers read the position, constants nothing.
+fn reads_surface_uv(materials: &[Material], lights: &[Light]) -> bool {
+    let material = materials.iter().any(|m| {
+        matches!(&m.bsdf, Bsdf::Diffuse(Texture::Image(_)) | Bsdf::Mirror { color: Texture::Image(_), .. })
+    });
+    let light = lights.iter().any(|l| matches!(l, Light::Surface { texture: Some(Texture::Image(_)), .. }));
+    material || light
+}
+
 fn material_effects(effects: &mut Effects, m: &Material, object: usize) {
     let who = format!("objects[{object}] uses material `{}`", m.name);
     let texture = match &m.bsdf {

@@ -221,6 +221,9 @@ pub struct Scene {
     attribute_index: Vec<u32>,
     /// Whether any primitive moves (only then does traversal look at velocities).
     has_motion: bool,
+    /// Whether any texture reads a hit's uv (an image texture on a material or an emitter):
+    /// without one, hits skip the angular coordinates of spheres, cylinders and disks.
+    reads_surface_uv: bool,
 
     /// World = BVH coordinates × `bvh_scale` (a power of two, so the mapping is exact). The
     /// CwBvh culls boxes closer than a fixed 1e-4 along the ray; normalising the scene to a size
@@ -251,9 +254,9 @@ impl Scene {
         let primitive = primitive as u32;
         let prim = &prims[primitive as usize];
         let mut hit = match prim.velocity {
-            None => prim.shape.surface_with(ray, t, bary),
+            None => prim.shape.surface_with(ray, t, bary, self.reads_surface_uv),
             Some(v) => {
-                let mut h = prim.shape.surface(&moved(ray, v), t);
+                let mut h = prim.shape.surface_with(&moved(ray, v), t, None, self.reads_surface_uv);
                 let shift = v * ray.time;
                 h.p += shift;
                 h.p_error += crate::geometry::gamma(2) * h.p.abs().max_element();
