@@ -590,6 +590,11 @@ fn region_pairs<'a>(
     })
 }
 
+/// Millions of rays per second.
+pub fn mrays_per_second(rays: u64, seconds: f64) -> f64 {
+    rays as f64 / seconds.max(1e-9) / 1e6
+}
+
 /// Efficiency, 1/(MSE·seconds), only for a render whose error is variance: its split known and
 /// not biased (unbiased, or unresolved: the variance estimate explains more than the whole
 /// error). `None` otherwise: the efficiency of a biased render would reward its bias.

@@ -164,11 +164,16 @@ fn bad_input_exits_2_and_leaves_no_report_folder() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("rep");
     let missing = dir.path().join("missing.toml");
+    let broken = dir.path().join("broken.toml");
+    fs::write(&broken, "[camera]\nposition = [0.0, 0.0\n").unwrap();
+    let file = dir.path().join("a-file");
+    fs::write(&file, "").unwrap();
+    // Each fails in planning, after the first scene's plan succeeded and the folder was made.
     for args in [
         vec!["report", &scene("soft-shadows.toml") as &str, missing.to_str().unwrap(), "--spp", "1"],
+        vec!["report", &scene("soft-shadows.toml") as &str, broken.to_str().unwrap(), "--spp", "1"],
         vec!["report", &scene("soft-shadows.toml") as &str, "-i", "path,nosuch", "--spp", "1"],
-        vec!["report", &scene("soft-shadows.toml") as &str, "--spp", "0"],
-        vec!["report", "--spp", "1"],
+        vec!["report", &scene("soft-shadows.toml") as &str, "--spp", "1", "--cache", file.to_str().unwrap()],
     ] {
         let mut args = args.clone();
         args.extend(["--out", out.to_str().unwrap()]);

@@ -220,6 +220,7 @@ fn the_page_shows_the_exr_values_tone_mapped_and_answers_every_control() {
     browser.press("e").unwrap();
 
     // The wheel zooms by two about the cursor; the readout names the pixel under it.
+    browser.press("3").unwrap();
     let (x, y) = (20, 15);
     let centre = browser.eval(&format!("vitrumReport.viewers[0].pixelCentre({x}, {y})")).unwrap();
     let (page_x, page_y) = (centre["pageX"].as_f64().unwrap(), centre["pageY"].as_f64().unwrap());
@@ -228,7 +229,27 @@ fn the_page_shows_the_exr_values_tone_mapped_and_answers_every_control() {
     assert_eq!(readout, format!("{x},{y}"));
     let text = browser.eval("document.querySelector('.readout').textContent").unwrap();
     let text = text.as_str().unwrap();
-    assert!(text.contains(&format!("pixel ({x}, {y})")) && text.contains("reference: ("), "{text}");
+    assert!(text.contains(&format!("pixel ({x}, {y})")), "{text}");
+    // The linear values of the method (bpt, tab 3) and of the reference, to the 4 digits shown,
+    // and their relative squared error.
+    let bpt = image(&out.join("bpt.exr"));
+    let triple = |label: &str| -> Vec<f32> {
+        let start = text.find(&format!("{label}: (")).unwrap_or_else(|| panic!("{label} in {text}"))
+            + label.len()
+            + 3;
+        let end = start + text[start..].find(')').unwrap();
+        text[start..end].split(", ").map(|v| v.parse().unwrap()).collect()
+    };
+    let (shown, truth) = (triple("bpt"), bpt.get(x, y).to_array());
+    let (reference_shown, reference_truth) = (triple("reference"), reference.get(x, y).to_array());
+    for c in 0..3 {
+        let near = |a: f32, b: f32| (a - b).abs() <= 1e-3 * b.abs().max(1e-30);
+        assert!(near(shown[c], truth[c]), "bpt channel {c}: {} against {}", shown[c], truth[c]);
+        assert!(near(reference_shown[c], reference_truth[c]), "reference channel {c}");
+    }
+    let error: f32 = text.rsplit("relative squared error ").next().unwrap().parse().unwrap();
+    let expected = relative_squared_error(&bpt, &reference).unwrap()[y * width + x];
+    assert!((error - expected).abs() <= 1e-3 * expected.max(1e-30), "error {error} against {expected}");
     let zoom = state(&mut browser)["zoom"].as_f64().unwrap();
     browser.mouse_wheel(page_x, page_y, -100.0).unwrap();
     assert_eq!(state(&mut browser)["zoom"].as_f64().unwrap(), 2.0 * zoom);
@@ -268,12 +289,28 @@ fn the_page_shows_the_exr_values_tone_mapped_and_answers_every_control() {
             );
         }
     }
-    browser.eval("document.querySelectorAll('table.results th')[6].click()").unwrap();
-    let sorted = browser
-        .eval("[...document.querySelectorAll('table.results tbody tr')].map(r => Number(r.cells[6].dataset.value))")
-        .unwrap();
-    let sorted: Vec<f64> = sorted.as_array().unwrap().iter().map(|v| v.as_f64().unwrap()).collect();
-    assert!(sorted.windows(2).all(|w| w[0] <= w[1]), "relMSE ascending: {sorted:?}");
+    // Sorting: by number, not by text (efficiency 12.5 after 9.07), empty cells (biased
+    // methods) last either way; the second click reverses.
+    let column = |browser: &mut Browser, k: usize| {
+        let values = browser
+            .eval(&format!(
+                "[...document.querySelectorAll('table.results tbody tr')].map(r => r.cells[{k}].dataset.value)"
+            ))
+            .unwrap();
+        values.as_array().unwrap().iter().map(|v| v.as_str().unwrap().to_string()).collect::<Vec<_>>()
+    };
+    for k in [6, 7, 2] {
+        for ascending in [true, false] {
+            browser.eval(&format!("document.querySelectorAll('table.results th')[{k}].click()")).unwrap();
+            let cells = column(&mut browser, k);
+            let numbers: Vec<f64> =
+                cells.iter().filter(|c| !c.is_empty()).map(|c| c.parse().unwrap()).collect();
+            let ordered = numbers.windows(2).all(|w| if ascending { w[0] <= w[1] } else { w[0] >= w[1] });
+            assert!(ordered, "column {k}, ascending {ascending}: {cells:?}");
+            let first_empty = cells.iter().position(String::is_empty).unwrap_or(cells.len());
+            assert!(cells[first_empty..].iter().all(String::is_empty), "empty cells last: {cells:?}");
+        }
+    }
 
     // The hostile object name is text on the page, and no script carries it.
     let shown = browser.eval("document.querySelector('dl.details').textContent").unwrap();
@@ -426,8 +463,67 @@ fn readme_screenshot() {
     for key in ["s", "-", "-"] {
         browser.press(key).unwrap();
     }
-    let centre = browser.eval("vitrumReport.viewers[0].pixelCentre(200, 300)").unwrap();
+    let centre = browser.eval("vitrumReport.viewers[0].pixelCentre(120, 300)").unwrap();
     browser.mouse_move(centre["pageX"].as_f64().unwrap(), centre["pageY"].as_f64().unwrap()).unwrap();
     browser.screenshot(&root.join("docs/images/report.png")).unwrap();
+    assert_eq!(browser.problems(), Vec::<String>::new());
+}
+
+#[test]
+fn keys_act_on_the_viewer_under_the_mouse_and_a_flip_ends_where_it_began() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("report");
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let scene = |name: &str| root.join("scenes").join(name).display().to_string();
+    vitrum(&[
+        "report",
+        &scene("soft-shadows.toml"),
+        &scene("cornell-glass.toml"),
+        "-i",
+        "path,whitted",
+        "--spp",
+        "1",
+        "--reference-spp",
+        "2",
+        "--resolution",
+        "32x24",
+        "--exposure",
+        "0.25",
+        "--cache",
+        dir.path().join("cache").to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--quiet",
+    ]);
+    let mut browser = Browser::launch_with_size(1000, 700).expect("headless Chromium (.ci/run installs it)");
+    open_ready(&mut browser, &out.join("index.html"));
+    let hover = |browser: &mut Browser, viewer: usize| {
+        let js = format!(
+            "(() => {{ const v = vitrumReport.viewers[{viewer}]; v.canvas.scrollIntoView(); return v.pixelCentre(5, 5); }})()"
+        );
+        let p = browser.eval(&js).unwrap();
+        browser.mouse_move(p["pageX"].as_f64().unwrap(), p["pageY"].as_f64().unwrap()).unwrap();
+    };
+    let shown = |browser: &mut Browser, viewer: usize| {
+        let s = browser.eval(&format!("vitrumReport.viewers[{viewer}].state()")).unwrap();
+        (s["a"].as_u64().unwrap(), s["flip"].as_bool().unwrap())
+    };
+    // The viewers start at --exposure exactly (the slider's steps do not round it).
+    for viewer in 0..2 {
+        let exposure = browser.eval(&format!("vitrumReport.viewers[{viewer}].state().exposure")).unwrap();
+        assert_eq!(exposure.as_f64(), Some(0.25));
+    }
+    hover(&mut browser, 1);
+    browser.press("2").unwrap();
+    assert_eq!(shown(&mut browser, 1), (2, false), "the second viewer took the key");
+    assert_eq!(shown(&mut browser, 0), (1, false), "the first one did not");
+    // Hold b over the first viewer, release it over the second: the first one ends its flip.
+    hover(&mut browser, 0);
+    browser.key_down("b").unwrap();
+    assert_eq!(shown(&mut browser, 0), (1, true));
+    hover(&mut browser, 1);
+    browser.key_up("b").unwrap();
+    assert_eq!(shown(&mut browser, 0), (1, false));
+    assert_eq!(shown(&mut browser, 1), (2, false));
     assert_eq!(browser.problems(), Vec::<String>::new());
 }

@@ -380,7 +380,7 @@ impl Bars {
     }
 
     /// Runs `f` (which prints) with the bars hidden.
-    pub(crate) fn multi_suspend(&self, f: impl FnOnce()) {
+    pub(crate) fn suspend(&self, f: impl FnOnce()) {
         self.multi.suspend(f);
     }
 
@@ -425,7 +425,7 @@ pub fn run(args: &CompareArgs) -> Result<(), CliError> {
     let report = Report {
         title: format!("vitrum compare: {}", plan.scene_name),
         sections: vec![section(&plan, &outcome, "")],
-        command: command_line(),
+        command: crate::report::command_line(),
         machine: crate::report::machine::describe(),
     };
     publish(&plan, &outcome, Some(&report))?;
@@ -438,11 +438,6 @@ pub fn run(args: &CompareArgs) -> Result<(), CliError> {
         );
     }
     Ok(())
-}
-
-/// The command line as it was typed, for the report's footer.
-pub(crate) fn command_line() -> String {
-    std::env::args().collect::<Vec<_>>().join(" ")
 }
 
 /// One line per method: spp, seconds, errors and the bias split.
@@ -685,7 +680,7 @@ fn stage_text(path: &Path, text: &str) -> Result<Staged, OutputError> {
 
 /// Millions of rays per second.
 fn mrays_per_second(out: &RenderOutput) -> f64 {
-    out.rays.total() as f64 / out.seconds.max(1e-9) / 1e6
+    metrics::mrays_per_second(out.rays.total(), out.seconds)
 }
 
 /// The split for the summary line: "biased: bias 1.2e-3 ± 4e-5" or "unbiased: variance …".

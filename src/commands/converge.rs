@@ -40,7 +40,7 @@ use crate::metrics::{self, split_csv, Metrics, MetricsError, Split};
 use crate::output::exr::{read_variance, stage_exr, ExrMetadata};
 use crate::output::{write_atomically, OutputError};
 use crate::render::{self, Budget, Growth, RenderOutput};
-use crate::report::{self as page, Layer, Report, Section, TableRow};
+use crate::report::{self, Layer, Report, Section, TableRow};
 use crate::scene::Scene;
 use indicatif::{MultiProgress, ProgressBar, ProgressStyle};
 use serde_json::json;
@@ -526,7 +526,7 @@ fn report_section(
                 spp: f64::from(last.spp),
                 seconds: last.seconds,
                 rays: last.rays,
-                mrays_per_second: last.rays as f64 / last.seconds.max(1e-9) / 1e6,
+                mrays_per_second: metrics::mrays_per_second(last.rays, last.seconds),
                 mse: last.metrics.mse,
                 rel_mse: last.metrics.rel_mse,
                 efficiency: metrics::efficiency(last.split.as_ref(), last.metrics.mse, last.seconds),
@@ -537,7 +537,7 @@ fn report_section(
             .iter()
             .map(|s| {
                 let mine = mine(s.name);
-                page::Series {
+                report::Series {
                     method: s.name.to_string(),
                     points: mine.iter().map(|r| (f64::from(r.spp), r.seconds, r.metrics.rel_mse)).collect(),
                     legend: format!("{}: {}", s.name, s.regime.describe(&mine)),
@@ -715,7 +715,7 @@ pub fn run(args: &ConvergeArgs) -> Result<(), CliError> {
     let report = Report {
         title: format!("vitrum converge: {short}"),
         sections: vec![report_section(&plan, &summaries, &rows, &reference, &reference_text)],
-        command: super::compare::command_line(),
+        command: crate::report::command_line(),
         machine: crate::report::machine::describe(),
     };
     crate::report::write(&args.out, &report).map_err(failure)?;

@@ -51,14 +51,18 @@ pub struct ReportArgs {
     pub quiet: bool,
 }
 
-/// The folder names of `scenes` inside the report: each file's stem, made unique by `-2`, `-3`, ….
+/// The folder names of `scenes` inside the report: each file's stem (characters other than
+/// letters, digits, `-`, `_` and `.` as `_`; `scene-` before a stem that is empty, starts with a
+/// dot or is one of the report's own names), made unique by `-2`, `-3`, ….
 fn folder_names(scenes: &[PathBuf]) -> Vec<String> {
     let mut names: Vec<String> = Vec::with_capacity(scenes.len());
     for scene in scenes {
-        let stem =
-            scene.file_stem().map_or_else(|| "scene".to_string(), |s| s.to_string_lossy().into_owned());
+        let stem = scene.file_stem().map_or_else(String::new, |s| s.to_string_lossy().into_owned());
         let stem: String =
             stem.chars().map(|c| if c.is_alphanumeric() || "-_.".contains(c) { c } else { '_' }).collect();
+        let reserved = crate::report::RESERVED_NAMES.iter().any(|r| r.eq_ignore_ascii_case(&stem));
+        let stem =
+            if stem.is_empty() || stem.starts_with('.') || reserved { format!("scene-{stem}") } else { stem };
         let mut name = stem.clone();
         let mut n = 2;
         while names.contains(&name) {
@@ -119,7 +123,31 @@ pub fn run(args: &ReportArgs) -> Result<(), CliError> {
     result
 }
 
-/// Renders every planned scene, publishing each scene's folder as it is done and the page last.
+/// Renders every planned scene, publishing each scene's folder as it is done; the sections of
+/// the page.
+fn render_sections(
+    args: &ReportArgs,
+    names: &[String],
+    plans: &[(CompareArgs, Plan)],
+    pool: &rayon::ThreadPool,
+    bars: &Bars,
+) -> Result<Vec<crate::report::Section>, CliError> {
+    let mut sections = Vec::with_capacity(plans.len());
+    for ((scene_args, plan), name) in plans.iter().zip(names) {
+        let outcome = compare::render_scene(plan, scene_args, pool, bars)?;
+        compare::publish(plan, &outcome, None)?;
+        if !args.quiet {
+            bars.suspend(|| {
+                eprintln!("{name}:");
+                compare::print_summary(&outcome);
+            });
+        }
+        sections.push(compare::section(plan, &outcome, name));
+    }
+    Ok(sections)
+}
+
+/// Renders every planned scene (each scene's folder published as it is done), then the page.
 fn render_all(args: &ReportArgs, names: &[String], plans: &[(CompareArgs, Plan)]) -> Result<(), CliError> {
     for (_, plan) in plans {
         for w in plan.warnings() {
@@ -128,29 +156,15 @@ fn render_all(args: &ReportArgs, names: &[String], plans: &[(CompareArgs, Plan)]
     }
     let pool = args.render.pool()?;
     let bars = Bars::new("report", plans.iter().map(|(_, p)| p.renders()).sum(), args.quiet);
-    let mut sections = Vec::with_capacity(plans.len());
-    for ((scene_args, plan), name) in plans.iter().zip(names) {
-        let outcome = match compare::render_scene(plan, scene_args, &pool, &bars) {
-            Ok(outcome) => outcome,
-            Err(e) => {
-                bars.finish();
-                return Err(e);
-            }
-        };
-        compare::publish(plan, &outcome, None)?;
-        if !args.quiet {
-            bars.println(&format!("{name}:"));
-            bars.multi_suspend(|| compare::print_summary(&outcome));
-        }
-        sections.push(compare::section(plan, &outcome, name));
-    }
+    let sections = render_sections(args, names, plans, &pool, &bars);
     bars.finish();
+    let sections = sections?;
     let scenes =
         if sections.len() == 1 { "1 scene".to_string() } else { format!("{} scenes", sections.len()) };
     let report = Report {
         title: format!("vitrum report: {scenes}"),
         sections,
-        command: compare::command_line(),
+        command: crate::report::command_line(),
         machine: crate::report::machine::describe(),
     };
     crate::report::write(&args.out, &report).map_err(|e| CliError::Failure(e.to_string()))?;
@@ -169,5 +183,15 @@ mod tests {
         let scenes: Vec<PathBuf> =
             ["a/box.toml", "b/box.toml", "c/box.toml", "x y.toml"].iter().map(PathBuf::from).collect();
         assert_eq!(folder_names(&scenes), ["box", "box-2", "box-3", "x_y"]);
+        // The report's own names and names that would leave the folder are never taken.
+        let scenes: Vec<PathBuf> =
+            ["data.toml", "report.js.toml", "...toml", "index.html.toml", ".toml", "Data.toml"]
+                .iter()
+                .map(PathBuf::from)
+                .collect();
+        assert_eq!(
+            folder_names(&scenes),
+            ["scene-data", "scene-report.js", "scene-..", "scene-index.html", "scene-.toml", "scene-Data"]
+        );
     }
 }

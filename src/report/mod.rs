@@ -30,6 +30,11 @@ use crate::metrics::Split;
 use crate::output::{stage_bytes, OutputError, Staged};
 use std::path::Path;
 
+/// The page's file name.
+pub const PAGE: &str = "index.html";
+/// The names of the report's own files and folder beside the page, which no scene folder may take.
+pub const RESERVED_NAMES: [&str; 4] = [PAGE, "report.js", "report.css", data::FOLDER];
+
 /// The viewer's script, written beside the page.
 const SCRIPT: &str = include_str!("assets/report.js");
 /// The page's style sheet.
@@ -121,15 +126,30 @@ pub struct Series {
     pub legend: String,
 }
 
+/// The command line of this process as the footer shows it: arguments that are not valid UTF-8
+/// written lossily (never a panic), those with spaces or quotes in single quotes.
+pub fn command_line() -> String {
+    std::env::args_os().map(|a| quote_argument(&a.to_string_lossy())).collect::<Vec<_>>().join(" ")
+}
+
+/// `arg` as a shell would need it: as it is when it is plain, else in single quotes.
+fn quote_argument(arg: &str) -> String {
+    let plain = !arg.is_empty() && arg.chars().all(|c| c.is_alphanumeric() || "-_./=:,+@%".contains(c));
+    if plain {
+        arg.to_string()
+    } else {
+        format!("'{}'", arg.replace('\'', "'\\''"))
+    }
+}
+
 /// Encodes the report's files for the folder `dir` (created, with its `data` subfolder, if
 /// missing), to be published with the command's other outputs by [`Staged::commit`].
 pub fn stage(dir: &Path, report: &Report) -> Result<Vec<Staged>, OutputError> {
     let data_dir = dir.join(data::FOLDER);
     std::fs::create_dir_all(&data_dir).map_err(|e| OutputError::io(&data_dir, e))?;
     let mut staged = vec![
-        stage_bytes(&dir.join("index.html"), page::html(report).as_bytes())?,
-        stage_bytes(&dir.join("report.js"), SCRIPT.as_bytes())?,
-        stage_bytes(&dir.join("report.css"), STYLE.as_bytes())?,
+        stage_bytes(&dir.join(RESERVED_NAMES[1]), SCRIPT.as_bytes())?,
+        stage_bytes(&dir.join(RESERVED_NAMES[2]), STYLE.as_bytes())?,
     ];
     for (s, section) in report.sections.iter().enumerate() {
         for layer in std::iter::once(&section.reference).chain(&section.layers) {
@@ -138,10 +158,27 @@ pub fn stage(dir: &Path, report: &Report) -> Result<Vec<Staged>, OutputError> {
             staged.push(stage_bytes(&dir.join(data::file_name(&key)), text.as_bytes())?);
         }
     }
+    // The page last: a commit that fails part-way never leaves a page without its files.
+    staged.push(stage_bytes(&dir.join(PAGE), page::html(report).as_bytes())?);
     Ok(staged)
 }
 
 /// Writes the report into `dir` (see [`stage`]); for a report that is the only output.
 pub fn write(dir: &Path, report: &Report) -> Result<(), OutputError> {
     stage(dir, report)?.into_iter().try_for_each(Staged::commit)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn arguments_are_quoted_where_a_shell_would_need_it() {
+        assert_eq!(quote_argument("scenes/a-b_c.toml"), "scenes/a-b_c.toml");
+        assert_eq!(quote_argument("--time=0.5"), "--time=0.5");
+        assert_eq!(quote_argument("my scene.toml"), "'my scene.toml'");
+        assert_eq!(quote_argument("it's"), "'it'\\''s'");
+        assert_eq!(quote_argument(""), "''");
+        assert!(!command_line().is_empty());
+    }
 }

@@ -144,7 +144,7 @@ fn section_html(s: &mut String, i: usize, section: &Section) {
         "</select></label>\n\
          <label><input type=\"checkbox\" class=\"split\"> split A | B</label>\n\
          <label><input type=\"checkbox\" class=\"error\"> error map</label>\n\
-         <label>exposure <input type=\"range\" class=\"exposure\" min=\"-16\" max=\"16\" step=\"0.1\" value=\"{exposure}\">\
+         <label>exposure <input type=\"range\" class=\"exposure\" min=\"-16\" max=\"16\" step=\"any\" value=\"{exposure}\">\
          <output class=\"exposure-value\">{exposure:+.1}</output> EV</label>\n\
          <label>gamma <input type=\"range\" class=\"gamma\" min=\"1\" max=\"3\" step=\"0.05\" value=\"2.2\" disabled>\
          <output class=\"gamma-value\">2.20</output></label>\n\
@@ -168,6 +168,20 @@ fn section_html(s: &mut String, i: usize, section: &Section) {
     s.push_str("</section>\n");
 }
 
+/// `v` as the CSV writes it where it is finite (Rust's shortest round-trip form), and as
+/// JavaScript's `Number()` reads it where it is not: `Infinity`, `-Infinity`, `NaN`.
+fn js_number(v: f64) -> String {
+    if v.is_finite() {
+        v.to_string()
+    } else if v.is_nan() {
+        "NaN".into()
+    } else if v > 0.0 {
+        "Infinity".into()
+    } else {
+        "-Infinity".into()
+    }
+}
+
 /// The sortable table: each cell's exact value in `data-value` (as the CSV writes it), its
 /// rounded text shown.
 fn table_html(s: &mut String, rows: &[TableRow]) {
@@ -176,7 +190,7 @@ fn table_html(s: &mut String, rows: &[TableRow]) {
         let _ = write!(s, "<th data-column=\"{k}\" title=\"{}\">{name}</th>", escape(tip));
     }
     s.push_str("</tr></thead>\n<tbody>\n");
-    let number = |v: f64| (v.to_string(), format_number(v));
+    let number = |v: f64| (js_number(v), format_number(v));
     for r in rows {
         let cells = [
             (r.method.clone(), r.method.clone()),
@@ -241,6 +255,17 @@ mod tests {
         assert!(!text.contains('<') && !text.contains('>'), "{text}");
         let back: serde_json::Value = serde_json::from_str(&text).unwrap();
         assert_eq!(back["name"], "</script><b>");
+    }
+
+    #[test]
+    fn numbers_are_the_csv_digits_or_what_javascript_reads() {
+        assert_eq!(js_number(0.125), "0.125");
+        assert_eq!(js_number(1e-7), 1e-7f64.to_string());
+        assert_eq!(js_number(f64::INFINITY), "Infinity");
+        assert_eq!(js_number(f64::NEG_INFINITY), "-Infinity");
+        assert_eq!(js_number(f64::NAN), "NaN");
+        // Rust reads them back too (the tests compare the page with compare.csv).
+        assert_eq!("Infinity".parse::<f64>(), Ok(f64::INFINITY));
     }
 
     #[test]

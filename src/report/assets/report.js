@@ -144,6 +144,8 @@
       this.toned = new Map();
       this.errorMaps = new Map();
       this.mouse = null;
+      this.wheel = 0;
+      this.moved = false;
       this.bind();
       this.layout();
       this.fit();
@@ -194,9 +196,15 @@
       c.splitPosition.addEventListener("input", () => this.set({ splitAt: Number(c.splitPosition.value) }));
       const canvas = this.canvas;
       canvas.addEventListener("wheel", (e) => {
+        if (e.deltaY === 0) return; // a horizontal scroll: not a zoom
         e.preventDefault();
+        // Wheel notches and trackpad pixels add up to one power of two per WHEEL_STEP pixels.
+        const scale = e.deltaMode === 1 ? 40 : e.deltaMode === 2 ? 800 : 1;
+        this.wheel = (Math.sign(this.wheel) === Math.sign(e.deltaY) ? this.wheel : 0) + e.deltaY * scale;
+        if (Math.abs(this.wheel) < WHEEL_STEP) return;
         const p = this.canvasPoint(e);
-        this.zoomAt(p.x, p.y, e.deltaY < 0 ? 2 : 0.5);
+        this.zoomAt(p.x, p.y, this.wheel < 0 ? 2 : 0.5);
+        this.wheel = 0;
       }, { passive: false });
       canvas.addEventListener("mousedown", (e) => {
         this.drag = { x: e.clientX, y: e.clientY, ox: this.ox, oy: this.oy };
@@ -207,6 +215,7 @@
         if (this.drag && e.buttons & 1) {
           this.ox = this.drag.ox + Math.round((e.clientX - this.drag.x) * this.dpr);
           this.oy = this.drag.oy + Math.round((e.clientY - this.drag.y) * this.dpr);
+          this.moved = true;
           this.draw();
         }
         this.mouse = this.canvasPoint(e);
@@ -246,7 +255,9 @@
       this.zoom = zoom;
       this.ox = Math.round((this.canvas.width - this.width * zoom) / 2);
       this.oy = Math.round((this.canvas.height - this.height * zoom) / 2);
+      this.moved = false;
       this.draw();
+      this.showReadout();
     }
 
     /** One image pixel per canvas pixel, the image's top-left corner at the canvas's. */
@@ -254,7 +265,9 @@
       this.zoom = 1;
       this.ox = 0;
       this.oy = 0;
+      this.moved = true;
       this.draw();
+      this.showReadout();
     }
 
     /** Zooms by `factor` keeping the image point under (x, y) in place. */
@@ -264,8 +277,22 @@
       this.ox = Math.round(x - (x - this.ox) * f);
       this.oy = Math.round(y - (y - this.oy) * f);
       this.zoom = zoom;
+      this.moved = true;
       this.draw();
       this.showReadout();
+    }
+
+    /** After a resize: refits an untouched view, else keeps zoom and the point at the canvas's centre. */
+    resize() {
+      const [w, h] = [this.canvas.width, this.canvas.height];
+      this.layout();
+      if (!this.moved) {
+        this.fit();
+        return;
+      }
+      this.ox += Math.round((this.canvas.width - w) / 2);
+      this.oy += Math.round((this.canvas.height - h) / 2);
+      this.draw();
     }
 
     setA(layer) {
@@ -275,14 +302,15 @@
     /** Changes the state, keeps the controls in step, redraws. */
     set(changes) {
       Object.assign(this, changes);
-      this.exposure = Math.min(16, Math.max(-16, Math.round(this.exposure * 10) / 10));
+      // Exact: the scene's (or --exposure's) value, moved by the keys' and the slider's steps.
+      this.exposure = Math.min(16, Math.max(-16, this.exposure));
       this.gamma = Math.min(3, Math.max(1, Math.round(this.gamma * 100) / 100));
       const c = this.controls;
       c.b.value = String(this.b);
       c.split.checked = this.split;
       c.error.checked = this.error;
       c.exposure.value = String(this.exposure);
-      c.exposureValue.textContent = (this.exposure >= 0 ? "+" : "") + this.exposure.toFixed(1);
+      c.exposureValue.textContent = (this.exposure >= 0 ? "+" : "") + this.exposure.toFixed(2);
       c.gamma.value = String(this.gamma);
       c.gamma.disabled = this.srgb;
       c.gammaValue.textContent = this.gamma.toFixed(2);
@@ -454,6 +482,9 @@
     });
   }
 
+  /** Wheel travel (in pixels) per power-of-two zoom step: one notch of a mouse wheel is about 100. */
+  const WHEEL_STEP = 50;
+
   const SVG = "http://www.w3.org/2000/svg";
   const COLOURS = ["#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2", "#7f7f7f", "#bcbd22", "#17becf"];
 
@@ -518,17 +549,25 @@
   }
 
   let active = null;
+  /** The viewer showing B while b is held, whichever viewer the mouse is over at release. */
+  let flipped = null;
+
+  /** Ends a flip. */
+  function unflip() {
+    if (flipped) flipped.set({ flip: false });
+    flipped = null;
+  }
 
   /** The number keys, b (held), s, e, + and -, [ and ], g, f and o act on the active viewer. */
   function onKey(e, down) {
     const viewer = active || report.viewers[0];
-    if (!viewer || e.ctrlKey || e.metaKey || e.altKey) return;
-    if (e.target instanceof HTMLSelectElement) return;
     const key = e.key;
     if (!down) {
-      if (key === "b" || key === "B") viewer.set({ flip: false });
+      if (key === "b" || key === "B") unflip();
       return;
     }
+    if (!viewer || e.ctrlKey || e.metaKey || e.altKey) return;
+    if (e.target instanceof HTMLSelectElement) return;
     const layers = viewer.images.length - 1;
     let handled = true;
     if (/^[0-9]$/.test(key)) {
@@ -536,7 +575,11 @@
       if (k <= layers) viewer.setA(k);
     } else if (key === "r") viewer.setA(0);
     else if (key === "b" || key === "B") {
-      if (!e.repeat) viewer.set({ flip: true });
+      if (!e.repeat && flipped !== viewer) {
+        unflip();
+        flipped = viewer;
+        viewer.set({ flip: true });
+      }
     } else if (key === "s") viewer.set({ split: !viewer.split });
     else if (key === "e") viewer.set({ error: !viewer.error });
     else if (key === "+" || key === "=") viewer.set({ exposure: viewer.exposure + 0.5 });
@@ -564,10 +607,9 @@
     received.clear();
     document.addEventListener("keydown", (e) => onKey(e, true));
     document.addEventListener("keyup", (e) => onKey(e, false));
-    window.addEventListener("resize", () => report.viewers.forEach((v) => {
-      v.layout();
-      v.fit();
-    }));
+    window.addEventListener("resize", () => report.viewers.forEach((v) => v.resize()));
+    // A flip lasts while b is held: losing the focus releases it.
+    window.addEventListener("blur", unflip);
     report.ready = true;
   }
 
