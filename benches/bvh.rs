@@ -8,7 +8,9 @@
 //! estimates into tables. One thread: the queries are what a render thread does. Because this
 //! machine's speed drifts over a run, the ratios vitrum ÷ obvhs are also measured side by side in
 //! alternating pairs after each mesh's criterion measurements (the `bvh-ratio:` lines, the
-//! figures the README quotes).
+//! figures the README quotes). For the analytic scenes, a `traversal-choice:` line compares the
+//! BVH closest-hit query with testing every primitive in turn, one ray at a time (the loop a
+//! wavefront engine would run over many rays at once; issue 20's "measure and decide").
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use glam::{Vec3, Vec3A};
@@ -243,7 +245,50 @@ fn analytic(c: &mut Criterion) {
         let (lo, hi) = scene.bvh_stats.bounds;
         let rays = random_rays(lo, hi, 11);
         queries(c, "analytic", name, &scene, &rays, None);
+        print_brute_force_ratio(name, &scene, &rays);
     }
+}
+
+/// The closest hit of `ray` by testing every primitive of `scene` in turn (no BVH), with the
+/// hit record of the nearest (no uv, as for a scene without image textures): the per-ray cost of
+/// the "many rays against one shape" loop a wavefront engine would run, before any SIMD.
+fn brute_force_closest(scene: &Scene, ray: &Ray) -> Option<f32> {
+    let mut nearest: Option<(f32, usize)> = None;
+    for (k, prim) in scene.primitives.iter().enumerate() {
+        let limit = nearest.map_or(f32::INFINITY, |(t, _)| t);
+        if let Some(t) = prim.shape.intersect(ray, 0.0, limit) {
+            nearest = Some((t, k));
+        }
+    }
+    nearest.map(|(t, k)| scene.primitives[k].shape.surface_with(ray, t, None, false).t)
+}
+
+/// The time of vitrum's BVH closest-hit query over that of [`brute_force_closest`] on the same
+/// rays (the `traversal-choice:` line), and how often the two disagree (they must not: the same
+/// shape tests decide both).
+fn print_brute_force_ratio(name: &str, scene: &Scene, rays: &[Ray]) {
+    if std::env::args().any(|a| a == "--test" || a == "--list") {
+        return;
+    }
+    let disagree = rays
+        .iter()
+        .filter(|r| scene.intersect(r, f32::INFINITY).map(|h| h.hit.t) != brute_force_closest(scene, r))
+        .count();
+    let (median, lo, hi) = paired_ratio(
+        15,
+        || {
+            black_box(rays.iter().filter(|r| scene.intersect(r, f32::INFINITY).is_some()).count());
+        },
+        || {
+            black_box(rays.iter().filter(|r| brute_force_closest(scene, r).is_some()).count());
+        },
+    );
+    println!(
+        "traversal-choice: {name} ({} primitives): BVH closest / every primitive in turn = {median:.2} \
+         (median of 15 pairs, range {lo:.2}..{hi:.2}); {disagree} of {} rays disagree",
+        scene.primitives.len(),
+        rays.len()
+    );
 }
 
 criterion_group!(benches, meshes, analytic);
