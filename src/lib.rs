@@ -14,6 +14,7 @@ pub mod figure;
 pub mod geometry;
 pub mod image;
 pub mod interrupt;
+pub mod lanes;
 pub mod light;
 pub mod lighting;
 pub mod material;

@@ -16,6 +16,7 @@ pub use cylinder::Cylinder;
 pub use disk::{disk_uv, Disk};
 pub use polygon::Polygon;
 pub use quad::Quad;
+pub(crate) use sphere::MIN_QUADRATIC_A;
 pub use sphere::{sphere_uv, Sphere};
 pub use triangle::{ShearedRay, Triangle, VertexAttributes};
 
@@ -269,7 +270,7 @@ impl Shape {
 }
 
 /// Roundoff scale (in units of γ) of the seam slack, see [`seam_slack`].
-const SEAM_ULPS: i32 = 8;
+pub(crate) const SEAM_ULPS: i32 = 8;
 
 /// Absolute slack by which bounded-range checks (cylinder height, disk radii, clipped-sphere
 /// height, quad and polygon edges) accept points beyond their exact edge, so that analytic

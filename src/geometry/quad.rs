@@ -9,18 +9,18 @@ use super::{
 /// The parallelogram `corner + a·u + b·v`, `a, b ∈ [0, 1]`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Quad {
-    corner: Vec3,
+    pub(crate) corner: Vec3,
     u: Vec3,
     v: Vec3,
     /// Unit normal `normalize(u × v)` (zero for a degenerate quad, which is never hit).
-    normal: Vec3,
+    pub(crate) normal: Vec3,
     /// Dual basis `(v × w, w × u)` with `w = (u × v) / |u × v|²`: for an in-plane offset q
     /// from the corner, `q·dual.0` and `q·dual.1` are its coordinates (a, b).
-    dual: (Vec3, Vec3),
+    pub(crate) dual: (Vec3, Vec3),
     /// Reciprocal distances between opposite edges (converts length slack to a and b).
-    inv_width: Vec2,
+    pub(crate) inv_width: Vec2,
     /// `|u| + |v|`, the size for the seam slack.
-    size: f32,
+    pub(crate) size: f32,
 }
 
 impl Quad {

@@ -9,7 +9,7 @@ use super::{azimuth, point_error, seam_slack, texture_frame, unit_or, Bounds, Ra
 
 /// Below this squared direction length a ray counts as parallel to a cylinder's axis (its wall
 /// hit would lie beyond 1e15 radii); it also keeps `b / 2a` and `q / a` finite.
-const MIN_QUADRATIC_A: f32 = 1e-30;
+pub(crate) const MIN_QUADRATIC_A: f32 = 1e-30;
 
 /// Both roots, ascending, of `|f + t·d|² = radius²`, or `None` when the line misses the circle
 /// or sphere. `f` is the ray origin relative to the centre and `d` the direction; the cylinder
@@ -56,15 +56,15 @@ pub fn sphere_uv(axis: Vec3, frame: (Vec3, Vec3), n: Vec3) -> Vec2 {
 /// clipping planes).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Sphere {
-    center: Vec3,
-    radius: f32,
+    pub(crate) center: Vec3,
+    pub(crate) radius: f32,
     /// Pole of the uv parameterisation and normal of the clipping planes (unit).
-    axis: Vec3,
+    pub(crate) axis: Vec3,
     /// Tangents completing `axis` to an orthonormal frame (uv longitude origin).
     tangent: (Vec3, Vec3),
-    min_height: f32,
-    max_height: f32,
-    clipped: bool,
+    pub(crate) min_height: f32,
+    pub(crate) max_height: f32,
+    pub(crate) clipped: bool,
 }
 
 impl Sphere {

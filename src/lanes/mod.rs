@@ -1,0 +1,127 @@
+//! Shape tests across rays: one shape against [`WIDTH`] rays at once, the first lane kernels of
+//! the wavefront `path` engine that issue 20 asks for (not yet used by any render).
+//!
+//! Rays are stored as structure of arrays ([`RayLanes`]) and every kernel is written once, as
+//! plain loops over the lanes that repeat the scalar test's arithmetic operation for operation
+//! (the same products, sums, divisions and square roots in the same order, comparisons as
+//! selects), so that each lane's result is the scalar [`crate::geometry::Shape::intersect`]'s to
+//! the last bit. The loops are compiled three times, for AVX-512, AVX2 and the build's target
+//! (`#[target_feature]` wrappers around one `#[inline(always)]` body, chosen once at run time by
+//! [`Isa::detect`]): LLVM vectorises them to 16 or 8 lanes per instruction. `std::arch` with
+//! runtime detection, not a SIMD crate: the kernels need nothing beyond what the compiler's
+//! vectoriser does with plain loops, and the dispatch is three lines.
+
+mod shapes;
+
+pub use shapes::{quad_hits, sphere_hits};
+
+/// Rays per batch: 16 single-precision lanes fill one AVX-512 register, two AVX2 ones.
+pub const WIDTH: usize = 16;
+
+/// One value per lane.
+pub type Lanes = [f32; WIDTH];
+
+/// [`WIDTH`] rays in structure-of-arrays form: per axis, the origins' and directions'
+/// components of every lane.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct RayLanes {
+    /// Origins, per axis (x, y, z).
+    pub origin: [Lanes; 3],
+    /// Directions, per axis.
+    pub dir: [Lanes; 3],
+}
+
+impl RayLanes {
+    /// The rays of `rays` (at most [`WIDTH`]); missing lanes get a zero direction, which hits
+    /// nothing.
+    pub fn gather(rays: &[crate::geometry::Ray]) -> RayLanes {
+        let mut lanes = RayLanes::default();
+        for (k, r) in rays.iter().take(WIDTH).enumerate() {
+            for axis in 0..3 {
+                lanes.origin[axis][k] = r.origin[axis];
+                lanes.dir[axis][k] = r.dir[axis];
+            }
+        }
+        lanes
+    }
+}
+
+/// The vector instruction set the kernels run with.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Isa {
+    /// 16 lanes per instruction (x86-64 `avx512f`).
+    Avx512,
+    /// 8 lanes per instruction (x86-64 `avx2`). Rust never fuses a product and a sum on its
+    /// own, so with `fma` available too the lanes still round as the scalar code does.
+    Avx2,
+    /// The build's own target: x86-64-v3 (AVX2) under this repository's `.cargo/config.toml`,
+    /// SSE2 for a plain x86-64 build.
+    Baseline,
+}
+
+impl Isa {
+    /// The widest set this CPU has.
+    pub fn detect() -> Isa {
+        #[cfg(target_arch = "x86_64")]
+        {
+            if std::arch::is_x86_feature_detected!("avx512f") {
+                return Isa::Avx512;
+            }
+            if std::arch::is_x86_feature_detected!("avx2") {
+                return Isa::Avx2;
+            }
+        }
+        Isa::Baseline
+    }
+
+    /// Every set this CPU can run, widest first (for tests that compare them).
+    pub fn available() -> Vec<Isa> {
+        [Isa::Avx512, Isa::Avx2, Isa::Baseline].into_iter().filter(|&i| i.runs_here()).collect()
+    }
+
+    /// Whether this CPU can run kernels compiled for `self`.
+    pub fn runs_here(self) -> bool {
+        match self {
+            Isa::Baseline => true,
+            #[cfg(target_arch = "x86_64")]
+            Isa::Avx512 => std::arch::is_x86_feature_detected!("avx512f"),
+            #[cfg(target_arch = "x86_64")]
+            Isa::Avx2 => std::arch::is_x86_feature_detected!("avx2"),
+            #[cfg(not(target_arch = "x86_64"))]
+            _ => false,
+        }
+    }
+}
+
+/// Defines `$name(isa, args…)`, which runs the `#[inline(always)]` kernel `$body` compiled for
+/// the instruction set `isa` (falling back to the baseline where the CPU lacks it).
+macro_rules! dispatch {
+    ($(#[$doc:meta])* $vis:vis fn $name:ident($($arg:ident: $ty:ty),*) -> $ret:ty => $body:path) => {
+        $(#[$doc])*
+        $vis fn $name(isa: $crate::lanes::Isa, $($arg: $ty),*) -> $ret {
+            #[cfg(target_arch = "x86_64")]
+            {
+                #[target_feature(enable = "avx512f")]
+                unsafe fn avx512($($arg: $ty),*) -> $ret {
+                    $body($($arg),*)
+                }
+                #[target_feature(enable = "avx2")]
+                unsafe fn avx2($($arg: $ty),*) -> $ret {
+                    $body($($arg),*)
+                }
+                if isa.runs_here() {
+                    match isa {
+                        // SAFETY: the CPU has the feature (checked just above).
+                        $crate::lanes::Isa::Avx512 => return unsafe { avx512($($arg),*) },
+                        // SAFETY: as above.
+                        $crate::lanes::Isa::Avx2 => return unsafe { avx2($($arg),*) },
+                        $crate::lanes::Isa::Baseline => {}
+                    }
+                }
+            }
+            let _ = isa;
+            $body($($arg),*)
+        }
+    };
+}
+pub(crate) use dispatch;
