@@ -1,10 +1,15 @@
 //! Shape tests across rays (`vitrum::lanes`, the first kernels of issue 20's wavefront engine)
-//! against the scalar tests they reproduce bit for bit: the closest hit among the quads and
-//! spheres of `soft-shadows` (its walls, light and glass sphere; the cylinder is left out, it has
-//! no lane kernel yet), one ray at a time against 16 rays per call, on the same rays.
+//! against the scalar tests they reproduce bit for bit, and against the BVH: the closest hit, with
+//! its hit record, among every primitive of `soft-shadows` (6 quads, a sphere, a cylinder and its
+//! two caps) on the same rays, three ways:
 //!
-//! Run with `cargo bench --bench lanes`. Besides criterion's estimates, a `lanes-ratio:` line per
-//! instruction set gives scalar time ÷ lane time, measured in alternating pairs.
+//! - `bvh`: vitrum's `Scene::intersect`, one ray at a time (the renderer today);
+//! - `scalar`: every primitive's scalar `intersect` in turn, one ray at a time;
+//! - `lanes ISA`: every primitive against 16 rays per call, compiled for that instruction set.
+//!
+//! The hit records of the nearest hits come from the same scalar `surface_with` in all three.
+//! Run with `cargo bench --bench lanes`: criterion's estimates, then `lanes-ratio:` lines (time of
+//! `bvh` and of `scalar` ÷ time of the lanes, measured in alternating pairs).
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use glam::Vec3;
@@ -12,85 +17,88 @@ use rand::{RngExt, SeedableRng};
 use rand_pcg::Pcg32;
 use std::hint::black_box;
 use std::path::Path;
-use vitrum::geometry::{Quad, Ray, Shape, Sphere};
-use vitrum::lanes::{quad_hits, sphere_hits, Isa, Lanes, RayLanes, WIDTH};
+use vitrum::geometry::{Ray, Shape};
+use vitrum::lanes::{cylinder_hits, disk_hits, quad_hits, sphere_hits, Isa, Lanes, RayLanes, WIDTH};
+use vitrum::scene::Scene;
 
 /// Rays per measured batch.
 const RAYS: usize = 65_536;
 
-/// The quads and spheres of soft-shadows.
-fn shapes() -> (Vec<Quad>, Vec<Sphere>) {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
-    let scene = vitrum::scene::load(&root.join("soft-shadows.toml")).unwrap();
-    let mut quads = Vec::new();
-    let mut spheres = Vec::new();
-    for p in &scene.primitives {
-        match &p.shape {
-            Shape::Quad(q) => quads.push(**q),
-            Shape::Sphere(s) => spheres.push(**s),
-            _ => {}
-        }
-    }
-    (quads, spheres)
-}
-
 /// Rays from inside the box in uniform directions, as the bounces of a path are.
 fn rays() -> Vec<Ray> {
     let mut rng = Pcg32::seed_from_u64(3);
+    let mut unit = move || rng.random::<f32>();
     (0..RAYS)
         .map(|_| {
-            let o = Vec3::new(
-                rng.random::<f32>() * 1.8 - 0.9,
-                rng.random::<f32>() * 1.8 + 0.1,
-                rng.random::<f32>() * 1.8 - 0.9,
-            );
-            let d =
-                Vec3::new(rng.random::<f32>() - 0.5, rng.random::<f32>() - 0.5, rng.random::<f32>() - 0.5);
+            let o = Vec3::new(unit() * 1.8 - 0.9, unit() * 1.8 + 0.1, unit() * 1.8 - 0.9);
+            let d = Vec3::new(unit() - 0.5, unit() - 0.5, unit() - 0.5);
             Ray::new(o, d.normalize_or(Vec3::Y))
         })
         .collect()
 }
 
-/// The nearest hit of every ray, one ray at a time; returns the sum of the finite distances.
-fn scalar(quads: &[Quad], spheres: &[Sphere], rays: &[Ray]) -> f32 {
+/// The hit record's distance of primitive `k`'s hit at `t` (what the renderer would read next).
+fn record(scene: &Scene, ray: &Ray, k: usize, t: f32) -> f32 {
+    scene.primitives[k].shape.surface_with(ray, t, None, false).t
+}
+
+/// Closest hits by the BVH; the sum of their distances in ray order.
+fn bvh(scene: &Scene, rays: &[Ray]) -> f32 {
+    rays.iter().filter_map(|r| scene.intersect(r, f32::INFINITY)).map(|h| h.hit.t).fold(0.0, |s, t| s + t)
+}
+
+/// Closest hits by every primitive in turn, one ray at a time.
+fn scalar(scene: &Scene, rays: &[Ray]) -> f32 {
     let mut sum = 0.0;
     for r in rays {
-        let mut t = f32::INFINITY;
-        for q in quads {
-            t = q.intersect(r, 0.0, t).unwrap_or(t);
+        let mut nearest: Option<(f32, usize)> = None;
+        for (k, p) in scene.primitives.iter().enumerate() {
+            if let Some(t) = p.shape.intersect(r, 0.0, nearest.map_or(f32::INFINITY, |n| n.0)) {
+                nearest = Some((t, k));
+            }
         }
-        for s in spheres {
-            t = s.intersect(r, 0.0, t).unwrap_or(t);
-        }
-        if t.is_finite() {
-            sum += t;
+        if let Some((t, k)) = nearest {
+            sum += record(scene, r, k, t);
         }
     }
     sum
 }
 
-/// The same, 16 rays per call with `isa`.
-fn lanes(isa: Isa, quads: &[Quad], spheres: &[Sphere], batches: &[RayLanes]) -> f32 {
+/// One primitive against a batch.
+fn hits(isa: Isa, shape: &Shape, rays: &RayLanes, tmax: &Lanes) -> Lanes {
+    match shape {
+        Shape::Quad(q) => quad_hits(isa, q, rays, 0.0, tmax),
+        Shape::Sphere(s) => sphere_hits(isa, s, rays, 0.0, tmax),
+        Shape::Cylinder(c) => cylinder_hits(isa, c, rays, 0.0, tmax),
+        Shape::Disk(d) => disk_hits(isa, d, rays, 0.0, tmax),
+        _ => panic!("soft-shadows has no other shapes"),
+    }
+}
+
+/// Closest hits by every primitive against 16 rays per call.
+fn lanes(isa: Isa, scene: &Scene, rays: &[Ray], batches: &[RayLanes]) -> f32 {
     let mut sum = 0.0;
-    for rays in batches {
+    for (batch, packed) in rays.chunks(WIDTH).zip(batches) {
         let mut t: Lanes = [f32::INFINITY; WIDTH];
-        for q in quads {
-            let hit = quad_hits(isa, q, rays, 0.0, &t);
-            t = std::array::from_fn(|k| hit[k].min(t[k]));
+        let mut id = [usize::MAX; WIDTH];
+        for (k, p) in scene.primitives.iter().enumerate() {
+            let hit = hits(isa, &p.shape, packed, &t);
+            for lane in 0..WIDTH {
+                if hit[lane] < t[lane] {
+                    (t[lane], id[lane]) = (hit[lane], k);
+                }
+            }
         }
-        for s in spheres {
-            let hit = sphere_hits(isa, s, rays, 0.0, &t);
-            t = std::array::from_fn(|k| hit[k].min(t[k]));
-        }
-        // Lane by lane, in ray order: the scalar loop's sum, to the bit.
-        for t in t.into_iter().filter(|t| t.is_finite()) {
-            sum += t;
+        for (lane, r) in batch.iter().enumerate() {
+            if id[lane] != usize::MAX {
+                sum += record(scene, r, id[lane], t[lane]);
+            }
         }
     }
     sum
 }
 
-/// Scalar time ÷ lane time in alternating pairs: median and range over `rounds` pairs.
+/// Time of `a` ÷ time of `b` in alternating pairs: median and range over `rounds` pairs.
 fn paired_ratio(rounds: usize, mut a: impl FnMut(), mut b: impl FnMut()) -> (f64, f64, f64) {
     let time = |f: &mut dyn FnMut()| {
         let start = std::time::Instant::now();
@@ -114,39 +122,49 @@ fn paired_ratio(rounds: usize, mut a: impl FnMut(), mut b: impl FnMut()) -> (f64
 }
 
 fn bench(c: &mut Criterion) {
-    let (quads, spheres) = shapes();
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
+    let scene = vitrum::scene::load(&root.join("soft-shadows.toml")).unwrap();
     let rays = rays();
     let batches: Vec<RayLanes> = rays.chunks(WIDTH).map(RayLanes::gather).collect();
     let mut group = c.benchmark_group("lanes soft-shadows closest");
     group.throughput(Throughput::Elements(rays.len() as u64));
-    group.bench_function("scalar", |b| b.iter(|| scalar(&quads, &spheres, black_box(&rays))));
+    group.bench_function("bvh", |b| b.iter(|| bvh(&scene, black_box(&rays))));
+    group.bench_function("scalar", |b| b.iter(|| scalar(&scene, black_box(&rays))));
     for isa in Isa::available() {
-        group.bench_function(format!("{isa:?}"), |b| {
-            b.iter(|| lanes(isa, &quads, &spheres, black_box(&batches)))
+        group.bench_function(format!("lanes {isa:?}"), |b| {
+            b.iter(|| lanes(isa, &scene, &rays, black_box(&batches)))
         });
     }
     group.finish();
     if std::env::args().any(|a| a == "--test" || a == "--list") {
         return;
     }
-    // The two give the same hits (the lanes are the scalar tests bit for bit), so the same sum.
-    let reference = scalar(&quads, &spheres, &rays);
+    // The same hits every way (the lanes are the scalar tests bit for bit), summed in ray order.
+    let reference = bvh(&scene, &rays);
+    assert_eq!(scalar(&scene, &rays).to_bits(), reference.to_bits(), "scalar");
     for isa in Isa::available() {
-        assert_eq!(lanes(isa, &quads, &spheres, &batches).to_bits(), reference.to_bits(), "{isa:?}");
-        let (median, lo, hi) = paired_ratio(
+        assert_eq!(lanes(isa, &scene, &rays, &batches).to_bits(), reference.to_bits(), "{isa:?}");
+        let run_lanes = || {
+            black_box(lanes(isa, &scene, &rays, &batches));
+        };
+        let (b, b_lo, b_hi) = paired_ratio(
             15,
             || {
-                black_box(scalar(&quads, &spheres, &rays));
+                black_box(bvh(&scene, &rays));
             },
+            run_lanes,
+        );
+        let (s, s_lo, s_hi) = paired_ratio(
+            15,
             || {
-                black_box(lanes(isa, &quads, &spheres, &batches));
+                black_box(scalar(&scene, &rays));
             },
+            run_lanes,
         );
         println!(
-            "lanes-ratio: soft-shadows, {} quads and {} sphere(s), {} rays: scalar / {isa:?} lanes = {median:.2} \
-             (median of 15 pairs, range {lo:.2}..{hi:.2})",
-            quads.len(),
-            spheres.len(),
+            "lanes-ratio: soft-shadows ({} primitives), {} rays, {isa:?}: bvh / lanes = {b:.2} ({b_lo:.2}..{b_hi:.2}), \
+             scalar / lanes = {s:.2} ({s_lo:.2}..{s_hi:.2}) (medians of 15 pairs)",
+            scene.primitives.len(),
             rays.len()
         );
     }

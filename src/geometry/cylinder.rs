@@ -11,13 +11,13 @@ use super::{azimuth, point_error, seam_slack, texture_frame, unit_or, Bounds, Ra
 /// The wall of a cylinder between `base` and `base + axis·height`, without caps.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Cylinder {
-    base: Vec3,
+    pub(crate) base: Vec3,
     /// Local frame: `u`, `v` span the cross-section, `w` is the unit axis.
-    u: Vec3,
-    v: Vec3,
-    w: Vec3,
-    radius: f32,
-    height: f32,
+    pub(crate) u: Vec3,
+    pub(crate) v: Vec3,
+    pub(crate) w: Vec3,
+    pub(crate) radius: f32,
+    pub(crate) height: f32,
 }
 
 impl Cylinder {

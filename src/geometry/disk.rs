@@ -29,12 +29,12 @@ pub fn disk_uv(frame: (Vec3, Vec3), q: Vec3, radius: f32, inner_radius: f32) -> 
 /// A disk of radius `radius` around `center`, with a hole of `inner_radius` (an annulus if > 0).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Disk {
-    center: Vec3,
-    normal: Vec3,
+    pub(crate) center: Vec3,
+    pub(crate) normal: Vec3,
     /// In-plane frame for the angular texture coordinate.
     tangent: (Vec3, Vec3),
-    radius: f32,
-    inner_radius: f32,
+    pub(crate) radius: f32,
+    pub(crate) inner_radius: f32,
 }
 
 impl Disk {

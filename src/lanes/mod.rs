@@ -13,7 +13,7 @@
 
 mod shapes;
 
-pub use shapes::{quad_hits, sphere_hits};
+pub use shapes::{cylinder_hits, disk_hits, quad_hits, sphere_hits};
 
 /// Rays per batch: 16 single-precision lanes fill one AVX-512 register, two AVX2 ones.
 pub const WIDTH: usize = 16;

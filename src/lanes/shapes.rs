@@ -1,9 +1,9 @@
-//! Quads and spheres against [`WIDTH`] rays: [`Quad::intersect`] and [`Sphere::intersect`]
-//! lane by lane, operation for operation (see the module above). A lane that misses holds +∞.
+//! Quads, spheres, cylinders and disks against [`WIDTH`] rays: their `intersect` lane by lane,
+//! operation for operation (see the module above). A lane that misses holds +∞.
 
 use super::{dispatch, Lanes, RayLanes, WIDTH};
 use crate::geometry::MIN_QUADRATIC_A;
-use crate::geometry::{gamma, Quad, Sphere, SEAM_ULPS};
+use crate::geometry::{gamma, Cylinder, Disk, Quad, Sphere, SEAM_ULPS};
 
 /// `a·b` of two 3-vectors as glam's `Vec3::dot` sums it: `(x·x' + y·y') + z·z'`.
 #[inline(always)]
@@ -52,6 +52,94 @@ fn quad_kernel(quad: &Quad, rays: &RayLanes, tmin: f32, tmax: &Lanes) -> Lanes {
     out
 }
 
+/// `radial_roots` of the scalar tests, branch-free: whether the ray meets the sphere of radius
+/// `r` about the origin (`f` the origin's offset, `d` the direction), and the two roots in order.
+#[inline(always)]
+fn radial_roots(f: [f32; 3], d: [f32; 3], r: f32) -> (bool, f32, f32) {
+    let a = dot(d, d);
+    let b = 2.0 * dot(f, d);
+    let c = dot(f, f) - r * r;
+    let s = b / (2.0 * a);
+    let m = [f[0] - s * d[0], f[1] - s * d[1], f[2] - s * d[2]];
+    let closest = dot(m, m).sqrt();
+    let discrim = 4.0 * a * (r + closest) * (r - closest);
+    let roots = !((a < MIN_QUADRATIC_A) | a.is_nan() | (discrim < 0.0) | discrim.is_nan());
+    let root = discrim.sqrt();
+    let q = if b < 0.0 { -0.5 * (b - root) } else { -0.5 * (b + root) };
+    let (n0, n1) = (q / a, c / q);
+    let ordered = n0 <= n1;
+    let t0 = if q == 0.0 {
+        0.0
+    } else if ordered {
+        n0
+    } else {
+        n1
+    };
+    let t1 = if q == 0.0 {
+        0.0
+    } else if ordered {
+        n1
+    } else {
+        n0
+    };
+    (roots, t0, t1)
+}
+
+/// The cylinder kernel: [`Cylinder::intersect`] per lane (radial roots in the cross-section,
+/// then the height).
+#[inline(always)]
+fn cylinder_kernel(cylinder: &Cylinder, rays: &RayLanes, tmin: f32, tmax: &Lanes) -> Lanes {
+    let base = cylinder.base.to_array();
+    let (u, v, w) = (cylinder.u.to_array(), cylinder.v.to_array(), cylinder.w.to_array());
+    let local = |x: [f32; 3]| [dot(x, u), dot(x, v), dot(x, w)];
+    let size = cylinder.radius + cylinder.height + max_abs(base);
+    let mut out = [f32::INFINITY; WIDTH];
+    for k in 0..WIDTH {
+        let (o, d) = lane(rays, k);
+        let f = local([o[0] - base[0], o[1] - base[1], o[2] - base[2]]);
+        let d = local(d);
+        let (roots, t0, t1) = radial_roots([f[0], f[1], 0.0], [d[0], d[1], 0.0], cylinder.radius);
+        let slack = gamma(SEAM_ULPS) * (size + max_abs(f));
+        let (z0, z1) = (f[2] + t0 * d[2], f[2] + t1 * d[2]);
+        let top = cylinder.height + slack;
+        let usable0 = (t0 > tmin) & (t0 < tmax[k]) & (z0 >= -slack) & (z0 <= top);
+        let usable1 = (t1 > tmin) & (t1 < tmax[k]) & (z1 >= -slack) & (z1 <= top);
+        let overlap = !((t0 >= tmax[k]) | (t1 <= tmin));
+        let t = if usable0 {
+            t0
+        } else if usable1 {
+            t1
+        } else {
+            f32::INFINITY
+        };
+        out[k] = if roots & overlap { t } else { f32::INFINITY };
+    }
+    out
+}
+
+/// The disk kernel: [`Disk::intersect`] per lane (the plane, then the annulus).
+#[inline(always)]
+fn disk_kernel(disk: &Disk, rays: &RayLanes, tmin: f32, tmax: &Lanes) -> Lanes {
+    let n = disk.normal.to_array();
+    let center = disk.center.to_array();
+    let size = disk.radius + max_abs(center);
+    let mut out = [f32::INFINITY; WIDTH];
+    for k in 0..WIDTH {
+        let (o, d) = lane(rays, k);
+        let denom = dot(n, d);
+        let f = [o[0] - center[0], o[1] - center[1], o[2] - center[2]];
+        let t = -dot(n, f) / denom;
+        let q = [f[0] + t * d[0], f[1] + t * d[1], f[2] + t * d[2]];
+        let dist2 = dot(q, q);
+        let slack = gamma(SEAM_ULPS) * (size + max_abs(f));
+        let (outer, inner) = (disk.radius + slack, (disk.inner_radius - slack).max(0.0));
+        let hit =
+            (denom != 0.0) & (t > tmin) & (t < tmax[k]) & (dist2 <= outer * outer) & (dist2 >= inner * inner);
+        out[k] = if hit { t } else { f32::INFINITY };
+    }
+    out
+}
+
 /// The sphere kernel: [`Sphere::intersect`] per lane (radial roots, then the clipping zone).
 #[inline(always)]
 fn sphere_kernel(sphere: &Sphere, rays: &RayLanes, tmin: f32, tmax: &Lanes) -> Lanes {
@@ -63,33 +151,7 @@ fn sphere_kernel(sphere: &Sphere, rays: &RayLanes, tmin: f32, tmax: &Lanes) -> L
     for k in 0..WIDTH {
         let (o, d) = lane(rays, k);
         let f = [o[0] - center[0], o[1] - center[1], o[2] - center[2]];
-        // radial_roots
-        let a = dot(d, d);
-        let b = 2.0 * dot(f, d);
-        let c = dot(f, f) - r * r;
-        let s = b / (2.0 * a);
-        let m = [f[0] - s * d[0], f[1] - s * d[1], f[2] - s * d[2]];
-        let closest = dot(m, m).sqrt();
-        let discrim = 4.0 * a * (r + closest) * (r - closest);
-        let roots = !((a < MIN_QUADRATIC_A) | a.is_nan() | (discrim < 0.0) | discrim.is_nan());
-        let root = discrim.sqrt();
-        let q = if b < 0.0 { -0.5 * (b - root) } else { -0.5 * (b + root) };
-        let (n0, n1) = (q / a, c / q);
-        let ordered = n0 <= n1;
-        let t0 = if q == 0.0 {
-            0.0
-        } else if ordered {
-            n0
-        } else {
-            n1
-        };
-        let t1 = if q == 0.0 {
-            0.0
-        } else if ordered {
-            n1
-        } else {
-            n0
-        };
+        let (roots, t0, t1) = radial_roots(f, d, r);
         // The zone's heights, widened by the seam slack where the sphere is clipped.
         let slack = if sphere.clipped { gamma(SEAM_ULPS) * (center_size + max_abs(f)) } else { 0.0 };
         let (low, high) = (sphere.min_height - slack, sphere.max_height + slack);
@@ -116,6 +178,18 @@ dispatch! {
     /// Each lane's nearest hit distance on `quad` in (`tmin`, `tmax[k]`), +∞ where it misses;
     /// bit for bit [`Quad::intersect`] of that lane's ray.
     pub fn quad_hits(quad: &Quad, rays: &RayLanes, tmin: f32, tmax: &Lanes) -> Lanes => quad_kernel
+}
+
+dispatch! {
+    /// Each lane's nearest hit distance on `cylinder` in (`tmin`, `tmax[k]`), +∞ where it
+    /// misses; bit for bit [`Cylinder::intersect`] of that lane's ray.
+    pub fn cylinder_hits(cylinder: &Cylinder, rays: &RayLanes, tmin: f32, tmax: &Lanes) -> Lanes => cylinder_kernel
+}
+
+dispatch! {
+    /// Each lane's nearest hit distance on `disk` in (`tmin`, `tmax[k]`), +∞ where it misses;
+    /// bit for bit [`Disk::intersect`] of that lane's ray.
+    pub fn disk_hits(disk: &Disk, rays: &RayLanes, tmin: f32, tmax: &Lanes) -> Lanes => disk_kernel
 }
 
 dispatch! {
@@ -211,6 +285,34 @@ mod tests {
                 "sphere",
                 |isa, r, tmin, tmax| sphere_hits(isa, &sphere, r, tmin, tmax),
                 |r, a, b| sphere.intersect(r, a, b),
+            );
+        }
+    }
+
+    #[test]
+    fn cylinder_lanes_are_the_scalar_test_bit_for_bit() {
+        for cylinder in [
+            Cylinder::new(Vec3::new(0.0, -1.0, 0.0), Vec3::Y, 0.5, 2.0),
+            Cylinder::new(Vec3::new(0.2, -0.5, 0.1), Vec3::new(0.3, 1.0, -0.2), 0.7, 1.2),
+        ] {
+            agrees(
+                "cylinder",
+                |isa, r, tmin, tmax| cylinder_hits(isa, &cylinder, r, tmin, tmax),
+                |r, a, b| cylinder.intersect(r, a, b),
+            );
+        }
+    }
+
+    #[test]
+    fn disk_lanes_are_the_scalar_test_bit_for_bit() {
+        for disk in [
+            Disk::new(Vec3::ZERO, Vec3::Y, 1.2, 0.0),
+            Disk::new(Vec3::new(0.1, 0.3, -0.2), Vec3::new(0.4, 1.0, 0.3), 1.5, 0.6),
+        ] {
+            agrees(
+                "disk",
+                |isa, r, tmin, tmax| disk_hits(isa, &disk, r, tmin, tmax),
+                |r, a, b| disk.intersect(r, a, b),
             );
         }
     }
