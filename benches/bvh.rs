@@ -27,7 +27,7 @@ use vitrum::geometry::Ray;
 use vitrum::scene::{self, Scene};
 
 mod common;
-use common::{terrain, write_terrain_scene};
+use common::{closest_by_every_primitive, paired_ratio, terrain, write_terrain_scene};
 
 /// Rays per measured batch.
 const RAYS: usize = 100_000;
@@ -112,31 +112,6 @@ fn queries(
         });
     }
     group.finish();
-}
-
-/// The ratio of times of `a` and `b`, measured in alternating pairs (so that the machine's
-/// drift over a run affects both alike): the median and the range over `rounds` pairs.
-fn paired_ratio(rounds: usize, mut a: impl FnMut(), mut b: impl FnMut()) -> (f64, f64, f64) {
-    let time = |f: &mut dyn FnMut()| {
-        let start = std::time::Instant::now();
-        f();
-        start.elapsed().as_secs_f64()
-    };
-    let mut ratios: Vec<f64> = (0..rounds)
-        .map(|k| {
-            // Alternate which goes first.
-            let (ta, tb) = if k % 2 == 0 {
-                let ta = time(&mut a);
-                (ta, time(&mut b))
-            } else {
-                let tb = time(&mut b);
-                (time(&mut a), tb)
-            };
-            ta / tb
-        })
-        .collect();
-    ratios.sort_by(f64::total_cmp);
-    (ratios[rounds / 2], ratios[0], ratios[rounds - 1])
 }
 
 /// Paired ratios of vitrum's queries to raw obvhs on `rays`, printed as `bvh-ratio:` lines
@@ -249,21 +224,7 @@ fn analytic(c: &mut Criterion) {
     }
 }
 
-/// The closest hit of `ray` by testing every primitive of `scene` in turn (no BVH), with the
-/// hit record of the nearest (no uv, as for a scene without image textures): the per-ray cost of
-/// the "many rays against one shape" loop a wavefront engine would run, before any SIMD.
-fn brute_force_closest(scene: &Scene, ray: &Ray) -> Option<f32> {
-    let mut nearest: Option<(f32, usize)> = None;
-    for (k, prim) in scene.primitives.iter().enumerate() {
-        let limit = nearest.map_or(f32::INFINITY, |(t, _)| t);
-        if let Some(t) = prim.shape.intersect(ray, 0.0, limit) {
-            nearest = Some((t, k));
-        }
-    }
-    nearest.map(|(t, k)| scene.primitives[k].shape.surface_with(ray, t, None, false).t)
-}
-
-/// The time of vitrum's BVH closest-hit query over that of [`brute_force_closest`] on the same
+/// The time of vitrum's BVH closest-hit query over that of [`closest_by_every_primitive`] on the same
 /// rays (the `traversal-choice:` line), and how often the two disagree (they must not: the same
 /// shape tests decide both).
 fn print_brute_force_ratio(name: &str, scene: &Scene, rays: &[Ray]) {
@@ -272,7 +233,10 @@ fn print_brute_force_ratio(name: &str, scene: &Scene, rays: &[Ray]) {
     }
     let disagree = rays
         .iter()
-        .filter(|r| scene.intersect(r, f32::INFINITY).map(|h| h.hit.t) != brute_force_closest(scene, r))
+        .filter(|r| {
+            scene.intersect(r, f32::INFINITY).map(|h| h.hit.t)
+                != closest_by_every_primitive(scene, r).map(|(t, _)| t)
+        })
         .count();
     let (median, lo, hi) = paired_ratio(
         15,
@@ -280,7 +244,11 @@ fn print_brute_force_ratio(name: &str, scene: &Scene, rays: &[Ray]) {
             black_box(rays.iter().filter(|r| scene.intersect(r, f32::INFINITY).is_some()).count());
         },
         || {
-            black_box(rays.iter().filter(|r| brute_force_closest(scene, r).is_some()).count());
+            black_box(
+                rays.iter()
+                    .filter(|r| closest_by_every_primitive(scene, r).map(|(t, _)| t).is_some())
+                    .count(),
+            );
         },
     );
     println!(

@@ -21,6 +21,9 @@ use vitrum::geometry::{Ray, Shape};
 use vitrum::lanes::{cylinder_hits, disk_hits, quad_hits, sphere_hits, Isa, Lanes, RayLanes, WIDTH};
 use vitrum::scene::Scene;
 
+mod common;
+use common::{closest_by_every_primitive, paired_ratio};
+
 /// Rays per measured batch.
 const RAYS: usize = 65_536;
 
@@ -49,19 +52,7 @@ fn bvh(scene: &Scene, rays: &[Ray]) -> f32 {
 
 /// Closest hits by every primitive in turn, one ray at a time.
 fn scalar(scene: &Scene, rays: &[Ray]) -> f32 {
-    let mut sum = 0.0;
-    for r in rays {
-        let mut nearest: Option<(f32, usize)> = None;
-        for (k, p) in scene.primitives.iter().enumerate() {
-            if let Some(t) = p.shape.intersect(r, 0.0, nearest.map_or(f32::INFINITY, |n| n.0)) {
-                nearest = Some((t, k));
-            }
-        }
-        if let Some((t, k)) = nearest {
-            sum += record(scene, r, k, t);
-        }
-    }
-    sum
+    rays.iter().filter_map(|r| closest_by_every_primitive(scene, r)).fold(0.0, |s, (t, _)| s + t)
 }
 
 /// One primitive against a batch.
@@ -96,29 +87,6 @@ fn lanes(isa: Isa, scene: &Scene, rays: &[Ray], batches: &[RayLanes]) -> f32 {
         }
     }
     sum
-}
-
-/// Time of `a` ÷ time of `b` in alternating pairs: median and range over `rounds` pairs.
-fn paired_ratio(rounds: usize, mut a: impl FnMut(), mut b: impl FnMut()) -> (f64, f64, f64) {
-    let time = |f: &mut dyn FnMut()| {
-        let start = std::time::Instant::now();
-        f();
-        start.elapsed().as_secs_f64()
-    };
-    let mut ratios: Vec<f64> = (0..rounds)
-        .map(|k| {
-            let (ta, tb) = if k % 2 == 0 {
-                let ta = time(&mut a);
-                (ta, time(&mut b))
-            } else {
-                let tb = time(&mut b);
-                (time(&mut a), tb)
-            };
-            ta / tb
-        })
-        .collect();
-    ratios.sort_by(f64::total_cmp);
-    (ratios[rounds / 2], ratios[0], ratios[rounds - 1])
 }
 
 fn bench(c: &mut Criterion) {

@@ -188,3 +188,34 @@ fn bad_input_exits_2_and_leaves_no_report_folder() {
     let text = String::from_utf8_lossy(&status.stderr);
     assert!(text.contains("does not exist"), "{text}");
 }
+
+#[test]
+fn a_page_that_cannot_be_published_leaves_no_page_and_no_data() {
+    // `report.js` is taken by a folder: the commit fails before the page; the renders' files
+    // published before it may stay, the page and its data folder may not.
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("cmp");
+    fs::create_dir_all(out.join("report.js")).unwrap();
+    let status = vitrum(&[
+        "compare",
+        &scene("soft-shadows.toml"),
+        "-i",
+        "whitted",
+        "--spp",
+        "1",
+        "--reference-spp",
+        "2",
+        "--resolution",
+        "16x12",
+        "--cache",
+        dir.path().join("cache").to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert_eq!(status.status.code(), Some(1), "{}", String::from_utf8_lossy(&status.stderr));
+    let left = names(&out);
+    assert!(!left.iter().any(|n| n == "index.html" || n == "data"), "{left:?}");
+    // No staged temporary file either.
+    assert!(!left.iter().any(|n| n.contains(".tmp-")), "{left:?}");
+}

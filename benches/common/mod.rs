@@ -1,8 +1,11 @@
-//! Scenes shared by the benchmarks: procedural terrains of any triangle count.
+//! What the benchmarks share: procedural terrains of any triangle count, paired timing, and the
+//! closest hit by testing every primitive in turn.
 #![allow(dead_code)] // each benchmark uses a subset
 
 use glam::Vec3;
 use std::path::{Path, PathBuf};
+use vitrum::geometry::Ray;
+use vitrum::scene::Scene;
 
 /// A bumpy terrain over [-1, 1]² of about `triangles` triangles: its vertices and faces.
 pub fn terrain(triangles: usize) -> (Vec<Vec3>, Vec<[usize; 3]>) {
@@ -59,4 +62,44 @@ intensity = 10.0
     let path = dir.join("terrain.toml");
     std::fs::write(&path, toml).unwrap();
     path
+}
+
+/// The ratio of times of `a` and `b`, measured in alternating pairs (so that the machine's
+/// drift over a run affects both alike): the median and the range over `rounds` pairs.
+pub fn paired_ratio(rounds: usize, mut a: impl FnMut(), mut b: impl FnMut()) -> (f64, f64, f64) {
+    let time = |f: &mut dyn FnMut()| {
+        let start = std::time::Instant::now();
+        f();
+        start.elapsed().as_secs_f64()
+    };
+    let mut ratios: Vec<f64> = (0..rounds)
+        .map(|k| {
+            // Alternate which goes first.
+            let (ta, tb) = if k % 2 == 0 {
+                let ta = time(&mut a);
+                (ta, time(&mut b))
+            } else {
+                let tb = time(&mut b);
+                (time(&mut a), tb)
+            };
+            ta / tb
+        })
+        .collect();
+    ratios.sort_by(f64::total_cmp);
+    (ratios[rounds / 2], ratios[0], ratios[rounds - 1])
+}
+
+/// The closest hit of `ray` by testing every primitive of `scene` in turn (no BVH) and the
+/// distance of the hit record of the nearest (no uv, as for a scene without image textures),
+/// with its primitive: the per-ray work of the "many rays against one shape" loop of a wavefront
+/// engine, one ray at a time.
+pub fn closest_by_every_primitive(scene: &Scene, ray: &Ray) -> Option<(f32, usize)> {
+    let mut nearest: Option<(f32, usize)> = None;
+    for (k, prim) in scene.primitives.iter().enumerate() {
+        let limit = nearest.map_or(f32::INFINITY, |(t, _)| t);
+        if let Some(t) = prim.shape.intersect(ray, 0.0, limit) {
+            nearest = Some((t, k));
+        }
+    }
+    nearest.map(|(t, k)| (scene.primitives[k].shape.surface_with(ray, t, None, false).t, k))
 }

@@ -26,6 +26,58 @@ fn lane(rays: &RayLanes, k: usize) -> ([f32; 3], [f32; 3]) {
     )
 }
 
+/// `o − c`, component by component.
+#[inline(always)]
+fn offset(o: [f32; 3], c: [f32; 3]) -> [f32; 3] {
+    [o[0] - c[0], o[1] - c[1], o[2] - c[2]]
+}
+
+/// `f + t·d`, as glam's `f + t * d`.
+#[inline(always)]
+fn along(f: [f32; 3], t: f32, d: [f32; 3]) -> [f32; 3] {
+    [f[0] + t * d[0], f[1] + t * d[1], f[2] + t * d[2]]
+}
+
+/// `plane_hit` of the scalar tests without its early returns: for the plane through `reference`
+/// with unit normal `n`, whether the ray meets it in (`tmin`, `tmax`), the distance, the origin's
+/// offset `f` from `reference` and the hit's `q = f + t·d`.
+#[inline(always)]
+fn plane_hit(
+    n: [f32; 3],
+    reference: [f32; 3],
+    o: [f32; 3],
+    d: [f32; 3],
+    tmin: f32,
+    tmax: f32,
+) -> (bool, f32, [f32; 3], [f32; 3]) {
+    let denom = dot(n, d);
+    let f = offset(o, reference);
+    let t = -dot(n, f) / denom;
+    ((denom != 0.0) & (t > tmin) & (t < tmax), t, f, along(f, t, d))
+}
+
+/// The scalar tests' choice between two ordered roots: none where the ray meets no surface
+/// (`roots` false) or the interval (`tmin`, `tmax`) lies outside [t0, t1], else the first root
+/// inside the interval whose point the shape keeps (`keep0`, `keep1`); +∞ for none.
+#[inline(always)]
+fn first_root(roots: bool, (t0, t1): (f32, f32), (keep0, keep1): (bool, bool), tmin: f32, tmax: f32) -> f32 {
+    let usable0 = (t0 > tmin) & (t0 < tmax) & keep0;
+    let usable1 = (t1 > tmin) & (t1 < tmax) & keep1;
+    let overlap = !((t0 >= tmax) | (t1 <= tmin));
+    let t = if usable0 {
+        t0
+    } else if usable1 {
+        t1
+    } else {
+        f32::INFINITY
+    };
+    if roots & overlap {
+        t
+    } else {
+        f32::INFINITY
+    }
+}
+
 /// The quad kernel: [`Quad::intersect`] per lane within (`tmin`, `tmax[k]`).
 #[inline(always)]
 fn quad_kernel(quad: &Quad, rays: &RayLanes, tmin: f32, tmax: &Lanes) -> Lanes {
@@ -36,18 +88,14 @@ fn quad_kernel(quad: &Quad, rays: &RayLanes, tmin: f32, tmax: &Lanes) -> Lanes {
     let mut out = [f32::INFINITY; WIDTH];
     for k in 0..WIDTH {
         let (o, d) = lane(rays, k);
-        let denom = dot(n, d);
-        let f = [o[0] - corner[0], o[1] - corner[1], o[2] - corner[2]];
-        let t = -dot(n, f) / denom;
-        let q = [f[0] + t * d[0], f[1] + t * d[1], f[2] + t * d[2]];
+        let (plane, t, f, q) = plane_hit(n, corner, o, d, tmin, tmax[k]);
         let (a, b) = (dot(q, du), dot(q, dv));
         // seam_slack: γ·(size + |corner|max + |f|max), in that order, times the inverse widths.
         let slack = gamma(SEAM_ULPS) * (corner_size + max_abs(f));
         let (sa, sb) = (slack * quad.inv_width.x, slack * quad.inv_width.y);
         // `&`, not `&&`: no branches, so that the loop vectorises.
         let inside = (a >= -sa) & (b >= -sb) & (a <= 1.0 + sa) & (b <= 1.0 + sb);
-        let hit = (denom != 0.0) & (t > tmin) & (t < tmax[k]) & inside;
-        out[k] = if hit { t } else { f32::INFINITY };
+        out[k] = if plane & inside { t } else { f32::INFINITY };
     }
     out
 }
@@ -60,7 +108,7 @@ fn radial_roots(f: [f32; 3], d: [f32; 3], r: f32) -> (bool, f32, f32) {
     let b = 2.0 * dot(f, d);
     let c = dot(f, f) - r * r;
     let s = b / (2.0 * a);
-    let m = [f[0] - s * d[0], f[1] - s * d[1], f[2] - s * d[2]];
+    let m = [f[0] - s * d[0], f[1] - s * d[1], f[2] - s * d[2]]; // glam's `f - s * d`
     let closest = dot(m, m).sqrt();
     let discrim = 4.0 * a * (r + closest) * (r - closest);
     let roots = !((a < MIN_QUADRATIC_A) | a.is_nan() | (discrim < 0.0) | discrim.is_nan());
@@ -96,23 +144,14 @@ fn cylinder_kernel(cylinder: &Cylinder, rays: &RayLanes, tmin: f32, tmax: &Lanes
     let mut out = [f32::INFINITY; WIDTH];
     for k in 0..WIDTH {
         let (o, d) = lane(rays, k);
-        let f = local([o[0] - base[0], o[1] - base[1], o[2] - base[2]]);
+        let f = local(offset(o, base));
         let d = local(d);
         let (roots, t0, t1) = radial_roots([f[0], f[1], 0.0], [d[0], d[1], 0.0], cylinder.radius);
         let slack = gamma(SEAM_ULPS) * (size + max_abs(f));
         let (z0, z1) = (f[2] + t0 * d[2], f[2] + t1 * d[2]);
         let top = cylinder.height + slack;
-        let usable0 = (t0 > tmin) & (t0 < tmax[k]) & (z0 >= -slack) & (z0 <= top);
-        let usable1 = (t1 > tmin) & (t1 < tmax[k]) & (z1 >= -slack) & (z1 <= top);
-        let overlap = !((t0 >= tmax[k]) | (t1 <= tmin));
-        let t = if usable0 {
-            t0
-        } else if usable1 {
-            t1
-        } else {
-            f32::INFINITY
-        };
-        out[k] = if roots & overlap { t } else { f32::INFINITY };
+        let keep = ((z0 >= -slack) & (z0 <= top), (z1 >= -slack) & (z1 <= top));
+        out[k] = first_root(roots, (t0, t1), keep, tmin, tmax[k]);
     }
     out
 }
@@ -126,16 +165,12 @@ fn disk_kernel(disk: &Disk, rays: &RayLanes, tmin: f32, tmax: &Lanes) -> Lanes {
     let mut out = [f32::INFINITY; WIDTH];
     for k in 0..WIDTH {
         let (o, d) = lane(rays, k);
-        let denom = dot(n, d);
-        let f = [o[0] - center[0], o[1] - center[1], o[2] - center[2]];
-        let t = -dot(n, f) / denom;
-        let q = [f[0] + t * d[0], f[1] + t * d[1], f[2] + t * d[2]];
+        let (plane, t, f, q) = plane_hit(n, center, o, d, tmin, tmax[k]);
         let dist2 = dot(q, q);
         let slack = gamma(SEAM_ULPS) * (size + max_abs(f));
         let (outer, inner) = (disk.radius + slack, (disk.inner_radius - slack).max(0.0));
-        let hit =
-            (denom != 0.0) & (t > tmin) & (t < tmax[k]) & (dist2 <= outer * outer) & (dist2 >= inner * inner);
-        out[k] = if hit { t } else { f32::INFINITY };
+        let inside = (dist2 <= outer * outer) & (dist2 >= inner * inner);
+        out[k] = if plane & inside { t } else { f32::INFINITY };
     }
     out
 }
@@ -150,26 +185,16 @@ fn sphere_kernel(sphere: &Sphere, rays: &RayLanes, tmin: f32, tmax: &Lanes) -> L
     let mut out = [f32::INFINITY; WIDTH];
     for k in 0..WIDTH {
         let (o, d) = lane(rays, k);
-        let f = [o[0] - center[0], o[1] - center[1], o[2] - center[2]];
+        let f = offset(o, center);
         let (roots, t0, t1) = radial_roots(f, d, r);
         // The zone's heights, widened by the seam slack where the sphere is clipped.
         let slack = if sphere.clipped { gamma(SEAM_ULPS) * (center_size + max_abs(f)) } else { 0.0 };
         let (low, high) = (sphere.min_height - slack, sphere.max_height + slack);
-        let h0 = dot([f[0] + t0 * d[0], f[1] + t0 * d[1], f[2] + t0 * d[2]], axis);
-        let h1 = dot([f[0] + t1 * d[0], f[1] + t1 * d[1], f[2] + t1 * d[2]], axis);
-        let zone0 = !sphere.clipped | ((h0 <= high) & (h0 >= low));
-        let zone1 = !sphere.clipped | ((h1 <= high) & (h1 >= low));
-        let usable0 = (t0 > tmin) & (t0 < tmax[k]) & zone0;
-        let usable1 = (t1 > tmin) & (t1 < tmax[k]) & zone1;
-        let overlap = !((t0 >= tmax[k]) | (t1 <= tmin));
-        let t = if usable0 {
-            t0
-        } else if usable1 {
-            t1
-        } else {
-            f32::INFINITY
+        let in_zone = |t: f32| {
+            let h = dot(along(f, t, d), axis);
+            !sphere.clipped | ((h <= high) & (h >= low))
         };
-        out[k] = if roots & overlap { t } else { f32::INFINITY };
+        out[k] = first_root(roots, (t0, t1), (in_zone(t0), in_zone(t1)), tmin, tmax[k]);
     }
     out
 }
