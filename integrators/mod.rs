@@ -7,15 +7,17 @@ mod raycast;
 mod splat_film;
 mod ssaa;
 mod vertex_merging;
+mod wavefront;
 mod whitted;
 
-pub use crate::params::{MergeParams, RenderParams, SsaaParams, Strategy};
+pub use crate::params::{EngineOption, MergeParams, RenderParams, SsaaParams, Strategy};
 pub use distributed::Distributed;
 pub use light::LightTracer;
 pub use path::{Path, DEFAULT_PATH_DEPTH};
 pub use raycast::RayCast;
 pub use ssaa::Ssaa;
 pub use vertex_merging::{initial_radius, iteration_radius, Algorithm, VertexMerging};
+pub use wavefront::{Occupancy, StageOccupancy, Wavefront};
 pub use whitted::Whitted;
 
 use crate::bsdf::{BsdfSample, Scattering, TransportMode};
@@ -124,6 +126,44 @@ pub(crate) fn ends_secondaries(channels: &Channels, hero_only: bool, bsdf: &Bsdf
     channels.is_spectral() && !hero_only && bsdf.is_dispersive()
 }
 
+/// Which engine runs a method on a scene, and why (for `vitrum info` and the render summary).
+#[derive(Clone, Debug)]
+pub struct EngineChoice {
+    /// The wavefront engine, when it runs; `None`: one ray at a time.
+    pub wavefront: Option<std::sync::Arc<Wavefront>>,
+    /// Why this engine runs.
+    pub reason: String,
+}
+
+impl EngineChoice {
+    /// The one-ray engine, for `reason`.
+    pub fn scalar(reason: impl Into<String>) -> EngineChoice {
+        EngineChoice { wavefront: None, reason: reason.into() }
+    }
+
+    /// The wavefront engine `engine`, for `reason`.
+    pub fn wavefront(engine: Wavefront, reason: impl Into<String>) -> EngineChoice {
+        EngineChoice { wavefront: Some(std::sync::Arc::new(engine)), reason: reason.into() }
+    }
+
+    /// `wavefront` or `scalar`.
+    pub fn name(&self) -> &'static str {
+        if self.wavefront.is_some() {
+            "wavefront"
+        } else {
+            "scalar"
+        }
+    }
+
+    /// The engine, how it finds hits and why it runs, in one phrase.
+    pub fn describe(&self) -> String {
+        match &self.wavefront {
+            Some(w) => format!("wavefront ({}): {}", w.describe(), self.reason),
+            None => format!("scalar: {}", self.reason),
+        }
+    }
+}
+
 /// A rendering method.
 pub trait Integrator: Send + Sync {
     /// Registry name (`raycast`, `whitted`, …).
@@ -147,6 +187,12 @@ pub trait Integrator: Send + Sync {
         _progress: &(dyn Fn(u64, u64) + Sync),
     ) -> Option<RenderOutput> {
         None
+    }
+    /// Which engine traces `scene` under `params` ([`RenderParams::engine`]), and why: a
+    /// method with a wavefront engine (`path`) runs it where it supports the scene; the default
+    /// is one ray at a time.
+    fn engine(&self, _scene: &Scene, _params: &RenderParams) -> EngineChoice {
+        EngineChoice::scalar("one ray at a time: only `path` has a wavefront engine")
     }
     /// How the method's image grows with the sample count (progressive rendering, per-pixel
     /// variance); the default is the shared camera pass.
@@ -198,6 +244,7 @@ impl RenderSettings {
             reflectance: self.reflectance,
             ssaa: self.ssaa,
             merging: self.merging.get(integrator.name()).copied().unwrap_or_default(),
+            engine: crate::params::EngineOption::Auto,
         }
     }
 }

@@ -93,6 +93,83 @@ fn straight_crossing_reflectance(cos: f32, n_i: f32, n_t: f32, constant: Option<
     dielectric_reflectance(cos, n_i.min(n_t), n_i.max(n_t), constant)
 }
 
+/// Whether a shadow ray aimed at `target` on light `light` that meets `primitive` at distance
+/// `t` of the `remaining` distance has reached the light itself: reaching it ends the ray;
+/// meeting it well before the target does not (a point on the far side of an emissive ball is
+/// hidden by its near side), unless the target is inside the light (a sphere's centre, its
+/// stand-in for the deterministic methods), which the ray reaches where it meets the light's
+/// surface.
+#[inline]
+fn reaches_light(
+    scene: &Scene,
+    light: Option<u32>,
+    target: Vec3,
+    primitive: u32,
+    t: f32,
+    remaining: f32,
+) -> bool {
+    light.is_some_and(|l| {
+        scene.light_of(primitive) == Some(l)
+            && (t >= remaining * (1.0 - 1e-3) || scene.lights[l as usize].encloses(target))
+    })
+}
+
+/// A straight shadow ray from a surface point to a target that every surface blocks but the
+/// light it aims at: the visibility query of next-event estimation ([`ShadowMode::Opaque`]),
+/// asked of the scene at once ([`ShadowRay::blocked`]) or batched across lanes by the wavefront
+/// engine of `path`, which tests its primitives itself ([`ShadowRay::blocks`]).
+#[derive(Clone, Copy, Debug)]
+pub struct ShadowRay {
+    /// The ray, from the offset surface point towards the target.
+    pub ray: Ray,
+    /// Hits at distances in (0, `tmax`) can block it.
+    pub tmax: f32,
+    /// Distance from the ray's origin to the target.
+    remaining: f32,
+    /// The target.
+    target: Vec3,
+    /// The light aimed at, which does not block where the ray reaches it.
+    light: Option<u32>,
+}
+
+impl ShadowRay {
+    /// The shadow ray from `from` to `target` (on light `light`, if any) at time `time`; `None`
+    /// when the target does not lie beyond the ray's origin (nothing can block it). Counts one
+    /// shadow ray in `rays` either way.
+    #[inline]
+    pub fn new(
+        from: &SurfaceHit,
+        target: Vec3,
+        light: Option<u32>,
+        time: f32,
+        rays: &mut RayCounts,
+    ) -> Option<ShadowRay> {
+        rays.shadow += 1;
+        let dir = (target - from.p).normalize();
+        let origin = spawn_origin(from, dir);
+        let remaining = (target - origin).dot(dir);
+        if remaining <= 0.0 {
+            return None;
+        }
+        let mut ray = Ray::new(origin, dir);
+        ray.time = time;
+        Some(ShadowRay { ray, tmax: remaining * (1.0 - 1e-5), remaining, target, light })
+    }
+
+    /// Whether a hit on `primitive` at distance `t` (below [`tmax`](Self::tmax)) blocks the ray.
+    #[inline]
+    pub fn blocks(&self, scene: &Scene, primitive: u32, t: f32) -> bool {
+        !reaches_light(scene, self.light, self.target, primitive, t, self.remaining)
+    }
+
+    /// Whether any primitive of `scene` blocks the ray (an occlusion query that stops at the
+    /// first blocker).
+    #[inline]
+    pub fn blocked(&self, scene: &Scene) -> bool {
+        scene.occluded(&self.ray, self.tmax, |primitive, t| self.blocks(scene, primitive, t))
+    }
+}
+
 /// Fraction of the light at `target` that reaches the surface point `from` (0 if blocked).
 /// `light` is the emitter's light index: the ray ends on reaching it, but its surface blocks
 /// targets behind it (the far side of an emissive ball).
@@ -104,32 +181,16 @@ pub fn transmittance(
     shadow: ShadowRays,
     rays: &mut RayCounts,
 ) -> Vec3 {
+    let ShadowMode::ThroughGlass { reflectance } = shadow.mode else {
+        // Opaque: pure visibility.
+        let visible =
+            ShadowRay::new(from, target, light, shadow.time, rays).is_none_or(|s| !s.blocked(scene));
+        return if visible { Vec3::ONE } else { Vec3::ZERO };
+    };
     let dir = (target - from.p).normalize();
     let mut origin = spawn_origin(from, dir);
-    // Whether a hit on `primitive` at distance `t` of `remaining` is the light itself: reaching
-    // it ends the ray; meeting it well before the target does not (a point on the far side of
-    // an emissive ball is hidden by its near side), unless the target is inside the light (a
-    // sphere's centre, its stand-in for the deterministic methods), which the ray reaches
-    // where it meets the light's surface.
-    let reaches_light = |primitive: u32, t: f32, remaining: f32| {
-        light.is_some_and(|l| {
-            scene.light_of(primitive) == Some(l)
-                && (t >= remaining * (1.0 - 1e-3) || scene.lights[l as usize].encloses(target))
-        })
-    };
-    let ShadowMode::ThroughGlass { reflectance } = shadow.mode else {
-        // Opaque: pure visibility, an occlusion query that stops at the first blocker.
-        rays.shadow += 1;
-        let remaining = (target - origin).dot(dir);
-        if remaining <= 0.0 {
-            return Vec3::ONE;
-        }
-        let mut ray = Ray::new(origin, dir);
-        ray.time = shadow.time;
-        let blocked = scene
-            .occluded(&ray, remaining * (1.0 - 1e-5), |primitive, t| !reaches_light(primitive, t, remaining));
-        return if blocked { Vec3::ZERO } else { Vec3::ONE };
-    };
+    let reaches_light =
+        |primitive: u32, t: f32, remaining: f32| reaches_light(scene, light, target, primitive, t, remaining);
     let mut t = Vec3::ONE;
     // The medium around the starting point is unknown unless we entered it through glass.
     let mut medium: Option<&Medium> = None;

@@ -14,6 +14,35 @@ pub struct RenderParams {
     pub ssaa: SsaaParams,
     /// Settings of the methods that merge photons (`ppm`, `bpm`, `vcm`).
     pub merging: MergeParams,
+    /// Which engine traces a method that has more than one (`path`: wavefront or scalar).
+    pub engine: EngineOption,
+}
+
+/// The engine asked for (`--engine`): a method with a wavefront engine (`path`) runs it where it
+/// supports every effect of the scene, and its one-ray engine (the reference) elsewhere.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum EngineOption {
+    /// The wavefront engine where it supports the scene, else the scalar one.
+    #[default]
+    Auto,
+    /// The wavefront engine; a scene it does not support is an error.
+    Wavefront,
+    /// One ray at a time: the reference implementation.
+    Scalar,
+}
+
+impl EngineOption {
+    /// Every option with its command-line name.
+    pub const NAMES: [(&'static str, EngineOption); 3] = [
+        ("auto", EngineOption::Auto),
+        ("wavefront", EngineOption::Wavefront),
+        ("scalar", EngineOption::Scalar),
+    ];
+
+    /// The option called `name`.
+    pub fn from_name(name: &str) -> Option<EngineOption> {
+        EngineOption::NAMES.iter().find(|(n, _)| *n == name).map(|&(_, e)| e)
+    }
 }
 
 impl RenderParams {
@@ -25,6 +54,7 @@ impl RenderParams {
             reflectance: None,
             ssaa: SsaaParams::default(),
             merging: MergeParams::default(),
+            engine: EngineOption::Auto,
         }
     }
 }

@@ -118,6 +118,11 @@ pub struct RenderArgs {
     /// spp·(I+1)/N, keeping the sums in the output for `vitrum merge`.
     #[arg(long, conflicts_with = "time", value_parser = crate::parts::Shard::parse)]
     pub shard: Option<crate::parts::Shard>,
+    /// Engine of `path`: auto (the wavefront engine where it supports the scene, else one ray at
+    /// a time), wavefront (always; scenes without a lane form traverse the BVH one ray per
+    /// lane), scalar (one ray at a time: the reference implementation).
+    #[arg(long, value_parser = ["auto", "wavefront", "scalar"])]
+    pub engine: Option<String>,
     /// Add the variance of each pixel's estimate (`variance.R`, `variance.G`, `variance.B`) and
     /// its sample count (`samples`) as extra EXR channels; needs at least 2 samples per pixel.
     #[arg(long)]
@@ -163,6 +168,17 @@ pub fn render_options(
         ssaa.threshold = t;
     }
     let mut params = RenderParams { reflectance, ssaa, ..s.params(integrator, args.max_depth) };
+    if let Some(name) = &args.engine {
+        params.engine = crate::params::EngineOption::from_name(name).expect("clap checks the name");
+        if params.engine == crate::params::EngineOption::Wavefront
+            && integrator.engine(scene, &params).wavefront.is_none()
+        {
+            return Err(CliError::BadInput(format!(
+                "--engine wavefront: `{}` has no wavefront engine (only `path` has one)",
+                integrator.name()
+            )));
+        }
+    }
     if let Some(r) = args.radius {
         if !(r.is_finite() && r > 0.0) {
             return Err(CliError::BadInput(format!(
@@ -355,7 +371,8 @@ pub fn run(args: &RenderArgs) -> Result<(), CliError> {
     if let Some(what) = &interrupted {
         eprintln!("vitrum: warning: interrupted: {what}; written to {}", output.display());
     }
-    report(args, &output, &scene, integrator.name(), &opts, &out);
+    let engine = integrator.engine(&scene, &opts.params);
+    report(args, &output, &scene, (integrator.name(), &engine), &opts, &out);
     Ok(())
 }
 
@@ -446,7 +463,7 @@ fn report(
     args: &RenderArgs,
     output: &Path,
     scene: &Scene,
-    integrator: &str,
+    (integrator, engine): (&str, &integrators::EngineChoice),
     opts: &RenderOptions,
     out: &RenderOutput,
 ) {
@@ -471,6 +488,8 @@ fn report(
             "merging": merging.map(|(radius, alpha)| json!({"radius": radius, "alpha": alpha})),
             // The one strategy rendered alone (`--strategy`), or `null`.
             "strategy": opts.params.merging.only.map(|s| s.name()),
+            // The engine that traced the paths (`wavefront` or `scalar`), how, and why.
+            "engine": {"name": engine.name(), "description": engine.describe(), "reason": engine.reason},
             "seconds": out.seconds,
             "rays": {
                 "primary": out.rays.primary,
@@ -509,7 +528,7 @@ fn report(
         println!("{summary}");
     } else if !args.quiet {
         eprintln!(
-            "{integrator}: {}x{} at {} spp{}{}{}{} in {:.3} s, {} rays ({:.1} per pixel: primary {}, reflected {}, refracted {}, shadow {}), {:.2} Mrays/s, {} -> {}",
+            "{integrator}: {}x{} at {} spp{}{}{}{} in {:.3} s, {} rays ({:.1} per pixel: primary {}, reflected {}, refracted {}, shadow {}), {:.2} Mrays/s, {} -> {}\n  engine: {}",
             out.image.width,
             out.image.height,
             out.spp,
@@ -529,7 +548,8 @@ fn report(
                 Some(n) => format!("std error {:.3e}", n.std_error),
                 None => "std error n/a".to_string(),
             },
-            output.display()
+            output.display(),
+            engine.describe()
         );
     }
 }

@@ -1,5 +1,6 @@
-//! Shape tests across rays: one shape against [`WIDTH`] rays at once, the first lane kernels of
-//! the wavefront `path` engine that issue 20 asks for (not yet used by any render).
+//! Shape tests across rays: one shape against [`WIDTH`] rays at once, and a scene's primitives
+//! grouped for them ([`LaneScene`]): the closest hits and shadow rays of the wavefront engine of
+//! `path` (`integrators/wavefront.rs`).
 //!
 //! Rays are stored as structure of arrays ([`RayLanes`]) and every kernel is written once, as
 //! plain loops over the lanes that repeat the scalar test's arithmetic operation for operation
@@ -11,8 +12,10 @@
 //! runtime detection, not a SIMD crate: the kernels need nothing beyond what the compiler's
 //! vectoriser does with plain loops, and the dispatch is three lines.
 
+mod scene;
 mod shapes;
 
+pub use scene::{LaneHits, LaneScene};
 pub use shapes::{cylinder_hits, disk_hits, quad_hits, sphere_hits};
 
 /// Rays per batch: 16 single-precision lanes fill one AVX-512 register, two AVX2 ones.
@@ -72,6 +75,15 @@ impl Isa {
             }
         }
         Isa::Baseline
+    }
+
+    /// The set's name, with the lanes one instruction covers.
+    pub fn name(self) -> &'static str {
+        match self {
+            Isa::Avx512 => "AVX-512, 16 lanes",
+            Isa::Avx2 => "AVX2, 8 lanes",
+            Isa::Baseline => "the build target's vectors",
+        }
     }
 
     /// Every set this CPU can run, widest first (for tests that compare them).

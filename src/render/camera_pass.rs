@@ -3,7 +3,8 @@
 
 use super::*;
 use crate::camera::Camera;
-use crate::integrators::{Integrator, PathContext};
+use crate::geometry::Ray;
+use crate::integrators::{EngineChoice, Integrator, PathContext, StageOccupancy, Wavefront};
 use crate::sampler::{Dim, Sampler, DIM_PURPOSES};
 use crate::scene::effects::Support;
 use crate::scene::{Effect, Scene, SpectralMode};
@@ -55,7 +56,14 @@ pub(super) struct Pass<'a> {
     pub(super) camera: Camera,
     pub(super) opts: RenderOptions,
     pub(super) dims: CameraDims,
+    /// The engine that traces the camera paths.
+    pub(super) engine: EngineChoice,
 }
+
+/// The most camera paths the wavefront engine advances together (whole pixels' samples; at least
+/// one pixel's): enough that batches of 16 stay full as paths end, few enough that their states
+/// stay in the cache.
+pub const WAVEFRONT_BATCH: usize = 1024;
 
 impl<'a> Pass<'a> {
     pub(super) fn new(scene: &'a Scene, integrator: &'a dyn Integrator, opts: &RenderOptions) -> Pass<'a> {
@@ -65,6 +73,7 @@ impl<'a> Pass<'a> {
             camera: camera_for(scene, opts.resolution),
             opts: opts.clone(),
             dims: CameraDims::resolve(scene, integrator, opts.spectral),
+            engine: integrator.engine(scene, &opts.params),
         }
     }
 
@@ -73,8 +82,9 @@ impl<'a> Pass<'a> {
         Film::new(self.camera.width as usize, self.camera.height as usize, 1.0, self.dims.wavelength)
     }
 
-    /// One camera sample of pixel (`x`, `y`): its radiance, with its rays and sampler requests.
-    pub(super) fn sample(&self, x: u32, y: u32, index: u32, total: u32, row: &mut RowStats) -> Vec3 {
+    /// The camera ray of sample `index` (of `total`) of pixel (`x`, `y`), with the context of
+    /// its path: the sample's stream after the camera's dimensions, its channels and counters.
+    pub(super) fn start(&self, x: u32, y: u32, index: u32, total: u32) -> (Ray, PathContext) {
         let pixel = y as u64 * self.camera.width as u64 + x as u64;
         let mut sampler = Sampler::new(self.opts.sampler, self.opts.seed, pixel, index, total);
         let offset = if total == 1 { Vec2::splat(0.5) } else { sampler.get_2d(Dim::Pixel) };
@@ -87,13 +97,58 @@ impl<'a> Pass<'a> {
         }
         let ray = self.camera.generate_ray_lens(Vec2::new(x as f32, y as f32) + offset, lens, time);
         ctx.rays.primary += 1;
-        let radiance = self.integrator.radiance(self.scene, &self.opts.params, &ray, &mut ctx);
-        let l = ctx.channels.to_rgb(radiance);
+        (ray, ctx)
+    }
+
+    /// The RGB estimate of a sample whose path (context `ctx`) gathered `radiance`, its rays and
+    /// sampler requests counted in `row`.
+    pub(super) fn finish(&self, ctx: &PathContext, radiance: Vec3, row: &mut RowStats) -> Vec3 {
         row.rays += ctx.rays;
         for (total, d) in row.requests.iter_mut().zip(ALL_DIMS) {
             *total += ctx.sampler.requests(d) as u64;
         }
-        l
+        ctx.channels.to_rgb(radiance)
+    }
+
+    /// One camera sample of pixel (`x`, `y`) by the one-ray engine: its radiance, with its rays
+    /// and sampler requests.
+    pub(super) fn sample(&self, x: u32, y: u32, index: u32, total: u32, row: &mut RowStats) -> Vec3 {
+        let (ray, mut ctx) = self.start(x, y, index, total);
+        let radiance = self.integrator.radiance(self.scene, &self.opts.params, &ray, &mut ctx);
+        self.finish(&ctx, radiance, row)
+    }
+
+    /// The estimates of row `y`'s samples `samples` (of `total`) by the wavefront engine, pixel
+    /// by pixel, each pixel's in sample order: its paths go in batches of at most
+    /// [`WAVEFRONT_BATCH`] whole pixels' samples.
+    fn wavefront_row(
+        &self,
+        engine: &Wavefront,
+        y: u32,
+        width: usize,
+        samples: Range<u32>,
+        total: u32,
+        row: &mut RowStats,
+    ) -> Vec<Vec3> {
+        let per_pixel = samples.len().max(1);
+        let pixels_per_batch = (WAVEFRONT_BATCH / per_pixel).max(1);
+        let mut estimates = Vec::with_capacity(width * samples.len());
+        let (mut rays, mut ctxs) = (Vec::new(), Vec::new());
+        let mut occupancy = StageOccupancy::default();
+        for first in (0..width).step_by(pixels_per_batch) {
+            rays.clear();
+            ctxs.clear();
+            for x in first..(first + pixels_per_batch).min(width) {
+                for s in samples.clone() {
+                    let (ray, ctx) = self.start(x as u32, y, s, total);
+                    rays.push(ray);
+                    ctxs.push(ctx);
+                }
+            }
+            let radiance = engine.radiance(self.scene, &self.opts.params, &rays, &mut ctxs, &mut occupancy);
+            estimates.extend(ctxs.iter().zip(radiance).map(|(ctx, l)| self.finish(ctx, l, row)));
+        }
+        estimates
     }
 
     /// Continue the sums of row `y` with the samples `samples` (of `total`, 0 when unknown).
@@ -106,9 +161,17 @@ impl<'a> Pass<'a> {
         sum_sq: &mut [DVec3],
     ) -> RowStats {
         let mut row = RowStats { rays: RayCounts::default(), non_finite: 0, requests: [0; DIM_PURPOSES] };
+        let batch = match &self.engine.wavefront {
+            Some(engine) => self.wavefront_row(engine, y, sum.len(), samples.clone(), total, &mut row),
+            None => Vec::new(),
+        };
+        let mut batched = batch.into_iter();
         for (x, (sum, sum_sq)) in sum.iter_mut().zip(sum_sq.iter_mut()).enumerate() {
             for s in samples.clone() {
-                let l = self.sample(x as u32, y, s, total, &mut row);
+                let l = match batched.next() {
+                    Some(l) => l,
+                    None => self.sample(x as u32, y, s, total, &mut row),
+                };
                 if !l.is_finite() {
                     row.non_finite += 1;
                 }

@@ -237,7 +237,6 @@ impl Scene {
     /// surfaces written identically) the one compiled first wins: the first listed object,
     /// whatever the BVH's traversal order.
     pub fn intersect(&self, ray: &Ray, tmax: f32) -> Option<Intersection> {
-        let prims = &self.primitives;
         // A static scene pays nothing for motion blur: its traversal never looks at velocities.
         let (t, primitive, bary) = if self.has_motion {
             self.closest(ray, tmax, |prim, limit| {
@@ -251,8 +250,15 @@ impl Scene {
             let sheared = OnceCell::new();
             self.closest(ray, tmax, |prim, limit| prim.shape.hit_sheared(ray, &sheared, 0.0, limit))
         }?;
-        let primitive = primitive as u32;
-        let prim = &prims[primitive as usize];
+        Some(self.record(ray, t, primitive as u32, bary))
+    }
+
+    /// The intersection record of `ray` with `primitive` at distance `t` (a distance its shape's
+    /// test returned, with a triangle's barycentrics where the test gave them): the surface
+    /// geometry, moved to `ray.time` for a moving primitive, with the mesh's vertex attributes.
+    #[inline]
+    pub fn record(&self, ray: &Ray, t: f32, primitive: u32, bary: Option<[f32; 3]>) -> Intersection {
+        let prim = &self.primitives[primitive as usize];
         let mut hit = match prim.velocity {
             None => prim.shape.surface_with(ray, t, bary, self.reads_surface_uv),
             Some(v) => {
@@ -266,7 +272,20 @@ impl Scene {
         if let Some(a) = self.vertex_attributes(primitive) {
             a.apply(&mut hit);
         }
-        Some(Intersection { hit, primitive })
+        Intersection { hit, primitive }
+    }
+
+    /// Where `primitive` (an index into [`Scene::primitives`], which are in BVH order) was
+    /// compiled among the scene's primitives: of two hits at exactly the same distance, the
+    /// one compiled first wins.
+    #[inline]
+    pub fn compile_rank(&self, primitive: u32) -> u32 {
+        self.bvh.primitive_indices[primitive as usize]
+    }
+
+    /// Whether any primitive moves.
+    pub fn has_motion(&self) -> bool {
+        self.has_motion
     }
 
     /// Whether `ray` meets, within (0, `tmax`), a primitive that `blocks(primitive, t)` counts as

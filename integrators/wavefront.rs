@@ -1,0 +1,226 @@
+//! The wavefront engine of `path`: many camera paths advanced together, stage by stage, instead
+//! of one path from the camera to its end.
+//!
+//! A batch of paths (a row's camera samples of one pass) is kept as a list of live paths. Each
+//! round runs three stages over the whole list:
+//! 1. **closest hits**: the rays of 16 live paths at a time against every primitive of the scene
+//!    across lanes ([`LaneScene::closest`], kernels for AVX-512 or AVX2 chosen at run time), or
+//!    through the BVH one ray per lane where the scene has no lane form;
+//! 2. **shading**: per path, [`PathState::advance`], the very step the scalar engine takes
+//!    (emission and its MIS weight, next-event estimation, the BSDF sample, Russian roulette),
+//!    which leaves the shadow ray of its light sample pending;
+//! 3. **shadow rays**: the pending ones, 16 at a time ([`LaneScene::occluded`]), whose light
+//!    then counts where nothing blocks it;
+//!
+//! and the paths that go on are compacted into the next round's list (so the batches of 16 stay
+//! full: [`Occupancy`]). Every path draws the same random numbers in the same order as the
+//! scalar engine and adds the same terms in the same order, and the lane kernels return the
+//! scalar tests' distances to the bit: the two engines estimate the same image, and agree pixel
+//! for pixel but for the rare ray whose hit the BVH's box test settles differently. As in the
+//! scalar engine, a path's estimate depends on its own sample stream alone, so images are
+//! bit-identical at any thread count.
+
+use super::path::{PathState, PendingLight};
+use super::{EngineChoice, PathContext, RenderParams};
+use crate::geometry::Ray;
+use crate::lanes::{Isa, LaneScene, Lanes, RayLanes, WIDTH};
+use crate::lighting::ShadowRay;
+use crate::params::EngineOption;
+use crate::scene::{Intersection, Scene};
+use glam::Vec3;
+
+/// The wavefront engine for one scene.
+#[derive(Clone, Debug)]
+pub struct Wavefront {
+    /// The scene's primitives for the lane kernels; `None`: the BVH, one ray per lane.
+    lanes: Option<LaneScene>,
+}
+
+/// How full a stage's batches were: lanes that carried a ray, of the lanes issued.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Occupancy {
+    /// Lanes that carried a ray.
+    pub used: u64,
+    /// Lanes issued (16 per batch).
+    pub issued: u64,
+}
+
+impl Occupancy {
+    /// The fraction of lanes used (1 for a stage that never ran).
+    pub fn fraction(&self) -> f64 {
+        if self.issued == 0 {
+            1.0
+        } else {
+            self.used as f64 / self.issued as f64
+        }
+    }
+
+    fn add(&mut self, used: usize) {
+        self.used += used as u64;
+        self.issued += WIDTH as u64;
+    }
+}
+
+/// The occupancy of the two lane stages over a trace.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct StageOccupancy {
+    /// Closest hits.
+    pub closest: Occupancy,
+    /// Shadow rays.
+    pub shadow: Occupancy,
+}
+
+impl Wavefront {
+    /// The engine for `scene`: across lanes where the scene has a lane form, else through the
+    /// BVH one ray per lane.
+    pub fn new(scene: &Scene) -> Wavefront {
+        Wavefront { lanes: LaneScene::new(scene, Isa::detect()).ok() }
+    }
+
+    /// How the closest hits and shadow rays are found, in words.
+    pub fn describe(&self) -> String {
+        match &self.lanes {
+            Some(l) => format!("every primitive against 16 rays at once, {}", l.isa().name()),
+            None => "the BVH, one ray per lane".to_string(),
+        }
+    }
+
+    /// The radiance of every camera ray of `rays`, each with its sample's context (its random
+    /// stream, channels and counters), as [`super::Path`]'s `radiance` gives it one at a time.
+    pub fn radiance(
+        &self,
+        scene: &Scene,
+        params: &RenderParams,
+        rays: &[Ray],
+        ctxs: &mut [PathContext],
+        occupancy: &mut StageOccupancy,
+    ) -> Vec<Vec3> {
+        let mut paths: Vec<PathState> = rays.iter().map(|&r| PathState::new(r)).collect();
+        self.trace(scene, params, &mut paths, ctxs, occupancy);
+        paths.iter().map(|p| p.l).collect()
+    }
+
+    /// Advance every path of `paths` (with its context in `ctxs`) to its end.
+    fn trace(
+        &self,
+        scene: &Scene,
+        params: &RenderParams,
+        paths: &mut [PathState],
+        ctxs: &mut [PathContext],
+        occupancy: &mut StageOccupancy,
+    ) {
+        let n = paths.len();
+        let mut live: Vec<u32> = (0..n as u32).collect();
+        let mut next: Vec<u32> = Vec::with_capacity(n);
+        let mut hits: Vec<Option<Intersection>> = Vec::with_capacity(n);
+        let mut pending: Vec<(u32, PendingLight)> = Vec::with_capacity(n);
+        while !live.is_empty() {
+            self.closest_hits(scene, paths, &live, &mut hits, &mut occupancy.closest);
+            pending.clear();
+            next.clear();
+            for (&i, &isect) in live.iter().zip(&hits) {
+                let (path, ctx) = (&mut paths[i as usize], &mut ctxs[i as usize]);
+                let step = path.advance(scene, params, isect, ctx);
+                match step.light {
+                    Some(light) if light.shadow.is_some() => pending.push((i, light)),
+                    Some(light) => path.resolve(&light, true),
+                    None => {}
+                }
+                if step.goes_on {
+                    next.push(i);
+                }
+            }
+            self.shadow_rays(scene, paths, &pending, &mut occupancy.shadow);
+            std::mem::swap(&mut live, &mut next);
+        }
+    }
+
+    /// Stage 1: the closest hit of every live path's ray, into `hits` (in the order of `live`).
+    fn closest_hits(
+        &self,
+        scene: &Scene,
+        paths: &[PathState],
+        live: &[u32],
+        hits: &mut Vec<Option<Intersection>>,
+        occupancy: &mut Occupancy,
+    ) {
+        hits.clear();
+        let Some(lanes) = &self.lanes else {
+            hits.extend(live.iter().map(|&i| scene.intersect(&paths[i as usize].ray, f32::INFINITY)));
+            return;
+        };
+        for batch in live.chunks(WIDTH) {
+            let (rays, tmax) = gather(batch.iter().map(|&i| (&paths[i as usize].ray, f32::INFINITY)));
+            let found = lanes.closest(&rays, &tmax);
+            occupancy.add(batch.len());
+            hits.extend(batch.iter().enumerate().map(|(k, &i)| {
+                let t = found.t[k];
+                t.is_finite().then(|| scene.record(&paths[i as usize].ray, t, found.primitive[k], None))
+            }));
+        }
+    }
+
+    /// Stage 3: the pending shadow rays; each path's light counts where nothing blocks it.
+    fn shadow_rays(
+        &self,
+        scene: &Scene,
+        paths: &mut [PathState],
+        pending: &[(u32, PendingLight)],
+        occupancy: &mut Occupancy,
+    ) {
+        let shadow = |light: &PendingLight| light.shadow.expect("only pending lights with a shadow ray");
+        let Some(lanes) = &self.lanes else {
+            for (i, light) in pending {
+                paths[*i as usize].resolve(light, !shadow(light).blocked(scene));
+            }
+            return;
+        };
+        for batch in pending.chunks(WIDTH) {
+            let queries: [Option<ShadowRay>; WIDTH] =
+                std::array::from_fn(|k| batch.get(k).map(|(_, l)| shadow(l)));
+            let (rays, tmax) = gather(queries.iter().flatten().map(|q| (&q.ray, q.tmax)));
+            let blocked = lanes.occluded(&rays, &tmax, |k, primitive, t| {
+                queries[k].is_some_and(|q| q.blocks(scene, primitive, t))
+            });
+            occupancy.add(batch.len());
+            for (k, (i, light)) in batch.iter().enumerate() {
+                paths[*i as usize].resolve(light, !blocked[k]);
+            }
+        }
+    }
+}
+
+/// Up to [`WIDTH`] rays with their limits as lanes; missing lanes are idle (limit −1).
+fn gather<'a>(batch: impl Iterator<Item = (&'a Ray, f32)>) -> (RayLanes, Lanes) {
+    let mut rays = RayLanes::default();
+    let mut tmax = [-1.0; WIDTH];
+    for (k, (ray, limit)) in batch.take(WIDTH).enumerate() {
+        for axis in 0..3 {
+            rays.origin[axis][k] = ray.origin[axis];
+            rays.dir[axis][k] = ray.dir[axis];
+        }
+        tmax[k] = limit;
+    }
+    (rays, tmax)
+}
+
+/// Which engine `path` runs on `scene` under `params.engine`, and why.
+pub(super) fn choose(scene: &Scene, params: &RenderParams) -> EngineChoice {
+    let lanes = LaneScene::new(scene, Isa::detect());
+    match (params.engine, lanes) {
+        (EngineOption::Scalar, _) => {
+            EngineChoice::scalar("--engine scalar: one ray at a time, the reference implementation")
+        }
+        (EngineOption::Auto | EngineOption::Wavefront, Ok(lanes)) => EngineChoice::wavefront(
+            Wavefront { lanes: Some(lanes) },
+            format!("{} primitives, each tested against 16 rays at once", scene.primitives.len()),
+        ),
+        (EngineOption::Wavefront, Err(why)) => EngineChoice::wavefront(
+            Wavefront { lanes: None },
+            format!("--engine wavefront: {why}, so its rays traverse the BVH one per lane"),
+        ),
+        (EngineOption::Auto, Err(why)) => EngineChoice::scalar(format!(
+            "{why}; the wavefront engine would traverse the BVH one ray per lane, no faster than one ray at a time"
+        )),
+    }
+}
