@@ -188,10 +188,10 @@ pub trait Integrator: Send + Sync {
     ) -> Option<RenderOutput> {
         None
     }
-    /// Which engine traces `scene` under `params` ([`RenderParams::engine`]), and why: a
-    /// method with a wavefront engine (`path`) runs it where it supports the scene; the default
-    /// is one ray at a time.
-    fn engine(&self, _scene: &Scene, _params: &RenderParams) -> EngineChoice {
+    /// Which engine traces `scene` under `opts` ([`RenderParams::engine`]), and why: a method
+    /// with a wavefront engine (`path`) runs it where it supports the scene; the default is one
+    /// ray at a time.
+    fn engine(&self, _scene: &Scene, _opts: &RenderOptions) -> EngineChoice {
         EngineChoice::scalar("one ray at a time: only `path` has a wavefront engine")
     }
     /// How the method's image grows with the sample count (progressive rendering, per-pixel

@@ -19,6 +19,7 @@ use super::{pick_light, sample_bsdf, Integrator, PathContext, RenderParams};
 use crate::bsdf::{Scattering, ShadingFrame, TransportMode};
 use crate::geometry::{spawn_origin, Ray, SurfaceHit};
 use crate::lighting::{crossing, ShadowRay};
+use crate::render::RenderOptions;
 use crate::sampler::Dim;
 use crate::scene::effects::Support;
 use crate::scene::{Effect, Intersection, Scene};
@@ -39,7 +40,7 @@ pub struct Path;
 
 /// The power heuristic (β = 2) weight of a strategy with density `a` against one with `b`.
 #[inline]
-pub(super) fn power_heuristic(a: f32, b: f32) -> f32 {
+pub(crate) fn power_heuristic(a: f32, b: f32) -> f32 {
     let (a2, b2) = (a * a, b * b);
     if a2.is_infinite() {
         return 1.0;
@@ -88,8 +89,8 @@ impl Integrator for Path {
         }
     }
 
-    fn engine(&self, scene: &Scene, params: &RenderParams) -> EngineChoice {
-        super::wavefront::choose(scene, params)
+    fn engine(&self, scene: &Scene, opts: &RenderOptions) -> EngineChoice {
+        super::wavefront::choose(scene, opts)
     }
 }
 

@@ -20,20 +20,27 @@
 //! scalar engine, a path's estimate depends on its own sample stream alone, so images are
 //! bit-identical at any thread count.
 
+mod stages;
+
 use super::path::{PathState, PendingLight};
 use super::{EngineChoice, PathContext, RenderParams};
 use crate::geometry::Ray;
 use crate::lanes::{Isa, LaneScene, Lanes, RayLanes, WIDTH};
 use crate::lighting::ShadowRay;
 use crate::params::EngineOption;
+use crate::render::RenderOptions;
 use crate::scene::{Intersection, Scene};
 use glam::Vec3;
+use stages::LaneStages;
 
 /// The wavefront engine for one scene.
 #[derive(Clone, Debug)]
 pub struct Wavefront {
     /// The scene's primitives for the lane kernels; `None`: the BVH, one ray per lane.
     lanes: Option<LaneScene>,
+    /// Every stage across lanes, where the scene's effects allow; `None`: each path shaded by
+    /// [`PathState::advance`], one lane at a time; with the reason.
+    stages: Result<LaneStages, String>,
 }
 
 /// How full a stage's batches were: lanes that carried a ray, of the lanes issued.
@@ -71,17 +78,35 @@ pub struct StageOccupancy {
 }
 
 impl Wavefront {
-    /// The engine for `scene`: across lanes where the scene has a lane form, else through the
-    /// BVH one ray per lane.
-    pub fn new(scene: &Scene) -> Wavefront {
-        Wavefront { lanes: LaneScene::new(scene, Isa::detect()).ok() }
+    /// The engine for `scene` rendered with `opts`: hits across lanes where the scene has a lane
+    /// form, else through the BVH one ray per lane; every stage across lanes where its effects
+    /// allow.
+    pub fn new(scene: &Scene, opts: &RenderOptions) -> Wavefront {
+        let lanes = LaneScene::new(scene, Isa::detect());
+        let stages = match &lanes {
+            Ok(l) => {
+                let spectral = opts.spectral.resolve(&scene.effects);
+                LaneStages::new(scene, l.clone(), opts.sampler, spectral)
+            }
+            Err(why) => Err(why.clone()),
+        };
+        Wavefront { lanes: lanes.ok(), stages }
     }
 
-    /// How the closest hits and shadow rays are found, in words.
+    /// Whether every stage runs across lanes.
+    pub fn all_stages_across_lanes(&self) -> bool {
+        self.stages.is_ok()
+    }
+
+    /// What runs across lanes, in words.
     pub fn describe(&self) -> String {
-        match &self.lanes {
-            Some(l) => format!("every primitive against 16 rays at once, {}", l.isa().name()),
-            None => "the BVH, one ray per lane".to_string(),
+        match (&self.lanes, &self.stages) {
+            (Some(l), Ok(_)) => format!("every stage across 16 lanes, {}", l.isa().name()),
+            (Some(l), Err(why)) => format!(
+                "hits and shadow rays across 16 lanes ({}), shading one path at a time: {why}",
+                l.isa().name()
+            ),
+            (None, _) => "the BVH one ray per lane, shading one path at a time".to_string(),
         }
     }
 
@@ -95,6 +120,9 @@ impl Wavefront {
         ctxs: &mut [PathContext],
         occupancy: &mut StageOccupancy,
     ) -> Vec<Vec3> {
+        if let Ok(stages) = &self.stages {
+            return stages.radiance(scene, params, rays, ctxs, occupancy);
+        }
         let mut paths: Vec<PathState> = rays.iter().map(|&r| PathState::new(r)).collect();
         self.trace(scene, params, &mut paths, ctxs, occupancy);
         paths.iter().map(|p| p.l).collect()
@@ -204,23 +232,23 @@ fn gather<'a>(batch: impl Iterator<Item = (&'a Ray, f32)>) -> (RayLanes, Lanes) 
     (rays, tmax)
 }
 
-/// Which engine `path` runs on `scene` under `params.engine`, and why.
-pub(super) fn choose(scene: &Scene, params: &RenderParams) -> EngineChoice {
-    let lanes = LaneScene::new(scene, Isa::detect());
-    match (params.engine, lanes) {
-        (EngineOption::Scalar, _) => {
-            EngineChoice::scalar("--engine scalar: one ray at a time, the reference implementation")
+/// Which engine `path` runs on `scene` under `opts.params.engine`, and why.
+pub(super) fn choose(scene: &Scene, opts: &RenderOptions) -> EngineChoice {
+    if opts.params.engine == EngineOption::Scalar {
+        return EngineChoice::scalar("--engine scalar: one ray at a time, the reference implementation");
+    }
+    let engine = Wavefront::new(scene, opts);
+    match (opts.params.engine, &engine.lanes) {
+        (EngineOption::Wavefront, None) => {
+            EngineChoice::wavefront(engine, "--engine wavefront asks for it whatever the scene")
         }
-        (EngineOption::Auto | EngineOption::Wavefront, Ok(lanes)) => EngineChoice::wavefront(
-            Wavefront { lanes: Some(lanes) },
+        (_, Some(_)) => EngineChoice::wavefront(
+            engine,
             format!("{} primitives, each tested against 16 rays at once", scene.primitives.len()),
         ),
-        (EngineOption::Wavefront, Err(why)) => EngineChoice::wavefront(
-            Wavefront { lanes: None },
-            format!("--engine wavefront: {why}, so its rays traverse the BVH one per lane"),
-        ),
-        (EngineOption::Auto, Err(why)) => EngineChoice::scalar(format!(
-            "{why}; the wavefront engine would traverse the BVH one ray per lane, no faster than one ray at a time"
+        (_, None) => EngineChoice::scalar(format!(
+            "{}; the wavefront engine would traverse the BVH one ray per lane, no faster than one ray at a time",
+            LaneScene::new(scene, Isa::detect()).err().unwrap_or_default()
         )),
     }
 }

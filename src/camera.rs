@@ -192,17 +192,27 @@ pub struct CameraConnection {
 }
 
 /// Shirley–Chiu concentric map from the unit square to the unit disk (area preserving).
+#[inline(always)]
 pub fn concentric_disk(u: Vec2) -> Vec2 {
-    let o = 2.0 * u - Vec2::ONE;
-    if o == Vec2::ZERO {
+    let (centre, r, theta) = concentric_polar(u);
+    if centre {
         return Vec2::ZERO;
     }
+    r * Vec2::new(theta.cos(), theta.sin())
+}
+
+/// [`concentric_disk`] up to its trigonometry: whether `u` maps to the disk's centre, else the
+/// point's signed radius `r` and angle `theta` (the point is `r·(cos θ, sin θ)`). The wavefront
+/// engine runs this across lanes and the cosines one lane at a time.
+#[inline(always)]
+pub fn concentric_polar(u: Vec2) -> (bool, f32, f32) {
+    let o = 2.0 * u - Vec2::ONE;
     let (r, theta) = if o.x.abs() > o.y.abs() {
         (o.x, std::f32::consts::FRAC_PI_4 * (o.y / o.x))
     } else {
         (o.y, std::f32::consts::FRAC_PI_2 - std::f32::consts::FRAC_PI_4 * (o.x / o.y))
     };
-    r * Vec2::new(theta.cos(), theta.sin())
+    (o == Vec2::ZERO, r, theta)
 }
 
 #[cfg(test)]

@@ -14,7 +14,12 @@ pub struct Lambert {
 
 /// A cosine-distributed direction in the +Z hemisphere (Malley's method on a concentric disk).
 pub fn cosine_hemisphere(u: Vec2) -> Vec3 {
-    let d = crate::camera::concentric_disk(u);
+    hemisphere_above(crate::camera::concentric_disk(u))
+}
+
+/// The point of the unit +Z hemisphere above the point `d` of the unit disk (Malley's method).
+#[inline(always)]
+pub fn hemisphere_above(d: Vec2) -> Vec3 {
     Vec3::new(d.x, d.y, (1.0 - d.length_squared()).max(0.0).sqrt())
 }
 
@@ -39,7 +44,14 @@ impl Lambert {
 
     /// A cosine-distributed direction on the side of `wo`.
     pub fn sample(&self, wo: Vec3, u: Vec2) -> Option<BsdfSample> {
-        let mut wi = cosine_hemisphere(u);
+        self.sample_above(wo, crate::camera::concentric_disk(u))
+    }
+
+    /// [`sample`](Self::sample) from the point `d` of the unit disk that its uniforms map to
+    /// ([`crate::camera::concentric_disk`]): the wavefront engine maps them across lanes.
+    #[inline(always)]
+    pub fn sample_above(&self, wo: Vec3, d: Vec2) -> Option<BsdfSample> {
+        let mut wi = hemisphere_above(d);
         if wo.z < 0.0 {
             wi.z = -wi.z;
         }

@@ -223,7 +223,8 @@ impl RoughDielectric {
     }
 
     /// The smooth interface: mirror reflection with probability R, refraction otherwise.
-    fn sample_specular(&self, wo: Vec3, uc: f32, mode: TransportMode) -> Option<BsdfSample> {
+    #[inline(always)]
+    pub(crate) fn sample_specular(&self, wo: Vec3, uc: f32, mode: TransportMode) -> Option<BsdfSample> {
         let etap = if wo.z > 0.0 { self.eta } else { 1.0 / self.eta };
         let r = fresnel_dielectric(wo.z.abs(), etap);
         if uc < r {

@@ -170,9 +170,7 @@ pub fn render_options(
     let mut params = RenderParams { reflectance, ssaa, ..s.params(integrator, args.max_depth) };
     if let Some(name) = &args.engine {
         params.engine = crate::params::EngineOption::from_name(name).expect("clap checks the name");
-        if params.engine == crate::params::EngineOption::Wavefront
-            && integrator.engine(scene, &params).wavefront.is_none()
-        {
+        if params.engine == crate::params::EngineOption::Wavefront && integrator.name() != "path" {
             return Err(CliError::BadInput(format!(
                 "--engine wavefront: `{}` has no wavefront engine (only `path` has one)",
                 integrator.name()
@@ -371,7 +369,7 @@ pub fn run(args: &RenderArgs) -> Result<(), CliError> {
     if let Some(what) = &interrupted {
         eprintln!("vitrum: warning: interrupted: {what}; written to {}", output.display());
     }
-    let engine = integrator.engine(&scene, &opts.params);
+    let engine = integrator.engine(&scene, &opts);
     report(args, &output, &scene, (integrator.name(), &engine), &opts, &out);
     Ok(())
 }

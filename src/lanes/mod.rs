@@ -12,9 +12,11 @@
 //! runtime detection, not a SIMD crate: the kernels need nothing beyond what the compiler's
 //! vectoriser does with plain loops, and the dispatch is three lines.
 
+mod sampler;
 mod scene;
 mod shapes;
 
+pub use sampler::sobol_pairs;
 pub use scene::{LaneHits, LaneScene};
 pub use shapes::{cylinder_hits, disk_hits, quad_hits, sphere_hits};
 

@@ -112,27 +112,19 @@ impl LaneScene {
     pub fn closest(&self, rays: &RayLanes, tmax: &Lanes) -> LaneHits {
         let mut best = LaneHits { t: [f32::INFINITY; WIDTH], primitive: [NONE; WIDTH] };
         let mut best_rank = [u32::MAX; WIDTH];
+        let mut limit = *tmax;
         self.each_primitive(rays, |hits, primitive, rank| {
-            // Up to and including the best distance so far, to see ties (as `Scene::closest`).
-            let limit: Lanes =
-                std::array::from_fn(
-                    |k| {
-                        if best.primitive[k] == NONE {
-                            tmax[k]
-                        } else {
-                            best.t[k].next_up()
-                        }
-                    },
-                );
             let t = hits(&limit);
+            // Selects, no branches: the loop vectorises.
             for k in 0..WIDTH {
-                let wins = t[k].is_finite()
-                    && (best.primitive[k] == NONE || t[k] < best.t[k] || rank < best_rank[k]);
-                if wins {
-                    best.t[k] = t[k];
-                    best.primitive[k] = primitive;
-                    best_rank[k] = rank;
-                }
+                let wins = (t[k] < f32::INFINITY)
+                    & ((best.primitive[k] == NONE) | (t[k] < best.t[k]) | (rank < best_rank[k]));
+                best.t[k] = if wins { t[k] } else { best.t[k] };
+                best.primitive[k] = if wins { primitive } else { best.primitive[k] };
+                best_rank[k] = if wins { rank } else { best_rank[k] };
+                // Up to and including the best distance so far, to see ties (as `Scene::closest`):
+                // the next float above a positive distance is its bit pattern plus one.
+                limit[k] = if wins { f32::from_bits(t[k].to_bits() + 1) } else { limit[k] };
             }
         });
         best

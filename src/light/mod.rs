@@ -179,6 +179,18 @@ impl EmitterShape {
     }
 }
 
+/// The solid-angle density seen from `p` of the point `y` (normal `n_y`) drawn with the area
+/// density `area_pdf`: `area_pdf·d² / |cos θ_y|`, 0 where the direction grazes the surface.
+#[inline(always)]
+pub fn area_to_solid_angle(area_pdf: f32, p: Vec3, y: Vec3, n_y: Vec3) -> f32 {
+    let d = y - p;
+    let cos = (d.normalize_or_zero()).dot(n_y).abs();
+    if cos == 0.0 {
+        return 0.0;
+    }
+    area_pdf * d.length_squared() / cos
+}
+
 /// A uniformly distributed unit vector.
 pub fn uniform_sphere(u: Vec2) -> Vec3 {
     let z = 1.0 - 2.0 * u.x;
@@ -334,12 +346,7 @@ impl Light {
             }
             Light::Surface { shape, .. } => 1.0 / shape.area(),
         };
-        let d = y - p;
-        let cos = (d.normalize_or_zero()).dot(n_y).abs();
-        if cos == 0.0 {
-            return 0.0;
-        }
-        area_pdf * d.length_squared() / cos
+        area_to_solid_angle(area_pdf, p, y, n_y)
     }
 
     /// Sample how a path leaves the light (picked with probability `p_light`): `side` picks the

@@ -73,7 +73,7 @@ impl<'a> Pass<'a> {
             camera: camera_for(scene, opts.resolution),
             opts: opts.clone(),
             dims: CameraDims::resolve(scene, integrator, opts.spectral),
-            engine: integrator.engine(scene, &opts.params),
+            engine: integrator.engine(scene, opts),
         }
     }
 

@@ -109,7 +109,7 @@ enum Mode {
 }
 
 /// Lowbias32 (Wellons): a fast, well-mixed 32-bit hash.
-#[inline]
+#[inline(always)]
 fn hash32(mut x: u32) -> u32 {
     x ^= x >> 16;
     x = x.wrapping_mul(0x7feb_352d);
@@ -119,7 +119,7 @@ fn hash32(mut x: u32) -> u32 {
 }
 
 /// SplitMix64 finaliser: a fast, well-mixed 64-bit hash.
-#[inline]
+#[inline(always)]
 fn mix64(mut z: u64) -> u64 {
     z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
     z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
@@ -210,14 +210,6 @@ impl Sampler {
         permute(self.sample % n, n, seed)
     }
 
-    /// The three hash seeds of the Sobol' request at dimension `d`: the index shuffle and the
-    /// scrambles of the two coordinates.
-    #[inline]
-    fn sobol_seeds(&self, d: u32) -> (u32, u32, u32) {
-        let h = mix64(self.pixel_key ^ (d as u64 + 1).wrapping_mul(0xa076_1d64_78bd_642f));
-        (h as u32, (h >> 32) as u32, hash32(h as u32 ^ 0x2f6b_45c3))
-    }
-
     /// The next dimension, in [0, 1), for `purpose`.
     pub fn get_1d(&mut self, purpose: Dim) -> f32 {
         self.requests[purpose as usize] += 1;
@@ -229,11 +221,7 @@ impl Sampler {
                 let n = self.samples_per_pixel;
                 ((self.stratum(d, n) as f32 + self.jitter(d)) / n as f32).min(ONE_MINUS_EPSILON)
             }
-            Mode::Sobol => {
-                let (shuffle, x, _) = self.sobol_seeds(d);
-                let index = sobol::shuffle_reversed(self.reversed_sample, shuffle).reverse_bits();
-                sobol::to_unit(sobol::scrambled_dim0(index, x))
-            }
+            Mode::Sobol => sobol_first(self.pixel_key, self.reversed_sample, d),
         }
     }
 
@@ -260,15 +248,28 @@ impl Sampler {
                 )
             }
             Mode::Sobol => {
-                let (shuffle, x, y) = self.sobol_seeds(d);
-                // The shuffled index is kept bit-reversed too: the second coordinate needs only
-                // that form (three bit reversals per request instead of five).
-                let reversed_index = sobol::shuffle_reversed(self.reversed_sample, shuffle);
-                Vec2::new(
-                    sobol::to_unit(sobol::scrambled_dim0(reversed_index.reverse_bits(), x)),
-                    sobol::to_unit(sobol::scrambled_dim1_of_reversed(reversed_index, y)),
-                )
+                let (x, y) = sobol_pair(self.pixel_key, self.reversed_sample, d);
+                Vec2::new(x, y)
             }
+        }
+    }
+
+    /// The Sobol' stream's state, for drawing its numbers across lanes
+    /// ([`crate::lanes::sobol_pairs`]); `None` for the other kinds.
+    pub fn sobol_state(&self) -> Option<SobolState> {
+        (self.mode == Mode::Sobol).then_some(SobolState {
+            pixel_key: self.pixel_key,
+            reversed_sample: self.reversed_sample,
+            dimension: self.dimension,
+        })
+    }
+
+    /// Continue the stream after `dimensions` more dimensions drawn elsewhere (across lanes from
+    /// [`sobol_state`](Self::sobol_state)) in `requests` requests per purpose.
+    pub fn skip(&mut self, dimensions: u32, requests: &[u32; DIM_PURPOSES]) {
+        self.dimension += dimensions;
+        for (total, n) in self.requests.iter_mut().zip(requests) {
+            *total += n;
         }
     }
 
@@ -276,6 +277,50 @@ impl Sampler {
     pub fn requests(&self, purpose: Dim) -> u32 {
         self.requests[purpose as usize]
     }
+}
+
+/// What a Sobol' stream's numbers depend on: the pixel's key, the bit-reversed sample index and
+/// the next dimension.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SobolState {
+    /// Hash of (seed, pixel).
+    pub pixel_key: u64,
+    /// The sample index, bit-reversed.
+    pub reversed_sample: u32,
+    /// The next dimension.
+    pub dimension: u32,
+}
+
+/// The three hash seeds of the Sobol' request at dimension `d` of the pixel with key
+/// `pixel_key`: the index shuffle and the scrambles of the two coordinates.
+#[inline(always)]
+fn sobol_seeds(pixel_key: u64, d: u32) -> (u32, u32, u32) {
+    let h = mix64(pixel_key ^ (d as u64 + 1).wrapping_mul(0xa076_1d64_78bd_642f));
+    (h as u32, (h >> 32) as u32, hash32(h as u32 ^ 0x2f6b_45c3))
+}
+
+/// The one-dimensional Sobol' request at dimension `d` of the stream (`pixel_key`,
+/// `reversed_sample`): the first coordinate of the two-dimensional one, [`sobol_pair`].
+#[inline(always)]
+pub(crate) fn sobol_first(pixel_key: u64, reversed_sample: u32, d: u32) -> f32 {
+    let (shuffle, x, _) = sobol_seeds(pixel_key, d);
+    let index = sobol::shuffle_reversed(reversed_sample, shuffle).reverse_bits();
+    sobol::to_unit(sobol::scrambled_dim0(index, x))
+}
+
+/// The two-dimensional Sobol' request at dimension `d` of the stream (`pixel_key`,
+/// `reversed_sample`). Plain integer arithmetic with no branches: the lane form of the stream
+/// runs it in a loop that vectorises.
+#[inline(always)]
+pub(crate) fn sobol_pair(pixel_key: u64, reversed_sample: u32, d: u32) -> (f32, f32) {
+    let (shuffle, x, y) = sobol_seeds(pixel_key, d);
+    // The shuffled index is kept bit-reversed too: the second coordinate needs only that form
+    // (three bit reversals per request instead of five).
+    let reversed_index = sobol::shuffle_reversed(reversed_sample, shuffle);
+    (
+        sobol::to_unit(sobol::scrambled_dim0(reversed_index.reverse_bits(), x)),
+        sobol::to_unit(sobol::scrambled_dim1_of_reversed(reversed_index, y)),
+    )
 }
 
 /// The largest f32 below 1.
@@ -467,10 +512,10 @@ mod tests {
             let reference = Sampler::new(SamplerKind::Sobol, 42, pixel, sample, 0);
             let v1 = smp.get_1d(Dim::Light);
             let v2 = smp.get_2d(Dim::Bsdf);
-            let (shuffle, x, _) = reference.sobol_seeds(0);
+            let (shuffle, x, _) = sobol_seeds(reference.pixel_key, 0);
             let index = sobol::shuffle(sample, shuffle);
             assert_eq!(v1, sobol::to_unit(sobol::owen_scramble(index.reverse_bits(), x)));
-            let (shuffle, x, y) = reference.sobol_seeds(1);
+            let (shuffle, x, y) = sobol_seeds(reference.pixel_key, 1);
             let index = sobol::shuffle(sample, shuffle);
             assert_eq!(v2.x, sobol::to_unit(sobol::owen_scramble(index.reverse_bits(), x)));
             assert_eq!(v2.y, sobol::to_unit(sobol::owen_scramble(sobol::sobol_dim1(index), y)));

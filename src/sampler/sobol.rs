@@ -15,7 +15,7 @@
 /// A hash permutation of `x` in which bit `j` of the result depends only on bits `0..=j` of `x`
 /// (Laine and Karras's construction with Burley's constants): applied to bit-reversed values,
 /// a nested uniform (Owen) scramble.
-#[inline]
+#[inline(always)]
 fn lk_permute(mut x: u32, seed: u32) -> u32 {
     x = x.wrapping_add(seed);
     x ^= x.wrapping_mul(0x6c50_b47c);
@@ -26,7 +26,7 @@ fn lk_permute(mut x: u32, seed: u32) -> u32 {
 }
 
 /// Owen scramble of the fixed-point number `x` (most significant bit first).
-#[inline]
+#[inline(always)]
 pub fn owen_scramble(x: u32, seed: u32) -> u32 {
     lk_permute(x.reverse_bits(), seed).reverse_bits()
 }
@@ -34,14 +34,14 @@ pub fn owen_scramble(x: u32, seed: u32) -> u32 {
 /// The sample index `index` shuffled by `seed`: a nested scramble of its bits from the most
 /// significant down, so that indices below 2^m go to one aligned block of 2^m indices. (The
 /// sampler uses [`shuffle_reversed`]; this plain form is the definition the tests check.)
-#[inline]
+#[inline(always)]
 pub fn shuffle(index: u32, seed: u32) -> u32 {
     owen_scramble(index, seed)
 }
 
 /// [`shuffle`] in bit-reversed form: `shuffle(index, seed).reverse_bits()` from
 /// `index.reverse_bits()`, without reversing (a sampler reverses its fixed index once).
-#[inline]
+#[inline(always)]
 pub fn shuffle_reversed(reversed_index: u32, seed: u32) -> u32 {
     lk_permute(reversed_index, seed)
 }
@@ -84,7 +84,7 @@ const fn dim1_reversed_byte_tables() -> [[u32; 256]; 4] {
 
 /// The second coordinate of Sobol' point `index`, bit-reversed, from the bit-reversed index:
 /// `sobol_dim1(r.reverse_bits()).reverse_bits()` (XOR is linear, so reversal commutes with it).
-#[inline]
+#[inline(always)]
 fn sobol_dim1_reversed(reversed_index: u32) -> u32 {
     let t = &SOBOL_DIM1_REVERSED_BYTES;
     t[0][(reversed_index & 0xff) as usize]
@@ -95,26 +95,26 @@ fn sobol_dim1_reversed(reversed_index: u32) -> u32 {
 
 /// The second coordinate of Sobol' point `index` (the first is `index.reverse_bits()`); the
 /// plain form of what the sampler computes bit-reversed.
-#[inline]
+#[inline(always)]
 pub fn sobol_dim1(index: u32) -> u32 {
     sobol_dim1_reversed(index.reverse_bits()).reverse_bits()
 }
 
 /// Owen-scrambled first coordinate of Sobol' point `index`: `owen_scramble(index.reverse_bits())`.
-#[inline]
+#[inline(always)]
 pub fn scrambled_dim0(index: u32, seed: u32) -> u32 {
     lk_permute(index, seed).reverse_bits()
 }
 
 /// Owen-scrambled second coordinate, `owen_scramble(sobol_dim1(index), seed)`, of the Sobol'
 /// point whose index is given bit-reversed (one reversal, not three); returned in plain form.
-#[inline]
+#[inline(always)]
 pub fn scrambled_dim1_of_reversed(reversed_index: u32, seed: u32) -> u32 {
     lk_permute(sobol_dim1_reversed(reversed_index), seed).reverse_bits()
 }
 
 /// A fixed-point number as an f32 in [0, 1): its top 24 bits, exactly.
-#[inline]
+#[inline(always)]
 pub fn to_unit(x: u32) -> f32 {
     (x >> 8) as f32 * (1.0 / (1u32 << 24) as f32)
 }
