@@ -13,6 +13,8 @@ mod whitted;
 pub use crate::params::{EngineOption, MergeParams, RenderParams, SsaaParams, Strategy};
 pub use distributed::Distributed;
 pub use light::LightTracer;
+#[cfg(test)]
+pub(crate) use path::power_heuristic;
 pub use path::{Path, DEFAULT_PATH_DEPTH};
 pub use raycast::RayCast;
 pub use ssaa::Ssaa;

@@ -125,11 +125,11 @@ pub struct ShadowRay {
     /// Hits at distances in (0, `tmax`) can block it.
     pub tmax: f32,
     /// Distance from the ray's origin to the target.
-    remaining: f32,
+    pub(crate) remaining: f32,
     /// The target.
-    target: Vec3,
+    pub(crate) target: Vec3,
     /// The light aimed at, which does not block where the ray reaches it.
-    light: Option<u32>,
+    pub(crate) light: Option<u32>,
 }
 
 impl ShadowRay {
@@ -145,15 +145,26 @@ impl ShadowRay {
         rays: &mut RayCounts,
     ) -> Option<ShadowRay> {
         rays.shadow += 1;
+        let shadow = ShadowRay::toward(from, target, light, time);
+        shadow.can_be_blocked().then_some(shadow)
+    }
+
+    /// [`new`](Self::new) without a branch and without counting: the ray, whether or not
+    /// anything can block it. The wavefront engine builds it across lanes.
+    #[inline(always)]
+    pub fn toward(from: &SurfaceHit, target: Vec3, light: Option<u32>, time: f32) -> ShadowRay {
         let dir = (target - from.p).normalize();
         let origin = spawn_origin(from, dir);
         let remaining = (target - origin).dot(dir);
-        if remaining <= 0.0 {
-            return None;
-        }
         let mut ray = Ray::new(origin, dir);
         ray.time = time;
-        Some(ShadowRay { ray, tmax: remaining * (1.0 - 1e-5), remaining, target, light })
+        ShadowRay { ray, tmax: remaining * (1.0 - 1e-5), remaining, target, light }
+    }
+
+    /// Whether the target lies beyond the ray's origin, where something can block it.
+    #[inline(always)]
+    pub fn can_be_blocked(&self) -> bool {
+        !(self.remaining <= 0.0)
     }
 
     /// Whether a hit on `primitive` at distance `t` (below [`tmax`](Self::tmax)) blocks the ray.

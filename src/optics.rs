@@ -15,30 +15,37 @@ pub fn reflect(wi: Vec3, n: Vec3) -> Vec3 {
 /// Returns `None` on total internal reflection instead of a NaN direction.
 #[inline]
 pub fn refract(wi: Vec3, n: Vec3, eta: f32) -> Option<Vec3> {
+    let (refracts, t) = refraction(wi, n, eta);
+    refracts.then_some(t)
+}
+
+/// [`refract`] without a branch: whether the ray refracts (no total internal reflection), and
+/// the direction (NaN where it does not). The wavefront engine runs it across lanes.
+#[inline(always)]
+pub fn refraction(wi: Vec3, n: Vec3, eta: f32) -> (bool, Vec3) {
     let cos_i = wi.dot(n).clamp(-1.0, 1.0);
     let sin2_i = (1.0 - cos_i * cos_i).max(0.0);
     let sin2_t = sin2_i / (eta * eta);
-    if sin2_t >= 1.0 {
-        return None;
-    }
     let cos_t = (1.0 - sin2_t).sqrt();
-    Some((-wi / eta + (cos_i / eta - cos_t) * n).normalize())
+    (!(sin2_t >= 1.0), (-wi / eta + (cos_i / eta - cos_t) * n).normalize())
 }
 
 /// Unpolarised Fresnel reflectance of a dielectric interface for incidence cosine `cos_i`
 /// (measured on the incident side, clamped to [0,1]) and `eta` = n_t / n_i; 1 under total
-/// internal reflection.
-#[inline]
+/// internal reflection. Without a branch, so that it runs across lanes.
+#[inline(always)]
 pub fn fresnel_dielectric(cos_i: f32, eta: f32) -> f32 {
     let cos_i = cos_i.clamp(0.0, 1.0);
     let sin2_t = (1.0 - cos_i * cos_i).max(0.0) / (eta * eta);
-    if sin2_t >= 1.0 {
-        return 1.0;
-    }
     let cos_t = (1.0 - sin2_t).sqrt();
     let r_parl = (eta * cos_i - cos_t) / (eta * cos_i + cos_t);
     let r_perp = (cos_i - eta * cos_t) / (cos_i + eta * cos_t);
-    0.5 * (r_parl * r_parl + r_perp * r_perp)
+    let r = 0.5 * (r_parl * r_parl + r_perp * r_perp);
+    if sin2_t >= 1.0 {
+        1.0
+    } else {
+        r
+    }
 }
 
 /// Critical angle (radians) for light going from index `n_i` into the lower index `n_t`;

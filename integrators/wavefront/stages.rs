@@ -21,21 +21,23 @@
 //!
 //! [`PathState::advance`]: crate::integrators::path
 
-use super::super::path::power_heuristic;
 use super::super::{PathContext, RenderParams};
 use super::{Occupancy, StageOccupancy};
-use crate::bsdf::{BsdfSample, Frame, Lambert, RoughDielectric, TransportMode, TrowbridgeReitz};
-use crate::camera::concentric_polar;
-use crate::geometry::{spawn_origin, Ray, SurfaceHit};
-use crate::lanes::{dispatch, sobol_pairs, Isa, LaneScene, Lanes, RayLanes, WIDTH};
-use crate::light::{area_to_solid_angle, Light};
+use crate::bsdf::{RoughDielectric, TrowbridgeReitz};
+use crate::geometry::Ray;
+use crate::lanes::shading::{
+    area_to_solid_angle, checker, concentric_polar, lambert_eval, lambert_pdf, lambert_sample,
+    power_heuristic, shadow_toward, spawn_origin, specular_sample, FrameX, SampleX, ShadowX,
+};
+use crate::lanes::{dispatch, sobol_pairs, F32x, Isa, LaneScene, Lanes, Mask, RayLanes, Vec3x, WIDTH};
+use crate::light::Light;
 use crate::lighting::ShadowRay;
 use crate::material::Bsdf;
 use crate::sampler::{Dim, SamplerKind, DIM_PURPOSES};
 use crate::scene::{Effect, Scene};
 use crate::stats::RayCounts;
 use crate::texture::Texture;
-use glam::{Vec2, Vec3};
+use glam::Vec3;
 
 /// Bounces after which Russian roulette may end a path (as the scalar engine).
 const ROULETTE_DEPTH: u32 = 3;
@@ -70,7 +72,7 @@ struct Surfaces {
     color1: Vec<Vec3>,
     color2: Vec<Vec3>,
     cell: Vec<f32>,
-    model: Vec<RoughDielectric>,
+    eta: Vec<f32>,
     inside: Vec<Vec3>,
     outside: Vec<Vec3>,
 }
@@ -204,36 +206,56 @@ struct Draws {
     roulette: Lanes,
 }
 
+/// What a lane's vertex reads from the scene's tables (gathered one lane at a time, so that the
+/// shading loops read only lanes): its surface, the emitter it hit and the light it samples.
+#[derive(Clone, Copy, Debug)]
+struct Gathered {
+    color1: Vec3Lanes,
+    color2: Vec3Lanes,
+    cell: Lanes,
+    /// The glass's relative index.
+    eta: Lanes,
+    /// Absorption inside and outside the glass.
+    inside: Vec3Lanes,
+    outside: Vec3Lanes,
+    /// Radiance of the quad light hit (zero for other surfaces) and its area density.
+    emit_radiance: Vec3Lanes,
+    emit_area_pdf: Lanes,
+    /// The light next-event estimation samples: its index, quad and radiance.
+    light: [u32; WIDTH],
+    corner: Vec3Lanes,
+    edge_u: Vec3Lanes,
+    edge_v: Vec3Lanes,
+    normal: Vec3Lanes,
+    radiance: Vec3Lanes,
+    area_pdf: Lanes,
+}
+
 /// Shading before the trigonometry, per lane: what stage 5 and the estimates need.
 #[derive(Clone, Copy, Debug)]
 struct Shaded {
     /// Radiance this vertex adds before next-event estimation (emission, or the background).
-    emitted: Vec3Lanes,
-    /// Whether the vertex samples its BSDF.
-    scatters: [bool; WIDTH],
-    frame: [Vec3Lanes; 3],
-    wo_local: Vec3Lanes,
+    emitted: Vec3x,
+    frame: FrameX,
+    wo_local: Vec3x,
     /// Diffuse albedo.
-    albedo: Vec3Lanes,
+    albedo: Vec3x,
     /// The diffuse sample's point on the disk: at its centre, else the polar coordinates.
-    centre: [bool; WIDTH],
-    radius: Lanes,
-    theta: Lanes,
-    /// The glass sample (valid where `glass_ok`).
-    glass_ok: [bool; WIDTH],
-    glass_wi: Vec3Lanes,
-    glass_f: Lanes,
-    glass_pdf: Lanes,
-    glass_transmits: [bool; WIDTH],
-    glass_eta: Lanes,
-    /// Next-event estimation: a pending light (`pending`), its shadow ray (`shadow`, where it can
-    /// be blocked), and its value f·Le·w/pdf times the throughput at the vertex.
-    pending: [bool; WIDTH],
-    shadow: [Option<ShadowRay>; WIDTH],
-    nee_beta: Vec3Lanes,
-    nee_value: Vec3Lanes,
-    /// Rays counted (shadow) by the stage.
-    shadow_rays: [u32; WIDTH],
+    centre: Mask,
+    radius: F32x,
+    theta: F32x,
+    /// The glass sample, where `glass_ok`.
+    glass_ok: Mask,
+    glass: SampleX,
+    /// Next-event estimation: a pending light (`pending`: its shadow ray counted), whether its
+    /// shadow ray can be blocked (`shadowed`), the ray, and the light's value f·Le·w/pdf and
+    /// the throughput at the vertex.
+    pending: Mask,
+    shadowed: Mask,
+    shadow: ShadowX,
+    target: Vec3x,
+    nee_beta: Vec3x,
+    nee_value: Vec3x,
 }
 
 /// The round's end per lane.
@@ -309,9 +331,7 @@ impl LaneStages {
             surfaces.color1.push(colors.0);
             surfaces.color2.push(colors.1);
             surfaces.cell.push(cell);
-            surfaces
-                .model
-                .push(model.unwrap_or(RoughDielectric::new(1.0, TrowbridgeReitz::from_roughness(0.0))));
+            surfaces.eta.push(model.map_or(1.0, |g| g.eta));
             surfaces.inside.push(inside);
             surfaces.outside.push(outside);
         }
@@ -433,21 +453,23 @@ impl LaneStages {
                 Vertex::Diffuse
             }
         });
-        // Stage 2: the round's random numbers.
+        // Stage 2: the round's random numbers, and what each lane reads from the tables.
         let draws = self.draws(isa, chunk, &vertex);
+        let gathered = self.gather(&hits, &vertex, &draws);
         // Stage 3: shading before the trigonometry.
-        let shaded = shade_before_trigonometry(isa, self, chunk, &hits, &vertex, &draws);
+        let shaded = shade_before_trigonometry(isa, self, chunk, &hits, &vertex, &draws, &gathered);
         // Stage 4: the diffuse samples' cosines and sines, one lane at a time.
         let mut trig = [[0.0; WIDTH]; 2];
         for k in 0..WIDTH {
-            if vertex[k] == Vertex::Diffuse && !shaded.centre[k] {
-                (trig[0][k], trig[1][k]) = (shaded.theta[k].cos(), shaded.theta[k].sin());
+            if vertex[k] == Vertex::Diffuse && !shaded.centre.0[k] {
+                let theta = shaded.theta.0[k];
+                (trig[0][k], trig[1][k]) = (theta.cos(), theta.sin());
             }
         }
         // Stage 5: shading after it.
-        let scattered = scatter(isa, self, chunk, &hits, &vertex, &draws, &shaded, &trig);
+        let scattered = scatter(isa, self, chunk, &hits, &vertex, &draws, &gathered, &shaded, &trig);
         // Stage 6: the shadow rays.
-        let visible = self.shadow_rays(scene, &shaded, &mut occupancy.shadow);
+        let visible = self.shadow_rays(scene, &shaded, &gathered, &mut occupancy.shadow);
         // The radiance gathered, in the scalar engine's order: emission, then the light.
         for k in 0..WIDTH {
             let slot = chunk.slot[k];
@@ -455,13 +477,13 @@ impl LaneStages {
                 continue;
             }
             let estimate = &mut estimates[slot as usize];
-            *estimate += get(&shaded.emitted, k);
-            if shaded.pending[k] {
-                *estimate += get(&shaded.nee_beta, k)
-                    * if visible[k] { get(&shaded.nee_value, k) } else { Vec3::ZERO };
+            *estimate += shaded.emitted.lane(k);
+            if shaded.pending.0[k] {
+                *estimate +=
+                    shaded.nee_beta.lane(k) * if visible[k] { shaded.nee_value.lane(k) } else { Vec3::ZERO };
             }
             let tally = &mut tallies[slot as usize];
-            tally.rays.shadow += shaded.shadow_rays[k] as u64;
+            tally.rays.shadow += shaded.pending.0[k] as u64;
             tally.rays.reflected += scattered.reflected[k] as u64;
             tally.rays.refracted += scattered.refracted[k] as u64;
             tally.dimensions += scattered.dimensions[k];
@@ -490,27 +512,84 @@ impl LaneStages {
         Draws { pick, first: [first_x, first_y], bsdf: [bsdf_x, bsdf_y], roulette }
     }
 
-    /// Stage 6: whether each lane's pending light is visible (true where it has no shadow ray).
-    fn shadow_rays(&self, scene: &Scene, shaded: &Shaded, occupancy: &mut Occupancy) -> [bool; WIDTH] {
-        let mut rays = RayLanes::default();
-        let mut tmax = [-1.0; WIDTH];
-        let mut used = 0;
+    /// Per lane, what its vertex reads from the tables: its surface's colours, cell size and
+    /// glass model, the quad light it hit and the light it samples.
+    fn gather(&self, hits: &HitLanes, vertex: &[Vertex; WIDTH], draws: &Draws) -> Gathered {
+        let (surfaces, q) = (&self.surfaces, &self.lights);
+        let count = q.corner.len();
+        let mut g = Gathered {
+            color1: [[0.0; WIDTH]; 3],
+            color2: [[0.0; WIDTH]; 3],
+            cell: [1.0; WIDTH],
+            eta: [1.0; WIDTH],
+            inside: [[0.0; WIDTH]; 3],
+            outside: [[0.0; WIDTH]; 3],
+            emit_radiance: [[0.0; WIDTH]; 3],
+            emit_area_pdf: [0.0; WIDTH],
+            light: [0; WIDTH],
+            corner: [[0.0; WIDTH]; 3],
+            edge_u: [[0.0; WIDTH]; 3],
+            edge_v: [[0.0; WIDTH]; 3],
+            normal: [[0.0; WIDTH]; 3],
+            radiance: [[0.0; WIDTH]; 3],
+            area_pdf: [0.0; WIDTH],
+        };
         for k in 0..WIDTH {
-            if let Some(s) = &shaded.shadow[k] {
-                for axis in 0..3 {
-                    rays.origin[axis][k] = s.ray.origin[axis];
-                    rays.dir[axis][k] = s.ray.dir[axis];
-                }
-                tmax[k] = s.tmax;
-                used += 1;
+            if vertex[k] == Vertex::Miss {
+                continue;
             }
+            let s = hits.surface[k] as usize;
+            set(&mut g.color1, k, surfaces.color1[s]);
+            set(&mut g.color2, k, surfaces.color2[s]);
+            g.cell[k] = surfaces.cell[s];
+            g.eta[k] = surfaces.eta[s];
+            set(&mut g.inside, k, surfaces.inside[s]);
+            set(&mut g.outside, k, surfaces.outside[s]);
+            if hits.light[k] != NONE {
+                let l = hits.light[k] as usize;
+                set(&mut g.emit_radiance, k, q.radiance[l]);
+                g.emit_area_pdf[k] = q.area_pdf[l];
+            }
+            // pick_light: one light draws no number.
+            let l = if count == 1 { 0 } else { ((draws.pick[k] * count as f32) as usize).min(count - 1) };
+            g.light[k] = l as u32;
+            set(&mut g.corner, k, q.corner[l]);
+            set(&mut g.edge_u, k, q.u[l]);
+            set(&mut g.edge_v, k, q.v[l]);
+            set(&mut g.normal, k, q.normal[l]);
+            set(&mut g.radiance, k, q.radiance[l]);
+            g.area_pdf[k] = q.area_pdf[l];
         }
+        g
+    }
+
+    /// Stage 6: whether each lane's pending light is visible (true where its shadow ray cannot
+    /// be blocked).
+    fn shadow_rays(
+        &self,
+        scene: &Scene,
+        shaded: &Shaded,
+        gathered: &Gathered,
+        occupancy: &mut Occupancy,
+    ) -> [bool; WIDTH] {
+        let queries: [Option<ShadowRay>; WIDTH] = std::array::from_fn(|k| {
+            shaded.shadowed.0[k].then(|| ShadowRay {
+                ray: Ray { origin: shaded.shadow.origin.lane(k), dir: shaded.shadow.dir.lane(k), time: 0.0 },
+                tmax: shaded.shadow.tmax.0[k],
+                remaining: shaded.shadow.remaining.0[k],
+                target: shaded.target.lane(k),
+                light: Some(gathered.light[k]),
+            })
+        });
+        let used = queries.iter().flatten().count();
         if used == 0 {
             return [true; WIDTH];
         }
         occupancy.add(used);
+        let rays = RayLanes { origin: shaded.shadow.origin.to_lanes(), dir: shaded.shadow.dir.to_lanes() };
+        let tmax = F32x::select(shaded.shadowed, shaded.shadow.tmax, F32x::splat(-1.0)).0;
         let blocked = self.lanes.occluded(&rays, &tmax, |k, primitive, t| {
-            shaded.shadow[k].as_ref().is_some_and(|s| s.blocks(scene, primitive, t))
+            queries[k].as_ref().is_some_and(|s| s.blocks(scene, primitive, t))
         });
         std::array::from_fn(|k| !blocked[k])
     }
@@ -536,9 +615,9 @@ fn compact(chunks: &[PathChunk], into: &mut Vec<PathChunk>) {
     }
 }
 
-/// Stage 3, per lane: the vertex's emission (or the background for an escaped ray), its
-/// frame, next-event estimation of a quad light, the glass sample, and the diffuse sample's
-/// polar coordinates.
+/// Stage 3 across lanes: the vertex's emission (or the background for an escaped ray), its
+/// frame, next-event estimation of its quad light, the glass sample, and the diffuse sample's
+/// polar coordinates. Every lane computes everything and keeps what its vertex uses.
 #[inline(always)]
 fn shade_before_kernel(
     stages: &LaneStages,
@@ -546,259 +625,183 @@ fn shade_before_kernel(
     hits: &HitLanes,
     vertex: &[Vertex; WIDTH],
     draws: &Draws,
+    g: &Gathered,
 ) -> Shaded {
-    let light_count = stages.lights.corner.len();
-    let light_pick = 1.0 / light_count.max(1) as f32;
-    let mut out = Shaded {
-        emitted: [[0.0; WIDTH]; 3],
-        scatters: [false; WIDTH],
-        frame: [[[0.0; WIDTH]; 3]; 3],
-        wo_local: [[0.0; WIDTH]; 3],
-        albedo: [[0.0; WIDTH]; 3],
-        centre: [false; WIDTH],
-        radius: [0.0; WIDTH],
-        theta: [0.0; WIDTH],
-        glass_ok: [false; WIDTH],
-        glass_wi: [[0.0; WIDTH]; 3],
-        glass_f: [0.0; WIDTH],
-        glass_pdf: [0.0; WIDTH],
-        glass_transmits: [false; WIDTH],
-        glass_eta: [1.0; WIDTH],
-        pending: [false; WIDTH],
-        shadow: [None; WIDTH],
-        nee_beta: [[0.0; WIDTH]; 3],
-        nee_value: [[0.0; WIDTH]; 3],
-        shadow_rays: [0; WIDTH],
-    };
-    for k in 0..WIDTH {
-        let beta = get(&chunk.beta, k);
-        let (origin, dir) = (get(&chunk.origin, k), get(&chunk.dir, k));
-        if vertex[k] == Vertex::Miss {
-            // An escaped ray outside any medium sees the background (no environment light).
-            if chunk.slot[k] != NONE && get(&chunk.absorption, k) == Vec3::ZERO {
-                set(&mut out.emitted, k, beta * stages.background);
-            }
-            continue;
-        }
-        let (p, n) = (get(&hits.p, k), get(&hits.n, k));
-        let wo = -dir;
-        // Emission reached by BSDF sampling (or seen directly), weighted against NEE.
-        let light = hits.light[k];
-        if light != NONE {
-            let l = light as usize;
-            let le = if n.dot(wo) > 0.0 { stages.lights.radiance[l] } else { Vec3::ZERO };
-            if le != Vec3::ZERO {
-                let w = if chunk.skip_mis[k] {
-                    1.0
-                } else {
-                    let pdf_li = area_to_solid_angle(stages.lights.area_pdf[l], origin, p, n);
-                    power_heuristic(chunk.bsdf_pdf[k], light_pick * pdf_li)
-                };
-                set(&mut out.emitted, k, beta * le * w);
-            }
-        }
-        if vertex[k] == Vertex::Last {
-            continue;
-        }
-        out.scatters[k] = true;
-        let frame = Frame::from_normal(n);
-        let wo_local = frame.to_local(wo);
-        set(&mut out.frame[0], k, frame.s);
-        set(&mut out.frame[1], k, frame.t);
-        set(&mut out.frame[2], k, frame.n);
-        set(&mut out.wo_local, k, wo_local);
-        let s = hits.surface[k] as usize;
-        if vertex[k] == Vertex::Glass {
-            // RoughDielectric::sample of a smooth interface.
-            let sample = if wo_local.z == 0.0 {
-                None
-            } else {
-                stages.surfaces.model[s].sample_specular(wo_local, draws.first[0][k], TransportMode::Radiance)
-            };
-            if let Some(g) = sample {
-                out.glass_ok[k] = true;
-                set(&mut out.glass_wi, k, g.wi);
-                out.glass_f[k] = g.f.x;
-                out.glass_pdf[k] = g.pdf;
-                out.glass_transmits[k] = g.is_transmission;
-                out.glass_eta[k] = g.eta;
-            }
-            continue;
-        }
-        // A diffuse vertex: the albedo (Texture::eval of a checker), then next-event estimation.
-        let size = stages.surfaces.cell[s];
-        let cell = ((p / size) + Vec3::splat(1e-4)).floor();
-        let parity = (cell.x as i64 + cell.y as i64 + cell.z as i64).rem_euclid(2);
-        let albedo = if parity == 0 { stages.surfaces.color1[s] } else { stages.surfaces.color2[s] };
-        set(&mut out.albedo, k, albedo);
-        let index = if light_count == 1 {
-            0
-        } else {
-            ((draws.pick[k] * light_count as f32) as usize).min(light_count - 1)
-        };
-        let u = Vec2::new(draws.first[0][k], draws.first[1][k]);
-        let q = &stages.lights;
-        // Light::sample_li of a quad.
-        let (y, ny) = (q.corner[index] + u.x * q.u[index] + u.y * q.v[index], q.normal[index]);
-        let d = y - p;
-        let distance = d.length();
-        if distance > 0.0 {
-            let wi = d / distance;
-            let radiance = if ny.dot(-wi) > 0.0 { q.radiance[index] } else { Vec3::ZERO };
-            let pdf = area_to_solid_angle(q.area_pdf[index], p, y, ny);
-            if radiance != Vec3::ZERO && pdf > 0.0 && pdf.is_finite() {
-                let wi_local = frame.to_local(wi);
-                let lambert = Lambert { albedo };
-                let f = lambert.eval(wo_local, wi_local) * (wi_local.z.abs() * 1.0);
-                if f != Vec3::ZERO {
-                    let hit = SurfaceHit {
-                        t: hits.t[k],
-                        p,
-                        n,
-                        shading_n: n,
-                        uv: Vec2::ZERO,
-                        p_error: hits.p_error[k],
-                    };
-                    let mut rays = RayCounts::default();
-                    out.shadow[k] = ShadowRay::new(&hit, y, Some(index as u32), 0.0, &mut rays);
-                    out.shadow_rays[k] = rays.shadow as u32;
-                    let pdf = light_pick * pdf;
-                    let w = power_heuristic(pdf, lambert.pdf(wo_local, wi_local));
-                    out.pending[k] = true;
-                    set(&mut out.nee_beta, k, beta);
-                    set(&mut out.nee_value, k, f * radiance * (w / pdf));
-                }
-            }
-        }
-        let (centre, radius, theta) = concentric_polar(Vec2::new(draws.bsdf[0][k], draws.bsdf[1][k]));
-        (out.centre[k], out.radius[k], out.theta[k]) = (centre, radius, theta);
+    let light_pick = 1.0 / stages.lights.corner.len().max(1) as f32;
+    let zero = Vec3x::splat(Vec3::ZERO);
+    let is = |kind: Vertex| Mask(std::array::from_fn(|k| vertex[k] == kind));
+    let (miss, diffuse, glass) = (is(Vertex::Miss), is(Vertex::Diffuse), is(Vertex::Glass));
+    let live = Mask(std::array::from_fn(|k| chunk.slot[k] != NONE));
+    let beta = Vec3x::from_lanes(&chunk.beta);
+    let (origin, dir) = (Vec3x::from_lanes(&chunk.origin), Vec3x::from_lanes(&chunk.dir));
+    let (p, n, p_error) = (Vec3x::from_lanes(&hits.p), Vec3x::from_lanes(&hits.n), F32x(hits.p_error));
+    let wo = -dir;
+    // An escaped ray outside any medium sees the background (no environment light).
+    let outside = live & Vec3x::from_lanes(&chunk.absorption).is_zero();
+    let escaped = Vec3x::select(outside, beta * Vec3x::splat(stages.background), zero);
+    // Emission reached by BSDF sampling (or seen directly), weighted against NEE.
+    let le = Vec3x::select(n.dot(wo).gt(F32x::splat(0.0)), Vec3x::from_lanes(&g.emit_radiance), zero);
+    let pdf_li = area_to_solid_angle(F32x(g.emit_area_pdf), origin, p, n);
+    let skip_mis = Mask(chunk.skip_mis);
+    let w =
+        F32x::select(skip_mis, F32x::splat(1.0), power_heuristic(F32x(chunk.bsdf_pdf), light_pick * pdf_li));
+    let emission = Vec3x::select(!le.is_zero(), beta * le * w, zero);
+    let frame = FrameX::from_normal(n);
+    let wo_local = frame.to_local(wo);
+    // Smooth glass: RoughDielectric::sample.
+    let (glass_ok, glass_sample) = specular_sample(F32x(g.eta), wo_local, F32x(draws.first[0]));
+    // A diffuse vertex: the albedo, then next-event estimation (Light::sample_li of a quad).
+    let albedo = checker(p, F32x(g.cell), Vec3x::from_lanes(&g.color1), Vec3x::from_lanes(&g.color2));
+    let (ux, uy) = (F32x(draws.first[0]), F32x(draws.first[1]));
+    let y =
+        Vec3x::from_lanes(&g.corner) + ux * Vec3x::from_lanes(&g.edge_u) + uy * Vec3x::from_lanes(&g.edge_v);
+    let ny = Vec3x::from_lanes(&g.normal);
+    let d = y - p;
+    let distance = d.length();
+    let wi = d / distance;
+    let radiance = Vec3x::select(ny.dot(-wi).gt(F32x::splat(0.0)), Vec3x::from_lanes(&g.radiance), zero);
+    let pdf = area_to_solid_angle(F32x(g.area_pdf), p, y, ny);
+    let sampled =
+        distance.gt(F32x::splat(0.0)) & !radiance.is_zero() & pdf.gt(F32x::splat(0.0)) & pdf.is_finite();
+    let wi_local = frame.to_local(wi);
+    let f = lambert_eval(albedo, wo_local, wi_local) * (wi_local.z.abs() * 1.0);
+    let pending = diffuse & sampled & !f.is_zero();
+    let shadow = shadow_toward(p, n, p_error, y);
+    let pdf = light_pick * pdf;
+    let w = power_heuristic(pdf, lambert_pdf(wo_local, wi_local));
+    // The diffuse BSDF sample's point on the disk, up to its trigonometry.
+    let (centre, radius, theta) = concentric_polar(F32x(draws.bsdf[0]), F32x(draws.bsdf[1]));
+    Shaded {
+        emitted: Vec3x::select(miss, escaped, emission),
+        frame,
+        wo_local,
+        albedo,
+        centre,
+        radius,
+        theta,
+        glass_ok: glass & glass_ok,
+        glass: glass_sample,
+        pending,
+        shadowed: pending & !shadow.remaining.le(F32x::splat(0.0)),
+        shadow,
+        target: y,
+        nee_beta: beta,
+        nee_value: f * radiance * (w / pdf),
     }
-    out
 }
 
 dispatch! {
     /// Stage 3 compiled for `isa` (see [`shade_before_kernel`]).
-    fn shade_before_trigonometry(stages: &LaneStages, chunk: &PathChunk, hits: &HitLanes, vertex: &[Vertex; WIDTH], draws: &Draws) -> Shaded => shade_before_kernel
+    fn shade_before_trigonometry(stages: &LaneStages, chunk: &PathChunk, hits: &HitLanes, vertex: &[Vertex; WIDTH], draws: &Draws, g: &Gathered) -> Shaded => shade_before_kernel
 }
 
-/// Stage 5, per lane: the BSDF sample from the disk point (diffuse) or the glass sample, the
-/// throughput, the medium, the next ray and Russian roulette; updates `chunk` in place.
+/// Stage 5 across lanes: the BSDF sample from the disk point (diffuse) or the glass sample, the
+/// throughput, the medium, the next ray and Russian roulette, written into `chunk` where the
+/// path scatters.
 #[inline(always)]
+#[allow(clippy::too_many_arguments)]
 fn scatter_kernel(
     stages: &LaneStages,
     chunk: &mut PathChunk,
     hits: &HitLanes,
     vertex: &[Vertex; WIDTH],
     draws: &Draws,
+    g: &Gathered,
     shaded: &Shaded,
     trig: &[Lanes; 2],
 ) -> Scattered {
     let picks = (stages.lights.corner.len() > 1) as u32;
+    let zero = F32x::splat(0.0);
+    let is = |kind: Vertex| Mask(std::array::from_fn(|k| vertex[k] == kind));
+    let (diffuse, glass) = (is(Vertex::Diffuse), is(Vertex::Glass));
+    let (dx, dy) = (shaded.radius * F32x(trig[0]), shaded.radius * F32x(trig[1]));
+    let (dx, dy) = (F32x::select(shaded.centre, zero, dx), F32x::select(shaded.centre, zero, dy));
+    let (diffuse_ok, diffuse_sample) = lambert_sample(shaded.albedo, shaded.wo_local, dx, dy);
+    let pick = |a: SampleX, b: SampleX| SampleX {
+        wi: Vec3x::select(diffuse, a.wi, b.wi),
+        f: Vec3x::select(diffuse, a.f, b.f),
+        pdf: F32x::select(diffuse, a.pdf, b.pdf),
+        transmits: (diffuse & a.transmits) | (!diffuse & b.transmits),
+        eta: F32x::select(diffuse, a.eta, b.eta),
+    };
+    let s = pick(diffuse_sample, shaded.glass);
+    let sampled = (diffuse & diffuse_ok) | shaded.glass_ok;
+    let scatters = sampled & !(s.pdf.le(zero) | s.f.is_zero());
+    let wi = shaded.frame.to_world(s.wi);
+    let beta = Vec3x::from_lanes(&chunk.beta) * (s.f * (s.wi.z.abs() / s.pdf));
+    let (dir, n) = (Vec3x::from_lanes(&chunk.dir), Vec3x::from_lanes(&hits.n));
+    // lighting::crossing: the medium a reflected ray stays in or a refracted one enters.
+    let (inside, outside) = (Vec3x::from_lanes(&g.inside), Vec3x::from_lanes(&g.outside));
+    let enters = dir.dot(n).lt(zero);
+    let incident = Vec3x::select(enters, outside, inside);
+    let transmitted = Vec3x::select(enters, inside, outside);
+    let medium = Vec3x::select(s.transmits, transmitted, incident);
+    let eta_scale = F32x(chunk.eta_scale);
+    let eta_scale = F32x::select(s.transmits, eta_scale * (s.eta * s.eta), eta_scale);
+    let wo = -dir;
+    let reflected = (wi.dot(n) * wo.dot(n)).gt(zero);
+    let origin = spawn_origin(Vec3x::from_lanes(&hits.p), n, F32x(hits.p_error), wi);
+    let next_dir = wi + Vec3x::splat(Vec3::ZERO);
+    let depth: [u32; WIDTH] = std::array::from_fn(|k| chunk.depth[k] + 1);
+    // Russian roulette.
+    let rr = (beta * eta_scale).max_element();
+    let deep = Mask(std::array::from_fn(|k| depth[k] > ROULETTE_DEPTH));
+    let plays = deep & rr.lt(F32x::splat(1.0));
+    let q = (1.0 - rr).max(zero);
+    let dies = plays & F32x(draws.roulette).lt(q);
+    let beta = Vec3x::select(plays, beta / (1.0 - q), beta);
+    // The new state where the path scatters.
+    let keep = |new: Vec3x, old: &mut Vec3Lanes| {
+        *old = Vec3x::select(scatters, new, Vec3x::from_lanes(old)).to_lanes()
+    };
+    keep(beta, &mut chunk.beta);
+    keep(Vec3x::select(glass, medium, Vec3x::from_lanes(&chunk.absorption)), &mut chunk.absorption);
+    keep(origin, &mut chunk.origin);
+    keep(next_dir, &mut chunk.dir);
+    chunk.eta_scale = F32x::select(scatters, eta_scale, F32x(chunk.eta_scale)).0;
+    chunk.bsdf_pdf = F32x::select(scatters, s.pdf, F32x(chunk.bsdf_pdf)).0;
     let mut out = Scattered {
-        goes_on: [false; WIDTH],
-        reflected: [false; WIDTH],
-        refracted: [false; WIDTH],
+        goes_on: (scatters & !dies).0,
+        reflected: (scatters & reflected).0,
+        refracted: (scatters & !reflected).0,
         dimensions: [0; WIDTH],
         light_requests: [0; WIDTH],
         bsdf_requests: [0; WIDTH],
         other_requests: [0; WIDTH],
     };
     for k in 0..WIDTH {
-        if !shaded.scatters[k] {
-            continue;
-        }
-        let diffuse = vertex[k] == Vertex::Diffuse;
-        // The numbers drawn before the BSDF sample: light choice and point, or lobe and pair.
-        if diffuse {
-            (out.dimensions[k], out.light_requests[k], out.bsdf_requests[k]) = (picks + 4, picks + 1, 1);
+        let (diffuse, glass, scatters) = (diffuse.0[k], glass.0[k], scatters.0[k]);
+        // The numbers drawn: light choice and point then the BSDF pair (diffuse), or the lobe
+        // choice and the pair (glass); a roulette number where it played.
+        let rolled = (scatters & plays.0[k]) as u32;
+        let drawn = if diffuse {
+            picks + 4
+        } else if glass {
+            3
         } else {
-            (out.dimensions[k], out.bsdf_requests[k]) = (3, 2);
-        }
-        let wo_local = get(&shaded.wo_local, k);
-        let sample: Option<BsdfSample> = if diffuse {
-            let d = if shaded.centre[k] {
-                Vec2::ZERO
-            } else {
-                shaded.radius[k] * Vec2::new(trig[0][k], trig[1][k])
-            };
-            Lambert { albedo: get(&shaded.albedo, k) }.sample_above(wo_local, d)
-        } else if shaded.glass_ok[k] {
-            Some(BsdfSample {
-                wi: get(&shaded.glass_wi, k),
-                f: Vec3::splat(shaded.glass_f[k]),
-                pdf: shaded.glass_pdf[k],
-                is_specular: true,
-                is_multiple: false,
-                is_transmission: shaded.glass_transmits[k],
-                eta: shaded.glass_eta[k],
-            })
-        } else {
-            None
+            0
         };
-        let Some(s) = sample else { continue };
-        if s.pdf <= 0.0 || s.f == Vec3::ZERO {
-            continue;
-        }
-        let frame =
-            Frame { s: get(&shaded.frame[0], k), t: get(&shaded.frame[1], k), n: get(&shaded.frame[2], k) };
-        let wi = frame.to_world(s.wi);
-        let mut beta = get(&chunk.beta, k) * (s.f * (s.wi.z.abs() / s.pdf));
-        chunk.skip_mis[k] = !s.is_evaluable();
-        chunk.bsdf_pdf[k] = s.pdf;
-        let (dir, n) = (get(&chunk.dir, k), get(&hits.n, k));
-        if !diffuse {
-            // lighting::crossing: the medium a reflected ray stays in or a refracted one enters.
-            let m = hits.surface[k] as usize;
-            let (incident, transmitted) = if dir.dot(n) < 0.0 {
-                (stages.surfaces.outside[m], stages.surfaces.inside[m])
-            } else {
-                (stages.surfaces.inside[m], stages.surfaces.outside[m])
-            };
-            set(&mut chunk.absorption, k, if s.is_transmission { transmitted } else { incident });
-        }
-        if s.is_transmission {
-            chunk.eta_scale[k] *= s.eta * s.eta;
-        }
-        let wo = -dir;
-        if wi.dot(n) * wo.dot(n) > 0.0 {
-            out.reflected[k] = true;
+        out.dimensions[k] = drawn + rolled;
+        out.light_requests[k] = if diffuse { picks + 1 } else { 0 };
+        out.bsdf_requests[k] = if diffuse {
+            1
+        } else if glass {
+            2
         } else {
-            out.refracted[k] = true;
-        }
-        let hit = SurfaceHit {
-            t: hits.t[k],
-            p: get(&hits.p, k),
-            n,
-            shading_n: n,
-            uv: Vec2::ZERO,
-            p_error: hits.p_error[k],
+            0
         };
-        set(&mut chunk.origin, k, spawn_origin(&hit, wi));
-        set(&mut chunk.dir, k, wi + Vec3::ZERO);
-        chunk.depth[k] += 1;
-        out.goes_on[k] = true;
-        if chunk.depth[k] > ROULETTE_DEPTH {
-            let rr = (beta * chunk.eta_scale[k]).max_element();
-            if rr < 1.0 {
-                let q = (1.0 - rr).max(0.0);
-                out.dimensions[k] += 1;
-                out.other_requests[k] = 1;
-                if draws.roulette[k] < q {
-                    out.goes_on[k] = false;
-                } else {
-                    beta /= 1.0 - q;
-                }
-            }
-        }
-        set(&mut chunk.beta, k, beta);
-    }
-    for k in 0..WIDTH {
+        out.other_requests[k] = rolled;
         chunk.dimension[k] += out.dimensions[k];
+        if scatters {
+            // Delta samples are not evaluable: no MIS on what they hit.
+            chunk.skip_mis[k] = glass;
+            chunk.depth[k] = depth[k];
+        }
     }
     out
 }
 
 dispatch! {
     /// Stage 5 compiled for `isa` (see [`scatter_kernel`]).
-    fn scatter(stages: &LaneStages, chunk: &mut PathChunk, hits: &HitLanes, vertex: &[Vertex; WIDTH], draws: &Draws, shaded: &Shaded, trig: &[Lanes; 2]) -> Scattered => scatter_kernel
+    fn scatter(stages: &LaneStages, chunk: &mut PathChunk, hits: &HitLanes, vertex: &[Vertex; WIDTH], draws: &Draws, g: &Gathered, shaded: &Shaded, trig: &[Lanes; 2]) -> Scattered => scatter_kernel
 }

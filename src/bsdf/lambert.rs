@@ -25,6 +25,7 @@ pub fn hemisphere_above(d: Vec2) -> Vec3 {
 
 impl Lambert {
     /// `albedo / π` when `wo` and `wi` are on the same side, 0 otherwise.
+    #[inline(always)]
     pub fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
         if wo.z * wi.z > 0.0 {
             self.albedo * FRAC_1_PI
@@ -34,6 +35,7 @@ impl Lambert {
     }
 
     /// Cosine density `|cos θi| / π` on the side of `wo`.
+    #[inline(always)]
     pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
         if wo.z * wi.z > 0.0 {
             wi.z.abs() * FRAC_1_PI
@@ -51,14 +53,17 @@ impl Lambert {
     /// ([`crate::camera::concentric_disk`]): the wavefront engine maps them across lanes.
     #[inline(always)]
     pub fn sample_above(&self, wo: Vec3, d: Vec2) -> Option<BsdfSample> {
-        let mut wi = hemisphere_above(d);
-        if wo.z < 0.0 {
-            wi.z = -wi.z;
-        }
-        if wi.z == 0.0 || wo.z == 0.0 {
-            return None;
-        }
-        Some(BsdfSample {
+        let (valid, sample) = self.disk_sample(wo, d);
+        valid.then_some(sample)
+    }
+
+    /// [`sample_above`](Self::sample_above) without a branch: whether there is a sample (neither
+    /// direction in the surface) and the sample. The wavefront engine runs it across lanes.
+    #[inline(always)]
+    pub fn disk_sample(&self, wo: Vec3, d: Vec2) -> (bool, BsdfSample) {
+        let above = hemisphere_above(d);
+        let wi = Vec3::new(above.x, above.y, if wo.z < 0.0 { -above.z } else { above.z });
+        let sample = BsdfSample {
             wi,
             f: self.albedo * FRAC_1_PI,
             pdf: wi.z.abs() / PI,
@@ -66,7 +71,8 @@ impl Lambert {
             is_multiple: false,
             is_transmission: false,
             eta: 1.0,
-        })
+        };
+        (!(wi.z == 0.0 || wo.z == 0.0), sample)
     }
 }
 

@@ -37,7 +37,7 @@
 
 use super::microsurface::Microsurface;
 use super::{BsdfSample, TrowbridgeReitz};
-use crate::optics::{fresnel_dielectric, refract};
+use crate::optics::{fresnel_dielectric, refraction};
 use glam::{Vec2, Vec3};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg32;
@@ -224,36 +224,36 @@ impl RoughDielectric {
 
     /// The smooth interface: mirror reflection with probability R, refraction otherwise.
     #[inline(always)]
-    pub(crate) fn sample_specular(&self, wo: Vec3, uc: f32, mode: TransportMode) -> Option<BsdfSample> {
+    fn sample_specular(&self, wo: Vec3, uc: f32, mode: TransportMode) -> Option<BsdfSample> {
+        let (valid, sample) = self.specular_sample(wo, uc, mode);
+        valid.then_some(sample)
+    }
+
+    /// [`sample`](Self::sample) of a smooth interface without a branch: whether there is a
+    /// sample (`wo` not in the surface, no refraction lost to rounding) and the sample (garbage
+    /// where there is none). The wavefront engine runs it across lanes.
+    #[inline(always)]
+    pub fn specular_sample(&self, wo: Vec3, uc: f32, mode: TransportMode) -> (bool, BsdfSample) {
         let etap = if wo.z > 0.0 { self.eta } else { 1.0 / self.eta };
         let r = fresnel_dielectric(wo.z.abs(), etap);
-        if uc < r {
-            let wi = Vec3::new(-wo.x, -wo.y, wo.z);
-            return Some(BsdfSample {
-                wi,
-                f: Vec3::splat(r / wi.z.abs()),
-                pdf: r,
-                is_specular: true,
-                is_multiple: false,
-                is_transmission: false,
-                eta: 1.0,
-            });
-        }
-        let wi = refract(wo, Vec3::Z * wo.z.signum(), etap)?;
+        let reflects = uc < r;
+        let mirrored = Vec3::new(-wo.x, -wo.y, wo.z);
+        let (refracts, refracted) = refraction(wo, Vec3::Z * wo.z.signum(), etap);
         let t = 1.0 - r;
         let scale = match mode {
             TransportMode::Radiance => 1.0 / (etap * etap),
             TransportMode::Importance => 1.0,
         };
-        Some(BsdfSample {
-            wi,
-            f: Vec3::splat(t * scale / wi.z.abs()),
-            pdf: t,
+        let sample = BsdfSample {
+            wi: if reflects { mirrored } else { refracted },
+            f: Vec3::splat(if reflects { r / mirrored.z.abs() } else { t * scale / refracted.z.abs() }),
+            pdf: if reflects { r } else { t },
             is_specular: true,
             is_multiple: false,
-            is_transmission: true,
-            eta: etap,
-        })
+            is_transmission: !reflects,
+            eta: if reflects { 1.0 } else { etap },
+        };
+        (wo.z != 0.0 && (reflects || refracts), sample)
     }
 }
 

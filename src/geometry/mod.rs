@@ -123,22 +123,51 @@ pub fn parallelogram_normal(u: Vec3, v: Vec3) -> Option<Vec3> {
 
 /// Origin for a ray leaving a surface point in direction `w`: `p` pushed along the geometric
 /// normal `n` to the side `w` points to, by the point's error bound, then rounded away from it.
-#[inline]
+/// Without a branch, so that it runs across lanes.
+#[inline(always)]
 pub fn spawn_origin(hit: &SurfaceHit, w: Vec3) -> Vec3 {
     // pbrt-v4's dot(|n|, pError) for an error bound that is the same on every axis.
-    let mut offset = hit.n * (hit.p_error * hit.n.abs().element_sum() + f32::MIN_POSITIVE);
-    if w.dot(hit.n) < 0.0 {
-        offset = -offset;
+    let offset = hit.n * (hit.p_error * hit.n.abs().element_sum() + f32::MIN_POSITIVE);
+    let offset = if w.dot(hit.n) < 0.0 { -offset } else { offset };
+    let po = hit.p + offset;
+    Vec3::new(away_from(po.x, offset.x), away_from(po.y, offset.y), away_from(po.z, offset.z))
+}
+
+/// `x` moved to the next float in the direction of `offset`'s sign (kept where it is 0).
+#[inline(always)]
+pub(crate) fn away_from(x: f32, offset: f32) -> f32 {
+    if offset > 0.0 {
+        next_up(x)
+    } else if offset < 0.0 {
+        next_down(x)
+    } else {
+        x
     }
-    let mut po = hit.p + offset;
-    for i in 0..3 {
-        if offset[i] > 0.0 {
-            po[i] = po[i].next_up();
-        } else if offset[i] < 0.0 {
-            po[i] = po[i].next_down();
-        }
+}
+
+/// [`f32::next_up`] without a branch (the same value for every input, NaN and ±∞ included).
+#[inline(always)]
+pub fn next_up(x: f32) -> f32 {
+    let bits = x.to_bits();
+    let abs = bits & 0x7fff_ffff;
+    let next = if abs == 0 {
+        1
+    } else if bits == abs {
+        bits.wrapping_add(1)
+    } else {
+        bits.wrapping_sub(1)
+    };
+    if x.is_nan() || x == f32::INFINITY {
+        x
+    } else {
+        f32::from_bits(next)
     }
-    po
+}
+
+/// [`f32::next_down`] without a branch (the same value for every input, NaN and ±∞ included).
+#[inline(always)]
+pub fn next_down(x: f32) -> f32 {
+    -next_up(-x)
 }
 
 /// A geometric primitive the BVH holds: one analytic surface or one triangle. The analytic
@@ -413,5 +442,35 @@ pub(crate) mod test_support {
             other = -other;
         }
         [reflected, other].map(|w| Ray::new(spawn_origin(hit, w), w))
+    }
+}
+
+#[cfg(test)]
+mod next_float_tests {
+    use super::{next_down, next_up};
+
+    #[test]
+    fn next_up_and_down_are_the_standard_ones_for_every_kind_of_float() {
+        let mut values = vec![
+            0.0f32,
+            -0.0,
+            f32::MIN_POSITIVE,
+            -f32::MIN_POSITIVE,
+            f32::from_bits(1),
+            f32::from_bits(0x8000_0001),
+            f32::MAX,
+            f32::MIN,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            f32::NAN,
+            -f32::NAN,
+            1.0,
+            -1.0,
+        ];
+        values.extend((0..u32::MAX).step_by(65_537).map(f32::from_bits));
+        for x in values {
+            assert_eq!(next_up(x).to_bits(), x.next_up().to_bits(), "{x:e} ({:#x})", x.to_bits());
+            assert_eq!(next_down(x).to_bits(), x.next_down().to_bits(), "{x:e} ({:#x})", x.to_bits());
+        }
     }
 }

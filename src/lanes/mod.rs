@@ -14,11 +14,14 @@
 
 mod sampler;
 mod scene;
+pub mod shading;
 mod shapes;
+mod wide;
 
 pub use sampler::sobol_pairs;
 pub use scene::{LaneHits, LaneScene};
 pub use shapes::{cylinder_hits, disk_hits, quad_hits, sphere_hits};
+pub use wide::{F32x, Mask, Vec3x};
 
 /// Rays per batch: 16 single-precision lanes fill one AVX-512 register, two AVX2 ones.
 pub const WIDTH: usize = 16;

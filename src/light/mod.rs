@@ -185,10 +185,12 @@ impl EmitterShape {
 pub fn area_to_solid_angle(area_pdf: f32, p: Vec3, y: Vec3, n_y: Vec3) -> f32 {
     let d = y - p;
     let cos = (d.normalize_or_zero()).dot(n_y).abs();
+    let pdf = area_pdf * d.length_squared() / cos;
     if cos == 0.0 {
-        return 0.0;
+        0.0
+    } else {
+        pdf
     }
-    area_pdf * d.length_squared() / cos
 }
 
 /// A uniformly distributed unit vector.
