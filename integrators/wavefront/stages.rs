@@ -409,29 +409,24 @@ impl LaneStages {
         // Stage 1: closest hits and their records.
         let live: [bool; WIDTH] = std::array::from_fn(|k| chunk.slot[k] != NONE);
         let tmax: Lanes = std::array::from_fn(|k| if live[k] { f32::INFINITY } else { -1.0 });
-        let found = self.lanes.closest(&RayLanes { origin: chunk.origin, dir: chunk.dir }, &tmax);
+        let rays = RayLanes { origin: chunk.origin, dir: chunk.dir };
+        let found = self.lanes.closest(&rays, &tmax);
         occupancy.closest.add(live.iter().filter(|&&l| l).count());
+        let records = self.lanes.records(&rays, &found);
         let mut hits = HitLanes {
-            hit: [false; WIDTH],
-            t: [0.0; WIDTH],
-            p: [[0.0; WIDTH]; 3],
-            n: [[0.0; WIDTH]; 3],
-            p_error: [0.0; WIDTH],
+            hit: std::array::from_fn(|k| live[k] && found.t[k] < f32::INFINITY),
+            t: found.t,
+            p: records.p.to_lanes(),
+            n: records.n.to_lanes(),
+            p_error: records.p_error.0,
             surface: [0; WIDTH],
             light: [NONE; WIDTH],
         };
         for k in 0..WIDTH {
-            if live[k] && found.t[k] < f32::INFINITY {
-                let ray = Ray { origin: get(&chunk.origin, k), dir: get(&chunk.dir, k), time: 0.0 };
-                let primitive = found.primitive[k];
-                let h = scene.record(&ray, found.t[k], primitive, None).hit;
-                hits.hit[k] = true;
-                hits.t[k] = h.t;
-                set(&mut hits.p, k, h.p);
-                set(&mut hits.n, k, h.n);
-                hits.p_error[k] = h.p_error;
-                hits.surface[k] = self.material[primitive as usize];
-                hits.light[k] = self.light[primitive as usize];
+            if hits.hit[k] {
+                let primitive = found.primitive[k] as usize;
+                hits.surface[k] = self.material[primitive];
+                hits.light[k] = self.light[primitive];
             }
         }
         // Absorption along the segment (libm's exp, one lane at a time, where a medium absorbs).

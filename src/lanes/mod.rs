@@ -57,7 +57,8 @@ impl RayLanes {
 /// The vector instruction set the kernels run with.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Isa {
-    /// 16 lanes per instruction (x86-64 `avx512f`).
+    /// 16 lanes per instruction (x86-64 `avx512f` with `dq`, `bw` and `vl`: every AVX-512 CPU
+    /// since Skylake-SP; the 64-bit products of the sampler's hashes need `dq`).
     Avx512,
     /// 8 lanes per instruction (x86-64 `avx2`). Rust never fuses a product and a sum on its
     /// own, so with `fma` available too the lanes still round as the scalar code does.
@@ -72,7 +73,7 @@ impl Isa {
     pub fn detect() -> Isa {
         #[cfg(target_arch = "x86_64")]
         {
-            if std::arch::is_x86_feature_detected!("avx512f") {
+            if Isa::Avx512.runs_here() {
                 return Isa::Avx512;
             }
             if std::arch::is_x86_feature_detected!("avx2") {
@@ -101,7 +102,12 @@ impl Isa {
         match self {
             Isa::Baseline => true,
             #[cfg(target_arch = "x86_64")]
-            Isa::Avx512 => std::arch::is_x86_feature_detected!("avx512f"),
+            Isa::Avx512 => {
+                std::arch::is_x86_feature_detected!("avx512f")
+                    && std::arch::is_x86_feature_detected!("avx512dq")
+                    && std::arch::is_x86_feature_detected!("avx512bw")
+                    && std::arch::is_x86_feature_detected!("avx512vl")
+            }
             #[cfg(target_arch = "x86_64")]
             Isa::Avx2 => std::arch::is_x86_feature_detected!("avx2"),
             #[cfg(not(target_arch = "x86_64"))]
@@ -118,7 +124,7 @@ macro_rules! dispatch {
         $vis fn $name(isa: $crate::lanes::Isa, $($arg: $ty),*) -> $ret {
             #[cfg(target_arch = "x86_64")]
             {
-                #[target_feature(enable = "avx512f")]
+                #[target_feature(enable = "avx512f,avx512dq,avx512bw,avx512vl")]
                 unsafe fn avx512($($arg: $ty),*) -> $ret {
                     $body($($arg),*)
                 }

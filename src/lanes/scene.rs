@@ -8,9 +8,11 @@
 //! [`LaneScene::MAX_PRIMITIVES`] analytic ones (quads, spheres, cylinders, disks); anything else
 //! is traversed through the BVH one ray per lane.
 
-use super::{cylinder_hits, disk_hits, quad_hits, sphere_hits, Isa, Lanes, RayLanes, WIDTH};
-use crate::geometry::Shape;
+use super::wide::{F32x, Mask, Vec3x};
+use super::{cylinder_hits, disk_hits, dispatch, quad_hits, sphere_hits, Isa, Lanes, RayLanes, WIDTH};
+use crate::geometry::{gamma, Shape};
 use crate::scene::Scene;
+use glam::Vec3;
 
 /// One primitive of a kind: its shape, its index into [`Scene::primitives`] and its compile
 /// rank (which wins a tie).
@@ -28,7 +30,47 @@ pub struct LaneScene {
     spheres: Vec<Entry<crate::geometry::Sphere>>,
     cylinders: Vec<Entry<crate::geometry::Cylinder>>,
     disks: Vec<Entry<crate::geometry::Disk>>,
+    /// Per primitive, what its hit record needs.
+    records: Vec<RecordShape>,
     isa: Isa,
+}
+
+/// How a primitive's hit record is made: the shape's kind and its numbers (see
+/// [`LaneScene::records`]).
+#[derive(Clone, Copy, Debug, Default)]
+struct RecordShape {
+    kind: RecordKind,
+    /// A quad's corner, a disk's, sphere's centre, a cylinder's base.
+    reference: Vec3,
+    /// A plane's normal, a sphere's axis (its normal's fallback), a cylinder's axis.
+    axis: Vec3,
+    /// A cylinder's normal's fallback.
+    fallback: Vec3,
+    radius: f32,
+}
+
+/// The kinds of hit record.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+enum RecordKind {
+    /// Quads and disks: the point projected onto the plane.
+    #[default]
+    Plane,
+    /// The point reprojected onto the sphere.
+    Sphere,
+    /// The radial component reprojected onto the wall.
+    Cylinder,
+}
+
+/// The hit records of a batch (lanes that hit): what [`Scene::record`] gives without texture
+/// coordinates.
+#[derive(Clone, Copy, Debug)]
+pub struct SurfaceX {
+    /// The point.
+    pub p: Vec3x,
+    /// The geometric (and shading) normal.
+    pub n: Vec3x,
+    /// The point's error bound.
+    pub p_error: F32x,
 }
 
 /// The closest hits of a batch: per lane the distance (+∞ for a miss) and the primitive.
@@ -62,14 +104,53 @@ impl LaneScene {
                 Self::MAX_PRIMITIVES
             ));
         }
-        let mut lanes = LaneScene { quads: vec![], spheres: vec![], cylinders: vec![], disks: vec![], isa };
+        let mut lanes = LaneScene {
+            quads: vec![],
+            spheres: vec![],
+            cylinders: vec![],
+            disks: vec![],
+            records: vec![],
+            isa,
+        };
         for (i, prim) in scene.primitives.iter().enumerate() {
             let (primitive, rank) = (i as u32, scene.compile_rank(i as u32));
+            let plane = |reference, axis| RecordShape {
+                kind: RecordKind::Plane,
+                reference,
+                axis,
+                ..Default::default()
+            };
             match &prim.shape {
-                Shape::Quad(q) => lanes.quads.push(Entry { shape: **q, primitive, rank }),
-                Shape::Sphere(s) => lanes.spheres.push(Entry { shape: **s, primitive, rank }),
-                Shape::Cylinder(c) => lanes.cylinders.push(Entry { shape: **c, primitive, rank }),
-                Shape::Disk(d) => lanes.disks.push(Entry { shape: **d, primitive, rank }),
+                Shape::Quad(q) => {
+                    lanes.quads.push(Entry { shape: **q, primitive, rank });
+                    lanes.records.push(plane(q.corner, q.normal));
+                }
+                Shape::Sphere(s) => {
+                    lanes.spheres.push(Entry { shape: **s, primitive, rank });
+                    let (reference, axis, radius) = (s.center, s.axis, s.radius);
+                    lanes.records.push(RecordShape {
+                        kind: RecordKind::Sphere,
+                        reference,
+                        axis,
+                        fallback: axis,
+                        radius,
+                    });
+                }
+                Shape::Cylinder(c) => {
+                    lanes.cylinders.push(Entry { shape: **c, primitive, rank });
+                    let (reference, axis, fallback, radius) = (c.base, c.w, c.u, c.radius);
+                    lanes.records.push(RecordShape {
+                        kind: RecordKind::Cylinder,
+                        reference,
+                        axis,
+                        fallback,
+                        radius,
+                    });
+                }
+                Shape::Disk(d) => {
+                    lanes.disks.push(Entry { shape: **d, primitive, rank });
+                    lanes.records.push(plane(d.center, d.normal));
+                }
                 other => {
                     return Err(format!(
                         "{} primitives have no lane kernel yet (quads, spheres, cylinders and disks have)",
@@ -150,6 +231,100 @@ impl LaneScene {
         });
         blocked
     }
+}
+
+impl LaneScene {
+    /// The hit records of `hits` (lanes with a finite distance; the others' are meaningless):
+    /// [`Scene::record`]'s point, normal and error bound to the bit, without texture
+    /// coordinates (the lane stages read none).
+    pub fn records(&self, rays: &RayLanes, hits: &LaneHits) -> SurfaceX {
+        let zero = Vec3x::splat(Vec3::ZERO);
+        let mut table = RecordLanes {
+            sphere: Mask::splat(false),
+            cylinder: Mask::splat(false),
+            reference: zero,
+            axis: zero,
+            fallback: zero,
+            radius: F32x::splat(0.0),
+        };
+        let set = |v: &mut Vec3x, k: usize, x: Vec3| {
+            (v.x.0[k], v.y.0[k], v.z.0[k]) = (x.x, x.y, x.z);
+        };
+        for k in 0..WIDTH {
+            if hits.t[k] < f32::INFINITY {
+                let s = &self.records[hits.primitive[k] as usize];
+                table.sphere.0[k] = s.kind == RecordKind::Sphere;
+                table.cylinder.0[k] = s.kind == RecordKind::Cylinder;
+                set(&mut table.reference, k, s.reference);
+                set(&mut table.axis, k, s.axis);
+                set(&mut table.fallback, k, s.fallback);
+                table.radius.0[k] = s.radius;
+            }
+        }
+        surfaces(self.isa, rays, &hits.t, &table)
+    }
+}
+
+/// The record numbers of a batch's primitives, as lanes.
+#[derive(Clone, Copy, Debug)]
+struct RecordLanes {
+    sphere: Mask,
+    cylinder: Mask,
+    reference: Vec3x,
+    axis: Vec3x,
+    fallback: Vec3x,
+    radius: F32x,
+}
+
+/// [`crate::geometry::unit_or`] across lanes.
+#[inline(always)]
+fn unit_or(v: Vec3x, fallback: Vec3x) -> Vec3x {
+    let largest = v.abs().max_element();
+    let scaled = v / largest;
+    let rcp = 1.0 / scaled.length();
+    let keep =
+        largest.gt(F32x::splat(0.0)) & largest.is_finite() & rcp.is_finite() & rcp.gt(F32x::splat(0.0));
+    Vec3x::select(keep, scaled * rcp, fallback)
+}
+
+/// [`crate::geometry::point_error`] across lanes.
+#[inline(always)]
+fn point_error(p: Vec3x, local: F32x, ulps: i32) -> F32x {
+    gamma(ulps) * local + gamma(2) * p.abs().max_element()
+}
+
+/// The records of every kind for every lane, each lane keeping its own kind's: the quad's and
+/// disk's `plane_point` and `planar_surface`, the sphere's and the cylinder's `surface_uv`.
+#[inline(always)]
+fn surfaces_kernel(rays: &RayLanes, t: &Lanes, s: &RecordLanes) -> SurfaceX {
+    let (origin, dir, t) = (Vec3x::from_lanes(&rays.origin), Vec3x::from_lanes(&rays.dir), F32x(*t));
+    let q = (origin - s.reference) + t * dir;
+    // A plane: q projected onto it.
+    let in_plane = q - q.dot(s.axis) * s.axis;
+    let plane_p = s.reference + in_plane;
+    let plane_error = point_error(plane_p, in_plane.length(), 6);
+    // A sphere.
+    let sphere_n = unit_or(q, s.fallback);
+    let sphere_p = s.reference + sphere_n * s.radius;
+    let sphere_error = point_error(sphere_p, s.radius, 6);
+    // A cylinder.
+    let z = q.dot(s.axis);
+    let cylinder_n = unit_or(q - z * s.axis, s.fallback);
+    let cylinder_p = s.reference + (z * s.axis + s.radius * cylinder_n);
+    let cylinder_error = point_error(cylinder_p, s.radius + z.abs(), 8);
+    let pick = |plane: Vec3x, sphere: Vec3x, cylinder: Vec3x| {
+        Vec3x::select(s.sphere, sphere, Vec3x::select(s.cylinder, cylinder, plane))
+    };
+    SurfaceX {
+        p: pick(plane_p, sphere_p, cylinder_p),
+        n: pick(s.axis, sphere_n, cylinder_n),
+        p_error: F32x::select(s.sphere, sphere_error, F32x::select(s.cylinder, cylinder_error, plane_error)),
+    }
+}
+
+dispatch! {
+    /// [`surfaces_kernel`] compiled for `isa`.
+    fn surfaces(rays: &RayLanes, t: &Lanes, s: &RecordLanes) -> SurfaceX => surfaces_kernel
 }
 
 /// The primitive of a lane that has hit nothing yet.
