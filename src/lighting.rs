@@ -100,7 +100,7 @@ fn straight_crossing_reflectance(cos: f32, n_i: f32, n_t: f32, constant: Option<
 /// stand-in for the deterministic methods), which the ray reaches where it meets the light's
 /// surface.
 #[inline]
-fn reaches_light(
+pub(crate) fn reaches_light(
     scene: &Scene,
     light: Option<u32>,
     target: Vec3,

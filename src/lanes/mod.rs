@@ -18,8 +18,8 @@ pub mod shading;
 mod shapes;
 mod wide;
 
-pub use sampler::sobol_pairs;
-pub use scene::{LaneHits, LaneScene};
+pub use sampler::{sobol_firsts, sobol_pairs};
+pub use scene::{LaneHits, LaneScene, SurfaceX};
 pub use shapes::{cylinder_hits, disk_hits, quad_hits, sphere_hits};
 pub use wide::{F32x, Mask, Vec3x};
 

@@ -4,7 +4,7 @@
 //! stream's to the bit.
 
 use super::{dispatch, Lanes, WIDTH};
-use crate::sampler::sobol_pair;
+use crate::sampler::{sobol_first, sobol_pair};
 
 /// The kernel: lane `k` draws dimension `dims[k]` of the stream (`keys[k]`, `reversed[k]`).
 #[inline(always)]
@@ -21,6 +21,22 @@ dispatch! {
     /// `keys[k]` and bit-reversed sample index `reversed[k]`, for every lane `k` (see
     /// [`crate::sampler::SobolState`]); a one-dimensional request's number is the first.
     pub fn sobol_pairs(keys: &[u64; WIDTH], reversed: &[u32; WIDTH], dims: &[u32; WIDTH]) -> (Lanes, Lanes) => sobol_kernel
+}
+
+/// The one-dimensional kernel: lane `k` draws dimension `dims[k]`.
+#[inline(always)]
+fn sobol_first_kernel(keys: &[u64; WIDTH], reversed: &[u32; WIDTH], dims: &[u32; WIDTH]) -> Lanes {
+    let mut x = [0.0; WIDTH];
+    for k in 0..WIDTH {
+        x[k] = sobol_first(keys[k], reversed[k], dims[k]);
+    }
+    x
+}
+
+dispatch! {
+    /// The one-dimensional Sobol' request at dimension `dims[k]` of every lane's stream (the
+    /// first number of [`sobol_pairs`], without the second).
+    pub fn sobol_firsts(keys: &[u64; WIDTH], reversed: &[u32; WIDTH], dims: &[u32; WIDTH]) -> Lanes => sobol_first_kernel
 }
 
 #[cfg(test)]
@@ -43,6 +59,7 @@ mod tests {
                 let reversed = std::array::from_fn(|k| states[k].reversed_sample);
                 let dims: [u32; WIDTH] = std::array::from_fn(|k| (batch + k as u32 * 5) % 40);
                 let (x, y) = sobol_pairs(isa, &keys, &reversed, &dims);
+                let first = sobol_firsts(isa, &keys, &reversed, &dims);
                 for k in 0..WIDTH {
                     let mut s = samplers[k].clone();
                     s.skip(dims[k], &[0; 7]);
@@ -53,7 +70,8 @@ mod tests {
                         (want.x.to_bits(), want.y.to_bits()),
                         "{isa:?}"
                     );
-                    assert_eq!(x[k].to_bits(), one.get_1d(Dim::Other).to_bits(), "{isa:?}: 1D is the first");
+                    let one = one.get_1d(Dim::Other).to_bits();
+                    assert_eq!((x[k].to_bits(), first[k].to_bits()), (one, one), "{isa:?}: 1D is the first");
                 }
             }
         }

@@ -61,6 +61,9 @@ fn test(a: &Lanes, b: &Lanes, f: impl Fn(f32, f32) -> bool) -> Mask {
 }
 
 impl F32x {
+    /// 0 in every lane.
+    pub const ZERO: F32x = F32x([0.0; WIDTH]);
+
     /// `v` in every lane.
     #[inline(always)]
     pub fn splat(v: f32) -> F32x {
@@ -225,6 +228,17 @@ impl Neg for F32x {
 }
 
 impl Mask {
+    /// No lane set.
+    pub const NONE: Mask = Mask([false; WIDTH]);
+    /// Every lane set.
+    pub const ALL: Mask = Mask([true; WIDTH]);
+
+    /// How many lanes are set.
+    #[inline(always)]
+    pub fn count(self) -> usize {
+        self.0.iter().filter(|&&b| b).count()
+    }
+
     /// `v` in every lane.
     #[inline(always)]
     pub fn splat(v: bool) -> Mask {
@@ -263,6 +277,15 @@ impl Not for Mask {
 }
 
 impl Vec3x {
+    /// The zero vector in every lane.
+    pub const ZERO: Vec3x = Vec3x { x: F32x::ZERO, y: F32x::ZERO, z: F32x::ZERO };
+
+    /// Sets lane `k` to `v`.
+    #[inline(always)]
+    pub fn set_lane(&mut self, k: usize, v: Vec3) {
+        (self.x.0[k], self.y.0[k], self.z.0[k]) = (v.x, v.y, v.z);
+    }
+
     /// The vector `v` in every lane.
     #[inline(always)]
     pub fn splat(v: Vec3) -> Vec3x {
