@@ -121,7 +121,7 @@ impl Wavefront {
         occupancy: &mut StageOccupancy,
     ) -> Vec<Vec3> {
         if let Ok(stages) = &self.stages {
-            return stages.radiance(scene, params, rays, ctxs, occupancy);
+            return stages.radiance(params, rays, ctxs, occupancy);
         }
         let mut paths: Vec<PathState> = rays.iter().map(|&r| PathState::new(r)).collect();
         self.trace(scene, params, &mut paths, ctxs, occupancy);
@@ -207,9 +207,9 @@ impl Wavefront {
             let queries: [Option<ShadowRay>; WIDTH] =
                 std::array::from_fn(|k| batch.get(k).map(|(_, l)| shadow(l)));
             let (rays, tmax) = gather(queries.iter().flatten().map(|q| (&q.ray, q.tmax)));
-            let blocked = lanes.occluded(&rays, &tmax, |k, primitive, t| {
-                queries[k].is_some_and(|q| q.blocks(scene, primitive, t))
-            });
+            let light = queries.map(|q| q.and_then(|q| q.light()).unwrap_or(u32::MAX));
+            let reach = queries.map(|q| q.map_or(0.0, |q| q.reach(scene)));
+            let blocked = lanes.occluded(&rays, &tmax, &light, &reach);
             occupancy.add(batch.len());
             for (k, (i, light)) in batch.iter().enumerate() {
                 paths[*i as usize].resolve(light, !blocked[k]);

@@ -100,7 +100,7 @@ fn straight_crossing_reflectance(cos: f32, n_i: f32, n_t: f32, constant: Option<
 /// stand-in for the deterministic methods), which the ray reaches where it meets the light's
 /// surface.
 #[inline]
-pub(crate) fn reaches_light(
+fn reaches_light(
     scene: &Scene,
     light: Option<u32>,
     target: Vec3,
@@ -165,6 +165,22 @@ impl ShadowRay {
     #[inline(always)]
     pub fn can_be_blocked(&self) -> bool {
         !(self.remaining <= 0.0)
+    }
+
+    /// The light aimed at, if any.
+    pub fn light(&self) -> Option<u32> {
+        self.light
+    }
+
+    /// The distance from which a hit on the light aimed at no longer blocks the ray (−∞ where
+    /// the target lies inside the light): a hit on a primitive of [`light`](Self::light) at a
+    /// distance `t >= reach` does not block, any other hit does. What the lanes' occlusion test
+    /// ([`crate::lanes::LaneScene::occluded`]) takes instead of [`blocks`](Self::blocks).
+    pub fn reach(&self, scene: &Scene) -> f32 {
+        match self.light {
+            Some(l) if scene.lights[l as usize].encloses(self.target) => f32::NEG_INFINITY,
+            _ => self.remaining * (1.0 - 1e-3),
+        }
     }
 
     /// Whether a hit on `primitive` at distance `t` (below [`tmax`](Self::tmax)) blocks the ray.

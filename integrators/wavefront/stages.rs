@@ -35,7 +35,6 @@ use crate::lanes::{
     Vec3x, WIDTH,
 };
 use crate::light::Light;
-use crate::lighting::reaches_light;
 use crate::material::Bsdf;
 use crate::sampler::{Dim, SamplerKind, DIM_PURPOSES};
 use crate::scene::{Effect, Scene};
@@ -254,12 +253,11 @@ struct Shaded {
     inside: Vec3x,
     outside: Vec3x,
     /// Next-event estimation: a pending light (`pending`: its shadow ray counted), whether its
-    /// shadow ray can be blocked (`shadowed`), the ray and its target, and the light's value
+    /// shadow ray can be blocked (`shadowed`), the ray, and the light's value
     /// f·Le·w/pdf.
     pending: Mask,
     shadowed: Mask,
     shadow: ShadowX,
-    target: Vec3x,
     nee_value: Vec3x,
 }
 
@@ -358,7 +356,6 @@ impl LaneStages {
     /// scalar engine gives it.
     pub fn radiance(
         &self,
-        scene: &Scene,
         params: &RenderParams,
         rays: &[crate::geometry::Ray],
         ctxs: &mut [PathContext],
@@ -386,7 +383,7 @@ impl LaneStages {
         let mut next = Vec::with_capacity(chunks.len());
         while !chunks.is_empty() {
             for chunk in &mut chunks {
-                self.round(scene, params, chunk, occupancy);
+                self.round(params, chunk, occupancy);
                 finish_ended(chunk, &mut estimates, &mut tallies);
             }
             compact(&chunks, &mut next);
@@ -401,13 +398,7 @@ impl LaneStages {
 
     /// One bounce of the 16 paths of `chunk`; the lanes whose path ends get the slot
     /// [`NONE`] after their estimates are written (by [`finish_ended`]).
-    fn round(
-        &self,
-        scene: &Scene,
-        params: &RenderParams,
-        chunk: &mut PathChunk,
-        occupancy: &mut StageOccupancy,
-    ) {
+    fn round(&self, params: &RenderParams, chunk: &mut PathChunk, occupancy: &mut StageOccupancy) {
         let isa = self.isa();
         // Stage 1: closest hits and their records.
         let live = Mask(std::array::from_fn(|k| chunk.slot[k] != NONE));
@@ -447,7 +438,7 @@ impl LaneStages {
         let goes_on = scatter(isa, self, chunk, &records, &vertices, &draws, &shaded, &trig);
         // Stage 6: the shadow rays, then the radiance gathered, in the scalar engine's order:
         // emission (or the background), then the light.
-        let visible = self.shadow_rays(scene, &shaded, &draws, &mut occupancy.shadow);
+        let visible = self.shadow_rays(&shaded, &draws, &mut occupancy.shadow);
         let light = Vec3x::select(visible, shaded.nee_value, Vec3x::ZERO);
         let radiance = chunk.radiance + shaded.emitted;
         chunk.radiance = Vec3x::select(shaded.pending, radiance + beta * light, radiance);
@@ -493,7 +484,7 @@ impl LaneStages {
 
     /// Stage 6: whether each lane's pending light is visible (true where its shadow ray cannot
     /// be blocked).
-    fn shadow_rays(&self, scene: &Scene, shaded: &Shaded, draws: &Draws, occupancy: &mut Occupancy) -> Mask {
+    fn shadow_rays(&self, shaded: &Shaded, draws: &Draws, occupancy: &mut Occupancy) -> Mask {
         let used = shaded.shadowed.count();
         if used == 0 {
             return Mask::ALL;
@@ -501,11 +492,8 @@ impl LaneStages {
         occupancy.add(used);
         let rays = RayLanes { origin: shaded.shadow.origin.to_lanes(), dir: shaded.shadow.dir.to_lanes() };
         let tmax = F32x::select(shaded.shadowed, shaded.shadow.tmax, F32x::splat(-1.0));
-        let blocked = self.lanes.occluded(&rays, &tmax.0, |k, primitive, t| {
-            let (light, target, remaining) =
-                (draws.light[k], shaded.target.lane(k), shaded.shadow.remaining.0[k]);
-            !reaches_light(scene, Some(light), target, primitive, t, remaining)
-        });
+        let reach = shaded.shadow.remaining * (1.0 - 1e-3);
+        let blocked = self.lanes.occluded(&rays, &tmax.0, &draws.light, &reach.0);
         !Mask(blocked)
     }
 }
@@ -625,7 +613,6 @@ fn shade_before_kernel(
         pending,
         shadowed: pending & !shadow.remaining.le(zero),
         shadow,
-        target: y,
         nee_value: f * radiance * (w_light / pdf),
     }
 }

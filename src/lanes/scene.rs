@@ -8,8 +8,9 @@
 //! [`LaneScene::MAX_PRIMITIVES`] analytic ones (quads, spheres, cylinders, disks); anything else
 //! is traversed through the BVH one ray per lane.
 
+use super::shapes::{cylinder_kernel, disk_kernel, quad_kernel, sphere_kernel};
 use super::wide::{F32x, Mask, Vec3x};
-use super::{cylinder_hits, disk_hits, dispatch, quad_hits, sphere_hits, Isa, Lanes, RayLanes, WIDTH};
+use super::{dispatch, Isa, Lanes, RayLanes, WIDTH};
 use crate::geometry::{gamma, Shape};
 use crate::scene::Scene;
 use glam::Vec3;
@@ -32,6 +33,9 @@ pub struct LaneScene {
     disks: Vec<Entry<crate::geometry::Disk>>,
     /// Per primitive, what its hit record needs.
     records: Vec<RecordShape>,
+    /// Per primitive (modulo [`LaneScene::MAX_PRIMITIVES`]), the light it emits for, or
+    /// [`NONE`].
+    light_of: [u32; LaneScene::MAX_PRIMITIVES],
     isa: Isa,
 }
 
@@ -110,10 +114,12 @@ impl LaneScene {
             cylinders: vec![],
             disks: vec![],
             records: vec![],
+            light_of: [NONE; Self::MAX_PRIMITIVES],
             isa,
         };
         for (i, prim) in scene.primitives.iter().enumerate() {
             let (primitive, rank) = (i as u32, scene.compile_rank(i as u32));
+            lanes.light_of[i] = prim.light.unwrap_or(NONE);
             let plane = |reference, axis| RecordShape {
                 kind: RecordKind::Plane,
                 reference,
@@ -167,70 +173,133 @@ impl LaneScene {
         self.isa
     }
 
-    /// Every primitive in turn, as `visit(hits, primitive, rank)`, where `hits(limit)` runs its
-    /// kernel: per lane its hit distance in (0, `limit[k]`), +∞ for none. The closest and the
-    /// any-hit queries differ only in the limits they pass and what they keep.
-    #[inline]
-    fn each_primitive(&self, rays: &RayLanes, mut visit: impl FnMut(&dyn Fn(&Lanes) -> Lanes, u32, u32)) {
-        let isa = self.isa;
-        for e in &self.quads {
-            visit(&|limit| quad_hits(isa, &e.shape, rays, 0.0, limit), e.primitive, e.rank);
-        }
-        for e in &self.spheres {
-            visit(&|limit| sphere_hits(isa, &e.shape, rays, 0.0, limit), e.primitive, e.rank);
-        }
-        for e in &self.cylinders {
-            visit(&|limit| cylinder_hits(isa, &e.shape, rays, 0.0, limit), e.primitive, e.rank);
-        }
-        for e in &self.disks {
-            visit(&|limit| disk_hits(isa, &e.shape, rays, 0.0, limit), e.primitive, e.rank);
-        }
-    }
-
     /// The closest hit of every lane's ray within (0, `tmax[k]`): what [`Scene::intersect`]
     /// finds, with ties going to the primitive compiled first as there. A lane with a `tmax` of
     /// 0 or below is idle (it never hits).
     pub fn closest(&self, rays: &RayLanes, tmax: &Lanes) -> LaneHits {
-        let mut best = LaneHits { t: [f32::INFINITY; WIDTH], primitive: [NONE; WIDTH] };
-        let mut best_rank = [u32::MAX; WIDTH];
-        let mut limit = *tmax;
-        self.each_primitive(rays, |hits, primitive, rank| {
-            let t = hits(&limit);
-            // Selects, no branches: the loop vectorises.
-            for k in 0..WIDTH {
-                let wins = (t[k] < f32::INFINITY)
-                    & ((best.primitive[k] == NONE) | (t[k] < best.t[k]) | (rank < best_rank[k]));
-                best.t[k] = if wins { t[k] } else { best.t[k] };
-                best.primitive[k] = if wins { primitive } else { best.primitive[k] };
-                best_rank[k] = if wins { rank } else { best_rank[k] };
-                // Up to and including the best distance so far, to see ties (as `Scene::closest`):
-                // the next float above a positive distance is its bit pattern plus one.
-                limit[k] = if wins { f32::from_bits(t[k].to_bits() + 1) } else { limit[k] };
-            }
-        });
-        best
+        closest_hits(self.isa, self, rays, tmax)
     }
 
-    /// Whether each lane's ray meets, within (0, `tmax[k]`), a primitive that
-    /// `blocks(lane, primitive, t)` counts as a blocker (as [`Scene::occluded`]). A lane with a
+    /// Whether each lane's ray meets, within (0, `tmax[k]`), a primitive that blocks it: any
+    /// primitive but those of the light `light[k]` met at a distance of `reach[k]` or more (the
+    /// light a shadow ray aims at, [`crate::lighting::ShadowRay::reach`]); what
+    /// [`Scene::occluded`] finds with [`crate::lighting::ShadowRay::blocks`]. A lane with a
     /// `tmax` of 0 or below is idle.
     pub fn occluded(
         &self,
         rays: &RayLanes,
         tmax: &Lanes,
-        blocks: impl Fn(usize, u32, f32) -> bool,
+        light: &[u32; WIDTH],
+        reach: &Lanes,
     ) -> [bool; WIDTH] {
-        let mut blocked = [false; WIDTH];
-        self.each_primitive(rays, |hits, primitive, _| {
-            let t = hits(tmax);
-            for k in 0..WIDTH {
-                if t[k].is_finite() && !blocked[k] && blocks(k, primitive, t[k]) {
-                    blocked[k] = true;
-                }
-            }
-        });
-        blocked
+        any_hits(self.isa, self, rays, tmax, light, reach)
     }
+}
+
+/// Keeps, per lane, the hit `t` of `primitive` (compile rank `rank`) where it is closer than the
+/// best so far or as close and compiled first; `limit` becomes the float above the best
+/// distance, so that the next primitives' ties are seen (as `Scene::closest`).
+#[inline(always)]
+fn keep_closest(
+    best: &mut LaneHits,
+    best_rank: &mut [u32; WIDTH],
+    limit: &mut Lanes,
+    t: &Lanes,
+    primitive: u32,
+    rank: u32,
+) {
+    // Selects, no branches: the loop vectorises.
+    for k in 0..WIDTH {
+        let wins = (t[k] < f32::INFINITY)
+            & ((best.primitive[k] == NONE) | (t[k] < best.t[k]) | (rank < best_rank[k]));
+        best.t[k] = if wins { t[k] } else { best.t[k] };
+        best.primitive[k] = if wins { primitive } else { best.primitive[k] };
+        best_rank[k] = if wins { rank } else { best_rank[k] };
+        // The next float above a positive distance is its bit pattern plus one.
+        limit[k] = if wins { f32::from_bits(t[k].to_bits() + 1) } else { limit[k] };
+    }
+}
+
+/// Every primitive's kernel in turn, in one function (so that the rays stay in registers).
+#[inline(always)]
+fn closest_kernel(scene: &LaneScene, rays: &RayLanes, tmax: &Lanes) -> LaneHits {
+    let mut best = LaneHits { t: [f32::INFINITY; WIDTH], primitive: [NONE; WIDTH] };
+    let mut rank = [u32::MAX; WIDTH];
+    let mut limit = *tmax;
+    for e in &scene.quads {
+        let t = quad_kernel(&e.shape, rays, 0.0, &limit);
+        keep_closest(&mut best, &mut rank, &mut limit, &t, e.primitive, e.rank);
+    }
+    for e in &scene.spheres {
+        let t = sphere_kernel(&e.shape, rays, 0.0, &limit);
+        keep_closest(&mut best, &mut rank, &mut limit, &t, e.primitive, e.rank);
+    }
+    for e in &scene.cylinders {
+        let t = cylinder_kernel(&e.shape, rays, 0.0, &limit);
+        keep_closest(&mut best, &mut rank, &mut limit, &t, e.primitive, e.rank);
+    }
+    for e in &scene.disks {
+        let t = disk_kernel(&e.shape, rays, 0.0, &limit);
+        keep_closest(&mut best, &mut rank, &mut limit, &t, e.primitive, e.rank);
+    }
+    best
+}
+
+dispatch! {
+    /// [`closest_kernel`] compiled for `isa`.
+    fn closest_hits(scene: &LaneScene, rays: &RayLanes, tmax: &Lanes) -> LaneHits => closest_kernel
+}
+
+/// Marks, per lane, a hit `t` of `primitive` that blocks (see [`LaneScene::occluded`]).
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn keep_blockers(
+    scene: &LaneScene,
+    blocked: &mut [bool; WIDTH],
+    t: &Lanes,
+    primitive: u32,
+    light: &[u32; WIDTH],
+    reach: &Lanes,
+) {
+    let emits = scene.light_of[primitive as usize % LaneScene::MAX_PRIMITIVES];
+    for k in 0..WIDTH {
+        let passes = (emits == light[k]) & (emits != NONE) & (t[k] >= reach[k]);
+        blocked[k] |= (t[k] < f32::INFINITY) & !passes;
+    }
+}
+
+/// Every primitive's kernel in turn, in one function, for shadow rays.
+#[inline(always)]
+fn any_hit_kernel(
+    scene: &LaneScene,
+    rays: &RayLanes,
+    tmax: &Lanes,
+    light: &[u32; WIDTH],
+    reach: &Lanes,
+) -> [bool; WIDTH] {
+    let mut blocked = [false; WIDTH];
+    for e in &scene.quads {
+        let t = quad_kernel(&e.shape, rays, 0.0, tmax);
+        keep_blockers(scene, &mut blocked, &t, e.primitive, light, reach);
+    }
+    for e in &scene.spheres {
+        let t = sphere_kernel(&e.shape, rays, 0.0, tmax);
+        keep_blockers(scene, &mut blocked, &t, e.primitive, light, reach);
+    }
+    for e in &scene.cylinders {
+        let t = cylinder_kernel(&e.shape, rays, 0.0, tmax);
+        keep_blockers(scene, &mut blocked, &t, e.primitive, light, reach);
+    }
+    for e in &scene.disks {
+        let t = disk_kernel(&e.shape, rays, 0.0, tmax);
+        keep_blockers(scene, &mut blocked, &t, e.primitive, light, reach);
+    }
+    blocked
+}
+
+dispatch! {
+    /// [`any_hit_kernel`] compiled for `isa`.
+    fn any_hits(scene: &LaneScene, rays: &RayLanes, tmax: &Lanes, light: &[u32; WIDTH], reach: &Lanes) -> [bool; WIDTH] => any_hit_kernel
 }
 
 impl LaneScene {

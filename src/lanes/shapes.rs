@@ -80,7 +80,7 @@ fn first_root(roots: bool, (t0, t1): (f32, f32), (keep0, keep1): (bool, bool), t
 
 /// The quad kernel: [`Quad::intersect`] per lane within (`tmin`, `tmax[k]`).
 #[inline(always)]
-fn quad_kernel(quad: &Quad, rays: &RayLanes, tmin: f32, tmax: &Lanes) -> Lanes {
+pub(super) fn quad_kernel(quad: &Quad, rays: &RayLanes, tmin: f32, tmax: &Lanes) -> Lanes {
     let n = quad.normal.to_array();
     let corner = quad.corner.to_array();
     let (du, dv) = (quad.dual.0.to_array(), quad.dual.1.to_array());
@@ -136,7 +136,7 @@ fn radial_roots(f: [f32; 3], d: [f32; 3], r: f32) -> (bool, f32, f32) {
 /// The cylinder kernel: [`Cylinder::intersect`] per lane (radial roots in the cross-section,
 /// then the height).
 #[inline(always)]
-fn cylinder_kernel(cylinder: &Cylinder, rays: &RayLanes, tmin: f32, tmax: &Lanes) -> Lanes {
+pub(super) fn cylinder_kernel(cylinder: &Cylinder, rays: &RayLanes, tmin: f32, tmax: &Lanes) -> Lanes {
     let base = cylinder.base.to_array();
     let (u, v, w) = (cylinder.u.to_array(), cylinder.v.to_array(), cylinder.w.to_array());
     let local = |x: [f32; 3]| [dot(x, u), dot(x, v), dot(x, w)];
@@ -158,7 +158,7 @@ fn cylinder_kernel(cylinder: &Cylinder, rays: &RayLanes, tmin: f32, tmax: &Lanes
 
 /// The disk kernel: [`Disk::intersect`] per lane (the plane, then the annulus).
 #[inline(always)]
-fn disk_kernel(disk: &Disk, rays: &RayLanes, tmin: f32, tmax: &Lanes) -> Lanes {
+pub(super) fn disk_kernel(disk: &Disk, rays: &RayLanes, tmin: f32, tmax: &Lanes) -> Lanes {
     let n = disk.normal.to_array();
     let center = disk.center.to_array();
     let size = disk.radius + max_abs(center);
@@ -177,7 +177,7 @@ fn disk_kernel(disk: &Disk, rays: &RayLanes, tmin: f32, tmax: &Lanes) -> Lanes {
 
 /// The sphere kernel: [`Sphere::intersect`] per lane (radial roots, then the clipping zone).
 #[inline(always)]
-fn sphere_kernel(sphere: &Sphere, rays: &RayLanes, tmin: f32, tmax: &Lanes) -> Lanes {
+pub(super) fn sphere_kernel(sphere: &Sphere, rays: &RayLanes, tmin: f32, tmax: &Lanes) -> Lanes {
     let center = sphere.center.to_array();
     let axis = sphere.axis.to_array();
     let r = sphere.radius;
