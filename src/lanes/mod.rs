@@ -69,18 +69,27 @@ pub enum Isa {
 }
 
 impl Isa {
-    /// The widest set this CPU has.
+    /// The widest set this CPU has, or the narrower one that the environment variable
+    /// `VITRUM_ISA` names (`avx512`, `avx2`, `baseline`; for measuring one set against another
+    /// on the same machine). Read once.
     pub fn detect() -> Isa {
-        #[cfg(target_arch = "x86_64")]
-        {
-            if Isa::Avx512.runs_here() {
-                return Isa::Avx512;
-            }
-            if std::arch::is_x86_feature_detected!("avx2") {
-                return Isa::Avx2;
-            }
+        static CHOSEN: std::sync::OnceLock<Isa> = std::sync::OnceLock::new();
+        *CHOSEN.get_or_init(|| {
+            let widest = Isa::available()[0];
+            let asked = std::env::var("VITRUM_ISA").ok().and_then(|name| Isa::from_name(&name));
+            // A set the CPU lacks is never chosen.
+            asked.filter(|isa| isa.runs_here()).unwrap_or(widest)
+        })
+    }
+
+    /// The set named `name` (`avx512`, `avx2` or `baseline`).
+    pub fn from_name(name: &str) -> Option<Isa> {
+        match name {
+            "avx512" => Some(Isa::Avx512),
+            "avx2" => Some(Isa::Avx2),
+            "baseline" => Some(Isa::Baseline),
+            _ => None,
         }
-        Isa::Baseline
     }
 
     /// The set's name, with the lanes one instruction covers.
@@ -97,21 +106,29 @@ impl Isa {
         [Isa::Avx512, Isa::Avx2, Isa::Baseline].into_iter().filter(|&i| i.runs_here()).collect()
     }
 
-    /// Whether this CPU can run kernels compiled for `self`.
+    /// Whether this CPU can run kernels compiled for `self` (the CPU's features are read once).
     pub fn runs_here(self) -> bool {
+        static FEATURES: std::sync::OnceLock<[bool; 2]> = std::sync::OnceLock::new();
+        let [avx512, avx2] = *FEATURES.get_or_init(|| {
+            #[cfg(target_arch = "x86_64")]
+            {
+                [
+                    std::arch::is_x86_feature_detected!("avx512f")
+                        && std::arch::is_x86_feature_detected!("avx512dq")
+                        && std::arch::is_x86_feature_detected!("avx512bw")
+                        && std::arch::is_x86_feature_detected!("avx512vl"),
+                    std::arch::is_x86_feature_detected!("avx2"),
+                ]
+            }
+            #[cfg(not(target_arch = "x86_64"))]
+            {
+                [false, false]
+            }
+        });
         match self {
             Isa::Baseline => true,
-            #[cfg(target_arch = "x86_64")]
-            Isa::Avx512 => {
-                std::arch::is_x86_feature_detected!("avx512f")
-                    && std::arch::is_x86_feature_detected!("avx512dq")
-                    && std::arch::is_x86_feature_detected!("avx512bw")
-                    && std::arch::is_x86_feature_detected!("avx512vl")
-            }
-            #[cfg(target_arch = "x86_64")]
-            Isa::Avx2 => std::arch::is_x86_feature_detected!("avx2"),
-            #[cfg(not(target_arch = "x86_64"))]
-            _ => false,
+            Isa::Avx512 => avx512,
+            Isa::Avx2 => avx2,
         }
     }
 }
