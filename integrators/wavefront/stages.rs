@@ -172,32 +172,71 @@ impl PathChunk {
         slot: [NONE; WIDTH],
     };
 
-    /// Copies lane `k` of `from` into lane `j`.
+    /// Lane `k`'s path.
     #[inline]
-    fn copy_lane(&mut self, j: usize, from: &PathChunk, k: usize) {
-        for (to, from) in [
-            (&mut self.origin, &from.origin),
-            (&mut self.dir, &from.dir),
-            (&mut self.beta, &from.beta),
-            (&mut self.absorption, &from.absorption),
-            (&mut self.radiance, &from.radiance),
-        ] {
-            to.set_lane(j, from.lane(k));
+    fn lane(&self, k: usize) -> PathLane {
+        PathLane {
+            vectors: [self.origin, self.dir, self.beta, self.absorption, self.radiance].map(|v| v.lane(k)),
+            eta_scale: self.eta_scale.0[k],
+            bsdf_pdf: self.bsdf_pdf.0[k],
+            skip_mis: self.skip_mis.0[k],
+            key: self.key[k],
+            counts: [
+                self.depth[k],
+                self.reversed[k],
+                self.dimension[k],
+                self.drawn[k],
+                self.requests[0][k],
+                self.requests[1][k],
+                self.requests[2][k],
+                self.rays[0][k],
+                self.rays[1][k],
+                self.rays[2][k],
+                self.slot[k],
+            ],
         }
-        self.eta_scale.0[j] = from.eta_scale.0[k];
-        self.bsdf_pdf.0[j] = from.bsdf_pdf.0[k];
-        self.skip_mis.0[j] = from.skip_mis.0[k];
-        self.depth[j] = from.depth[k];
-        self.key[j] = from.key[k];
-        self.reversed[j] = from.reversed[k];
-        self.dimension[j] = from.dimension[k];
-        self.drawn[j] = from.drawn[k];
-        for i in 0..3 {
-            self.requests[i][j] = from.requests[i][k];
-            self.rays[i][j] = from.rays[i][k];
-        }
-        self.slot[j] = from.slot[k];
     }
+
+    /// Puts `path` into lane `j`.
+    #[inline]
+    fn set_lane(&mut self, j: usize, path: &PathLane) {
+        let [origin, dir, beta, absorption, radiance] = path.vectors;
+        self.origin.set_lane(j, origin);
+        self.dir.set_lane(j, dir);
+        self.beta.set_lane(j, beta);
+        self.absorption.set_lane(j, absorption);
+        self.radiance.set_lane(j, radiance);
+        self.eta_scale.0[j] = path.eta_scale;
+        self.bsdf_pdf.0[j] = path.bsdf_pdf;
+        self.skip_mis.0[j] = path.skip_mis;
+        self.key[j] = path.key;
+        [
+            self.depth[j],
+            self.reversed[j],
+            self.dimension[j],
+            self.drawn[j],
+            self.requests[0][j],
+            self.requests[1][j],
+            self.requests[2][j],
+            self.rays[0][j],
+            self.rays[1][j],
+            self.rays[2][j],
+            self.slot[j],
+        ] = path.counts;
+    }
+}
+
+/// One lane of a [`PathChunk`], for moving a path between lanes.
+#[derive(Clone, Copy, Debug)]
+struct PathLane {
+    /// Origin, direction, throughput, absorption, radiance.
+    vectors: [Vec3; 5],
+    eta_scale: f32,
+    bsdf_pdf: f32,
+    skip_mis: bool,
+    key: u64,
+    /// Depth, reversed sample, dimension, drawn, requests (3), rays (3), slot.
+    counts: [u32; 11],
 }
 
 /// What a path's sample tallies besides its radiance: rays, and the dimensions and requests it
@@ -361,8 +400,21 @@ impl LaneStages {
         ctxs: &mut [PathContext],
         occupancy: &mut StageOccupancy,
     ) -> Vec<Vec3> {
+        SCRATCH.with_borrow_mut(|scratch| self.trace(params, rays, ctxs, occupancy, scratch))
+    }
+
+    /// [`radiance`](Self::radiance) with the thread's buffers.
+    fn trace(
+        &self,
+        params: &RenderParams,
+        rays: &[crate::geometry::Ray],
+        ctxs: &mut [PathContext],
+        occupancy: &mut StageOccupancy,
+        scratch: &mut Scratch,
+    ) -> Vec<Vec3> {
         let n = rays.len();
-        let mut chunks: Vec<PathChunk> = Vec::with_capacity(n.div_ceil(WIDTH));
+        let chunks = &mut scratch.chunks;
+        chunks.clear();
         for (i, (ray, ctx)) in rays.iter().zip(ctxs.iter()).enumerate() {
             let k = i % WIDTH;
             if k == 0 {
@@ -379,17 +431,17 @@ impl LaneStages {
             c.slot[k] = i as u32;
         }
         let mut estimates = vec![Vec3::ZERO; n];
-        let mut tallies = vec![Tally::default(); n];
-        let mut next = Vec::with_capacity(chunks.len());
+        let tallies = &mut scratch.tallies;
+        tallies.clear();
+        tallies.resize(n, Tally::default());
         while !chunks.is_empty() {
-            for chunk in &mut chunks {
+            for chunk in chunks.iter_mut() {
                 self.round(params, chunk, occupancy);
-                finish_ended(chunk, &mut estimates, &mut tallies);
+                finish_ended(chunk, &mut estimates, tallies);
             }
-            compact(&chunks, &mut next);
-            std::mem::swap(&mut chunks, &mut next);
+            compact(chunks);
         }
-        for (ctx, tally) in ctxs.iter_mut().zip(&tallies) {
+        for (ctx, tally) in ctxs.iter_mut().zip(tallies.iter()) {
             ctx.rays += tally.rays;
             ctx.sampler.skip(tally.dimensions, &tally.requests);
         }
@@ -464,7 +516,9 @@ impl LaneStages {
         let (keys, reversed) = (&chunk.key, &chunk.reversed);
         let first = sobol_pairs(isa, keys, reversed, &at(picks, 0));
         let bsdf = sobol_pairs(isa, keys, reversed, &at(picks + 2, 1));
-        let roulette = sobol_firsts(isa, keys, reversed, &at(picks + 4, 3));
+        // Roulette plays from the fourth bounce on: earlier rounds draw no roulette number.
+        let deep = (0..WIDTH).any(|k| chunk.slot[k] != NONE && chunk.depth[k] >= ROULETTE_DEPTH);
+        let roulette = if deep { sobol_firsts(isa, keys, reversed, &at(picks + 4, 3)) } else { [1.0; WIDTH] };
         let pick = if picks > 0 { sobol_firsts(isa, keys, reversed, &chunk.dimension) } else { [0.0; WIDTH] };
         // pick_light: one light draws no number.
         let light = std::array::from_fn(|k| {
@@ -521,29 +575,47 @@ fn finish_ended(chunk: &mut PathChunk, estimates: &mut [Vec3], tallies: &mut [Ta
     }
 }
 
-/// The live paths of `chunks`, in order, packed into full chunks (the last one padded with idle
-/// lanes) in `into`.
-fn compact(chunks: &[PathChunk], into: &mut Vec<PathChunk>) {
-    into.clear();
-    let mut j = WIDTH;
-    for c in chunks {
-        if j == WIDTH && c.slot.iter().all(|&s| s != NONE) {
-            // A full chunk on a chunk boundary moves whole.
-            into.push(*c);
+/// Packs the live paths of `chunks`, in order, into full chunks at the front (the last one
+/// padded with idle lanes) and drops the rest. Paths only move towards the front, so this
+/// works in place; a full chunk that stays where it is is not touched.
+fn compact(chunks: &mut Vec<PathChunk>) {
+    let (mut to_chunk, mut to_lane) = (0, 0);
+    for from in 0..chunks.len() {
+        if to_lane == 0 && chunks[from].slot.iter().all(|&s| s != NONE) {
+            if to_chunk != from {
+                chunks[to_chunk] = chunks[from];
+            }
+            to_chunk += 1;
             continue;
         }
         for k in 0..WIDTH {
-            if c.slot[k] == NONE {
+            if chunks[from].slot[k] == NONE {
                 continue;
             }
-            if j == WIDTH {
-                into.push(PathChunk::IDLE);
-                j = 0;
+            let path = chunks[from].lane(k);
+            chunks[to_chunk].set_lane(to_lane, &path);
+            to_lane += 1;
+            if to_lane == WIDTH {
+                (to_chunk, to_lane) = (to_chunk + 1, 0);
             }
-            into.last_mut().expect("pushed above").copy_lane(j, c, k);
-            j += 1;
         }
     }
+    if to_lane > 0 {
+        chunks[to_chunk].slot[to_lane..].fill(NONE);
+        to_chunk += 1;
+    }
+    chunks.truncate(to_chunk);
+}
+
+/// Buffers a thread reuses from one batch of paths to the next (fresh ones cost page faults).
+#[derive(Default)]
+struct Scratch {
+    chunks: Vec<PathChunk>,
+    tallies: Vec<Tally>,
+}
+
+thread_local! {
+    static SCRATCH: std::cell::RefCell<Scratch> = std::cell::RefCell::new(Scratch::default());
 }
 
 /// Stage 3 across lanes: the vertex's emission (or the background for an escaped ray), its
@@ -581,14 +653,18 @@ fn shade_before_kernel(
     // A diffuse vertex: the albedo, then next-event estimation (Light::sample_li of a quad).
     let albedo = checker(p, prims.cell.at(primitive), prims.color1.at(primitive), prims.color2.at(primitive));
     let l = &draws.light;
+    // One light is the same in every lane: no gathers.
+    let one = lights.count == 1;
+    let vector = |t: &Table3| if one { Vec3x::splat(t.get(0)) } else { t.at(l) };
     let (ux, uy) = draws.first;
-    let y = lights.corner.at(l) + ux * lights.u.at(l) + uy * lights.v.at(l);
-    let ny = lights.normal.at(l);
+    let y = vector(&lights.corner) + ux * vector(&lights.u) + uy * vector(&lights.v);
+    let ny = vector(&lights.normal);
     let d = y - p;
     let distance = d.length();
     let wi = d / distance;
-    let radiance = Vec3x::select(ny.dot(-wi).gt(zero), lights.radiance.at(l), Vec3x::ZERO);
-    let pdf = area_to_solid_angle(lights.area_pdf.at(l), p, y, ny);
+    let radiance = Vec3x::select(ny.dot(-wi).gt(zero), vector(&lights.radiance), Vec3x::ZERO);
+    let area_pdf = if one { F32x::splat(lights.area_pdf.0[0]) } else { lights.area_pdf.at(l) };
+    let pdf = area_to_solid_angle(area_pdf, p, y, ny);
     let sampled = distance.gt(zero) & !radiance.is_zero() & pdf.gt(zero) & pdf.is_finite();
     let wi_local = frame.to_local(wi);
     let f = lambert_eval(albedo, wo_local, wi_local) * (wi_local.z.abs() * 1.0);

@@ -169,9 +169,21 @@ impl F32x {
     #[inline(always)]
     pub fn even_sum(x: F32x, y: F32x, z: F32x) -> Mask {
         let mut out = [false; WIDTH];
-        for k in 0..WIDTH {
-            let sum = (x.0[k] as i64).wrapping_add(y.0[k] as i64).wrapping_add(z.0[k] as i64);
-            out[k] = sum.rem_euclid(2) == 0;
+        // Where every floor fits an i32, `as i32` has the same low bit as `as i64` (vector
+        // conversions exist for i32 on every x86 vector set, for i64 only with AVX-512).
+        let limit = 2_147_483_520.0; // the largest f32 below 2³¹
+        let fits =
+            (0..WIDTH).all(|k| x.0[k].abs() <= limit && y.0[k].abs() <= limit && z.0[k].abs() <= limit);
+        if fits {
+            for k in 0..WIDTH {
+                let sum = (x.0[k] as i32).wrapping_add(y.0[k] as i32).wrapping_add(z.0[k] as i32);
+                out[k] = sum & 1 == 0;
+            }
+        } else {
+            for k in 0..WIDTH {
+                let sum = (x.0[k] as i64).wrapping_add(y.0[k] as i64).wrapping_add(z.0[k] as i64);
+                out[k] = sum.rem_euclid(2) == 0;
+            }
         }
         Mask(out)
     }
