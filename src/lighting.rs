@@ -163,6 +163,7 @@ impl ShadowRay {
 
     /// Whether the target lies beyond the ray's origin, where something can block it.
     #[inline(always)]
+    #[allow(clippy::neg_cmp_op_on_partial_ord)] // a NaN distance is blockable, as it always was
     pub fn can_be_blocked(&self) -> bool {
         !(self.remaining <= 0.0)
     }

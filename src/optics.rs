@@ -22,6 +22,7 @@ pub fn refract(wi: Vec3, n: Vec3, eta: f32) -> Option<Vec3> {
 /// [`refract`] without a branch: whether the ray refracts (no total internal reflection), and
 /// the direction (NaN where it does not). The wavefront engine runs it across lanes.
 #[inline(always)]
+#[allow(clippy::neg_cmp_op_on_partial_ord)] // NaN refracts (to a NaN direction), as it always did
 pub fn refraction(wi: Vec3, n: Vec3, eta: f32) -> (bool, Vec3) {
     let cos_i = wi.dot(n).clamp(-1.0, 1.0);
     let sin2_i = (1.0 - cos_i * cos_i).max(0.0);

@@ -23,6 +23,9 @@
 //! bit for bit. Per-primitive and per-light numbers are read from fixed-size tables
 //! ([`Table`]), so that the reads vectorise as gathers.
 
+// Lane loops index several arrays by the lane, as the kernels they vectorise into do.
+#![allow(clippy::needless_range_loop)]
+
 use super::super::{PathContext, RenderParams};
 use super::{Occupancy, StageOccupancy};
 use crate::bsdf::{RoughDielectric, TrowbridgeReitz};

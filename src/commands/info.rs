@@ -33,6 +33,9 @@ pub fn run(args: &InfoArgs) -> Result<(), CliError> {
         Support::Ignores(how) => format!("ignores: {how}"),
     };
     let b = &scene.bvh_stats;
+    // The engine `path` runs with the scene's own settings (`--engine auto`).
+    let path = integrators::create("path").expect("path is registered");
+    let engine = path.engine(&scene, &crate::render::RenderOptions::for_method(&scene, path.as_ref(), 1));
     if args.json {
         let effects: Vec<_> = scene
             .effects
@@ -83,6 +86,7 @@ pub fn run(args: &InfoArgs) -> Result<(), CliError> {
             "bvh": {"nodes": b.nodes, "primitives": b.primitives, "depth": b.depth, "build_seconds": b.build_seconds,
                     "bounds_min": b.bounds.0.to_array(), "bounds_max": b.bounds.1.to_array()},
             "effects": effects,
+            "path_engine": {"name": engine.name(), "description": engine.describe(), "reason": engine.reason},
             "warnings": scene.warnings,
         });
         println!("{summary}");
@@ -147,6 +151,7 @@ pub fn run(args: &InfoArgs) -> Result<(), CliError> {
         describe::vec3(b.bounds.0),
         describe::vec3(b.bounds.1)
     );
+    println!("path engine: {}", engine.describe());
     if scene.effects.0.is_empty() {
         println!("effects    none (every method renders this scene fully)");
     }

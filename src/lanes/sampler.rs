@@ -3,6 +3,9 @@
 //! own pixel, sample and dimension. Integer arithmetic only, so every lane's pair is the scalar
 //! stream's to the bit.
 
+// Lane loops index several arrays by the lane, as the kernels they vectorise into do.
+#![allow(clippy::needless_range_loop)]
+
 use super::{dispatch, Lanes, WIDTH};
 use crate::sampler::{sobol_first, sobol_pair};
 

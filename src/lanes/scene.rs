@@ -8,6 +8,9 @@
 //! [`LaneScene::MAX_PRIMITIVES`] analytic ones (quads, spheres, cylinders, disks); anything else
 //! is traversed through the BVH one ray per lane.
 
+// Lane loops index several arrays by the lane, as the kernels they vectorise into do.
+#![allow(clippy::needless_range_loop)]
+
 use super::shapes::{cylinder_kernel, disk_kernel, quad_kernel, sphere_kernel};
 use super::wide::{F32x, Mask, Vec3x};
 use super::{dispatch, Isa, Lanes, RayLanes, WIDTH};

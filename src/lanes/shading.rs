@@ -2,6 +2,9 @@
 //! operation for operation on [`F32x`] and [`Vec3x`] (branches as selects), so that every lane's
 //! result is the scalar one to the bit (the tests below check each against it).
 
+// Lane loops index several arrays by the lane, as the kernels they vectorise into do.
+#![allow(clippy::needless_range_loop)]
+
 use super::wide::{F32x, Mask, Vec3x};
 use glam::Vec3;
 use std::f32::consts::{FRAC_1_PI, FRAC_PI_2, FRAC_PI_4, PI};

@@ -7,6 +7,9 @@
 //! into one or two vector instructions under the `#[target_feature]` of the kernel that inlines
 //! it ([`super::dispatch`]). Branches become [`Mask`]s and [`F32x::select`]s.
 
+// Lane loops index several arrays by the lane, as the kernels they vectorise into do.
+#![allow(clippy::needless_range_loop)]
+
 use super::{Lanes, WIDTH};
 use glam::Vec3;
 use std::ops::{Add, BitAnd, BitOr, Div, Mul, Neg, Not, Sub};

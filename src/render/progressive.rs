@@ -18,7 +18,8 @@ pub enum Growth {
 
 /// Where a growing render's samples come from.
 pub(super) enum Source<'a> {
-    Camera(Pass<'a>),
+    /// The shared camera pass (boxed: it holds the engine choice).
+    Camera(Box<Pass<'a>>),
     Own(&'a dyn Accumulate),
     /// Whole renders (fresh or fixed).
     Renders,
@@ -45,7 +46,7 @@ impl<'a> Progressive<'a> {
     pub fn new(scene: &'a Scene, integrator: &'a dyn Integrator, opts: &RenderOptions) -> Progressive<'a> {
         let (growth, source) = match integrator.progression() {
             Progression::CameraPass => {
-                (Growth::Incremental, Source::Camera(Pass::new(scene, integrator, opts)))
+                (Growth::Incremental, Source::Camera(Box::new(Pass::new(scene, integrator, opts))))
             }
             Progression::Own(method) => (Growth::Incremental, Source::Own(method)),
             Progression::Fresh(why) => (Growth::Fresh(why), Source::Renders),

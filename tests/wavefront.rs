@@ -1,0 +1,325 @@
+//! The wavefront engine of `path` against the scalar one (`--engine scalar`, the reference):
+//! the same image to the bit on every shipped scene, agreement within noise between independent
+//! renders, closed forms through the stages that run across lanes, thread-count invariance, and
+//! what the engine choice says and refuses.
+
+mod common;
+
+use common::{block_chi2, toml_files};
+use glam::Vec3;
+use std::path::Path;
+use std::process::Command;
+use vitrum::image::Image;
+use vitrum::integrators::{create, EngineOption};
+use vitrum::render::{render, Budget, RenderOptions, RenderOutput};
+use vitrum::sampler::SamplerKind;
+use vitrum::scene::{load, load_str, Scene};
+
+/// A render of `scene` by `path` with `engine`: `size`², `spp` samples, `seed`, `sampler`.
+fn path_render(
+    scene: &Scene,
+    engine: EngineOption,
+    size: u32,
+    spp: u32,
+    seed: u64,
+    sampler: SamplerKind,
+) -> RenderOutput {
+    let path = create("path").unwrap();
+    let mut opts = RenderOptions::for_method(scene, path.as_ref(), spp);
+    opts.resolution = Some((size, size));
+    opts.params.engine = engine;
+    opts.seed = seed;
+    opts.sampler = sampler;
+    render(scene, path.as_ref(), &opts, &|_, _| {})
+}
+
+/// The engine `path` runs on `scene` with `engine` asked for and the scene's own settings.
+fn describe(scene: &Scene, engine: EngineOption) -> String {
+    let path = create("path").unwrap();
+    let mut opts = RenderOptions::for_method(scene, path.as_ref(), 1);
+    opts.params.engine = engine;
+    path.engine(scene, &opts).describe()
+}
+
+fn bits(image: &Image) -> Vec<[u32; 3]> {
+    image.pixels.iter().map(|p| p.to_array().map(f32::to_bits)).collect()
+}
+
+fn shipped_scenes() -> Vec<std::path::PathBuf> {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
+    let mut files = toml_files(&root);
+    files.extend(toml_files(&root.join("hard")));
+    files
+}
+
+#[test]
+fn both_engines_render_every_shipped_scene_to_the_same_bits() {
+    // The wavefront engine runs the scalar engine's vertex step (or its lane form, tested bit for
+    // bit against it) with the same random numbers, and its lane hit tests return the scalar
+    // tests' distances: so the images, ray counts and sampler requests are the same. With the
+    // Sobol' sampler every scene whose effects allow runs every stage across lanes.
+    let mut across_lanes = 0;
+    for file in shipped_scenes() {
+        let scene = load(&file).unwrap();
+        let name = file.file_name().unwrap().to_string_lossy();
+        let mut runs = Vec::new();
+        for engine in [EngineOption::Scalar, EngineOption::Wavefront] {
+            let path = create("path").unwrap();
+            let mut opts = RenderOptions::for_method(&scene, path.as_ref(), 4);
+            opts.resolution = Some((20, 20));
+            opts.params.engine = engine;
+            runs.push(vitrum::render::camera_pass(&scene, path.as_ref(), &opts, &|_, _| {}));
+        }
+        let [(scalar, scalar_requests), (wavefront, wavefront_requests)] = [runs.remove(0), runs.remove(0)];
+        let (a, b) = (bits(&scalar.image), bits(&wavefront.image));
+        let differing = a.iter().zip(&b).filter(|(x, y)| x != y).count();
+        assert_eq!(differing, 0, "{name}: {differing} of {} pixels differ", a.len());
+        assert_eq!(scalar.rays, wavefront.rays, "{name}: ray counts");
+        assert_eq!(scalar_requests, wavefront_requests, "{name}: sampler requests");
+        assert!(scalar.rays.total() > 400, "{name}: the render traces rays");
+        across_lanes += describe(&scene, EngineOption::Wavefront).contains("every stage across") as usize;
+    }
+    assert!(across_lanes >= 3, "only {across_lanes} shipped scenes run every stage across lanes");
+}
+
+#[test]
+fn independent_renders_of_the_two_engines_agree_within_noise() {
+    // Different seeds: the images differ by their noise alone. χ² of the 8×8 block means in
+    // their variances (per-pixel s²/n, which overestimates the error of the Sobol' sampler's
+    // stratified samples, so the statistic is smaller than a χ² on the block count would be):
+    // the bound is the 99.9% quantile of χ² with 36 degrees of freedom, 67.99.
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
+    for name in ["soft-shadows", "cornell-glass", "hollow-spheres"] {
+        let scene = load(&root.join(format!("{name}.toml"))).unwrap();
+        let render = |engine, seed| {
+            let out = path_render(&scene, engine, 48, 64, seed, SamplerKind::Sobol);
+            assert_eq!(out.non_finite_samples, 0);
+            (out.image, out.variance.expect("64 samples keep a variance"))
+        };
+        let (chi2, blocks) =
+            block_chi2(&render(EngineOption::Wavefront, 1), &render(EngineOption::Scalar, 2));
+        assert_eq!(blocks, 36, "{name}");
+        assert!(chi2 < 67.99, "{name}: χ² {chi2:.1} over {blocks} blocks");
+        // The same seed gives the same image (so the test above compares noise, not bias).
+        let (a, b) = (render(EngineOption::Wavefront, 3), render(EngineOption::Scalar, 3));
+        assert_eq!(bits(&a.0), bits(&b.0), "{name}");
+    }
+}
+
+/// The mean of `image` over its pixels and channels, with the standard error of that mean from
+/// the pixels' own spread (the pixels see the same expected value).
+fn mean_and_error(image: &Image) -> (f64, f64) {
+    let values: Vec<f64> = image.pixels.iter().map(|p| p.element_sum() as f64 / 3.0).collect();
+    let n = values.len() as f64;
+    let mean = values.iter().sum::<f64>() / n;
+    let var = values.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1.0);
+    (mean, (var / n).sqrt())
+}
+
+#[test]
+fn light_through_a_glass_slab_matches_the_closed_form_across_lanes() {
+    // A quad light of radiance 2 seen through a slab of index 1.5 at near-normal incidence (the
+    // view is 1° wide): every path that gets through carries the light's radiance (the two
+    // refractions' η² cancel), and the fraction that does is (1−R)/(1+R) with R = 0.04.
+    let text = r#"
+[camera]
+position = [0.0, 0.0, 5.0]
+look_at = [0.0, 0.0, 0.0]
+fov = 1.0
+resolution = [32, 32]
+[materials.glass]
+type = "dielectric"
+ior = 1.5
+[[objects]]
+shape = "quad"
+corner = [-50.0, -50.0, 0.5]
+u = [100.0, 0.0, 0.0]
+v = [0.0, 100.0, 0.0]
+material = "glass"
+[[objects]]
+shape = "quad"
+corner = [-50.0, -50.0, -0.5]
+u = [0.0, 100.0, 0.0]
+v = [100.0, 0.0, 0.0]
+material = "glass"
+[[lights]]
+type = "quad"
+corner = [-50.0, -50.0, -3.0]
+u = [100.0, 0.0, 0.0]
+v = [0.0, 100.0, 0.0]
+radiance = 2.0
+"#;
+    let scene = load_str(text, "slab", None).unwrap();
+    assert!(
+        describe(&scene, EngineOption::Auto).contains("every stage across"),
+        "{}",
+        describe(&scene, EngineOption::Auto)
+    );
+    let out = path_render(&scene, EngineOption::Auto, 32, 64, 7, SamplerKind::Sobol);
+    let (mean, error) = mean_and_error(&out.image);
+    let r = 0.04f64;
+    let expected = 2.0 * (1.0 - r) / (1.0 + r);
+    assert!(error > 0.0 && error < 0.01, "standard error {error}");
+    // 4 standard errors, plus the slab's angular spread of R within 0.5° (below 1e-5).
+    assert!((mean - expected).abs() < 4.0 * error + 1e-4, "{mean} ± {error}, expected {expected}");
+    assert!(out.rays.refracted > 0 && out.rays.reflected > 0, "{:?}", out.rays);
+}
+
+/// The irradiance at a point at height `h` below a corner of a parallel rectangle `a` × `b` of
+/// Lambertian radiance `l` (π·L times the point-to-rectangle form factor).
+fn corner_irradiance(l: f64, a: f64, b: f64, h: f64) -> f64 {
+    let (x, y) = (a / h, b / h);
+    let (sx, sy) = ((1.0 + x * x).sqrt(), (1.0 + y * y).sqrt());
+    l / 2.0 * (x / sx * (y / sx).atan() + y / sy * (x / sy).atan())
+}
+
+#[test]
+fn a_floor_under_a_quad_light_matches_the_form_factor_across_lanes() {
+    // A diffuse floor (albedo 0.5) under a 1 × 0.6 quad light of radiance 3 at height 0.8; the
+    // camera looks straight down at the point below the light's centre through a 0.5° view,
+    // between the two. Nothing else reflects (the light's own surface is black), so the floor's
+    // radiance is (ρ/π)·E: next-event estimation and BSDF sampling weighted by MIS, across lanes.
+    let text = r#"
+[camera]
+position = [0.0, 0.4, 0.0]
+look_at = [0.0, 0.0, 0.0]
+up = [0.0, 0.0, -1.0]
+fov = 0.5
+resolution = [32, 32]
+[materials.floor]
+type = "diffuse"
+color = 0.5
+[[objects]]
+shape = "quad"
+corner = [-20.0, 0.0, -20.0]
+u = [0.0, 0.0, 40.0]
+v = [40.0, 0.0, 0.0]
+material = "floor"
+[[lights]]
+type = "quad"
+corner = [-0.5, 0.8, -0.3]
+u = [1.0, 0.0, 0.0]
+v = [0.0, 0.0, 0.6]
+radiance = 3.0
+"#;
+    let scene = load_str(text, "floor", None).unwrap();
+    assert!(
+        describe(&scene, EngineOption::Auto).contains("every stage across"),
+        "{}",
+        describe(&scene, EngineOption::Auto)
+    );
+    let out = path_render(&scene, EngineOption::Auto, 32, 64, 11, SamplerKind::Sobol);
+    let (mean, error) = mean_and_error(&out.image);
+    // Four rectangles of 0.5 × 0.3 meet above the centre.
+    let irradiance = 4.0 * corner_irradiance(3.0, 0.5, 0.3, 0.8);
+    let expected = 0.5 / std::f64::consts::PI * irradiance;
+    assert!(error > 0.0 && error < 0.01 * expected, "standard error {error}");
+    // The view spans ±0.0017 around the centre, where E changes by under 1e-5 of itself.
+    assert!((mean - expected).abs() < 4.0 * error + 1e-5 * expected, "{mean} ± {error}, expected {expected}");
+    assert!(out.rays.shadow > 0, "{:?}", out.rays);
+}
+
+#[test]
+fn the_engine_is_chosen_by_what_the_scene_calls_for_and_says_why() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
+    let scene = |name: &str| load(&root.join(format!("{name}.toml"))).unwrap();
+    // Quad lights, diffuse walls, smooth glass: every stage across lanes.
+    let soft = describe(&scene("soft-shadows"), EngineOption::Auto);
+    assert!(
+        soft.starts_with("wavefront (every stage across 16 lanes") || soft.contains("every stage across"),
+        "{soft}"
+    );
+    // A point light: hits and shadow rays across lanes, shading path by path, and why.
+    let point = describe(&scene("cornell-glass"), EngineOption::Auto);
+    assert!(point.contains("shading one path at a time") && point.contains("not a quad"), "{point}");
+    // Moving objects: no lane form; auto runs the scalar engine and says why.
+    let motion = describe(&scene("motion-blur"), EngineOption::Auto);
+    assert!(motion.starts_with("scalar:") && motion.contains("motion blur"), "{motion}");
+    // --engine wavefront runs it anyway (through the BVH), --engine scalar never.
+    assert!(describe(&scene("motion-blur"), EngineOption::Wavefront).starts_with("wavefront (the BVH"));
+    assert!(describe(&scene("soft-shadows"), EngineOption::Scalar).starts_with("scalar: --engine scalar"));
+    // Another sampler has no lane form yet.
+    let path = create("path").unwrap();
+    let mut opts = RenderOptions::for_method(&scene("soft-shadows"), path.as_ref(), 1);
+    opts.sampler = SamplerKind::Independent;
+    let independent = path.engine(&scene("soft-shadows"), &opts).describe();
+    assert!(independent.contains("independent sampler"), "{independent}");
+    // The other methods have one engine.
+    let whitted = create("whitted").unwrap();
+    let opts = RenderOptions::for_method(&scene("soft-shadows"), whitted.as_ref(), 1);
+    assert_eq!(whitted.engine(&scene("soft-shadows"), &opts).name(), "scalar");
+    let _ = Budget::Samples(1);
+    let _ = Vec3::ZERO;
+}
+
+fn vitrum(args: &[&str]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_vitrum")).args(args).output().expect("the vitrum binary runs")
+}
+
+#[test]
+fn the_command_line_chooses_and_reports_the_engine() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/soft-shadows.toml");
+    let scene = scene.to_str().unwrap();
+    let mut images = Vec::new();
+    for (engine, threads) in [("scalar", "2"), ("wavefront", "1"), ("auto", "2")] {
+        let out_path = dir.path().join(format!("{engine}.exr"));
+        let out = vitrum(&[
+            "render",
+            scene,
+            "-i",
+            "path",
+            "--spp",
+            "2",
+            "--resolution",
+            "24x24",
+            "--engine",
+            engine,
+            "--threads",
+            threads,
+            "--json",
+            "-o",
+            out_path.to_str().unwrap(),
+        ]);
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        let summary: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        let name = summary["engine"]["name"].as_str().unwrap().to_string();
+        assert_eq!(name, if engine == "scalar" { "scalar" } else { "wavefront" }, "{summary}");
+        assert!(!summary["engine"]["reason"].as_str().unwrap().is_empty());
+        images.push(vitrum::output::exr::read_exr(&out_path).unwrap().0);
+    }
+    // Either engine, any thread count: the same pixels.
+    assert!(images.windows(2).all(|w| bits(&w[0]) == bits(&w[1])));
+    // The text summary names the engine.
+    let out = vitrum(&[
+        "render",
+        scene,
+        "-i",
+        "path",
+        "--spp",
+        "1",
+        "--resolution",
+        "8x8",
+        "-o",
+        dir.path().join("t.exr").to_str().unwrap(),
+    ]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("engine: wavefront (every stage across 16 lanes"), "{stderr}");
+    // A method without a wavefront engine refuses --engine wavefront, writing nothing.
+    let refused = dir.path().join("refused.exr");
+    let out =
+        vitrum(&["render", scene, "-i", "whitted", "--engine", "wavefront", "-o", refused.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("no wavefront engine"));
+    assert!(!refused.exists());
+    // An unknown engine is refused by the parser.
+    let out = vitrum(&["render", scene, "--engine", "gpu"]);
+    assert_eq!(out.status.code(), Some(2));
+    // vitrum info says which engine path runs, and why.
+    let out = vitrum(&["info", scene]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(text.contains("path engine: wavefront"), "{text}");
+    let out = vitrum(&["info", scene, "--json"]);
+    let info: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(info["path_engine"]["name"], "wavefront", "{info}");
+}
