@@ -62,6 +62,12 @@ impl Occupancy {
         }
     }
 
+    /// Adds `other`'s lanes.
+    pub fn merge(&mut self, other: &Occupancy) {
+        self.used += other.used;
+        self.issued += other.issued;
+    }
+
     fn add(&mut self, used: usize) {
         self.used += used as u64;
         self.issued += WIDTH as u64;
@@ -75,6 +81,14 @@ pub struct StageOccupancy {
     pub closest: Occupancy,
     /// Shadow rays.
     pub shadow: Occupancy,
+}
+
+impl StageOccupancy {
+    /// Adds `other`'s lanes, stage by stage.
+    pub fn merge(&mut self, other: &StageOccupancy) {
+        self.closest.merge(&other.closest);
+        self.shadow.merge(&other.shadow);
+    }
 }
 
 impl Wavefront {

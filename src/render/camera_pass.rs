@@ -45,6 +45,7 @@ impl CameraDims {
 /// Counters of one row over a range of samples.
 pub(super) struct RowStats {
     pub(super) rays: RayCounts,
+    pub(super) occupancy: StageOccupancy,
     pub(super) non_finite: u64,
     pub(super) requests: [u64; DIM_PURPOSES],
 }
@@ -148,6 +149,7 @@ impl<'a> Pass<'a> {
             let radiance = engine.radiance(self.scene, &self.opts.params, &rays, &mut ctxs, &mut occupancy);
             estimates.extend(ctxs.iter().zip(radiance).map(|(ctx, l)| self.finish(ctx, l, row)));
         }
+        row.occupancy.merge(&occupancy);
         estimates
     }
 
@@ -160,7 +162,12 @@ impl<'a> Pass<'a> {
         sum: &mut [DVec3],
         sum_sq: &mut [DVec3],
     ) -> RowStats {
-        let mut row = RowStats { rays: RayCounts::default(), non_finite: 0, requests: [0; DIM_PURPOSES] };
+        let mut row = RowStats {
+            rays: RayCounts::default(),
+            occupancy: StageOccupancy::default(),
+            non_finite: 0,
+            requests: [0; DIM_PURPOSES],
+        };
         let batch = match &self.engine.wavefront {
             Some(engine) => self.wavefront_row(engine, y, sum.len(), samples.clone(), total, &mut row),
             None => Vec::new(),
@@ -206,6 +213,7 @@ impl<'a> Pass<'a> {
             .collect();
         for row in rows {
             film.rays += row.rays;
+            film.occupancy.merge(&row.occupancy);
             film.non_finite += row.non_finite;
             for (a, b) in film.requests.0.iter_mut().zip(row.requests) {
                 *a += b;

@@ -155,10 +155,22 @@ pub fn camera_pass(
     opts: &RenderOptions,
     progress: &(dyn Fn(u64, u64) + Sync),
 ) -> (RenderOutput, DimensionRequests) {
+    let film = camera_film(scene, integrator, opts, progress);
+    (film.output(), film.requests)
+}
+
+/// The film of [`camera_pass`], with its counters (rays, sampler requests, the wavefront
+/// engine's lane occupancy by stage).
+pub fn camera_film(
+    scene: &Scene,
+    integrator: &dyn Integrator,
+    opts: &RenderOptions,
+    progress: &(dyn Fn(u64, u64) + Sync),
+) -> Film {
     let pass = Pass::new(scene, integrator, opts);
     let mut film = pass.film();
     run_camera_pass(&pass, &mut film, progress, &mut |_| {});
-    (film.output(), film.requests)
+    film
 }
 
 /// Render `opts.budget` with a method that adds sample indices itself (for its
