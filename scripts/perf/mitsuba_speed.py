@@ -12,7 +12,9 @@ for a quarter of an hour with the defaults:
    vitrum `path`, and Mitsuba `path` in every --variants (llvm_ad_rgb, scalar_rgb; each in its own
    process, llvm after one untimed warm-up render that compiles its kernels). Timed: vitrum's own
    render seconds; Mitsuba's mi.render plus evaluation of the image (not the scene load). Printed:
-   samples per second of each and the ratio vitrum ÷ Mitsuba.
+   samples per second of each and the ratio vitrum ÷ Mitsuba. `--isa avx2` narrows both to AVX2
+   (8 lanes) on an AVX-512 machine: vitrum by `VITRUM_ISA=avx2`, Dr.Jit's LLVM backend by its
+   `jit_llvm_set_target` (Haswell, 8 lanes).
 2. Error at equal time, at --quality-resolution (400). One shared reference: the mean of a
    vitrum and a Mitsuba (first variant) render of --reference-spp (2048) each, other seeds, so
    neither renderer is favoured. Then vitrum renders for --seconds (20) (`--time`), and each
@@ -64,10 +66,15 @@ def mitsuba_child(xml, variant, spp_list, seed, warm_up, out_prefix):
     print(json.dumps({"variant": variant, "mitsuba": mi.__version__, "results": results}))
 
 
+#: The vector instruction set both renderers use: "native" (the CPU's widest) or "avx2"
+#: (`--isa avx2`: vitrum's `VITRUM_ISA=avx2`, Dr.Jit's LLVM target narrowed to Haswell).
+ISA = "native"
+
+
 def mitsuba(xml, variant, spp_list, seed, out_prefix):
     """Mitsuba renders in a fresh process (llvm after an untimed warm-up)."""
     cmd = [sys.executable, os.path.abspath(__file__), "--child", xml, variant, ",".join(map(str, spp_list)),
-           str(seed), "1" if variant.startswith("llvm") else "0", out_prefix]
+           str(seed), "1" if variant.startswith("llvm") else "0", out_prefix, ISA]
     p = subprocess.run(cmd, capture_output=True, text=True)
     if p.returncode != 0:
         sys.stderr.write(p.stderr)
@@ -116,7 +123,13 @@ def main():
     ap.add_argument("--skip-quality", action="store_true", help="only the speed comparison")
     ap.add_argument("--out")
     ap.add_argument("--vitrum")
+    ap.add_argument("--isa", choices=["native", "avx2"], default="native",
+                    help="avx2: both renderers use AVX2 (8 lanes) on an AVX-512 machine")
     args = ap.parse_args()
+    global ISA
+    ISA = args.isa
+    if args.isa == "avx2":
+        os.environ["VITRUM_ISA"] = "avx2"
     vitrum = rc.find_vitrum(args.vitrum)
     variants = args.variants.split(",")
     if "llvm_ad_rgb" in variants and not rc.llvm_works(sys.executable):
@@ -142,7 +155,7 @@ def main():
         report["speed"][variant] = seconds
         report["mitsuba"] = r["mitsuba"]
     print(f"speed: {args.scene}, {res}, {args.spp} spp, max depth {args.max_depth} (Mitsuba {args.max_depth + 1}), "
-          f"Mitsuba sampler {args.mitsuba_sampler}, {args.runs} runs each")
+          f"Mitsuba sampler {args.mitsuba_sampler}, {args.runs} runs each, vector ISA {args.isa}")
     print("| renderer | seconds per run | Msamples/s | vitrum ÷ it |")
     print("|---|---|--:|--:|")
     for name, rate in rates.items():
@@ -193,7 +206,7 @@ def main():
 
 if __name__ == "__main__":
     if len(sys.argv) > 1 and sys.argv[1] == "--child":
-        xml, variant, spps, seed, warm, prefix = sys.argv[2:8]
-        mitsuba_child(xml, variant, [int(s) for s in spps.split(",")], int(seed), warm == "1", prefix)
+        xml, variant, spps, seed, warm, prefix, isa = sys.argv[2:9]
+        mitsuba_child(xml, variant, [int(s) for s in spps.split(",")], int(seed), warm == "1", prefix, isa)
     else:
         main()
