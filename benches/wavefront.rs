@@ -44,13 +44,15 @@ fn bench(c: &mut Criterion) {
     let mut lines = Vec::new();
     for name in ["soft-shadows", "cornell-glass"] {
         let scene = load(&root.join(format!("{name}.toml"))).unwrap();
-        let (scalar, wavefront) = (options(&scene, EngineOption::Scalar), options(&scene, EngineOption::Wavefront));
+        let (scalar, wavefront) =
+            (options(&scene, EngineOption::Scalar), options(&scene, EngineOption::Wavefront));
         let engine = create("path").unwrap().engine(&scene, &wavefront).describe();
         group.bench_function(format!("{name}/scalar"), |b| b.iter(|| render(&scene, &scalar)));
         group.bench_function(format!("{name}/wavefront"), |b| b.iter(|| render(&scene, &wavefront)));
         let (a, b) = (render(&scene, &scalar), render(&scene, &wavefront));
         assert_eq!(a.sum, b.sum, "{name}: the engines' images differ");
-        let (median, low, high) = paired_ratio(6, || drop(render(&scene, &scalar)), || drop(render(&scene, &wavefront)));
+        let (median, low, high) =
+            paired_ratio(6, || drop(render(&scene, &scalar)), || drop(render(&scene, &wavefront)));
         lines.push(format!(
             "wavefront-ratio: {name}: scalar / wavefront = {median:.2} (range {low:.2}-{high:.2}; {}; {engine})",
             Isa::detect().name()

@@ -124,6 +124,26 @@ impl Wavefront {
         }
     }
 
+    /// Where every stage runs across lanes, the estimates of the samples `samples` (of `total`)
+    /// of the pixels `xs` of row `y`, with their camera rays made across lanes too
+    /// ([`LaneStages::camera_samples`]); `None` elsewhere (the camera pass then makes the rays
+    /// and calls [`radiance`](Self::radiance)).
+    #[allow(clippy::too_many_arguments)]
+    pub fn camera_samples(
+        &self,
+        params: &RenderParams,
+        camera: &crate::camera::Camera,
+        seed: u64,
+        row: (u32, std::ops::Range<u32>),
+        samples: std::ops::Range<u32>,
+        total: u32,
+        counters: (&mut crate::stats::RayCounts, &mut [u64; crate::sampler::DIM_PURPOSES]),
+        occupancy: &mut StageOccupancy,
+    ) -> Option<Vec<Vec3>> {
+        let stages = self.stages.as_ref().ok()?;
+        Some(stages.camera_samples(params, camera, seed, row, samples, total, counters, occupancy))
+    }
+
     /// The radiance of every camera ray of `rays`, each with its sample's context (its random
     /// stream, channels and counters), as [`super::Path`]'s `radiance` gives it one at a time.
     pub fn radiance(

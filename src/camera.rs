@@ -27,7 +27,7 @@ pub struct Camera {
     /// Shutter interval (open, close).
     pub shutter: (f32, f32),
     /// Half the image plane's height at distance 1.
-    tan_half_fov: f32,
+    pub(crate) tan_half_fov: f32,
 }
 
 impl Camera {

@@ -31,7 +31,8 @@ use super::{Occupancy, StageOccupancy};
 use crate::bsdf::{RoughDielectric, TrowbridgeReitz};
 use crate::lanes::shading::{
     area_to_solid_angle, checker, concentric_polar, lambert_eval, lambert_pdf, lambert_sample,
-    power_heuristic, shadow_toward, spawn_origin, specular_sample, FrameX, SampleX, ShadowX,
+    pinhole_directions, power_heuristic, shadow_toward, spawn_origin, specular_sample, FrameX, SampleX,
+    ShadowX,
 };
 use crate::lanes::{
     dispatch, sobol_firsts, sobol_pairs, F32x, Isa, LaneHits, LaneScene, Lanes, Mask, RayLanes, SurfaceX,
@@ -39,7 +40,7 @@ use crate::lanes::{
 };
 use crate::light::Light;
 use crate::material::Bsdf;
-use crate::sampler::{Dim, SamplerKind, DIM_PURPOSES};
+use crate::sampler::{pixel_key, Dim, SamplerKind, DIM_PURPOSES};
 use crate::scene::{Effect, Scene};
 use crate::stats::RayCounts;
 use crate::texture::Texture;
@@ -175,11 +176,16 @@ impl PathChunk {
         slot: [NONE; WIDTH],
     };
 
+    /// Paths about to start: unit throughput, no medium, no MIS on what the camera sees.
+    const FRESH: PathChunk =
+        PathChunk { beta: Vec3x::ONE, eta_scale: F32x::ONE, skip_mis: Mask::ALL, ..PathChunk::IDLE };
+
     /// Lane `k`'s path.
     #[inline]
     fn lane(&self, k: usize) -> PathLane {
         PathLane {
-            vectors: [self.origin, self.dir, self.beta, self.absorption, self.radiance].map(|v| v.lane(k)),
+            vectors: [&self.origin, &self.dir, &self.beta, &self.absorption, &self.radiance]
+                .map(|v| v.lane(k)),
             eta_scale: self.eta_scale.0[k],
             bsdf_pdf: self.bsdf_pdf.0[k],
             skip_mis: self.skip_mis.0[k],
@@ -403,52 +409,112 @@ impl LaneStages {
         ctxs: &mut [PathContext],
         occupancy: &mut StageOccupancy,
     ) -> Vec<Vec3> {
-        SCRATCH.with_borrow_mut(|scratch| self.trace(params, rays, ctxs, occupancy, scratch))
-    }
-
-    /// [`radiance`](Self::radiance) with the thread's buffers.
-    fn trace(
-        &self,
-        params: &RenderParams,
-        rays: &[crate::geometry::Ray],
-        ctxs: &mut [PathContext],
-        occupancy: &mut StageOccupancy,
-        scratch: &mut Scratch,
-    ) -> Vec<Vec3> {
-        let n = rays.len();
-        let chunks = &mut scratch.chunks;
-        chunks.clear();
-        for (i, (ray, ctx)) in rays.iter().zip(ctxs.iter()).enumerate() {
-            let k = i % WIDTH;
-            if k == 0 {
-                chunks.push(PathChunk::IDLE);
+        let start = |chunks: &mut Vec<PathChunk>| {
+            for (i, (ray, ctx)) in rays.iter().zip(ctxs.iter()).enumerate() {
+                let stream = ctx.sampler.sobol_state().expect("LaneStages::new checked the sampler");
+                let c = lane_of(chunks, i);
+                c.origin.set_lane(i % WIDTH, ray.origin);
+                c.dir.set_lane(i % WIDTH, ray.dir);
+                let k = i % WIDTH;
+                (c.key[k], c.reversed[k], c.dimension[k]) =
+                    (stream.pixel_key, stream.reversed_sample, stream.dimension);
             }
-            let c = chunks.last_mut().expect("pushed above");
-            let stream = ctx.sampler.sobol_state().expect("LaneStages::new checked the sampler");
-            c.origin.set_lane(k, ray.origin);
-            c.dir.set_lane(k, ray.dir);
-            c.beta.set_lane(k, Vec3::ONE);
-            (c.eta_scale.0[k], c.skip_mis.0[k]) = (1.0, true);
-            (c.key[k], c.reversed[k], c.dimension[k]) =
-                (stream.pixel_key, stream.reversed_sample, stream.dimension);
-            c.slot[k] = i as u32;
-        }
-        let mut estimates = vec![Vec3::ZERO; n];
-        let tallies = &mut scratch.tallies;
-        tallies.clear();
-        tallies.resize(n, Tally::default());
-        while !chunks.is_empty() {
-            for chunk in chunks.iter_mut() {
-                self.round(params, chunk, occupancy);
-                finish_ended(chunk, &mut estimates, tallies);
-            }
-            compact(chunks);
-        }
-        for (ctx, tally) in ctxs.iter_mut().zip(tallies.iter()) {
+        };
+        let (estimates, tallies) = self.trace(params, rays.len(), start, occupancy);
+        for (ctx, tally) in ctxs.iter_mut().zip(tallies) {
             ctx.rays += tally.rays;
             ctx.sampler.skip(tally.dimensions, &tally.requests);
         }
         estimates
+    }
+
+    /// The estimates of the samples `samples` (of `total` planned, 0 when unknown) of the pixels
+    /// `xs` of row `y`, pixel by pixel and each pixel's in sample order, as the camera pass's
+    /// scalar samples give them (a pinhole `camera`, the Sobol' streams of `seed`), with the
+    /// camera rays made across lanes too; their rays and sampler requests are added to `rays`
+    /// and `requests`.
+    #[allow(clippy::too_many_arguments)]
+    pub fn camera_samples(
+        &self,
+        params: &RenderParams,
+        camera: &crate::camera::Camera,
+        seed: u64,
+        (y, xs): (u32, std::ops::Range<u32>),
+        samples: std::ops::Range<u32>,
+        total: u32,
+        counters: (&mut RayCounts, &mut [u64; DIM_PURPOSES]),
+        occupancy: &mut StageOccupancy,
+    ) -> Vec<Vec3> {
+        let isa = self.isa();
+        let per_pixel = samples.len();
+        let n = xs.len() * per_pixel;
+        // A single sample per pixel goes through the pixel's centre and draws nothing.
+        let offset = total != 1;
+        let start = |chunks: &mut Vec<PathChunk>| {
+            for (p, x) in xs.clone().enumerate() {
+                let key = pixel_key(seed, y as u64 * camera.width as u64 + x as u64);
+                for (j, s) in samples.clone().enumerate() {
+                    let i = p * per_pixel + j;
+                    let c = lane_of(chunks, i);
+                    let k = i % WIDTH;
+                    (c.key[k], c.reversed[k], c.dimension[k]) = (key, s.reverse_bits(), 2 * offset as u32);
+                    // The film position's integer part, for now.
+                    (c.origin.x.0[k], c.origin.y.0[k]) = (x as f32, y as f32);
+                }
+            }
+            for c in chunks.iter_mut() {
+                let (ox, oy) = if offset {
+                    let (ox, oy) = sobol_pairs(isa, &c.key, &c.reversed, &[0; WIDTH]);
+                    (F32x(ox), F32x(oy))
+                } else {
+                    (F32x::splat(0.5), F32x::splat(0.5))
+                };
+                c.dir = pinhole(isa, camera, &(c.origin.x + ox), &(c.origin.y + oy));
+                c.origin = Vec3x::splat(camera.position);
+            }
+        };
+        let (estimates, tallies) = self.trace(params, n, start, occupancy);
+        let (rays, requests) = counters;
+        for tally in tallies {
+            *rays += tally.rays;
+            for (total, n) in requests.iter_mut().zip(tally.requests) {
+                *total += n as u64;
+            }
+        }
+        rays.primary += n as u64;
+        requests[Dim::Pixel as usize] += if offset { n as u64 } else { 0 };
+        estimates
+    }
+
+    /// Traces `n` paths, which `start` sets going (their rays and streams, in the chunks it is
+    /// given with every lane's path state fresh and its slot set), to their ends: their
+    /// estimates and tallies, in slot order.
+    fn trace(
+        &self,
+        params: &RenderParams,
+        n: usize,
+        start: impl FnOnce(&mut Vec<PathChunk>),
+        occupancy: &mut StageOccupancy,
+    ) -> (Vec<Vec3>, Vec<Tally>) {
+        SCRATCH.with_borrow_mut(|scratch| {
+            let chunks = &mut scratch.chunks;
+            chunks.clear();
+            chunks.resize(n.div_ceil(WIDTH), PathChunk::FRESH);
+            for (i, slot) in (0..chunks.len() * WIDTH).zip(0u32..) {
+                chunks[i / WIDTH].slot[i % WIDTH] = if i < n { slot } else { NONE };
+            }
+            start(chunks);
+            let mut estimates = vec![Vec3::ZERO; n];
+            let mut tallies = vec![Tally::default(); n];
+            while !chunks.is_empty() {
+                for chunk in chunks.iter_mut() {
+                    self.round(params, chunk, occupancy);
+                    finish_ended(chunk, &mut estimates, &mut tallies);
+                }
+                compact(chunks);
+            }
+            (estimates, tallies)
+        })
     }
 
     /// One bounce of the 16 paths of `chunk`; the lanes whose path ends get the slot
@@ -555,6 +621,12 @@ impl LaneStages {
     }
 }
 
+/// The chunk of path `i` (lane `i % WIDTH`).
+#[inline]
+fn lane_of(chunks: &mut [PathChunk], i: usize) -> &mut PathChunk {
+    &mut chunks[i / WIDTH]
+}
+
 /// Writes out the estimate and counters of every lane of `chunk` whose path ended this round
 /// (marked by a depth of `u32::MAX`) and makes the lane idle.
 fn finish_ended(chunk: &mut PathChunk, estimates: &mut [Vec3], tallies: &mut [Tally]) {
@@ -614,7 +686,6 @@ fn compact(chunks: &mut Vec<PathChunk>) {
 #[derive(Default)]
 struct Scratch {
     chunks: Vec<PathChunk>,
-    tallies: Vec<Tally>,
 }
 
 thread_local! {
@@ -694,6 +765,17 @@ fn shade_before_kernel(
         shadow,
         nee_value: f * radiance * (w_light / pdf),
     }
+}
+
+/// The pinhole camera's ray directions through the film positions (`fx`, `fy`).
+#[inline(always)]
+fn pinhole_kernel(camera: &crate::camera::Camera, fx: &F32x, fy: &F32x) -> Vec3x {
+    pinhole_directions(camera, *fx, *fy)
+}
+
+dispatch! {
+    /// [`pinhole_kernel`] compiled for `isa`.
+    fn pinhole(camera: &crate::camera::Camera, fx: &F32x, fy: &F32x) -> Vec3x => pinhole_kernel
 }
 
 dispatch! {

@@ -9,6 +9,21 @@ use super::wide::{F32x, Mask, Vec3x};
 use glam::Vec3;
 use std::f32::consts::{FRAC_1_PI, FRAC_PI_2, FRAC_PI_4, PI};
 
+/// [`crate::camera::Camera::generate_ray`]'s directions through the film positions (`fx`,
+/// `fy`) in pixel units (the rays start at the camera's position).
+#[inline(always)]
+pub fn pinhole_directions(camera: &crate::camera::Camera, fx: F32x, fy: F32x) -> Vec3x {
+    let (w, h) = (camera.width as f32, camera.height as f32);
+    let aspect = w / h;
+    let tan = camera.tan_half_fov;
+    let ndc_x = (2.0 * fx / w - 1.0) * aspect * tan;
+    let ndc_y = (1.0 - 2.0 * fy / h) * tan;
+    let dir =
+        (Vec3x::splat(camera.forward) + ndc_x * Vec3x::splat(camera.right)) + ndc_y * Vec3x::splat(camera.up);
+    // Ray::new canonicalises −0 to +0.
+    dir.normalize() + Vec3x::splat(Vec3::ZERO)
+}
+
 /// A local frame per lane: [`crate::bsdf::Frame`].
 #[derive(Clone, Copy, Debug)]
 pub struct FrameX {
@@ -283,6 +298,17 @@ mod tests {
             let (lambert_ok, lambert) = lambert_sample(raw, a, b.x * 0.7, b.y * 0.7);
             let shadow = shadow_toward(raw, a, s * 1e-3, raw + b);
             let albedo = checker(raw, s + 0.1, a, b);
+            let camera = crate::camera::Camera::new(
+                Vec3::new(0.1, 1.0, 3.8),
+                Vec3::new(0.0, 0.9, 0.0),
+                Vec3::Y,
+                39.0,
+                40,
+                30,
+            )
+            .unwrap();
+            let (fx, fy) = (u * 40.0, F32x(std::array::from_fn(|k| input[k][5].abs() * 30.0)));
+            let pinhole = pinhole_directions(&camera, fx, fy);
             for k in 0..WIDTH {
                 let (va, vb, vraw) = (a.lane(k), b.lane(k), raw.lane(k));
                 let f = Frame::from_normal(va);
@@ -331,6 +357,8 @@ mod tests {
                     same(shadow.origin.lane(k), want.ray.origin) && same(shadow.dir.lane(k), want.ray.dir)
                 );
                 assert_eq!(shadow.tmax.0[k].to_bits(), want.tmax.to_bits());
+                let ray = camera.generate_ray(Vec2::new(fx.0[k], fy.0[k]));
+                assert!(same(pinhole.lane(k), ray.dir), "camera ray through ({}, {})", fx.0[k], fy.0[k]);
                 let texture = crate::texture::Texture::Checker { color1: va, color2: vb, size: s.0[k] + 0.1 };
                 assert!(same(albedo.lane(k), texture.eval(vraw, Vec2::ZERO)));
             }

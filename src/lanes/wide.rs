@@ -66,6 +66,8 @@ fn test(a: &Lanes, b: &Lanes, f: impl Fn(f32, f32) -> bool) -> Mask {
 impl F32x {
     /// 0 in every lane.
     pub const ZERO: F32x = F32x([0.0; WIDTH]);
+    /// 1 in every lane.
+    pub const ONE: F32x = F32x([1.0; WIDTH]);
 
     /// `v` in every lane.
     #[inline(always)]
@@ -294,6 +296,8 @@ impl Not for Mask {
 impl Vec3x {
     /// The zero vector in every lane.
     pub const ZERO: Vec3x = Vec3x { x: F32x::ZERO, y: F32x::ZERO, z: F32x::ZERO };
+    /// (1, 1, 1) in every lane.
+    pub const ONE: Vec3x = Vec3x { x: F32x::ONE, y: F32x::ONE, z: F32x::ONE };
 
     /// Sets lane `k` to `v`.
     #[inline(always)]

@@ -137,11 +137,28 @@ impl<'a> Pass<'a> {
         let (mut rays, mut ctxs) = (Vec::new(), Vec::new());
         let mut occupancy = StageOccupancy::default();
         for first in (0..width).step_by(pixels_per_batch) {
+            let xs = first as u32..(first + pixels_per_batch).min(width) as u32;
+            let counters = (&mut row.rays, &mut row.requests);
+            let (opts, camera) = (&self.opts, &self.camera);
+            let lanes = (y, xs.clone());
+            if let Some(batch) = engine.camera_samples(
+                &opts.params,
+                camera,
+                opts.seed,
+                lanes,
+                samples.clone(),
+                total,
+                counters,
+                &mut occupancy,
+            ) {
+                estimates.extend(batch);
+                continue;
+            }
             rays.clear();
             ctxs.clear();
-            for x in first..(first + pixels_per_batch).min(width) {
+            for x in xs {
                 for s in samples.clone() {
-                    let (ray, ctx) = self.start(x as u32, y, s, total);
+                    let (ray, ctx) = self.start(x, y, s, total);
                     rays.push(ray);
                     ctxs.push(ctx);
                 }

@@ -171,7 +171,7 @@ impl Sampler {
     /// index) under `seed`. Stratification needs the sample count; with 0 (unknown, as in
     /// time-budget renders) or 1 the stream is independent.
     pub fn new(kind: SamplerKind, seed: u64, pixel: u64, sample: u32, samples_per_pixel: u32) -> Sampler {
-        let pixel_key = mix64(mix64(seed ^ 0x5eed_5eed_5eed_5eed) ^ pixel);
+        let pixel_key = pixel_key(seed, pixel);
         let sample_key = mix64(pixel_key ^ (sample as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15));
         let mode = match kind {
             SamplerKind::Stratified if samples_per_pixel > 1 => Mode::Stratified,
@@ -289,6 +289,12 @@ pub struct SobolState {
     pub reversed_sample: u32,
     /// The next dimension.
     pub dimension: u32,
+}
+
+/// The key of pixel `pixel`'s streams under `seed` (what every request of its samples hashes).
+#[inline(always)]
+pub(crate) fn pixel_key(seed: u64, pixel: u64) -> u64 {
+    mix64(mix64(seed ^ 0x5eed_5eed_5eed_5eed) ^ pixel)
 }
 
 /// The three hash seeds of the Sobol' request at dimension `d` of the pixel with key
