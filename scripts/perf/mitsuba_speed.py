@@ -42,13 +42,31 @@ import reference_check as rc  # noqa: E402  (find_vitrum, run, llvm_works, fail,
 REPO = os.path.dirname(os.path.dirname(HERE))
 
 
-def mitsuba_child(xml, variant, spp_list, seed, warm_up, out_prefix):
+def narrow_llvm_to_avx2():
+    """Make Dr.Jit's LLVM backend compile for AVX2, 8 lanes (Haswell), as on an AVX2 machine:
+    `jit_llvm_set_target` of libdrjit-core, which Dr.Jit's Python API does not expose."""
+    import ctypes
+    import drjit as dr
+
+    lib = ctypes.CDLL(os.path.join(os.path.dirname(dr.__file__), "libdrjit-core.so"))
+    set_target = lib["_Z19jit_llvm_set_targetPKcS0_j"]
+    set_target.argtypes = [ctypes.c_char_p, ctypes.c_char_p, ctypes.c_uint32]
+    set_target(b"haswell", None, 8)
+    width = lib["_Z21jit_llvm_vector_widthv"]
+    width.restype = ctypes.c_uint32
+    if width() != 8:
+        rc.fail(1, f"Dr.Jit's LLVM backend kept {width()} lanes")
+
+
+def mitsuba_child(xml, variant, spp_list, seed, warm_up, out_prefix, isa):
     """Render `xml` with `variant` at each spp of `spp_list` (in this process); print JSON."""
     import drjit as dr
     import mitsuba as mi
     import numpy as np
 
     mi.set_variant(variant)
+    if isa == "avx2" and variant.startswith("llvm"):
+        narrow_llvm_to_avx2()
     scene = mi.load_file(xml)
     results = []
     if warm_up:
