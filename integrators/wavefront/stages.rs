@@ -714,16 +714,46 @@ fn shade_before_kernel(
     // An escaped ray outside any medium sees the background (no environment light).
     let escaped =
         Vec3x::select(live & chunk.absorption.is_zero(), beta * Vec3x::splat(stages.background), Vec3x::ZERO);
-    // Emission reached by BSDF sampling (or seen directly), weighted against NEE.
+    // Emission reached by BSDF sampling (or seen directly), weighted against NEE. Each part
+    // below runs only where some lane of the chunk needs it (the others' results are unused).
     let le = Vec3x::select(n.dot(wo).gt(zero), prims.emit_radiance.at(primitive), Vec3x::ZERO);
-    let pdf_li = area_to_solid_angle(prims.emit_area_pdf.at(primitive), origin, p, n);
-    let w =
-        F32x::select(chunk.skip_mis, F32x::splat(1.0), power_heuristic(chunk.bsdf_pdf, light_pick * pdf_li));
-    let emission = Vec3x::select(!le.is_zero(), beta * le * w, Vec3x::ZERO);
+    let emits = !le.is_zero();
+    let emission = if emits.any() {
+        let pdf_li = area_to_solid_angle(prims.emit_area_pdf.at(primitive), origin, p, n);
+        let mis = power_heuristic(chunk.bsdf_pdf, light_pick * pdf_li);
+        let w = F32x::select(chunk.skip_mis, F32x::splat(1.0), mis);
+        Vec3x::select(emits, beta * le * w, Vec3x::ZERO)
+    } else {
+        Vec3x::ZERO
+    };
     let frame = FrameX::from_normal(n);
     let wo_local = frame.to_local(wo);
-    // Smooth glass: RoughDielectric::sample.
-    let (glass_ok, glass) = specular_sample(prims.eta.at(primitive), wo_local, draws.first.0);
+    let mut shaded = Shaded {
+        emitted: Vec3x::select(v.hit, emission, escaped),
+        frame,
+        wo_local,
+        albedo: Vec3x::ZERO,
+        centre: Mask::NONE,
+        radius: zero,
+        theta: zero,
+        glass_ok: Mask::NONE,
+        glass: SampleX { wi: Vec3x::ZERO, f: Vec3x::ZERO, pdf: zero, transmits: Mask::NONE, eta: F32x::ONE },
+        inside: Vec3x::ZERO,
+        outside: Vec3x::ZERO,
+        pending: Mask::NONE,
+        shadowed: Mask::NONE,
+        shadow: ShadowX { origin: Vec3x::ZERO, dir: Vec3x::ZERO, tmax: zero, remaining: zero },
+        nee_value: Vec3x::ZERO,
+    };
+    if v.glass.any() {
+        // Smooth glass: RoughDielectric::sample.
+        let (glass_ok, glass) = specular_sample(prims.eta.at(primitive), wo_local, draws.first.0);
+        (shaded.glass_ok, shaded.glass) = (v.glass & glass_ok, glass);
+        (shaded.inside, shaded.outside) = (prims.inside.at(primitive), prims.outside.at(primitive));
+    }
+    if !v.diffuse.any() {
+        return shaded;
+    }
     // A diffuse vertex: the albedo, then next-event estimation (Light::sample_li of a quad).
     let albedo = checker(p, prims.cell.at(primitive), prims.color1.at(primitive), prims.color2.at(primitive));
     let l = &draws.light;
@@ -749,21 +779,15 @@ fn shade_before_kernel(
     // The diffuse BSDF sample's point on the disk, up to its trigonometry.
     let (centre, radius, theta) = concentric_polar(draws.bsdf.0, draws.bsdf.1);
     Shaded {
-        emitted: Vec3x::select(v.hit, emission, escaped),
-        frame,
-        wo_local,
         albedo,
         centre,
         radius,
         theta,
-        glass_ok: v.glass & glass_ok,
-        glass,
-        inside: prims.inside.at(primitive),
-        outside: prims.outside.at(primitive),
         pending,
         shadowed: pending & !shadow.remaining.le(zero),
         shadow,
         nee_value: f * radiance * (w_light / pdf),
+        ..shaded
     }
 }
 
