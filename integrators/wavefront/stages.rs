@@ -583,12 +583,27 @@ impl LaneStages {
             })
         };
         let (keys, reversed) = (&chunk.key, &chunk.reversed);
-        let first = sobol_pairs(isa, keys, reversed, &at(picks, 0));
-        let bsdf = sobol_pairs(isa, keys, reversed, &at(picks + 2, 1));
+        // Glass reads only the first number of its pair and none of its BSDF pair (a smooth
+        // interface needs none): a chunk without diffuse vertices draws those alone.
+        let (first, bsdf) = if v.diffuse.any() {
+            (
+                sobol_pairs(isa, keys, reversed, &at(picks, 0)),
+                sobol_pairs(isa, keys, reversed, &at(picks + 2, 1)),
+            )
+        } else if v.glass.any() {
+            ((sobol_firsts(isa, keys, reversed, &at(picks, 0)), [0.0; WIDTH]), ([0.0; WIDTH], [0.0; WIDTH]))
+        } else {
+            (([0.0; WIDTH], [0.0; WIDTH]), ([0.0; WIDTH], [0.0; WIDTH]))
+        };
         // Roulette plays from the fourth bounce on: earlier rounds draw no roulette number.
-        let deep = (0..WIDTH).any(|k| chunk.slot[k] != NONE && chunk.depth[k] >= ROULETTE_DEPTH);
+        let scatters = v.diffuse | v.glass;
+        let deep = (0..WIDTH).any(|k| scatters.0[k] && chunk.depth[k] >= ROULETTE_DEPTH);
         let roulette = if deep { sobol_firsts(isa, keys, reversed, &at(picks + 4, 3)) } else { [1.0; WIDTH] };
-        let pick = if picks > 0 { sobol_firsts(isa, keys, reversed, &chunk.dimension) } else { [0.0; WIDTH] };
+        let pick = if picks > 0 && v.diffuse.any() {
+            sobol_firsts(isa, keys, reversed, &chunk.dimension)
+        } else {
+            [0.0; WIDTH]
+        };
         // pick_light: one light draws no number.
         let light = std::array::from_fn(|k| {
             if count == 1 {
