@@ -229,9 +229,13 @@ fn the_engine_is_chosen_by_what_the_scene_calls_for_and_says_why() {
         soft.starts_with("wavefront (every stage across 16 lanes") || soft.contains("every stage across"),
         "{soft}"
     );
-    // A point light: hits and shadow rays across lanes, shading path by path, and why.
+    // The thesis's scene, a point light: every stage across lanes too.
     let point = describe(&scene("cornell-glass"), EngineOption::Auto);
-    assert!(point.contains("shading one path at a time") && point.contains("not a quad"), "{point}");
+    assert!(point.contains("every stage across"), "{point}");
+    // A rough mirror and rough glass: hits and shadow rays across lanes, shading path by path,
+    // and why.
+    let frosted = describe(&scene("frosted-glass"), EngineOption::Auto);
+    assert!(frosted.contains("shading one path at a time") && frosted.contains("is a mirror"), "{frosted}");
     // Moving objects: no lane form; auto runs the scalar engine and says why.
     let motion = describe(&scene("motion-blur"), EngineOption::Auto);
     assert!(motion.starts_with("scalar:") && motion.contains("motion blur"), "{motion}");

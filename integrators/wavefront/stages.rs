@@ -108,14 +108,18 @@ struct Primitives {
     emit_area_pdf: Table,
 }
 
-/// The quad lights, per light.
+/// The lights (quads and points), per light.
 #[derive(Clone, Debug)]
-struct QuadLights {
+struct Lights {
     count: usize,
+    /// 1 for a point light, 0 for a quad.
+    point: Table,
+    /// A quad's corner, a point light's position.
     corner: Table3,
     u: Table3,
     v: Table3,
     normal: Table3,
+    /// A quad's radiance, a point light's intensity.
     radiance: Table3,
     /// 1/area, as [`Light::pdf_li`] computes it.
     area_pdf: Table,
@@ -126,7 +130,7 @@ struct QuadLights {
 pub struct LaneStages {
     lanes: LaneScene,
     primitives: Primitives,
-    lights: QuadLights,
+    lights: Lights,
     background: Vec3,
 }
 
@@ -311,7 +315,8 @@ struct Shaded {
 
 impl LaneStages {
     /// The stages for `scene` rendered with `sampler` in RGB (`spectral` false) without depth of
-    /// field, or why they cannot run it (an effect whose stage is not across lanes yet).
+    /// field, with quad and point lights, or why they cannot run it (an effect whose stage is
+    /// not across lanes yet).
     pub fn new(
         scene: &Scene,
         lanes: LaneScene,
@@ -330,8 +335,9 @@ impl LaneStages {
         if scene.lights.is_empty() || scene.lights.len() > ENTRIES {
             return Err(format!("{} lights (the lanes take 1 to {ENTRIES})", scene.lights.len()));
         }
-        let mut lights = QuadLights {
+        let mut lights = Lights {
             count: scene.lights.len(),
+            point: Table::ZERO,
             corner: Table3::ZERO,
             u: Table3::ZERO,
             v: Table3::ZERO,
@@ -340,8 +346,20 @@ impl LaneStages {
             area_pdf: Table::ZERO,
         };
         for (i, light) in scene.lights.iter().enumerate() {
-            let Light::Quad { corner, u, v, normal, radiance } = *light else {
-                return Err("a light is not a quad (quad lights have a lane form)".into());
+            let (corner, u, v, normal, radiance) = match *light {
+                Light::Quad { corner, u, v, normal, radiance } => (corner, u, v, normal, radiance),
+                Light::Point { position, intensity } => {
+                    lights.point.0[i] = 1.0;
+                    lights.corner.set(i, position);
+                    lights.radiance.set(i, intensity);
+                    continue;
+                }
+                _ => {
+                    return Err(
+                        "a light is a sphere, an emissive object or the environment (quads and points have a lane form)"
+                            .into(),
+                    )
+                }
             };
             lights.corner.set(i, corner);
             lights.u.set(i, u);
@@ -776,21 +794,28 @@ fn shade_before_kernel(
     let one = lights.count == 1;
     let vector = |t: &Table3| if one { Vec3x::splat(t.get(0)) } else { t.at(l) };
     let (ux, uy) = draws.first;
-    let y = vector(&lights.corner) + ux * vector(&lights.u) + uy * vector(&lights.v);
+    let point = if one { Mask::splat(lights.point.0[0] != 0.0) } else { lights.point.at(l).ne(zero) };
+    // Light::sample_li of a quad (a point on it) or of a point light.
+    let corner = vector(&lights.corner);
+    let y = Vec3x::select(point, corner, corner + ux * vector(&lights.u) + uy * vector(&lights.v));
     let ny = vector(&lights.normal);
     let d = y - p;
     let distance = d.length();
     let wi = d / distance;
-    let radiance = Vec3x::select(ny.dot(-wi).gt(zero), vector(&lights.radiance), Vec3x::ZERO);
+    let emitted = vector(&lights.radiance);
+    let quad_radiance = Vec3x::select(ny.dot(-wi).gt(zero), emitted, Vec3x::ZERO);
+    let radiance = Vec3x::select(point, emitted / (distance * distance), quad_radiance);
     let area_pdf = if one { F32x::splat(lights.area_pdf.0[0]) } else { lights.area_pdf.at(l) };
-    let pdf = area_to_solid_angle(area_pdf, p, y, ny);
-    let sampled = distance.gt(zero) & !radiance.is_zero() & pdf.gt(zero) & pdf.is_finite();
+    let pdf = F32x::select(point, F32x::ONE, area_to_solid_angle(area_pdf, p, y, ny));
+    let quad_sampled = !radiance.is_zero() & pdf.gt(zero) & pdf.is_finite();
+    let sampled = distance.gt(zero) & (point | quad_sampled);
     let wi_local = frame.to_local(wi);
     let f = lambert_eval(albedo, wo_local, wi_local) * (wi_local.z.abs() * 1.0);
     let pending = v.diffuse & sampled & !f.is_zero();
     let shadow = shadow_toward(p, n, records.p_error, y);
     let pdf = light_pick * pdf;
-    let w_light = power_heuristic(pdf, lambert_pdf(wo_local, wi_local));
+    // A point light is a delta: no MIS.
+    let w_light = F32x::select(point, F32x::ONE, power_heuristic(pdf, lambert_pdf(wo_local, wi_local)));
     // The diffuse BSDF sample's point on the disk, up to its trigonometry.
     let (centre, radius, theta) = concentric_polar(draws.bsdf.0, draws.bsdf.1);
     Shaded {
