@@ -19,7 +19,7 @@ pub use path::{Path, DEFAULT_PATH_DEPTH};
 pub use raycast::RayCast;
 pub use ssaa::Ssaa;
 pub use vertex_merging::{initial_radius, iteration_radius, Algorithm, VertexMerging};
-pub use wavefront::{Occupancy, StageOccupancy, Wavefront};
+pub use wavefront::{Occupancy, SampleBatch, StageOccupancy, Wavefront};
 pub use whitted::Whitted;
 
 use crate::bsdf::{BsdfSample, Scattering, TransportMode};

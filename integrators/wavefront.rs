@@ -43,6 +43,20 @@ pub struct Wavefront {
     stages: Result<LaneStages, String>,
 }
 
+/// Camera samples of one row: the samples `samples` (of `total` planned, 0 when unknown) of the
+/// pixels `xs` of row `y`, taken pixel by pixel and each pixel's in sample order.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct SampleBatch {
+    /// The row.
+    pub y: u32,
+    /// The pixels of the row.
+    pub xs: std::ops::Range<u32>,
+    /// The sample indices of each pixel.
+    pub samples: std::ops::Range<u32>,
+    /// The planned sample count (1: through the pixel's centre).
+    pub total: u32,
+}
+
 /// How full a stage's batches were: lanes that carried a ray, of the lanes issued.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Occupancy {
@@ -124,24 +138,20 @@ impl Wavefront {
         }
     }
 
-    /// Where every stage runs across lanes, the estimates of the samples `samples` (of `total`)
-    /// of the pixels `xs` of row `y`, with their camera rays made across lanes too
-    /// ([`LaneStages::camera_samples`]); `None` elsewhere (the camera pass then makes the rays
-    /// and calls [`radiance`](Self::radiance)).
-    #[allow(clippy::too_many_arguments)]
+    /// Where every stage runs across lanes, the estimates of `batch`'s samples with their camera
+    /// rays made across lanes too ([`LaneStages::camera_samples`]); `None` elsewhere (the camera
+    /// pass then makes the rays and calls [`radiance`](Self::radiance)).
     pub fn camera_samples(
         &self,
         params: &RenderParams,
         camera: &crate::camera::Camera,
         seed: u64,
-        row: (u32, std::ops::Range<u32>),
-        samples: std::ops::Range<u32>,
-        total: u32,
+        batch: &SampleBatch,
         counters: (&mut crate::stats::RayCounts, &mut [u64; crate::sampler::DIM_PURPOSES]),
         occupancy: &mut StageOccupancy,
     ) -> Option<Vec<Vec3>> {
         let stages = self.stages.as_ref().ok()?;
-        Some(stages.camera_samples(params, camera, seed, row, samples, total, counters, occupancy))
+        Some(stages.camera_samples(params, camera, seed, batch, counters, occupancy))
     }
 
     /// The radiance of every camera ray of `rays`, each with its sample's context (its random

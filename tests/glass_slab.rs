@@ -3,49 +3,14 @@
 //! At normal incidence each face reflects R = ((n−1)/(n+1))²; summing the light that passes
 //! after 0, 2, 4, … internal reflections gives L·(1−R)²·Σ R^(2k) = L·(1−R)/(1+R).
 
+mod common;
+
 use glam::Vec2;
 use vitrum::integrators::{create, PathContext, RenderParams};
 use vitrum::sampler::Sampler;
 use vitrum::scene::load_str;
 
-const SLAB: &str = r#"
-[camera]
-position = [0.0, 0.0, 5.0]
-look_at = [0.0, 0.0, 0.0]
-fov = 10.0
-resolution = [9, 9]
-
-[render.whitted]
-max_depth = 40
-
-[materials.glass]
-type = "dielectric"
-ior = 1.5
-phong = { specular = 0.0 }
-
-# the slab: z in [-0.5, 0.5], faces far larger than the view, normals pointing out of the glass
-[[objects]]
-shape = "quad"
-corner = [-50.0, -50.0, 0.5]
-u = [100.0, 0.0, 0.0]
-v = [0.0, 100.0, 0.0]
-material = "glass"
-
-[[objects]]
-shape = "quad"
-corner = [-50.0, -50.0, -0.5]
-u = [0.0, 100.0, 0.0]
-v = [100.0, 0.0, 0.0]
-material = "glass"
-
-# the emitter behind it, facing the camera
-[[lights]]
-type = "quad"
-corner = [-50.0, -50.0, -3.0]
-u = [100.0, 0.0, 0.0]
-v = [0.0, 100.0, 0.0]
-radiance = [2.0, 1.0, 0.5]
-"#;
+use common::GLASS_SLAB as SLAB;
 
 #[test]
 fn emitter_through_a_glass_slab_matches_the_closed_form() {

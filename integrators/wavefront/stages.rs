@@ -27,7 +27,7 @@
 #![allow(clippy::needless_range_loop)]
 
 use super::super::{PathContext, RenderParams};
-use super::{Occupancy, StageOccupancy};
+use super::{Occupancy, SampleBatch, StageOccupancy};
 use crate::bsdf::{RoughDielectric, TrowbridgeReitz};
 use crate::lanes::shading::{
     area_to_solid_angle, checker, concentric_polar, lambert_eval, lambert_pdf, lambert_sample,
@@ -446,23 +446,19 @@ impl LaneStages {
         estimates
     }
 
-    /// The estimates of the samples `samples` (of `total` planned, 0 when unknown) of the pixels
-    /// `xs` of row `y`, pixel by pixel and each pixel's in sample order, as the camera pass's
-    /// scalar samples give them (a pinhole `camera`, the Sobol' streams of `seed`), with the
-    /// camera rays made across lanes too; their rays and sampler requests are added to `rays`
-    /// and `requests`.
-    #[allow(clippy::too_many_arguments)]
+    /// The estimates of `batch`'s samples, as the camera pass's scalar samples give them (a
+    /// pinhole `camera`, the Sobol' streams of `seed`), with the camera rays made across lanes
+    /// too; their rays and sampler requests are added to `counters`.
     pub fn camera_samples(
         &self,
         params: &RenderParams,
         camera: &crate::camera::Camera,
         seed: u64,
-        (y, xs): (u32, std::ops::Range<u32>),
-        samples: std::ops::Range<u32>,
-        total: u32,
+        batch: &SampleBatch,
         counters: (&mut RayCounts, &mut [u64; DIM_PURPOSES]),
         occupancy: &mut StageOccupancy,
     ) -> Vec<Vec3> {
+        let SampleBatch { y, xs, samples, total } = batch.clone();
         let isa = self.isa();
         let per_pixel = samples.len();
         let n = xs.len() * per_pixel;

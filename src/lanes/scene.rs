@@ -223,29 +223,48 @@ fn keep_closest(
     }
 }
 
-/// Every primitive's kernel in turn, in one function (so that the rays stay in registers).
+/// Every primitive's kernel in turn, in one function (so that the rays stay in registers):
+/// `visit(state, t, primitive, rank)` sees each primitive's hit distances below
+/// `limit(state)`.
 #[inline(always)]
-fn closest_kernel(scene: &LaneScene, rays: &RayLanes, tmax: &Lanes) -> LaneHits {
-    let mut best = LaneHits { t: [f32::INFINITY; WIDTH], primitive: [NONE; WIDTH] };
-    let mut rank = [u32::MAX; WIDTH];
-    let mut limit = *tmax;
+fn each_primitive<S>(
+    scene: &LaneScene,
+    rays: &RayLanes,
+    state: &mut S,
+    limit: impl Fn(&S) -> Lanes,
+    visit: impl Fn(&mut S, &Lanes, u32, u32),
+) {
     for e in &scene.quads {
-        let t = quad_kernel(&e.shape, rays, 0.0, &limit);
-        keep_closest(&mut best, &mut rank, &mut limit, &t, e.primitive, e.rank);
+        let t = quad_kernel(&e.shape, rays, 0.0, &limit(state));
+        visit(state, &t, e.primitive, e.rank);
     }
     for e in &scene.spheres {
-        let t = sphere_kernel(&e.shape, rays, 0.0, &limit);
-        keep_closest(&mut best, &mut rank, &mut limit, &t, e.primitive, e.rank);
+        let t = sphere_kernel(&e.shape, rays, 0.0, &limit(state));
+        visit(state, &t, e.primitive, e.rank);
     }
     for e in &scene.cylinders {
-        let t = cylinder_kernel(&e.shape, rays, 0.0, &limit);
-        keep_closest(&mut best, &mut rank, &mut limit, &t, e.primitive, e.rank);
+        let t = cylinder_kernel(&e.shape, rays, 0.0, &limit(state));
+        visit(state, &t, e.primitive, e.rank);
     }
     for e in &scene.disks {
-        let t = disk_kernel(&e.shape, rays, 0.0, &limit);
-        keep_closest(&mut best, &mut rank, &mut limit, &t, e.primitive, e.rank);
+        let t = disk_kernel(&e.shape, rays, 0.0, &limit(state));
+        visit(state, &t, e.primitive, e.rank);
     }
-    best
+}
+
+/// The closest hit of every lane among all primitives.
+#[inline(always)]
+fn closest_kernel(scene: &LaneScene, rays: &RayLanes, tmax: &Lanes) -> LaneHits {
+    let best = LaneHits { t: [f32::INFINITY; WIDTH], primitive: [NONE; WIDTH] };
+    let mut state = (best, [u32::MAX; WIDTH], *tmax);
+    each_primitive(
+        scene,
+        rays,
+        &mut state,
+        |(_, _, limit)| *limit,
+        |(best, rank, limit), t, primitive, r| keep_closest(best, rank, limit, t, primitive, r),
+    );
+    state.0
 }
 
 dispatch! {
@@ -271,7 +290,7 @@ fn keep_blockers(
     }
 }
 
-/// Every primitive's kernel in turn, in one function, for shadow rays.
+/// Whether a primitive blocks each lane's shadow ray.
 #[inline(always)]
 fn any_hit_kernel(
     scene: &LaneScene,
@@ -281,22 +300,13 @@ fn any_hit_kernel(
     reach: &Lanes,
 ) -> [bool; WIDTH] {
     let mut blocked = [false; WIDTH];
-    for e in &scene.quads {
-        let t = quad_kernel(&e.shape, rays, 0.0, tmax);
-        keep_blockers(scene, &mut blocked, &t, e.primitive, light, reach);
-    }
-    for e in &scene.spheres {
-        let t = sphere_kernel(&e.shape, rays, 0.0, tmax);
-        keep_blockers(scene, &mut blocked, &t, e.primitive, light, reach);
-    }
-    for e in &scene.cylinders {
-        let t = cylinder_kernel(&e.shape, rays, 0.0, tmax);
-        keep_blockers(scene, &mut blocked, &t, e.primitive, light, reach);
-    }
-    for e in &scene.disks {
-        let t = disk_kernel(&e.shape, rays, 0.0, tmax);
-        keep_blockers(scene, &mut blocked, &t, e.primitive, light, reach);
-    }
+    each_primitive(
+        scene,
+        rays,
+        &mut blocked,
+        |_| *tmax,
+        |blocked, t, primitive, _| keep_blockers(scene, blocked, t, primitive, light, reach),
+    );
     blocked
 }
 

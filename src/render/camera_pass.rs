@@ -4,7 +4,7 @@
 use super::*;
 use crate::camera::Camera;
 use crate::geometry::Ray;
-use crate::integrators::{EngineChoice, Integrator, PathContext, StageOccupancy, Wavefront};
+use crate::integrators::{EngineChoice, Integrator, PathContext, SampleBatch, StageOccupancy, Wavefront};
 use crate::sampler::{Dim, Sampler, DIM_PURPOSES};
 use crate::scene::effects::Support;
 use crate::scene::{Effect, Scene, SpectralMode};
@@ -138,20 +138,13 @@ impl<'a> Pass<'a> {
         let mut occupancy = StageOccupancy::default();
         for first in (0..width).step_by(pixels_per_batch) {
             let xs = first as u32..(first + pixels_per_batch).min(width) as u32;
+            let batch = SampleBatch { y, xs: xs.clone(), samples: samples.clone(), total };
             let counters = (&mut row.rays, &mut row.requests);
             let (opts, camera) = (&self.opts, &self.camera);
-            let lanes = (y, xs.clone());
-            if let Some(batch) = engine.camera_samples(
-                &opts.params,
-                camera,
-                opts.seed,
-                lanes,
-                samples.clone(),
-                total,
-                counters,
-                &mut occupancy,
-            ) {
-                estimates.extend(batch);
+            if let Some(estimated) =
+                engine.camera_samples(&opts.params, camera, opts.seed, &batch, counters, &mut occupancy)
+            {
+                estimates.extend(estimated);
                 continue;
             }
             rays.clear();
