@@ -375,8 +375,8 @@ fn point_error(p: Vec3x, local: F32x, ulps: i32) -> F32x {
     gamma(ulps) * local + gamma(2) * p.abs().max_element()
 }
 
-/// The records of every kind for every lane, each lane keeping its own kind's: the quad's and
-/// disk's `plane_point` and `planar_surface`, the sphere's and the cylinder's `surface_uv`.
+/// The records of every kind present in the batch, each lane keeping its own kind's: the quad's
+/// and disk's `plane_point` and `planar_surface`, the sphere's and the cylinder's `surface_uv`.
 #[inline(always)]
 fn surfaces_kernel(rays: &RayLanes, t: &Lanes, s: &RecordLanes) -> SurfaceX {
     let (origin, dir, t) = (Vec3x::from_lanes(&rays.origin), Vec3x::from_lanes(&rays.dir), F32x(*t));
@@ -384,24 +384,24 @@ fn surfaces_kernel(rays: &RayLanes, t: &Lanes, s: &RecordLanes) -> SurfaceX {
     // A plane: q projected onto it.
     let in_plane = q - q.dot(s.axis) * s.axis;
     let plane_p = s.reference + in_plane;
-    let plane_error = point_error(plane_p, in_plane.length(), 6);
-    // A sphere.
-    let sphere_n = unit_or(q, s.fallback);
-    let sphere_p = s.reference + sphere_n * s.radius;
-    let sphere_error = point_error(sphere_p, s.radius, 6);
-    // A cylinder.
-    let z = q.dot(s.axis);
-    let cylinder_n = unit_or(q - z * s.axis, s.fallback);
-    let cylinder_p = s.reference + (z * s.axis + s.radius * cylinder_n);
-    let cylinder_error = point_error(cylinder_p, s.radius + z.abs(), 8);
-    let pick = |plane: Vec3x, sphere: Vec3x, cylinder: Vec3x| {
-        Vec3x::select(s.sphere, sphere, Vec3x::select(s.cylinder, cylinder, plane))
-    };
-    SurfaceX {
-        p: pick(plane_p, sphere_p, cylinder_p),
-        n: pick(s.axis, sphere_n, cylinder_n),
-        p_error: F32x::select(s.sphere, sphere_error, F32x::select(s.cylinder, cylinder_error, plane_error)),
+    let mut out = SurfaceX { p: plane_p, n: s.axis, p_error: point_error(plane_p, in_plane.length(), 6) };
+    // A sphere and a cylinder, where some lane hit one.
+    if s.sphere.any() {
+        let n = unit_or(q, s.fallback);
+        let p = s.reference + n * s.radius;
+        out.p = Vec3x::select(s.sphere, p, out.p);
+        out.n = Vec3x::select(s.sphere, n, out.n);
+        out.p_error = F32x::select(s.sphere, point_error(p, s.radius, 6), out.p_error);
     }
+    if s.cylinder.any() {
+        let z = q.dot(s.axis);
+        let n = unit_or(q - z * s.axis, s.fallback);
+        let p = s.reference + (z * s.axis + s.radius * n);
+        out.p = Vec3x::select(s.cylinder, p, out.p);
+        out.n = Vec3x::select(s.cylinder, n, out.n);
+        out.p_error = F32x::select(s.cylinder, point_error(p, s.radius + z.abs(), 8), out.p_error);
+    }
+    out
 }
 
 dispatch! {
