@@ -261,7 +261,9 @@ fn closest_kernel(scene: &LaneScene, rays: &RayLanes, tmax: &Lanes) -> LaneHits 
         scene,
         rays,
         &mut state,
+        #[inline(always)]
         |(_, _, limit)| *limit,
+        #[inline(always)]
         |(best, rank, limit), t, primitive, r| keep_closest(best, rank, limit, t, primitive, r),
     );
     state.0
@@ -304,7 +306,9 @@ fn any_hit_kernel(
         scene,
         rays,
         &mut blocked,
+        #[inline(always)]
         |_| *tmax,
+        #[inline(always)]
         |blocked, t, primitive, _| keep_blockers(scene, blocked, t, primitive, light, reach),
     );
     blocked
