@@ -1,11 +1,13 @@
 //! The wavefront engine of `path`: many camera paths advanced together, stage by stage, instead
 //! of one path from the camera to its end.
 //!
-//! A batch of paths (a row's camera samples of one pass) is kept as a list of live paths. Each
-//! round runs three stages over the whole list:
+//! Where the scene's effects allow ([`LaneStages::new`] says which), every stage runs across 16
+//! lanes (`wavefront/stages.rs`), camera rays included. Elsewhere a batch of paths (a row's
+//! camera samples of one pass) is kept as a list of live paths, and each round runs three
+//! stages over the whole list:
 //! 1. **closest hits**: the rays of 16 live paths at a time against every primitive of the scene
-//!    across lanes ([`LaneScene::closest`], kernels for AVX-512 or AVX2 chosen at run time), or
-//!    through the BVH one ray per lane where the scene has no lane form;
+//!    across lanes ([`LaneScene::closest`]), or through the BVH one ray per lane where the scene
+//!    has no lane form (`--engine wavefront` only: `auto` runs the scalar engine there);
 //! 2. **shading**: per path, [`PathState::advance`], the very step the scalar engine takes
 //!    (emission and its MIS weight, next-event estimation, the BSDF sample, Russian roulette),
 //!    which leaves the shadow ray of its light sample pending;
@@ -13,12 +15,11 @@
 //!    then counts where nothing blocks it;
 //!
 //! and the paths that go on are compacted into the next round's list (so the batches of 16 stay
-//! full: [`Occupancy`]). Every path draws the same random numbers in the same order as the
-//! scalar engine and adds the same terms in the same order, and the lane kernels return the
-//! scalar tests' distances to the bit: the two engines estimate the same image, and agree pixel
-//! for pixel but for the rare ray whose hit the BVH's box test settles differently. As in the
-//! scalar engine, a path's estimate depends on its own sample stream alone, so images are
-//! bit-identical at any thread count.
+//! full: [`Occupancy`]). Either way every path draws the same random numbers in the same order
+//! as the scalar engine and adds the same terms in the same order, and the lane kernels return
+//! the scalar functions' values to the bit: the two engines render the same bits
+//! (`tests/wavefront.rs`, every shipped scene). A path's estimate depends on its own sample
+//! stream alone, so images are bit-identical at any thread count.
 
 mod stages;
 
@@ -36,10 +37,11 @@ use stages::LaneStages;
 /// The wavefront engine for one scene.
 #[derive(Clone, Debug)]
 pub struct Wavefront {
-    /// The scene's primitives for the lane kernels; `None`: the BVH, one ray per lane.
-    lanes: Option<LaneScene>,
-    /// Every stage across lanes, where the scene's effects allow; `None`: each path shaded by
-    /// [`PathState::advance`], one lane at a time; with the reason.
+    /// The scene's primitives for the lane kernels, or why it has none (the BVH is traversed one
+    /// ray per lane).
+    lanes: Result<LaneScene, String>,
+    /// Every stage across lanes, or why not (each path is shaded by [`PathState::advance`], one
+    /// lane at a time).
     stages: Result<LaneStages, String>,
 }
 
@@ -118,23 +120,18 @@ impl Wavefront {
             }
             Err(why) => Err(why.clone()),
         };
-        Wavefront { lanes: lanes.ok(), stages }
-    }
-
-    /// Whether every stage runs across lanes.
-    pub fn all_stages_across_lanes(&self) -> bool {
-        self.stages.is_ok()
+        Wavefront { lanes, stages }
     }
 
     /// What runs across lanes, in words.
     pub fn describe(&self) -> String {
         match (&self.lanes, &self.stages) {
-            (Some(l), Ok(_)) => format!("every stage across 16 lanes, {}", l.isa().name()),
-            (Some(l), Err(why)) => format!(
+            (Ok(l), Ok(_)) => format!("every stage across 16 lanes, {}", l.isa().name()),
+            (Ok(l), Err(why)) => format!(
                 "hits and shadow rays across 16 lanes ({}), shading one path at a time: {why}",
                 l.isa().name()
             ),
-            (None, _) => "the BVH one ray per lane, shading one path at a time".to_string(),
+            (Err(_), _) => "the BVH one ray per lane, shading one path at a time".to_string(),
         }
     }
 
@@ -155,7 +152,8 @@ impl Wavefront {
     }
 
     /// The radiance of every camera ray of `rays`, each with its sample's context (its random
-    /// stream, channels and counters), as [`super::Path`]'s `radiance` gives it one at a time.
+    /// stream, channels and counters), as [`super::Path`]'s `radiance` gives it one at a time:
+    /// hits and shadow rays across lanes, shading path by path.
     pub fn radiance(
         &self,
         scene: &Scene,
@@ -164,9 +162,6 @@ impl Wavefront {
         ctxs: &mut [PathContext],
         occupancy: &mut StageOccupancy,
     ) -> Vec<Vec3> {
-        if let Ok(stages) = &self.stages {
-            return stages.radiance(params, rays, ctxs, occupancy);
-        }
         let mut paths: Vec<PathState> = rays.iter().map(|&r| PathState::new(r)).collect();
         self.trace(scene, params, &mut paths, ctxs, occupancy);
         paths.iter().map(|p| p.l).collect()
@@ -217,7 +212,7 @@ impl Wavefront {
         occupancy: &mut Occupancy,
     ) {
         hits.clear();
-        let Some(lanes) = &self.lanes else {
+        let Ok(lanes) = &self.lanes else {
             hits.extend(live.iter().map(|&i| scene.intersect(&paths[i as usize].ray, f32::INFINITY)));
             return;
         };
@@ -241,7 +236,7 @@ impl Wavefront {
         occupancy: &mut Occupancy,
     ) {
         let shadow = |light: &PendingLight| light.shadow.expect("only pending lights with a shadow ray");
-        let Some(lanes) = &self.lanes else {
+        let Ok(lanes) = &self.lanes else {
             for (i, light) in pending {
                 paths[*i as usize].resolve(light, !shadow(light).blocked(scene));
             }
@@ -283,16 +278,15 @@ pub(super) fn choose(scene: &Scene, opts: &RenderOptions) -> EngineChoice {
     }
     let engine = Wavefront::new(scene, opts);
     match (opts.params.engine, &engine.lanes) {
-        (EngineOption::Wavefront, None) => {
-            EngineChoice::wavefront(engine, "--engine wavefront asks for it whatever the scene")
-        }
-        (_, Some(_)) => EngineChoice::wavefront(
+        (_, Ok(_)) => EngineChoice::wavefront(
             engine,
             format!("{} primitives, each tested against 16 rays at once", scene.primitives.len()),
         ),
-        (_, None) => EngineChoice::scalar(format!(
-            "{}; the wavefront engine would traverse the BVH one ray per lane, no faster than one ray at a time",
-            LaneScene::new(scene, Isa::detect()).err().unwrap_or_default()
+        (EngineOption::Wavefront, Err(_)) => {
+            EngineChoice::wavefront(engine, "--engine wavefront asks for it whatever the scene")
+        }
+        (_, Err(why)) => EngineChoice::scalar(format!(
+            "{why}; the wavefront engine would traverse the BVH one ray per lane, no faster than one ray at a time"
         )),
     }
 }

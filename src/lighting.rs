@@ -187,7 +187,8 @@ impl ShadowRay {
     /// Whether a hit on `primitive` at distance `t` (below [`tmax`](Self::tmax)) blocks the ray.
     #[inline]
     pub fn blocks(&self, scene: &Scene, primitive: u32, t: f32) -> bool {
-        !reaches_light(scene, self.light, self.target, primitive, t, self.remaining)
+        // The rule of [`reach`](Self::reach), which the lanes apply too.
+        !(self.light.is_some_and(|l| scene.light_of(primitive) == Some(l)) && t >= self.reach(scene))
     }
 
     /// Whether any primitive of `scene` blocks the ray (an occlusion query that stops at the

@@ -9,6 +9,8 @@
 //! R = ((n − 1)/(n + 1))², and the light passing after 0, 2, 4, … internal reflections sums to
 //! (1 − R)²·e^{−σd}/(1 − R²·e^{−2σd}).
 
+mod common;
+
 use glam::{Vec2, Vec3};
 use vitrum::geometry::Ray;
 use vitrum::integrators::{create, PathContext, RenderParams};
@@ -21,54 +23,10 @@ const THICKNESS: f32 = 1.0;
 /// Radiance of the emitter behind the slab.
 const EMITTED: [f32; 3] = [2.0, 1.0, 0.5];
 
-/// A slab z ∈ [−d/2, d/2] with faces far larger than the view (normals pointing out of it), of
-/// index `ior` in air, absorbing `SIGMA`, in front of a large emitter at z = −3 facing +z; the
-/// camera at z = 5 looks down −z.
+/// The slab of `common::glass_slab` (thickness 1) of index `ior` in air, absorbing `SIGMA`.
 fn slab(ior: f32) -> Scene {
-    let h = 0.5 * THICKNESS;
-    let [r, g, b] = SIGMA;
-    let [er, eg, eb] = EMITTED;
-    let text = format!(
-        r#"
-[camera]
-position = [0.0, 0.0, 5.0]
-look_at = [0.0, 0.0, 0.0]
-fov = 10.0
-resolution = [9, 9]
-
-[render.whitted]
-max_depth = 40
-
-[materials.glass]
-type = "dielectric"
-ior = {ior:?}
-absorption = [{r:?}, {g:?}, {b:?}]
-phong = {{ specular = 0.0 }}
-
-[[objects]]
-shape = "quad"
-corner = [-50.0, -50.0, {h:?}]
-u = [100.0, 0.0, 0.0]
-v = [0.0, 100.0, 0.0]
-material = "glass"
-
-[[objects]]
-shape = "quad"
-corner = [-50.0, -50.0, {mh:?}]
-u = [0.0, 100.0, 0.0]
-v = [100.0, 0.0, 0.0]
-material = "glass"
-
-[[lights]]
-type = "quad"
-corner = [-50.0, -50.0, -3.0]
-u = [100.0, 0.0, 0.0]
-v = [0.0, 100.0, 0.0]
-radiance = [{er:?}, {eg:?}, {eb:?}]
-"#,
-        mh = -h
-    );
-    load_str(&text, "slab", None).unwrap_or_else(|e| panic!("{e}"))
+    assert_eq!((THICKNESS, EMITTED), (1.0, [2.0, 1.0, 0.5]), "the shared slab's numbers");
+    load_str(&common::glass_slab(ior, SIGMA), "slab", None).unwrap_or_else(|e| panic!("{e}"))
 }
 
 /// Radiance along `ray` by `integrator` (the deterministic ones ignore the stream).

@@ -10,11 +10,9 @@ use vitrum::integrators::{create, PathContext, RenderParams};
 use vitrum::sampler::Sampler;
 use vitrum::scene::load_str;
 
-use common::GLASS_SLAB as SLAB;
-
 #[test]
 fn emitter_through_a_glass_slab_matches_the_closed_form() {
-    let scene = load_str(SLAB, "slab", None).unwrap();
+    let scene = load_str(&common::glass_slab(1.5, [0.0; 3]), "slab", None).unwrap();
     let whitted = create("whitted").unwrap();
     let params = RenderParams::with_depth(40);
     let ray = scene.camera.generate_ray(Vec2::new(4.5, 4.5));
@@ -33,7 +31,7 @@ fn emitter_through_a_glass_slab_matches_the_closed_form() {
 
 #[test]
 fn constant_reflectance_option_reproduces_the_thesis_value() {
-    let scene = load_str(SLAB, "slab", None).unwrap();
+    let scene = load_str(&common::glass_slab(1.5, [0.0; 3]), "slab", None).unwrap();
     let whitted = create("whitted").unwrap();
     let params = RenderParams { reflectance: Some(0.06), ..RenderParams::with_depth(40) };
     let ray = scene.camera.generate_ray(Vec2::new(4.5, 4.5));
@@ -47,7 +45,7 @@ fn oblique_incidence_through_the_slab_matches_the_closed_form() {
     // At 45° the ray is displaced and each face reflects the unpolarised R(45°) (the same from
     // both sides of the interface, by Stokes), so the slab still passes L·(1−R)/(1+R). Unlike
     // normal incidence this would notice swapped indices or a flipped normal.
-    let scene = load_str(SLAB, "slab", None).unwrap();
+    let scene = load_str(&common::glass_slab(1.5, [0.0; 3]), "slab", None).unwrap();
     let whitted = create("whitted").unwrap();
     let dir = glam::Vec3::new(0.0, -1.0, -1.0).normalize();
     let ray = vitrum::geometry::Ray::new(glam::Vec3::new(0.0, 2.0, 2.5), dir);

@@ -1,14 +1,15 @@
 //! Every stage of the wavefront engine across lanes, for the scenes whose effects it covers
 //! ([`LaneStages::new`] says which): chunks of 16 paths in structure-of-arrays form
 //! ([`PathChunk`]) go through one round per bounce:
+//! 0. the camera rays across lanes (the pixels' Sobol' offsets, a pinhole);
 //! 1. closest hits and their records across lanes ([`LaneScene::closest`],
 //!    [`LaneScene::records`]);
 //! 2. the round's random numbers across lanes ([`sobol_pairs`], [`sobol_firsts`]), each lane at
 //!    its own dimensions: a diffuse vertex draws (a light choice,) a light point, a BSDF pair
 //!    and a roulette number, glass a lobe choice, a BSDF pair and a roulette number, as the
 //!    scalar engine draws them;
-//! 3. shading before the trigonometry, across lanes: emission and its MIS weight, the quad
-//!    light's sample with its MIS weight and shadow ray, the glass's Fresnel choice and
+//! 3. shading before the trigonometry, across lanes: emission and its MIS weight, the quad or
+//!    point light's sample with its MIS weight and shadow ray, the glass's Fresnel choice and
 //!    refraction, the diffuse sample's polar coordinates on the disk;
 //! 4. the cosine and sine of the diffuse samples, one lane at a time (the scalar engine's libm
 //!    calls, so that every bit agrees);
@@ -26,7 +27,7 @@
 // Lane loops index several arrays by the lane, as the kernels they vectorise into do.
 #![allow(clippy::needless_range_loop)]
 
-use super::super::{PathContext, RenderParams};
+use super::super::RenderParams;
 use super::{Occupancy, SampleBatch, StageOccupancy};
 use crate::bsdf::{RoughDielectric, TrowbridgeReitz};
 use crate::lanes::shading::{
@@ -151,9 +152,8 @@ struct PathChunk {
     key: [u64; WIDTH],
     reversed: [u32; WIDTH],
     dimension: [u32; WIDTH],
-    /// Dimensions drawn so far; requests per purpose (light, BSDF, other); rays by kind
-    /// (shadow, reflected, refracted).
-    drawn: [u32; WIDTH],
+    /// Requests per purpose so far (light, BSDF, other); rays by kind (shadow, reflected,
+    /// refracted).
     requests: [[u32; WIDTH]; 3],
     rays: [[u32; WIDTH]; 3],
     /// The sample whose estimate the lane's path is; [`NONE`] for an idle lane.
@@ -174,7 +174,6 @@ impl PathChunk {
         key: [0; WIDTH],
         reversed: [0; WIDTH],
         dimension: [0; WIDTH],
-        drawn: [0; WIDTH],
         requests: [[0; WIDTH]; 3],
         rays: [[0; WIDTH]; 3],
         slot: [NONE; WIDTH],
@@ -198,7 +197,6 @@ impl PathChunk {
                 self.depth[k],
                 self.reversed[k],
                 self.dimension[k],
-                self.drawn[k],
                 self.requests[0][k],
                 self.requests[1][k],
                 self.requests[2][k],
@@ -227,7 +225,6 @@ impl PathChunk {
             self.depth[j],
             self.reversed[j],
             self.dimension[j],
-            self.drawn[j],
             self.requests[0][j],
             self.requests[1][j],
             self.requests[2][j],
@@ -248,16 +245,15 @@ struct PathLane {
     bsdf_pdf: f32,
     skip_mis: bool,
     key: u64,
-    /// Depth, reversed sample, dimension, drawn, requests (3), rays (3), slot.
-    counts: [u32; 11],
+    /// Depth, reversed sample, dimension, requests (3), rays (3), slot.
+    counts: [u32; 10],
 }
 
-/// What a path's sample tallies besides its radiance: rays, and the dimensions and requests it
-/// drew from its stream (written into its context at the end).
+/// What a path's sample tallies besides its radiance: rays, and the requests it made of its
+/// stream.
 #[derive(Clone, Copy, Debug, Default)]
 struct Tally {
     rays: RayCounts,
-    dimensions: u32,
     requests: [u32; DIM_PURPOSES],
 }
 
@@ -416,34 +412,6 @@ impl LaneStages {
     /// The instruction set the stages run with.
     pub fn isa(&self) -> Isa {
         self.lanes.isa()
-    }
-
-    /// The radiance of every camera ray of `rays` (each with its sample's context), as the
-    /// scalar engine gives it.
-    pub fn radiance(
-        &self,
-        params: &RenderParams,
-        rays: &[crate::geometry::Ray],
-        ctxs: &mut [PathContext],
-        occupancy: &mut StageOccupancy,
-    ) -> Vec<Vec3> {
-        let start = |chunks: &mut Vec<PathChunk>| {
-            for (i, (ray, ctx)) in rays.iter().zip(ctxs.iter()).enumerate() {
-                let stream = ctx.sampler.sobol_state().expect("LaneStages::new checked the sampler");
-                let c = lane_of(chunks, i);
-                c.origin.set_lane(i % WIDTH, ray.origin);
-                c.dir.set_lane(i % WIDTH, ray.dir);
-                let k = i % WIDTH;
-                (c.key[k], c.reversed[k], c.dimension[k]) =
-                    (stream.pixel_key, stream.reversed_sample, stream.dimension);
-            }
-        };
-        let (estimates, tallies) = self.trace(params, rays.len(), start, occupancy);
-        for (ctx, tally) in ctxs.iter_mut().zip(tallies) {
-            ctx.rays += tally.rays;
-            ctx.sampler.skip(tally.dimensions, &tally.requests);
-        }
-        estimates
     }
 
     /// The estimates of `batch`'s samples, as the camera pass's scalar samples give them (a
@@ -670,11 +638,8 @@ fn finish_ended(chunk: &mut PathChunk, estimates: &mut [Vec3], tallies: &mut [Ta
             requests[purpose as usize] = chunk.requests[i][k];
         }
         let [shadow, reflected, refracted] = chunk.rays.map(|r| r[k] as u64);
-        tallies[slot as usize] = Tally {
-            rays: RayCounts { primary: 0, reflected, refracted, shadow },
-            dimensions: chunk.drawn[k],
-            requests,
-        };
+        tallies[slot as usize] =
+            Tally { rays: RayCounts { primary: 0, reflected, refracted, shadow }, requests };
         chunk.slot[k] = NONE;
     }
 }
@@ -914,7 +879,6 @@ fn scatter_kernel(
             0
         }) + rolled;
         chunk.dimension[k] += drawn;
-        chunk.drawn[k] += drawn;
         chunk.requests[0][k] += if diffuse { picks + 1 } else { 0 };
         chunk.requests[1][k] += if diffuse {
             1

@@ -170,12 +170,6 @@ pub fn render_options(
     let mut params = RenderParams { reflectance, ssaa, ..s.params(integrator, args.max_depth) };
     if let Some(name) = &args.engine {
         params.engine = crate::params::EngineOption::from_name(name).expect("clap checks the name");
-        if params.engine == crate::params::EngineOption::Wavefront && integrator.name() != "path" {
-            return Err(CliError::BadInput(format!(
-                "--engine wavefront: `{}` has no wavefront engine (only `path` has one)",
-                integrator.name()
-            )));
-        }
     }
     if let Some(r) = args.radius {
         if !(r.is_finite() && r > 0.0) {
@@ -210,7 +204,7 @@ pub fn render_options(
         }
         params.merging.only = Some(strategy);
     }
-    Ok(RenderOptions {
+    let opts = RenderOptions {
         budget,
         resolution: args.resolution,
         seed: args.seed.unwrap_or(s.seed),
@@ -218,7 +212,15 @@ pub fn render_options(
         spectral: args.spectral.as_deref().and_then(SpectralMode::from_name).unwrap_or(s.spectral),
         sampler: args.sampler.as_deref().and_then(SamplerKind::from_name).unwrap_or(s.sampler),
         planned_spp: None,
-    })
+    };
+    let wavefront_asked = opts.params.engine == crate::params::EngineOption::Wavefront;
+    if wavefront_asked && integrator.engine(scene, &opts).wavefront.is_none() {
+        return Err(CliError::BadInput(format!(
+            "--engine wavefront: `{}` has no wavefront engine (only `path` has one)",
+            integrator.name()
+        )));
+    }
+    Ok(opts)
 }
 
 /// Runs `vitrum render`.

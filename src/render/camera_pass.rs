@@ -50,6 +50,19 @@ pub(super) struct RowStats {
     pub(super) requests: [u64; DIM_PURPOSES],
 }
 
+impl RowStats {
+    /// Adds the estimate `l` of one sample to its pixel's sums, counting it if it is not finite.
+    #[inline]
+    fn add(&mut self, l: Vec3, sum: &mut DVec3, sum_sq: &mut DVec3) {
+        if !l.is_finite() {
+            self.non_finite += 1;
+        }
+        let l = l.as_dvec3();
+        *sum += l;
+        *sum_sq += l * l;
+    }
+}
+
 /// Everything fixed during camera passes.
 pub(super) struct Pass<'a> {
     pub(super) scene: &'a Scene,
@@ -119,21 +132,22 @@ impl<'a> Pass<'a> {
         self.finish(&ctx, radiance, row)
     }
 
-    /// The estimates of row `y`'s samples `samples` (of `total`) by the wavefront engine, pixel
-    /// by pixel, each pixel's in sample order: its paths go in batches of at most
-    /// [`WAVEFRONT_BATCH`] whole pixels' samples.
+    /// Continues row `y`'s sums (`sums`: per pixel, the sum and the sum of squares) with the
+    /// samples `samples` (of `total`) by the wavefront engine: its paths go in batches of at
+    /// most [`WAVEFRONT_BATCH`] whole pixels' samples, whose estimates are added pixel by pixel
+    /// in sample order, as the one-ray loop adds them.
     fn wavefront_row(
         &self,
         engine: &Wavefront,
         y: u32,
-        width: usize,
+        (sum, sum_sq): (&mut [DVec3], &mut [DVec3]),
         samples: Range<u32>,
         total: u32,
         row: &mut RowStats,
-    ) -> Vec<Vec3> {
+    ) {
+        let width = sum.len();
         let per_pixel = samples.len().max(1);
         let pixels_per_batch = (WAVEFRONT_BATCH / per_pixel).max(1);
-        let mut estimates = Vec::with_capacity(width * samples.len());
         let (mut rays, mut ctxs) = (Vec::new(), Vec::new());
         let mut occupancy = StageOccupancy::default();
         for first in (0..width).step_by(pixels_per_batch) {
@@ -141,26 +155,39 @@ impl<'a> Pass<'a> {
             let batch = SampleBatch { y, xs: xs.clone(), samples: samples.clone(), total };
             let counters = (&mut row.rays, &mut row.requests);
             let (opts, camera) = (&self.opts, &self.camera);
-            if let Some(estimated) =
-                engine.camera_samples(&opts.params, camera, opts.seed, &batch, counters, &mut occupancy)
-            {
-                estimates.extend(estimated);
-                continue;
-            }
-            rays.clear();
-            ctxs.clear();
-            for x in xs {
-                for s in samples.clone() {
-                    let (ray, ctx) = self.start(x, y, s, total);
-                    rays.push(ray);
-                    ctxs.push(ctx);
+            let estimates = match engine.camera_samples(
+                &opts.params,
+                camera,
+                opts.seed,
+                &batch,
+                counters,
+                &mut occupancy,
+            ) {
+                Some(estimates) => estimates,
+                None => {
+                    rays.clear();
+                    ctxs.clear();
+                    for x in xs {
+                        for s in samples.clone() {
+                            let (ray, ctx) = self.start(x, y, s, total);
+                            rays.push(ray);
+                            ctxs.push(ctx);
+                        }
+                    }
+                    let radiance =
+                        engine.radiance(self.scene, &opts.params, &rays, &mut ctxs, &mut occupancy);
+                    ctxs.iter().zip(radiance).map(|(ctx, l)| self.finish(ctx, l, row)).collect()
+                }
+            };
+            let pixels =
+                sum[batch.xs.start as usize..].iter_mut().zip(&mut sum_sq[batch.xs.start as usize..]);
+            for ((sum, sum_sq), pixel) in pixels.zip(estimates.chunks(samples.len())) {
+                for &l in pixel {
+                    row.add(l, sum, sum_sq);
                 }
             }
-            let radiance = engine.radiance(self.scene, &self.opts.params, &rays, &mut ctxs, &mut occupancy);
-            estimates.extend(ctxs.iter().zip(radiance).map(|(ctx, l)| self.finish(ctx, l, row)));
         }
         row.occupancy.merge(&occupancy);
-        estimates
     }
 
     /// Continue the sums of row `y` with the samples `samples` (of `total`, 0 when unknown).
@@ -178,23 +205,14 @@ impl<'a> Pass<'a> {
             non_finite: 0,
             requests: [0; DIM_PURPOSES],
         };
-        let batch = match &self.engine.wavefront {
-            Some(engine) => self.wavefront_row(engine, y, sum.len(), samples.clone(), total, &mut row),
-            None => Vec::new(),
-        };
-        let mut batched = batch.into_iter();
+        if let Some(engine) = &self.engine.wavefront {
+            self.wavefront_row(engine, y, (sum, sum_sq), samples, total, &mut row);
+            return row;
+        }
         for (x, (sum, sum_sq)) in sum.iter_mut().zip(sum_sq.iter_mut()).enumerate() {
             for s in samples.clone() {
-                let l = match batched.next() {
-                    Some(l) => l,
-                    None => self.sample(x as u32, y, s, total, &mut row),
-                };
-                if !l.is_finite() {
-                    row.non_finite += 1;
-                }
-                let l = l.as_dvec3();
-                *sum += l;
-                *sum_sq += l * l;
+                let l = self.sample(x as u32, y, s, total, &mut row);
+                row.add(l, sum, sum_sq);
             }
         }
         row

@@ -254,7 +254,7 @@ impl Sampler {
         }
     }
 
-    /// The Sobol' stream's state, for drawing its numbers across lanes
+    /// The Sobol' stream's state, what its numbers across lanes depend on
     /// ([`crate::lanes::sobol_pairs`]); `None` for the other kinds.
     pub fn sobol_state(&self) -> Option<SobolState> {
         (self.mode == Mode::Sobol).then_some(SobolState {
@@ -262,15 +262,6 @@ impl Sampler {
             reversed_sample: self.reversed_sample,
             dimension: self.dimension,
         })
-    }
-
-    /// Continue the stream after `dimensions` more dimensions drawn elsewhere (across lanes from
-    /// [`sobol_state`](Self::sobol_state)) in `requests` requests per purpose.
-    pub fn skip(&mut self, dimensions: u32, requests: &[u32; DIM_PURPOSES]) {
-        self.dimension += dimensions;
-        for (total, n) in self.requests.iter_mut().zip(requests) {
-            *total += n;
-        }
     }
 
     /// How many requests were made for `purpose` so far.

@@ -128,10 +128,14 @@ material = "wall"
     load_str(&text, "closed sphere", None).unwrap()
 }
 
-/// A diffuse quad emitter of radiance (2, 1, 0.5) seen through a flat glass slab of index 1.5
-/// at normal incidence, whose transmission is the closed form L·(1−R)/(1+R), R = 0.04: the
-/// emitter behind the slab's two faces (z = ±0.5, far larger than the view), the camera in front.
-pub const GLASS_SLAB: &str = r#"
+/// A diffuse quad emitter of radiance (2, 1, 0.5) seen through a flat slab of index `ior` in air,
+/// absorbing `absorption` per unit length: the slab's faces at z = ±0.5 (far larger than the
+/// view, normals pointing out of it), the emitter at z = −3 facing +z, the camera at z = 5
+/// looking down −z. At normal incidence a clear slab transmits L·(1−R)/(1+R).
+pub fn glass_slab(ior: f32, absorption: [f32; 3]) -> String {
+    let [r, g, b] = absorption;
+    format!(
+        r#"
 [camera]
 position = [0.0, 0.0, 5.0]
 look_at = [0.0, 0.0, 0.0]
@@ -143,10 +147,10 @@ max_depth = 40
 
 [materials.glass]
 type = "dielectric"
-ior = 1.5
-phong = { specular = 0.0 }
+ior = {ior:?}
+absorption = [{r:?}, {g:?}, {b:?}]
+phong = {{ specular = 0.0 }}
 
-# the slab: z in [-0.5, 0.5], faces far larger than the view, normals pointing out of the glass
 [[objects]]
 shape = "quad"
 corner = [-50.0, -50.0, 0.5]
@@ -161,14 +165,15 @@ u = [0.0, 100.0, 0.0]
 v = [100.0, 0.0, 0.0]
 material = "glass"
 
-# the emitter behind it, facing the camera
 [[lights]]
 type = "quad"
 corner = [-50.0, -50.0, -3.0]
 u = [100.0, 0.0, 0.0]
 v = [0.0, 100.0, 0.0]
 radiance = [2.0, 1.0, 0.5]
-"#;
+"#
+    )
+}
 
 /// The `.toml` files directly in `dir`, sorted.
 pub fn toml_files(dir: &std::path::Path) -> Vec<std::path::PathBuf> {
