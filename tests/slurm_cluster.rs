@@ -553,16 +553,25 @@ fn shards_submitted_by_submit_sh_merge_into_the_single_render(cluster: &mut Clus
 /// A task requeued while it renders is killed with part of its samples checkpointed, runs again,
 /// resumes the checkpoint, and the merge is the single render.
 fn a_requeued_task_resumes_its_checkpoint(cluster: &mut Cluster) {
-    // About 6 s per shard on one core here: time to see a checkpoint and requeue long before the end.
-    let (spp, shards) = (1600, 2);
+    // About 6 s per shard on one core with the wavefront engine of `path` (AVX-512 here): time to
+    // see a checkpoint and requeue long before the end.
+    let (spp, shards) = (6400, 2);
     let spp_text = spp.to_string();
     let options = ["-i", "path", "--spp", &spp_text, "--resolution", "64x64", "--seed", "5"];
     let jobs = cluster.submit(shards, "requeued.exr", &options, &[("CHECKPOINT_SECONDS", "1")]);
     let (task, part) = (jobs.task(0), cluster.path("requeued.parts/part-0-of-2.exr"));
     let target = shard_samples(0, shards, spp);
     let checkpointed = cluster.wait_until(&format!("task {task} to run and checkpoint"), JOB_TIMEOUT, |c| {
+        let state = c.job_state(&task);
+        if FINAL_STATES.contains(&state.as_str()) {
+            // Finished before a checkpoint was seen: the render is too short for this machine.
+            return Some(Err(state));
+        }
         let held = part_samples(&part).ok().filter(|s| *s != "0..0" && *s != target)?;
-        (c.job_state(&task) == "RUNNING").then_some(held)
+        (state == "RUNNING").then_some(Ok(held))
+    });
+    let checkpointed = checkpointed.unwrap_or_else(|state| {
+        cluster.fail(&format!("task {task} ended ({state}) before a checkpoint was seen"))
     });
     cluster.scontrol(&["requeue", &task]);
     // Killed and held pending (CRED_EXPIRE): what the first run left is the part resumed.
