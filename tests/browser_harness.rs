@@ -25,6 +25,9 @@ fn launch(width: u32, height: u32) -> Browser {
 
 #[test]
 fn script_values_canvas_pixels_and_the_load_time_read_back() {
+    if !common::system::may_run_browser() {
+        return;
+    }
     let dir = tempfile::tempdir().unwrap();
     let path = page(
         dir.path(),
@@ -73,6 +76,9 @@ const t0 = performance.now(); while (performance.now() - t0 < 300) {} // the loa
 
 #[test]
 fn keys_a_slider_and_the_mouse_reach_the_page() {
+    if !common::system::may_run_browser() {
+        return;
+    }
     let dir = tempfile::tempdir().unwrap();
     let path = page(
         dir.path(),
@@ -153,6 +159,9 @@ document.getElementById('box').addEventListener('click', e => clicks.push([e.off
 
 #[test]
 fn problems_of_a_page_are_reported_and_a_clean_page_has_none() {
+    if !common::system::may_run_browser() {
+        return;
+    }
     let dir = tempfile::tempdir().unwrap();
     let clean = page(
         dir.path(),
@@ -214,6 +223,9 @@ fn problems_of_a_page_are_reported_and_a_clean_page_has_none() {
 
 #[test]
 fn a_screenshot_is_a_png_of_the_viewport() {
+    if !common::system::may_run_browser() {
+        return;
+    }
     let dir = tempfile::tempdir().unwrap();
     let path = page(
         dir.path(),
@@ -244,6 +256,9 @@ fn a_screenshot_is_a_png_of_the_viewport() {
 
 #[test]
 fn a_hang_is_an_error_naming_the_method_and_the_browser_goes_on() {
+    if !common::system::may_run_browser() {
+        return;
+    }
     let mut b = launch(200, 100);
     b.set_timeout(Duration::from_millis(500));
     let hang = b.eval("new Promise(() => {})").unwrap_err();
@@ -282,6 +297,9 @@ fn assert_gone(before: &[String]) {
 
 #[test]
 fn drop_leaves_no_process_and_no_profile_also_after_a_panic() {
+    if !common::system::may_run_browser() {
+        return;
+    }
     let missing = Browser::launch_program(Path::new("/nonexistent/chromium"), 100, 100).err().unwrap();
     assert!(missing.contains("/nonexistent/chromium"), "{missing}");
 

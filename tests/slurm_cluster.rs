@@ -17,7 +17,8 @@
 //! for bit: partial sums round differently from one running sum (see `vitrum::parts` and
 //! `tests/parts.rs`).
 //!
-//! Needs root and Debian's `slurm-wlm`, `munge` and `parallel` (`.ci/run` installs them).
+//! Needs root and Debian's `slurm-wlm`, `munge` and `parallel` (`.ci/run` installs them). Without
+//! them each test prints what it did not run and passes (see `common::system`).
 
 use std::fs;
 use std::net::TcpListener;
@@ -30,6 +31,9 @@ use std::time::{Duration, Instant};
 use vitrum::image::Image;
 use vitrum::output::exr::read_exr;
 use vitrum::output::film::read_part;
+
+mod common;
+use common::system::{is_root, may_run, missing_programs};
 
 const VITRUM: &str = env!("CARGO_BIN_EXE_vitrum");
 const SCRIPTS: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/scripts/slurm");
@@ -608,8 +612,18 @@ fn a_failed_task_cancels_the_merge(cluster: &mut Cluster) {
     assert!(!cluster.path("failed.exr").exists(), "no merged image");
 }
 
+/// The programs the cluster test runs.
+const CLUSTER_PROGRAMS: [&str; 6] = ["munged", "mungekey", "slurmctld", "slurmd", "sbatch", "scontrol"];
+
 #[test]
 fn the_slurm_scripts_render_requeue_resume_and_merge_on_a_real_cluster() {
+    let mut missing = missing_programs(&CLUSTER_PROGRAMS);
+    if !is_root() {
+        missing.push("root (the Slurm daemons run jobs as root)".to_owned());
+    }
+    if !may_run(&missing, "apt-get install slurm-wlm munge, and run the test as root") {
+        return;
+    }
     let _serial = serial();
     let start = Instant::now();
     let mut cluster = Cluster::start();
@@ -632,14 +646,16 @@ fn the_slurm_scripts_render_requeue_resume_and_merge_on_a_real_cluster() {
     );
 }
 
-/// Panics unless `parallel` is GNU parallel (moreutils has another `parallel`).
-fn assert_gnu_parallel() {
-    let out = Command::new("parallel")
-        .arg("--version")
-        .output()
-        .unwrap_or_else(|e| panic!("cannot run parallel: {e} (install Debian's parallel, as .ci/run does)"));
-    let version = String::from_utf8_lossy(&out.stdout);
-    assert!(version.starts_with("GNU parallel"), "parallel --version does not say GNU parallel: {version}");
+/// What keeps `parallel` from being GNU parallel (moreutils has another `parallel`): nothing, or
+/// one line.
+fn missing_gnu_parallel() -> Vec<String> {
+    match Command::new("parallel").arg("--version").output() {
+        Err(_) => vec!["GNU parallel".to_owned()],
+        Ok(out) if !String::from_utf8_lossy(&out.stdout).starts_with("GNU parallel") => {
+            vec!["GNU parallel (the `parallel` on the PATH is another program)".to_owned()]
+        }
+        Ok(_) => Vec::new(),
+    }
 }
 
 /// The README's command on the line after the one with `marker` (a line that is one code span).
@@ -653,9 +669,11 @@ fn readme_command_after(marker: &str) -> String {
 
 #[test]
 fn the_readme_gnu_parallel_one_liner_renders_shards_that_merge_into_the_single_render() {
+    if !may_run(&missing_gnu_parallel(), "apt-get install parallel") {
+        return;
+    }
     let _serial = serial();
     let start = Instant::now();
-    assert_gnu_parallel();
     let line = readme_command_after("**GNU parallel**");
     assert!(line.contains("scenes/cornell-glass.toml") && line.contains("--spp 65536"), "{line}");
     // The README's command as written, with its render made small.

@@ -601,7 +601,7 @@ fn naming(dir: &Path) -> Vec<(u32, u32)> {
 }
 
 /// The Chromium to run: `$CHROMIUM`, `/usr/bin/chromium` or `chromium` on the `PATH`.
-fn find_chromium() -> Result<PathBuf, String> {
+pub fn find_chromium() -> Result<PathBuf, String> {
     if let Some(program) = std::env::var_os("CHROMIUM") {
         let program = PathBuf::from(program);
         return match program.is_file() {
@@ -612,10 +612,12 @@ fn find_chromium() -> Result<PathBuf, String> {
     let on_path = std::env::var_os("PATH")
         .map(|p| std::env::split_paths(&p).map(|dir| dir.join("chromium")).collect::<Vec<_>>())
         .unwrap_or_default();
-    std::iter::once(PathBuf::from("/usr/bin/chromium"))
-        .chain(on_path)
-        .find(|p| p.is_file())
-        .ok_or_else(|| "no chromium: CHROMIUM is unset, and neither /usr/bin/chromium nor chromium on the PATH exists (.ci/run installs it)".to_owned())
+    std::iter::once(PathBuf::from("/usr/bin/chromium")).chain(on_path).find(|p| p.is_file()).ok_or_else(
+        || {
+            "no Chromium: CHROMIUM is unset, and neither /usr/bin/chromium nor chromium on the PATH exists"
+                .to_owned()
+        },
+    )
 }
 
 /// The `file://` URL of an absolute path, bytes other than unreserved ones and `/` escaped.
