@@ -68,11 +68,13 @@
 //! - **Point lights** are not visible either (as for every method).
 //!
 //! # Determinism
-//! The random stream of a path is a pure function of (seed, path index): path `k` uses the
-//! sampler of "pixel" `k` (independent sampler), of group `k / 16`, sample `k mod 16` (the
-//! stratified sampler: every group of 16 consecutive paths is stratified in each dimension), or
-//! of group `k / 65536`, sample `k mod 65536` (Sobol': consecutive paths are one scrambled
-//! sequence).
+//! The random stream of a path is a pure function of (seed, path index). Path `j` of sample index
+//! `s` draws from the seed of the replica of `s` ([`Replicas::stream`]), as path `k = i·w·h + j`
+//! of that replica, with `i` the index of `s` within it: the sampler of "pixel" `k`
+//! (independent sampler), of group `k / 16`, sample `k mod 16` (the stratified sampler: every
+//! group of 16 consecutive paths is stratified in each dimension), or of group `k / 65536`,
+//! sample `k mod 65536` (Sobol': consecutive paths are one scrambled sequence). So the replicas
+//! share no sequence and are independent.
 //! Paths are traced in fixed chunks of [`CHUNK_PATHS`]; each chunk appends its splats to its own
 //! buffer, and the buffers are merged into an f64 film in chunk order, so the image is
 //! bit-identical at any thread count. Chunks are traced in batches of a few per thread and each
@@ -83,7 +85,7 @@
 //! film is summed in path order whatever the ranges asked for, so rendering the sample indices
 //! `0..a` and then `a..b` gives the bits of `0..b` at once ([`crate::render::Accumulate`]). The
 //! splats of one sample index form one image, an unbiased estimate on its own; the spread of
-//! these `spp` batch images gives each pixel's variance (none with a single sample index).
+//! the replicas' means gives each pixel's variance ([`crate::render`]).
 //! A render adds them in passes of whole sample indices ([`render_accumulated`]), so a Ctrl-C
 //! lands between sample indices: the image of the `k` indices done is, bit for bit, a plain
 //! `k`-sample render.
@@ -98,7 +100,7 @@ use crate::lighting::{crossing, ShadowMode, ShadowRays};
 use crate::render::{
     camera_for, render_accumulated, Accumulate, CameraDims, Film, Progression, RenderOptions, RenderOutput,
 };
-use crate::sampler::{Dim, Sampler, SamplerKind};
+use crate::sampler::{Dim, Replicas, Sampler, SamplerKind};
 use crate::scene::effects::Support;
 use crate::scene::{Effect, Scene};
 use crate::spectrum::{Channels, Wavelengths};
@@ -181,7 +183,7 @@ impl Accumulate for LightTracer {
     fn film(&self, scene: &Scene, opts: &RenderOptions) -> Film {
         let tracer = Tracer::new(scene, self, opts);
         let (w, h) = (tracer.camera.width as usize, tracer.camera.height as usize);
-        Film::new(w, h, tracer.camera.film_area() as f64, tracer.dims.wavelength)
+        Film::new(w, h, tracer.camera.film_area() as f64, tracer.dims.wavelength, opts.replicas)
     }
 
     /// Sample index `s` is the `w·h` light paths `s·w·h .. (s+1)·w·h`; their splats are one
@@ -216,6 +218,10 @@ struct Tracer<'a> {
     dims: CameraDims,
     sampler: SamplerKind,
     seed: u64,
+    /// The replicas of the sample indices.
+    replicas: Replicas,
+    /// The paths of one sample index: the pixel count.
+    paths_per_sample: u64,
     /// The number of lights paths can start on (all of them).
     lights: usize,
     /// Where paths from the environment start.
@@ -236,13 +242,16 @@ fn merge(film: &mut Film, batch: &mut SampleSplats, chunks: Vec<ChunkSplats>) {
 
 impl<'a> Tracer<'a> {
     fn new(scene: &'a Scene, integrator: &LightTracer, opts: &'a RenderOptions) -> Tracer<'a> {
+        let camera = camera_for(scene, opts.resolution);
         Tracer {
             scene,
             params: &opts.params,
-            camera: camera_for(scene, opts.resolution),
+            paths_per_sample: camera.width as u64 * camera.height as u64,
+            camera,
             dims: CameraDims::resolve(scene, integrator, opts.spectral),
             sampler: opts.sampler,
             seed: opts.seed,
+            replicas: opts.replicas,
             lights: scene.lights.len(),
             sphere: scene.bounding_sphere(),
         }
@@ -255,6 +264,7 @@ impl Tracer<'_> {
     fn trace_samples(&self, samples: Range<u32>, film: &mut Film, progress: &(dyn Fn(u64, u64) + Sync)) {
         let pixels = self.camera.width as u64 * self.camera.height as u64;
         let mut chunks: Vec<(Range<u64>, bool)> = Vec::new();
+        let first = samples.start;
         for s in samples {
             let (start, end) = (s as u64 * pixels, (s as u64 + 1) * pixels);
             for c in (start..end).step_by(CHUNK_PATHS as usize) {
@@ -265,7 +275,7 @@ impl Tracer<'_> {
         let total = chunks.len() as u64;
         let done = AtomicU64::new(0);
         let batch_size = CHUNKS_PER_THREAD * rayon::current_num_threads().max(1);
-        let mut batch = SampleSplats::new(pixels as usize);
+        let mut batch = SampleSplats::new(pixels as usize, first);
         let mut pending: Option<Vec<ChunkSplats>> = None;
         for group in chunks.chunks(batch_size) {
             // Trace this batch while the previous one is merged (in chunk order).
@@ -308,19 +318,23 @@ impl Tracer<'_> {
         out
     }
 
-    /// The random stream of path `index`: a pure function of (seed, index).
+    /// The random stream of path `index` (path `index mod w·h` of sample index `index div w·h`):
+    /// a pure function of (seed, index), drawn from the seed of its sample index's replica.
     fn path_sampler(&self, index: u64) -> Sampler {
+        let per_sample = self.paths_per_sample;
+        let stream = self.replicas.stream(self.seed, (index / per_sample) as u32, 0);
+        let (seed, index) = (stream.seed, stream.index as u64 * per_sample + index % per_sample);
         match self.sampler {
-            SamplerKind::Independent => Sampler::new(self.sampler, self.seed, index, 0, 1),
+            SamplerKind::Independent => Sampler::new(self.sampler, seed, index, 0, 1),
             SamplerKind::Stratified => Sampler::new(
                 self.sampler,
-                self.seed,
+                seed,
                 index / STRATUM_PATHS,
                 (index % STRATUM_PATHS) as u32,
                 STRATUM_PATHS as u32,
             ),
             SamplerKind::Sobol => {
-                Sampler::new(self.sampler, self.seed, index / SOBOL_PATHS, (index % SOBOL_PATHS) as u32, 0)
+                Sampler::new(self.sampler, seed, index / SOBOL_PATHS, (index % SOBOL_PATHS) as u32, 0)
             }
         }
     }

@@ -45,12 +45,14 @@ impl SplatBuffer {
 /// The splats of one sample index, summed per pixel.
 pub(crate) struct SampleSplats {
     values: Vec<DVec3>,
+    /// The sample index the splats belong to.
+    sample: u32,
 }
 
 impl SampleSplats {
-    /// No splats yet, for a film of `pixels` pixels.
-    pub fn new(pixels: usize) -> SampleSplats {
-        SampleSplats { values: vec![DVec3::ZERO; pixels] }
+    /// No splats yet, for a film of `pixels` pixels, starting with sample index `sample`.
+    pub fn new(pixels: usize, sample: u32) -> SampleSplats {
+        SampleSplats { values: vec![DVec3::ZERO; pixels], sample }
     }
 
     /// Add the splats of `buffer` (the next chunk of the sample index, in order), counting its
@@ -63,15 +65,15 @@ impl SampleSplats {
     }
 
     /// End the sample index: every pixel's term, `camera[p] + scale · splats[p]` (no camera
-    /// estimate: 0), goes into the film's sum and sum of squares, and the splats start again
-    /// from zero. The caller advances the film's sample count.
+    /// estimate: 0), goes into the film's sums, and the splats start again from zero for the
+    /// next sample index. The caller advances the film's sample count.
     pub fn finish(&mut self, film: &mut Film, camera: Option<&[Vec3]>, scale: f64) {
         for (p, splat) in self.values.iter_mut().enumerate() {
             let v = camera.map_or(DVec3::ZERO, |c| c[p].as_dvec3()) + *splat * scale;
-            film.sum[p] += v;
-            film.sum_sq[p] += v * v;
+            film.add(p, self.sample, v);
             *splat = DVec3::ZERO;
         }
+        self.sample += 1;
     }
 }
 

@@ -157,6 +157,7 @@ impl Integrator for Ssaa {
             samples_per_pixel: Some(counts),
             // A fixed pattern (grid or contrast-driven subdivision): no sample variance.
             variance: None,
+            replicas: None,
         })
     }
 

@@ -6,10 +6,11 @@
 //! merges at every non-specular camera vertex and `vcm` does both.
 //!
 //! # One iteration is one sample index
-//! Iteration `s` traces `N = w·h` light sub-paths and one camera sub-path per pixel. Light path
-//! `j` of iteration `s` uses the random stream of (light seed, `j`, `s`), camera path `j` the
-//! camera pass's stream of pixel `j`, sample `s`: the light seed is the render's seed hashed with
-//! a constant, so a light path never reuses a camera sample's stream. The merge radius of
+//! Iteration `s` traces `N = w·h` light sub-paths and one camera sub-path per pixel. With `(seed',
+//! k)` the seed of the iteration's replica and its index within it ([`Replicas::stream`]), light
+//! path `j` of iteration `s` uses the random stream of (light seed, `j`, `k`), camera path `j` the
+//! camera pass's stream of pixel `j`, sample `s`: the light seed is `seed'` hashed with a
+//! constant, so a light path never reuses a camera sample's stream. The merge radius of
 //! iteration `s` is `r_s = r₀ · (s + 1)^{(α − 1)/2}` (Knaus and Zwicker 2011), a pure function of
 //! `s`. An iteration's estimate of every pixel, camera contributions plus the splats of its
 //! light paths, is one term of the film's sums, so renders are progressive, time budgets,
@@ -77,7 +78,7 @@ use crate::lighting::{crossing, transmittance, ShadowMode, ShadowRays};
 use crate::render::{
     camera_for, render_accumulated, Accumulate, CameraDims, Film, Progression, RenderOptions, RenderOutput,
 };
-use crate::sampler::{Dim, Sampler, SamplerKind};
+use crate::sampler::{Dim, Replicas, Sampler, SamplerKind};
 use crate::scene::effects::Support;
 use crate::scene::{Effect, Intersection, Scene};
 use crate::spectrum::{Channels, Wavelengths};
@@ -214,7 +215,8 @@ impl Integrator for VertexMerging {
 impl Accumulate for VertexMerging {
     fn film(&self, scene: &Scene, opts: &RenderOptions) -> Film {
         let engine = Engine::new(scene, self, opts);
-        Film::new(engine.camera.width as usize, engine.camera.height as usize, 1.0, engine.dims.wavelength)
+        let (w, h) = (engine.camera.width as usize, engine.camera.height as usize);
+        Film::new(w, h, 1.0, engine.dims.wavelength, opts.replicas)
     }
 
     /// Each sample index is one iteration: its light paths, its photon grid, its camera paths.
@@ -445,6 +447,9 @@ struct Engine<'a> {
     dims: CameraDims,
     sampler: SamplerKind,
     seed: u64,
+    /// The replicas of the iterations: iteration `s` draws from its replica's seed, at its index
+    /// within the replica.
+    replicas: Replicas,
     /// The number of lights: paths start on them and next-event estimation samples them, the
     /// environment included.
     lights: usize,
@@ -475,6 +480,7 @@ impl<'a> Engine<'a> {
             camera,
             sampler: opts.sampler,
             seed: opts.seed,
+            replicas: opts.replicas,
             lights: scene.lights.len(),
             environment: scene.environment_light(),
             sphere: scene.bounding_sphere(),
@@ -515,7 +521,8 @@ impl<'a> Engine<'a> {
     /// iteration for the merging methods).
     fn channels_and_time(&self, j: usize, s: u32) -> (Channels, f32) {
         let key = if self.algorithm.merges() { u64::MAX } else { j as u64 };
-        let mut sampler = Sampler::new(self.sampler, self.seed ^ SHARED_STREAM, key, s, 0);
+        let stream = self.replicas.stream(self.seed, s, 0);
+        let mut sampler = Sampler::new(self.sampler, stream.seed ^ SHARED_STREAM, key, stream.index, 0);
         let (open, close) = self.camera.shutter;
         let time = if self.dims.time { open + (close - open) * sampler.get_1d(Dim::Time) } else { open };
         let channels = if self.dims.wavelength {
@@ -536,7 +543,7 @@ impl<'a> Engine<'a> {
             .collect();
         let mut vertices = Vec::with_capacity(chunks.iter().map(|c| c.vertices.len()).sum());
         let mut ends = Vec::with_capacity(self.paths);
-        let mut splats = SampleSplats::new(self.paths);
+        let mut splats = SampleSplats::new(self.paths, s);
         for chunk in chunks {
             let base = vertices.len() as u32;
             ends.extend(chunk.ends.iter().map(|e| e + base));
@@ -578,7 +585,8 @@ impl<'a> Engine<'a> {
 
     /// The random stream of light path `j` of iteration `s`.
     fn light_sampler(&self, j: usize, s: u32) -> Sampler {
-        Sampler::new(self.sampler, self.seed ^ LIGHT_STREAM, j as u64, s, 0)
+        let stream = self.replicas.stream(self.seed, s, 0);
+        Sampler::new(self.sampler, stream.seed ^ LIGHT_STREAM, j as u64, stream.index, 0)
     }
 
     fn trace_light_chunk(&self, paths: Range<usize>, s: u32, k: &IterationConstants) -> LightChunk {
@@ -778,7 +786,8 @@ impl<'a> Engine<'a> {
     ) -> Vec3 {
         let cam = &self.camera;
         let (channels, time) = self.channels_and_time(j, s);
-        let mut ctx = PathContext::new(Sampler::new(self.sampler, self.seed, j as u64, s, 0));
+        let stream = self.replicas.stream(self.seed, s, 0);
+        let mut ctx = PathContext::new(Sampler::of_stream(self.sampler, stream, j as u64));
         ctx.channels = channels;
         let (x, y) = ((j % cam.width as usize) as f32, (j / cam.width as usize) as f32);
         let offset = ctx.sampler.get_2d(Dim::Pixel);

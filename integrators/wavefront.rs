@@ -57,6 +57,8 @@ pub struct SampleBatch {
     pub samples: std::ops::Range<u32>,
     /// The planned sample count (1: through the pixel's centre).
     pub total: u32,
+    /// The replicas the sample indices belong to (each draws from its own seed).
+    pub replicas: crate::sampler::Replicas,
 }
 
 /// How full a stage's batches were: lanes that carried a ray, of the lanes issued.

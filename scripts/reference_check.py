@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
 """Render one scene with vitrum and with Mitsuba 3 at the same settings; print relMSE and times.
 
-Not part of CI: it needs Mitsuba 3 (see ../../shared/reference/README.md for the set-up):
+Not part of CI: it needs Mitsuba 3 (set-up and the conventions of the comparison:
+docs/mitsuba-export.md, "Installing Mitsuba" and "Checking vitrum against Mitsuba"):
 
     python3 -m venv "$HOME/mi" && "$HOME/mi/bin/pip" install mitsuba numpy OpenEXR
     "$HOME/mi/bin/python" scripts/reference_check.py scenes/soft-shadows.toml 1024 400 16
@@ -14,15 +15,16 @@ works here, otherwise `scalar_rgb`; `--variant` chooses); `vitrum render -i path
 scene with the same samples, resolution and depth; both images are written to the output folder
 and compared with Mitsuba as the reference:
 
-    relMSE = mean((x - r)^2 / (r^2 + 0.01))   over pixels and channels (DESIGN.md)
+    relMSE = mean((x - r)^2 / (r^2 + 0.01))   over pixels and channels (README.md, "Metrics";
+                                              src/metrics.rs)
 
 also on 8x8 block averages (which separates bias from per-pixel noise). `--noise-floor` renders
 Mitsuba a second time with another seed and prints the same numbers for Mitsuba against itself: a
 vitrum-Mitsuba difference at that level is noise, a converged difference above it is a bug in one
 of the two. `--method light` compares vitrum's `light` with Mitsuba's `ptracer` instead.
 
-Exit codes: 0 done; 2 bad arguments; 3 something needed is missing (vitrum has no `path`
-integrator yet, Mitsuba is not installed, ...); 1 a render failed.
+Exit codes: 0 done; 2 bad arguments; 3 something needed is missing (`vitrum integrators` does not
+list the method, Mitsuba is not installed, ...); 1 a render failed.
 """
 
 import argparse
@@ -132,7 +134,8 @@ def read_exr_rgb(path):
 
 
 def rel_mse(x, r):
-    """DESIGN.md's relMSE over finite pixels, and the count of non-finite values in either image."""
+    """vitrum's relMSE (README.md, "Metrics") over finite values, and the count of non-finite values in
+    either image."""
     import numpy as np
 
     finite = np.isfinite(x) & np.isfinite(r)
@@ -205,7 +208,7 @@ def main():
         import numpy  # noqa: F401
     except ImportError as e:
         fail(3, f"{e}: run this script with the Python that has Mitsuba 3 and numpy "
-                f"(see ../shared/reference/README.md)")
+                f"(see docs/mitsuba-export.md, \"Installing Mitsuba\")")
 
     out = args.out or tempfile.mkdtemp(prefix="reference-check-")
     os.makedirs(out, exist_ok=True)

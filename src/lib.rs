@@ -11,6 +11,7 @@ pub mod commands;
 pub mod dispersion;
 pub mod export;
 pub mod figure;
+pub mod flip;
 pub mod geometry;
 pub mod image;
 pub mod interrupt;

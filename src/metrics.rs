@@ -37,39 +37,15 @@
 //!   images every mean is NaN (and `pixels` is 0).
 //!
 //! # Bias and variance
-//! [`split`] divides the MSE of a render into the part its noise explains and the rest, its bias.
-//! With x a pixel channel's estimate and v_x the variance of that estimate (the render's
-//! per-pixel variance, s²/n, [`crate::render`]), and the reference's r and v_r (0 when it has no
-//! variance), for independent renders E[(x−r)²] = bias² + var_x + var_r. Per channel term
-//! b = (x−r)² − v_x − v_r is an unbiased estimate of bias², so over the compared pixels
-//!
-//! - variance part V = mean(v_x), reference part V_r = mean(v_r), bias part B = mean(b), and
-//!   MSE = B + V + V_r exactly. B can come out negative by noise (or when v_x overestimates the
-//!   error: with the Sobol' or stratified sampler s²/n ignores the gain of stratification).
-//! - Standard errors: with p_i the mean of a term over pixel i's three channels and N pixels,
-//!   SE = sd(p_i)/√N (the sample standard deviation over pixels). Pixels are independent
-//!   estimates, so under the hypothesis of no bias this is the standard error of B; when there
-//!   is bias it also holds the spread of the bias over the image, so it errs on the large side.
-//!   The same formula gives the (equally conservative) standard errors of V and V_r.
-//! - **Biased**: B > [`BIAS_SIGNIFICANCE`] (3) standard errors *and* B > [`BIAS_FRACTION`] (10%)
-//!   of the MSE. The first says the bias is real, the second that it matters: an unbiased method
-//!   judged against a reference whose variance is unknown would otherwise be called biased by
-//!   the reference's noise alone, and a tiny real bias under much noise is still a variance
-//!   problem. A deterministic render (no variance: `ssaa`'s fixed pattern) has V = 0: all its
-//!   error is bias.
-//! - **Unresolved**: B < −3 standard errors. The variance part is then significantly larger than
-//!   the whole error: the render's variance estimate is conservative (s²/n with the Sobol' or the
-//!   stratified sampler, whose samples are not independent; at 16 spp on `soft-shadows` `path`'s
-//!   V is about twice its MSE), and a bias could hide under it. Render with
-//!   `sampler = "independent"` to resolve it. The error is still no more than variance explains.
-//! - **Unbiased**: neither. The efficiency 1/(MSE·s) compares methods whose error is variance,
-//!   so it is given for unbiased and unresolved ones only (the latter marked); biased ones are
-//!   reported with their bias instead.
+//! [`split`] divides a render's relMSE into the part its noise explains and its bias, with
+//! standard errors from its replicas and a verdict ([`split`]'s module documentation).
+
+mod split;
+
+pub use split::*;
 
 use crate::image::Image;
-use crate::integrators::Integrator;
 use crate::output::png::to_srgb8;
-use crate::render::{Progression, RenderOutput};
 
 /// A rectangle of pixels, from the top-left corner.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -338,155 +314,12 @@ pub fn ssim(x: &[f64], y: &[f64], valid: &[bool], width: usize, height: usize) -
     sum / windows as f64
 }
 
-/// The bias and variance parts of a render's MSE (see the module documentation).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Split {
-    /// The MSE over the pixels of the split (those finite in both images and both variances).
-    pub mse: f64,
-    /// V = mean of the render's per-pixel variance (0 for a deterministic render).
-    pub variance: f64,
-    /// Standard error of V.
-    pub variance_se: f64,
-    /// V_r = mean of the reference's per-pixel variance (0 when it has none).
-    pub reference_variance: f64,
-    /// Standard error of V_r.
-    pub reference_variance_se: f64,
-    /// B = MSE − V − V_r, the estimate of the mean squared bias; can be negative by noise.
-    pub bias: f64,
-    /// Standard error of B.
-    pub bias_se: f64,
-    /// Pixels in the split.
-    pub pixels: usize,
-    /// Pixels left out because a variance (of the render or of the reference) is not finite.
-    pub non_finite_variance: usize,
-}
-
-/// B must exceed this many standard errors to call a render biased.
-pub const BIAS_SIGNIFICANCE: f64 = 3.0;
-
-/// B must be more than this fraction of the MSE to call a render biased.
-pub const BIAS_FRACTION: f64 = 0.1;
-
-impl Split {
-    /// Whether the bias part is significant: more than [`BIAS_SIGNIFICANCE`] standard errors and
-    /// more than [`BIAS_FRACTION`] of the MSE.
-    pub fn biased(&self) -> bool {
-        self.bias > BIAS_SIGNIFICANCE * self.bias_se && self.bias > BIAS_FRACTION * self.mse
-    }
-
-    /// Whether the variance part is significantly larger than the whole error (B below −3
-    /// standard errors): the render's variance estimate is conservative, as s²/n is for the
-    /// Sobol' and stratified samplers.
-    pub fn variance_overestimated(&self) -> bool {
-        self.bias < -BIAS_SIGNIFICANCE * self.bias_se
-    }
-
-    /// Not biased, and the variance part not significantly above the MSE either: the error is
-    /// variance, and the variance estimate agrees with it.
-    pub fn unbiased(&self) -> bool {
-        self.status() == "unbiased"
-    }
-
-    /// The verdict: "biased", "unbiased", or "unresolved" (the variance part significantly
-    /// exceeds the MSE, so the variance estimate is conservative and could hide a bias; or there
-    /// are too few pixels, under two, for a standard error).
-    pub fn status(&self) -> &'static str {
-        if self.biased() {
-            "biased"
-        } else if self.variance_overestimated() || !self.bias_se.is_finite() {
-            "unresolved"
-        } else {
-            "unbiased"
-        }
-    }
-
-    /// √B, the root-mean-square bias (0 when B is not positive).
-    pub fn rms_bias(&self) -> f64 {
-        self.bias.max(0.0).sqrt()
-    }
-}
-
-/// The CSV columns of a split, as [`split_csv`] fills them.
-pub const SPLIT_CSV_COLUMNS: &str = "variance,variance_se,reference_variance,bias,bias_se,bias_status";
-
-/// The CSV fields of `split` under [`SPLIT_CSV_COLUMNS`] (full precision): the parts, their
-/// standard errors and [`Split::status`]; empty fields and "unknown" without a split.
-pub fn split_csv(split: Option<&Split>) -> String {
-    match split {
-        Some(s) => format!(
-            "{},{},{},{},{},{}",
-            s.variance,
-            s.variance_se,
-            s.reference_variance,
-            s.bias,
-            s.bias_se,
-            s.status()
-        ),
-        None => ",,,,,unknown".to_string(),
-    }
-}
-
 /// The mean of `values` and its standard error, sd/√n (NaN for the error below two values).
 fn mean_and_se(values: &[f64]) -> (f64, f64) {
     let n = values.len() as f64;
     let mean = values.iter().sum::<f64>() / n;
     let ss: f64 = values.iter().map(|v| (v - mean).powi(2)).sum();
     (mean, (ss / (n - 1.0)).sqrt() / n.sqrt())
-}
-
-/// The bias and variance parts of the MSE of `test` against `reference` over `crop` (or the
-/// whole image). `test_variance` and `reference_variance` are the per-pixel variances of the
-/// estimates; `None` means zero (a deterministic render, a reference taken as exact).
-pub fn split(
-    test: &Image,
-    test_variance: Option<&Image>,
-    reference: &Image,
-    reference_variance: Option<&Image>,
-    crop: Option<Crop>,
-) -> Result<Split, MetricsError> {
-    check_sizes(test, reference)?;
-    for (which, v) in [("test", test_variance), ("reference", reference_variance)] {
-        if let Some(v) = v {
-            if check_sizes(v, reference).is_err() {
-                return Err(MetricsError::VarianceSize { which, width: v.width, height: v.height });
-            }
-        }
-    }
-    let crop = resolve_crop(test, crop)?;
-    let variance_at = |v: Option<&Image>, i: usize| v.map_or(glam::DVec3::ZERO, |v| v.pixels[i].as_dvec3());
-    let (mut sq, mut var, mut var_r, mut bias) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
-    let mut non_finite_variance = 0;
-    for i in region_indices(test.width, crop) {
-        let (x, r) = (test.pixels[i].as_dvec3(), reference.pixels[i].as_dvec3());
-        if !(x.is_finite() && r.is_finite()) {
-            continue;
-        }
-        let (vx, vr) = (variance_at(test_variance, i), variance_at(reference_variance, i));
-        if !(vx.is_finite() && vr.is_finite()) {
-            non_finite_variance += 1;
-            continue;
-        }
-        let d2 = (x - r) * (x - r);
-        sq.push(d2.element_sum() / 3.0);
-        var.push(vx.element_sum() / 3.0);
-        var_r.push(vr.element_sum() / 3.0);
-        bias.push((d2 - vx - vr).element_sum() / 3.0);
-    }
-    let (mse, _) = mean_and_se(&sq);
-    let (variance, variance_se) = mean_and_se(&var);
-    let (reference_variance, reference_variance_se) = mean_and_se(&var_r);
-    let (bias, bias_se) = mean_and_se(&bias);
-    Ok(Split {
-        mse,
-        variance,
-        variance_se,
-        reference_variance,
-        reference_variance_se,
-        bias,
-        bias_se,
-        pixels: sq.len(),
-        non_finite_variance,
-    })
 }
 
 /// Per-pixel relative squared error, the mean over channels of (x − r)² / (r² + 0.01); NaN where
@@ -593,30 +426,6 @@ fn region_pairs<'a>(
 /// Millions of rays per second.
 pub fn mrays_per_second(rays: u64, seconds: f64) -> f64 {
     rays as f64 / seconds.max(1e-9) / 1e6
-}
-
-/// Efficiency, 1/(MSE·seconds), only for a render whose error is variance: its split known and
-/// not biased (unbiased, or unresolved: the variance estimate explains more than the whole
-/// error). `None` otherwise: the efficiency of a biased render would reward its bias.
-pub fn efficiency(split: Option<&Split>, mse: f64, seconds: f64) -> Option<f64> {
-    split.filter(|s| !s.biased()).map(|_| 1.0 / (mse * seconds.max(1e-9)))
-}
-
-/// The split of a render by `method` (see [`split`]): with the render's own variance; with none
-/// for a method of one fixed, deterministic pattern ([`Progression::Fixed`]: `ssaa`), whose error
-/// is all bias; `None` (unknown) for any other render without a variance (a single sample, or a
-/// file that kept none).
-pub fn render_split(
-    method: &dyn Integrator,
-    out: &RenderOutput,
-    reference: &Image,
-    reference_variance: Option<&Image>,
-) -> Result<Option<Split>, MetricsError> {
-    let deterministic = matches!(method.progression(), Progression::Fixed(_));
-    if out.variance.is_none() && !deterministic {
-        return Ok(None);
-    }
-    split(&out.image, out.variance.as_ref(), reference, reference_variance, None).map(Some)
 }
 
 #[cfg(test)]
@@ -859,94 +668,5 @@ mod tests {
         valid[11] = false;
         assert!((ssim(&x, &y, &valid, 12, 11) - by_hand(1.0)).abs() < 1e-12);
         assert!(ssim(&x, &y, &[false; 132], 12, 11).is_nan());
-    }
-
-    /// `reference` plus `offset` plus Gaussian noise of standard deviation `sigma` per channel
-    /// (Box–Muller, seeded), with the variance image σ² that states it.
-    fn noisy(reference: &Image, offset: f32, sigma: f32, seed: u64) -> (Image, Image) {
-        use rand::{RngExt, SeedableRng};
-        let mut rng = rand_pcg::Pcg64::seed_from_u64(seed);
-        let mut normal = || {
-            let (u, v): (f64, f64) = (1.0 - rng.random::<f64>(), rng.random::<f64>());
-            ((-2.0 * u.ln()).sqrt() * (std::f64::consts::TAU * v).cos()) as f32
-        };
-        let pixels =
-            reference.pixels.iter().map(|p| *p + offset + sigma * Vec3::new(normal(), normal(), normal()));
-        let image = Image { width: reference.width, height: reference.height, pixels: pixels.collect() };
-        (image, grey(reference.width, reference.height, sigma * sigma))
-    }
-
-    /// A 64×64 reference: the split needs no structure, only pixels.
-    fn flat() -> Image {
-        grey(64, 64, 0.5)
-    }
-
-    #[test]
-    fn the_split_recovers_a_known_bias_and_variance() {
-        // Test = reference + 0.05 + N(0, 0.1²): bias² = 2.5e-3, variance 1e-2. Per pixel the bias
-        // term has a standard deviation near 0.01, so over 4096 pixels B has a standard error of
-        // about 1.6e-4: 2.5e-3 is some 16 of them, far outside the 4-SE tolerance of each check.
-        let reference = flat();
-        let (bias, sigma) = (0.05f32, 0.1f32);
-        let (test, variance) = noisy(&reference, bias, sigma, 1);
-        let s = split(&test, Some(&variance), &reference, None, None).unwrap();
-        let b2 = f64::from(bias) * f64::from(bias);
-        assert!((s.bias - b2).abs() < 4.0 * s.bias_se, "{s:?}");
-        assert!(s.bias_se > 0.0 && s.bias_se < b2 / 8.0, "{s:?}");
-        assert!((s.variance - f64::from(sigma * sigma)).abs() < 1e-9 && s.variance_se < 1e-9, "{s:?}");
-        assert!((s.mse - (s.bias + s.variance + s.reference_variance)).abs() < 1e-12, "{s:?}");
-        assert!(s.biased() && s.status() == "biased", "{s:?}");
-        assert!(close(s.mse, compare(&test, &reference, None, 0.0).unwrap().mse), "{s:?}");
-
-        // No offset: B is zero within 4 standard errors, and not called biased.
-        let (test, variance) = noisy(&reference, 0.0, sigma, 2);
-        let s = split(&test, Some(&variance), &reference, None, None).unwrap();
-        assert!(s.bias.abs() < 4.0 * s.bias_se && !s.biased() && s.unbiased(), "{s:?}");
-        assert_eq!(s.status(), "unbiased");
-        // A variance estimate twice too large (as s²/n can be with Sobol' samples): B is some
-        // −60 standard errors, and the verdict is unresolved, not unbiased.
-        let doubled = grey(64, 64, 2.0 * sigma * sigma);
-        let s = split(&test, Some(&doubled), &reference, None, None).unwrap();
-        assert!(s.variance_overestimated() && !s.unbiased() && s.status() == "unresolved", "{s:?}");
-
-        // A noisy reference (σr = 0.05, its variance stated): without V_r, B would be off by
-        // σr² = 2.5e-3, some 16 standard errors; with it B is the offset's square again.
-        let (noisy_reference, reference_variance) = noisy(&reference, 0.0, 0.05, 3);
-        let (test, variance) = noisy(&reference, bias, sigma, 4);
-        let s = split(&test, Some(&variance), &noisy_reference, Some(&reference_variance), None).unwrap();
-        assert!((s.bias - b2).abs() < 4.0 * s.bias_se, "{s:?}");
-        assert!((s.reference_variance - 0.0025).abs() < 1e-9, "{s:?}");
-        let ignored = split(&test, Some(&variance), &noisy_reference, None, None).unwrap();
-        assert!((ignored.bias - b2).abs() > 8.0 * ignored.bias_se, "{ignored:?}");
-
-        // A deterministic render (no variance) with an error: all of it is bias.
-        let pixels = reference.pixels.iter().map(|p| *p + 0.01).collect();
-        let offset = Image { pixels, ..reference.clone() };
-        let s = split(&offset, None, &reference, None, None).unwrap();
-        assert!((s.bias - 1e-4).abs() < 1e-8 && s.variance == 0.0 && s.biased(), "{s:?}");
-        // A small but certain bias under much noise is a variance problem: not biased.
-        let (test, variance) = noisy(&reference, 0.02, 0.2, 5);
-        let s = split(&test, Some(&variance), &reference, None, None).unwrap();
-        assert!(s.bias < BIAS_FRACTION * s.mse && !s.biased(), "{s:?}");
-    }
-
-    #[test]
-    fn the_split_checks_sizes_and_skips_non_finite_pixels() {
-        let reference = flat();
-        let (mut test, mut variance) = noisy(&reference, 0.0, 0.1, 6);
-        test.pixels[0] = Vec3::NAN;
-        variance.pixels[1] = Vec3::INFINITY;
-        let s = split(&test, Some(&variance), &reference, None, None).unwrap();
-        assert_eq!((s.pixels, s.non_finite_variance), (4094, 1));
-        // One pixel: no standard error, no verdict.
-        let one = Crop { x: 5, y: 5, width: 1, height: 1 };
-        let s = split(&test, Some(&variance), &reference, None, Some(one)).unwrap();
-        assert!(s.bias_se.is_nan() && s.status() == "unresolved", "{s:?}");
-        let wrong = grey(2, 2, 0.0);
-        assert_eq!(
-            split(&test, Some(&wrong), &reference, None, None),
-            Err(MetricsError::VarianceSize { which: "test", width: 2, height: 2 })
-        );
-        assert!(split(&test, None, &reference, Some(&wrong), None).is_err());
     }
 }

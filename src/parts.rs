@@ -167,6 +167,7 @@ impl Identity {
             ("seed", opts.seed.to_string()),
             ("resolution", format!("{width}x{height}")),
             ("sampler", opts.sampler.name().to_string()),
+            ("replicas", opts.replicas.count().to_string()),
             ("max-depth", opts.params.max_depth.to_string()),
             ("wavelengths", if wavelengths { "yes" } else { "no" }.to_string()),
             ("reflectance", opts.params.reflectance.map_or("fresnel".to_string(), |r| r.to_string())),
@@ -357,7 +358,10 @@ fn add_film(film: &mut Film, other: &Film) {
     for (a, b) in film.sum.iter_mut().zip(&other.sum) {
         *a += *b;
     }
-    for (a, b) in film.sum_sq.iter_mut().zip(&other.sum_sq) {
+    for (a, b) in film.replica_sums.iter_mut().zip(&other.replica_sums) {
+        *a += *b;
+    }
+    for (a, b) in film.replica_samples.iter_mut().zip(&other.replica_samples) {
         *a += *b;
     }
     film.rays += other.rays;
@@ -439,11 +443,14 @@ mod tests {
     }
 
     fn part(samples: Range<u32>, seed: &str, values: f64) -> (String, Part) {
-        let mut film = Film::new(2, 1, 3.0, false);
-        film.sum = vec![glam::DVec3::splat(values); 2];
-        film.sum_sq = vec![glam::DVec3::splat(values * values); 2];
+        let mut film = Film::new(2, 1, 3.0, false, crate::sampler::Replicas::DEFAULT);
         film.first = samples.start;
-        film.samples = samples.end - samples.start;
+        for s in samples.clone() {
+            for pixel in 0..2 {
+                film.add(pixel, s, glam::DVec3::splat(values / (samples.end - samples.start) as f64));
+            }
+        }
+        film.advance(samples.end - samples.start);
         let fields = [("seed", seed), ("sampler", "sobol"), ("integrator", "path")];
         let identity = Identity(fields.iter().map(|(k, v)| (k.to_string(), v.to_string())).collect());
         let name = format!("part {}..{}", samples.start, samples.end);
@@ -459,6 +466,8 @@ mod tests {
         assert_eq!(merged.info.samples.as_range(), Some(0..12));
         assert_eq!((merged.film.first, merged.film.samples), (0, 12));
         assert_eq!(merged.film.sum[0].x, 12.0);
+        // Replica r holds the indices ≡ r mod 8 of both parts.
+        assert_eq!(merged.film.replica_samples, [2, 2, 2, 2, 1, 1, 1, 1]);
         // The estimate is the summed sums over the summed counts and the film normalisation.
         assert_eq!(merged.film.image().pixels[0].x, (12.0 / (12.0 * 3.0)) as f32);
 

@@ -22,11 +22,12 @@
 use crate::image::Image;
 use crate::integrators::Integrator;
 use crate::light::Light;
-use crate::output::exr::{
-    read_exr, read_variance, stage_exr, stage_exr_with_channels, variance_channels, ExrMetadata,
-};
+use crate::metrics::Estimate;
+use crate::output::exr::{stage_exr_with_notes, ExrMetadata};
+use crate::output::film::{read_render, RenderRead};
+use crate::output::replicas::render_channels;
 use crate::output::{write_atomically, OutputError};
-use crate::render::{camera_for, Budget, RenderOptions};
+use crate::render::{camera_for, Budget, RenderOptions, ReplicaMeans};
 use crate::scene::Scene;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
@@ -48,6 +49,16 @@ pub struct Reference {
     /// The variance of each pixel's estimate (kept in the EXR's variance channels), so that
     /// the reference's own noise can be told from a method's bias ([`crate::metrics::split`]).
     pub variance: Option<Image>,
+    /// The means of its replicas (kept in the EXR's replica channels): the standard errors of
+    /// every judgement against it include the reference's own noise.
+    pub replicas: Option<ReplicaMeans>,
+}
+
+impl Reference {
+    /// The reference as the split judges it.
+    pub fn estimate(&self) -> Estimate<'_> {
+        Estimate { image: &self.image, replicas: self.replicas.as_ref(), variance: self.variance.as_ref() }
+    }
 }
 
 /// Everything a cached reference depends on (the sidecar's contents).
@@ -76,6 +87,9 @@ pub struct ReferenceKey {
     pub spectral: String,
     /// Sampler name.
     pub sampler: String,
+    /// The replica count (absent in keys of older versions, which the version tells apart).
+    #[serde(default)]
+    pub replicas: u32,
     /// The initial merge radius and its α, for a merging method (absent for the others, so
     /// that the keys of `path` references stay as they were).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -104,6 +118,7 @@ impl ReferenceKey {
             reflectance: opts.params.reflectance,
             spectral: format!("{:?}", opts.spectral),
             sampler: opts.sampler.name().into(),
+            replicas: opts.replicas.count(),
             version: crate::VERSION.into(),
         }
     }
@@ -138,21 +153,20 @@ fn fnv1a(bytes: &[u8]) -> u64 {
     bytes.iter().fold(0xcbf2_9ce4_8422_2325, |h, &b| (h ^ b as u64).wrapping_mul(0x0000_0100_0000_01b3))
 }
 
-/// The cached reference for `key` in `cache_dir` and its variance, when a valid one is there
-/// (one of two samples or more cached without variance channels, by an older version, is not).
-fn read_cached(exr: &Path, sidecar: &Path, key: &ReferenceKey) -> Option<(Image, Option<Image>)> {
+/// The cached reference for `key` in `cache_dir`, with its variance and replicas, when a valid
+/// one is there (one of two samples or more cached without replicas is not).
+fn read_cached(exr: &Path, sidecar: &Path, key: &ReferenceKey) -> Option<(Image, RenderRead)> {
     let stored: ReferenceKey = serde_json::from_str(&std::fs::read_to_string(sidecar).ok()?).ok()?;
     if !stored.same(key) {
         return None;
     }
-    let (image, _) = read_exr(exr).ok()?;
-    let variance = read_variance(exr).ok()?;
+    let read = read_render(exr).ok()?;
     let size = (key.width as usize, key.height as usize);
-    let variance_fits = match &variance {
-        Some(v) => (v.width, v.height) == size,
-        None => key.spp < 2,
+    let replicas_fit = match &read.replicas {
+        Some(r) => (r.width(), r.height()) == size,
+        None => key.spp < 2 || key.replicas < 2,
     };
-    ((image.width, image.height) == size && variance_fits).then_some((image, variance))
+    ((read.image.width, read.image.height) == size && replicas_fit).then(|| (read.image.clone(), read))
 }
 
 /// The method that renders a correct reference of a scene, and why.
@@ -193,6 +207,148 @@ pub fn choose_method(scene: &Scene) -> ReferenceChoice {
     }
 }
 
+/// The methods that may render a reference, in the order a tie goes.
+pub const CANDIDATES: [&str; 3] = ["path", "bpt", "vcm"];
+
+/// Why `method` cannot render a correct reference of `scene`: an effect of the scene it does not
+/// simulate, or caustics of a point light through a specular surface that `path` and `bpt`
+/// cannot find ([`choose_method`]); `None` when it can. The merging methods' shared wavelengths
+/// and shutter time per iteration count as simulated: their iterations sample them, so the
+/// image converges to the right one.
+pub fn unfit_for_reference(scene: &Scene, method: &dyn Integrator) -> Option<String> {
+    use crate::scene::effects::Effect;
+    let merging = crate::scene::desc::MERGING_METHODS.contains(&method.name());
+    for effect in scene.effects.0.iter().map(|u| u.effect) {
+        let shared = merging && matches!(effect, Effect::Dispersion | Effect::MotionBlur);
+        if method.support(effect) != crate::scene::effects::Support::Simulates && !shared {
+            return Some(format!("does not simulate {}", effect.name()));
+        }
+    }
+    let rule = choose_method(scene);
+    (rule.method == "vcm" && method.name() != "vcm")
+        .then(|| "cannot find the caustics of a point light through a specular surface".to_string())
+}
+
+/// A candidate's pilot render: how noisy it is for the time it took.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Pilot {
+    /// The method.
+    pub method: String,
+    /// Samples per pixel it took.
+    pub spp: u32,
+    /// Seconds it took.
+    pub seconds: f64,
+    /// The mean over pixels and channels of the variance of its pixels' means (from its
+    /// replicas); infinite without an estimate.
+    pub variance: f64,
+}
+
+impl Pilot {
+    /// Variance × seconds: the variance the method would reach in one second (lower is better).
+    pub fn cost(&self) -> f64 {
+        self.variance * self.seconds
+    }
+}
+
+/// The seconds each candidate's pilot renders for by default.
+pub const PILOT_SECONDS: f64 = 0.5;
+
+/// The method that renders the reference of `scene` with the sweep's options `opts`: the fit
+/// candidate ([`unfit_for_reference`]) with the lowest variance × time in a short pilot render of
+/// each (`pilot` long, at the sweep's resolution), with the pilots. A single fit candidate needs
+/// no pilot. The choice is measured once and kept in `cache_dir` (`pilot-….json`, keyed like a
+/// reference), so later sweeps of the same scene and settings agree with it.
+pub fn choose_by_pilot(
+    scene: &Scene,
+    opts: &RenderOptions,
+    pilot: std::time::Duration,
+    cache_dir: &Path,
+    progress: &(dyn Fn(u64, u64) + Sync),
+) -> Result<(ReferenceChoice, Vec<Pilot>), OutputError> {
+    let all: Vec<Box<dyn Integrator>> =
+        CANDIDATES.iter().map(|n| crate::integrators::create(n).expect("a registered method")).collect();
+    let unfit: Vec<(&'static str, String)> = all
+        .iter()
+        .filter_map(|m| unfit_for_reference(scene, m.as_ref()).map(|why| (m.name(), why)))
+        .collect();
+    let fit: Vec<&dyn Integrator> =
+        all.iter().map(|m| m.as_ref()).filter(|m| !unfit.iter().any(|(n, _)| *n == m.name())).collect();
+    // "path and bpt cannot …": the methods that share a reason, named together.
+    let mut reasons: Vec<(Vec<&str>, &str)> = Vec::new();
+    for (name, why) in &unfit {
+        match reasons.iter_mut().find(|(_, w)| *w == why.as_str()) {
+            Some((names, _)) => names.push(name),
+            None => reasons.push((vec![name], why)),
+        }
+    }
+    let excluded = reasons
+        .iter()
+        .map(|(names, why)| format!("{} {why}", names.join(" and ")))
+        .collect::<Vec<_>>()
+        .join("; ");
+    match fit.as_slice() {
+        [] => return Ok((choose_method(scene), Vec::new())),
+        [only] => {
+            let why = format!("the only method fit for a reference ({excluded})");
+            return Ok((ReferenceChoice { method: only.name(), why }, Vec::new()));
+        }
+        _ => {}
+    }
+    let mut key = ReferenceKey::new(scene, "pilot", opts, 0);
+    key.integrator = format!(
+        "pilot-{}-{}s",
+        fit.iter().map(|m| m.name()).collect::<Vec<_>>().join("+"),
+        pilot.as_secs_f64()
+    );
+    let sidecar = cache_dir.join(format!("{}.json", key.file_stem()));
+    let stored = std::fs::read_to_string(&sidecar)
+        .ok()
+        .and_then(|t| serde_json::from_str::<(ReferenceKey, Vec<Pilot>)>(&t).ok());
+    let pilots = match stored {
+        Some((k, pilots)) if k.same(&key) && pilots.len() == fit.len() => pilots,
+        _ => {
+            let mut pilots = Vec::with_capacity(fit.len());
+            for (i, method) in fit.iter().enumerate() {
+                let opts = RenderOptions {
+                    budget: Budget::Time(pilot),
+                    seed: reference_seed(opts.seed) ^ 0x9e37,
+                    ..opts.clone()
+                };
+                let n = fit.len() as u64;
+                let out = crate::render::render(scene, *method, &opts, &|done, total| {
+                    progress(i as u64 * 1000 + 1000 * done / total.max(1), n * 1000)
+                });
+                let variance = out.noise().filter(|n| n.mse.is_finite()).map_or(f64::INFINITY, |n| n.mse);
+                pilots.push(Pilot {
+                    method: method.name().into(),
+                    spp: out.spp,
+                    seconds: out.seconds,
+                    variance,
+                });
+            }
+            std::fs::create_dir_all(cache_dir).map_err(|e| OutputError::io(cache_dir, e))?;
+            let text = serde_json::to_string_pretty(&(&key, &pilots)).expect("pilots serialise") + "\n";
+            write_atomically(&sidecar, |tmp| {
+                std::fs::write(tmp, text.as_bytes()).map_err(|e| OutputError::io(tmp, e))
+            })?;
+            pilots
+        }
+    };
+    let best =
+        pilots.iter().enumerate().min_by(|a, b| a.1.cost().total_cmp(&b.1.cost())).map_or(0, |(i, _)| i);
+    let method = fit[best].name();
+    let costs = pilots
+        .iter()
+        .map(|p| format!("{} {:.3e} ({} spp in {:.2} s)", p.method, p.cost(), p.spp, p.seconds))
+        .collect::<Vec<_>>()
+        .join(", ");
+    let mut why = format!("the lowest variance × seconds in {:.2} s pilots: {costs}", pilot.as_secs_f64());
+    if !excluded.is_empty() {
+        why += &format!("; not fit: {excluded}");
+    }
+    Ok((ReferenceChoice { method, why }, pilots))
+}
+
 /// The reference of `scene` by `method` at `spp` samples with the resolution, seed and depth of
 /// `opts`, read from `cache_dir` when an identical one was made before, otherwise rendered and
 /// stored there.
@@ -208,8 +364,9 @@ pub fn render_reference(
     let stem = key.file_stem();
     let exr = cache_dir.join(format!("{stem}.exr"));
     let sidecar = cache_dir.join(format!("{stem}.json"));
-    if let Some((image, variance)) = read_cached(&exr, &sidecar, &key) {
-        return Ok(Reference { image, path: exr, spp, cached: true, variance });
+    if let Some((image, read)) = read_cached(&exr, &sidecar, &key) {
+        let variance = read.variance();
+        return Ok(Reference { image, path: exr, spp, cached: true, variance, replicas: read.replicas });
     }
 
     std::fs::create_dir_all(cache_dir).map_err(|e| OutputError::io(cache_dir, e))?;
@@ -226,18 +383,20 @@ pub fn render_reference(
         scene: format!("{} ({})", scene.origin.name, scene.origin.hash),
         effects: scene.effects.names(),
     };
-    match &out.variance {
-        Some(v) => {
-            let samples = vec![out.spp as f32; v.pixels.len()];
-            stage_exr_with_channels(&exr, &out.image, &meta, &variance_channels(v, &samples))?.commit()?
-        }
-        None => stage_exr(&exr, &out.image, &meta)?.commit()?,
-    }
+    let (channels, notes) = render_channels(&out);
+    stage_exr_with_notes(&exr, &out.image, &meta, &channels, &notes)?.commit()?;
     let text = serde_json::to_string_pretty(&key).expect("a key serialises") + "\n";
     write_atomically(&sidecar, |tmp| {
         std::fs::write(tmp, text.as_bytes()).map_err(|e| OutputError::io(tmp, e))
     })?;
-    Ok(Reference { image: out.image, path: exr, spp, cached: false, variance: out.variance })
+    Ok(Reference {
+        image: out.image,
+        path: exr,
+        spp,
+        cached: false,
+        variance: out.variance,
+        replicas: out.replicas,
+    })
 }
 
 #[cfg(test)]

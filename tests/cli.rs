@@ -1081,6 +1081,29 @@ fn light_power_that_overflows() {
     assert_extra_error(&extra, "emission", "materials.lamp.emission", &["power", "overflows"]);
 }
 
+#[test]
+fn environment_map_whose_mean_radiance_overflows() {
+    // Finite texels whose mean over the sphere is not: an environment has no power, its mean
+    // radiance is what overflows (and the message says so, at the map's `file`).
+    let sandbox = Sandbox::new();
+    let mut sky = vitrum::image::Image::new(4, 2);
+    sky.pixels.iter_mut().for_each(|p| *p = glam::Vec3::splat(3e38));
+    vitrum::output::exr::write_exr(&sandbox.path("sky.exr"), &sky, &Default::default()).unwrap();
+    let text = map_scene("0");
+    let out = render(&sandbox, Some(&sandbox.scene(&text)), &[]);
+    let location = format!("scene.toml:{}:", line_of(&text, "file = "));
+    assert_refused(
+        &sandbox,
+        &out,
+        &[
+            &location,
+            "field `lights[1].file`",
+            "mean radiance ([inf, inf, inf] W/(m²·sr)) overflows",
+            "`scale`",
+        ],
+    );
+}
+
 // ---- scene files: lights without area ----------------------------------------------------
 
 /// An extra quad light (lights[1]) with edges `u` and `v`.
@@ -1313,6 +1336,112 @@ fn info_json_describes_the_bvh_and_effects() {
 }
 
 #[test]
+fn non_finite_exposures_are_refused_by_every_command_that_takes_one() {
+    let sandbox = Sandbox::new();
+    sandbox.scene(CORNELL);
+    // A render part of 8×8 pixels (outside `out/`): what `merge` merges, `diff` and `compare` judge.
+    let words = |command: &'static str| command.split(' ').collect::<Vec<_>>();
+    let part =
+        sandbox.vitrum(&words("render scene.toml --resolution 8x8 --samples 0..2 -o part.exr --quiet"));
+    assert_eq!(part.status.code(), Some(0), "{}", stderr(&part));
+    let commands = [
+        "render scene.toml --resolution 8x8 -o out/image.exr --png out/image.png --quiet",
+        "merge part.exr -o out/merged.exr --png out/merged.png",
+        "diff part.exr part.exr --error-map out/error.png",
+        "compare scene.toml -i raycast --spp 1 --resolution 8x8 --reference part.exr --out out/compare",
+        "report scene.toml -i raycast --spp 1 --resolution 8x8 --reference-spp 1 --cache out/cache --out out/report",
+    ];
+    for command in commands {
+        let args = words(command);
+        for bad in ["nan", "NaN", "inf", "-inf", "infinity"] {
+            let out = sandbox.vitrum(&[&args[..], &["--exposure", bad]].concat());
+            // Named: the option, the value and what is allowed.
+            assert_refused(
+                &sandbox,
+                &out,
+                &["--exposure", &format!("`{bad}` is not a finite number of stops")],
+            );
+        }
+        // A finite exposure goes through, and writes the outputs.
+        let out = sandbox.vitrum(&[&args[..], &["--exposure", "-1.5"]].concat());
+        assert_eq!(out.status.code(), Some(0), "{command}: {}", stderr(&out));
+        assert!(!sandbox.out_files().is_empty(), "{command} wrote nothing");
+        fs::remove_dir_all(sandbox.out()).unwrap();
+        fs::create_dir(sandbox.out()).unwrap();
+    }
+}
+
+/// A scene with a point light and an environment map (`sky.exr`, 4×2 texels of radiance 2, which
+/// the caller writes) turned by `rotation` degrees at scale 0.5: a mean radiance of 1.
+fn map_scene(rotation: &str) -> String {
+    format!(
+        "[camera]\nposition = [0.0, 1.0, 3.0]\nlook_at = [0.0, 0.5, 0.0]\nfov = 40.0\nresolution = [8, 8]\n\
+         [materials.white]\ntype = \"diffuse\"\ncolor = 0.5\n\
+         [[objects]]\nshape = \"sphere\"\ncenter = [0.0, 0.5, 0.0]\nradius = 0.5\nmaterial = \"white\"\n\
+         [[lights]]\ntype = \"point\"\nposition = [0.0, 2.0, 0.0]\nintensity = 1.0\n\
+         [[lights]]\ntype = \"environment\"\nfile = \"sky.exr\"\nscale = 0.5\nrotation = {rotation}\n"
+    )
+}
+
+#[test]
+fn info_shows_an_environment_maps_rotation_as_written_and_its_mean_radiance_as_radiance() {
+    let sandbox = Sandbox::new();
+    let mut sky = vitrum::image::Image::new(4, 2);
+    sky.pixels.iter_mut().for_each(|p| *p = glam::Vec3::splat(2.0));
+    vitrum::output::exr::write_exr(&sandbox.path("sky.exr"), &sky, &Default::default()).unwrap();
+    // 180 once printed as −180 (the angle recovered from its cosine and sine).
+    for rotation in ["180", "180.0", "-90", "270", "540", "0"] {
+        let scene = sandbox.path("scene.toml");
+        fs::write(&scene, map_scene(rotation)).unwrap();
+        let written: f64 = rotation.parse().unwrap();
+
+        let out = sandbox.vitrum(&["info", "scene.toml"]);
+        assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
+        let text = stdout(&out);
+        let map = text.lines().find(|l| l.contains("environment map")).unwrap_or_else(|| panic!("{text}"));
+        assert!(map.contains(&format!("rotation {written}°")), "{rotation}: {map}");
+        // 0.99999994 by the texels' solid angles in single precision.
+        assert!(map.contains("mean radiance (0.99999") && map.ends_with(") W/(m²·sr)"), "{map}");
+        assert!(!map.contains("power") && !map.contains(" W\n") && !map.ends_with(" W"), "{map}");
+        let point = text.lines().find(|l| l.contains("point at")).unwrap_or_else(|| panic!("{text}"));
+        assert!(
+            point.ends_with(&format!(", power ({p}, {p}, {p}) W", p = 4.0 * std::f32::consts::PI)),
+            "{point}"
+        );
+
+        let out = sandbox.vitrum(&["info", "--json", "scene.toml"]);
+        assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
+        let info: Value = serde_json::from_str(&stdout(&out)).expect("one JSON object");
+        let (point, map) = (&info["lights"][0], &info["lights"][1]);
+        assert_eq!(map["rotation_degrees"].as_f64(), Some(written), "{map}");
+        let mean = map["mean_radiance"].as_array().unwrap_or_else(|| panic!("{map}"));
+        assert!(mean.len() == 3 && mean.iter().all(|c| (c.as_f64().unwrap() - 1.0).abs() < 1e-6), "{map}");
+        assert!(map.get("power_watts").is_none(), "the environment has no finite power: {map}");
+        let power = point["power_watts"][0].as_f64().unwrap();
+        assert!((power - 4.0 * std::f64::consts::PI).abs() < 1e-5, "{point}");
+        assert!(point.get("mean_radiance").is_none(), "{point}");
+    }
+}
+
+#[test]
+fn info_json_gives_a_constant_environment_its_mean_radiance_not_a_power() {
+    let sandbox = Sandbox::new();
+    let text = map_scene("0").replace("file = \"sky.exr\"\nscale = 0.5\nrotation = 0\n", "radiance = 0.25\n");
+    sandbox.scene(&text);
+    let out = sandbox.vitrum(&["info", "--json", "scene.toml"]);
+    assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
+    let info: Value = serde_json::from_str(&stdout(&out)).expect("one JSON object");
+    let environment = &info["lights"][1];
+    assert_eq!(environment["kind"], "environment", "{environment}");
+    assert_eq!(environment["mean_radiance"], serde_json::json!([0.25, 0.25, 0.25]), "{environment}");
+    assert!(environment.get("power_watts").is_none(), "{environment}");
+    let out = sandbox.vitrum(&["info", "scene.toml"]);
+    let text = stdout(&out);
+    let line = text.lines().find(|l| l.contains("environment,")).unwrap_or_else(|| panic!("{text}"));
+    assert!(line.ends_with("radiance (0.25, 0.25, 0.25) W/(m²·sr) from every direction"), "{line}");
+}
+
+#[test]
 fn render_json_summary_and_exr_metadata() {
     let sandbox = Sandbox::new();
     let out = render(&sandbox, None, &["--json", "--spp", "2", "--seed", "7"]);
@@ -1479,8 +1608,8 @@ fn the_summary_shows_each_methods_depth() {
 
 #[test]
 fn the_reference_of_cornell_glass_is_rendered_at_full_depth() {
-    // `converge` of the default scene (Whitted depth 5): its cached `path` reference records
-    // depth 256; with --max-depth the reference follows it.
+    // `converge` of the default scene (Whitted depth 5): its cached reference (`vcm`: a point
+    // light meets glass) records depth 256; with --max-depth the reference follows it.
     let sandbox = Sandbox::new();
     let depths = |extra: &[&str]| -> Vec<u64> {
         let mut args = vec!["converge", "-i", "whitted", "--spp-max", "1", "--reference-spp", "2"];

@@ -424,7 +424,12 @@ fn the_reference_cache_is_hit_on_the_second_run() {
     // The default cache folder is `.vitrum-cache` in the working directory.
     let cached: Vec<_> =
         std::fs::read_dir(sb.path(".vitrum-cache")).unwrap().map(|e| e.unwrap().path()).collect();
-    assert_eq!(cached.len(), 2, "an EXR and its key: {cached:?}");
+    // The EXR, its key, and the pilots that chose its method among path, bpt and vcm.
+    assert_eq!(cached.len(), 3, "an EXR, its key and the pilots: {cached:?}");
+    assert!(
+        cached.iter().any(|p| p.file_name().unwrap().to_string_lossy().starts_with("pilot-")),
+        "{cached:?}"
+    );
     let csv_first = std::fs::read_to_string(sb.path("out/converge.csv")).unwrap();
 
     let second = sb.vitrum(&args);
@@ -492,7 +497,15 @@ fn render_variance_adds_exr_channels_and_the_summary_reports_the_noise() {
     let channels = exr.channels;
     let mut names: Vec<&str> = channels.keys().map(String::as_str).collect();
     names.sort();
-    assert_eq!(names, ["B", "G", "R", "samples", "variance.B", "variance.G", "variance.R"]);
+    // The variance, and the means of the 8 replicas it comes from.
+    let replicas = (0..8).flat_map(|k| ["B", "G", "R"].map(|c| format!("replica.{k}.{c}")));
+    let expected: Vec<String> = ["B", "G", "R"]
+        .map(String::from)
+        .into_iter()
+        .chain(replicas)
+        .chain(["samples", "variance.B", "variance.G", "variance.R"].map(String::from))
+        .collect();
+    assert_eq!(names, expected);
     assert!(channels["samples"].iter().all(|&n| n == 8.0));
     let variance: Vec<f32> =
         ["variance.R", "variance.G", "variance.B"].iter().flat_map(|c| channels[*c].clone()).collect();

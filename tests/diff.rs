@@ -160,7 +160,7 @@ fn a_crop_and_the_table() {
         "SSIM",
         "3 compared",
         "1 in the test image",
-        "n/a: the test image keeps no variance",
+        "n/a: the test image keeps no replicas or variance",
     ] {
         assert!(table.contains(needle), "the table lacks `{needle}`:\n{table}");
     }
@@ -296,17 +296,22 @@ fn gradient() -> Image {
 #[test]
 fn variance_channels_split_the_error_into_a_known_bias_and_variance() {
     // Test = reference + 0.05 + N(0, 0.1²), its variance channels 0.01: bias² 2.5e-3, variance
-    // 1e-2. B's standard error is about 1.6e-4 (4096 pixels), so 2.5e-3 is some 16 of them.
+    // 1e-2, both under the split's relative weights.
     let s = Sandbox::new();
     let reference = s.exr("gradient.exr", &gradient());
     let meta = ExrMetadata::default();
     let biased = noisy_exr(&s, "biased.exr", &gradient(), (0.05, 0.1), &meta);
     let v = json(&vitrum(&[biased.as_path(), &reference, Path::new("--json")]));
     let split = &v["split"];
+    // The parts are relative (weights 1/(r̃² + 0.01)), the same weights for each: the bias part
+    // is bias²/σ² = 1/4 of the variance part.
     let (bias, se) = (split["bias"].as_f64().unwrap(), split["bias_se"].as_f64().unwrap());
-    assert!((bias - 0.0025).abs() < 4.0 * se && se < 0.0025 / 8.0, "{split}");
-    assert!((split["variance"].as_f64().unwrap() - 0.01).abs() < 1e-8, "{split}");
-    assert_eq!((split["biased"].as_bool(), split["status"].as_str()), (Some(true), Some("biased")));
+    let variance = split["variance"].as_f64().unwrap();
+    // The relative weights put most of it on the dark channels: about 7 standard errors.
+    assert!((bias - 0.25 * variance).abs() < 4.0 * se && bias > 5.0 * se, "{split}");
+    assert_eq!(split["verdict"], "biased", "{split}");
+    // Variance channels without replicas: the standard error is the spread over the pixels.
+    assert!(split["errors"].as_str().unwrap().starts_with("spread over the pixels"), "{split}");
     let table = stdout(&vitrum(&[biased.as_path(), &reference]));
     assert!(table.contains("biased: the bias part is") && table.contains("taken as exact"), "{table}");
 
@@ -315,22 +320,31 @@ fn variance_channels_split_the_error_into_a_known_bias_and_variance() {
     let v = json(&vitrum(&[unbiased.as_path(), &reference, Path::new("--json")]));
     let split = &v["split"];
     assert!(split["bias"].as_f64().unwrap().abs() < 4.0 * split["bias_se"].as_f64().unwrap(), "{split}");
-    assert_eq!(split["status"], "unbiased");
+    assert_eq!(split["verdict"], "no bias detected");
 
     // A noisy reference with its variance channels: its variance is taken out of the bias.
     let noisy_reference = noisy_exr(&s, "noisy-reference.exr", &gradient(), (0.0, 0.05), &meta);
     let v = json(&vitrum(&[biased.as_path(), &noisy_reference, Path::new("--json")]));
     let split = &v["split"];
-    assert!((split["reference_variance"].as_f64().unwrap() - 0.0025).abs() < 1e-8, "{split}");
+    // Variance parts 0.01 and 0.0025 under the same weights: the reference's is 1/4 of the
+    // test's, and the bias part is again bias²/σ² = 1/4 of the test's.
+    let variance = split["variance"].as_f64().unwrap();
+    assert!(
+        (split["reference_variance"].as_f64().unwrap() - 0.25 * variance).abs() < 1e-6 * variance,
+        "{split}"
+    );
     let (bias, se) = (split["bias"].as_f64().unwrap(), split["bias_se"].as_f64().unwrap());
-    assert!((bias - 0.0025).abs() < 4.0 * se, "{split}");
+    assert!((bias - 0.25 * variance).abs() < 4.0 * se, "{split}");
 
     // An `ssaa` render has no variance: all of its error is bias.
     let ssaa = ExrMetadata { integrator: "ssaa".into(), ..ExrMetadata::default() };
     let deterministic = noisy_exr(&s, "ssaa.exr", &gradient(), (0.01, 0.0), &ssaa);
     let v = json(&vitrum(&[deterministic.as_path(), &reference, Path::new("--json")]));
-    assert_eq!((v["split"]["variance"].as_f64(), v["split"]["status"].as_str()), (Some(0.0), Some("biased")));
-    assert!((v["split"]["bias"].as_f64().unwrap() - 1e-4).abs() < 1e-8, "{v}");
+    assert_eq!(
+        (v["split"]["variance"].as_f64(), v["split"]["verdict"].as_str()),
+        (Some(0.0), Some("biased"))
+    );
+    assert_eq!(v["split"]["bias"], v["split"]["error"], "all of the error is bias: {v}");
 }
 
 #[test]

@@ -67,7 +67,7 @@ fn a_report_of_two_scenes_has_a_section_and_a_folder_for_each() {
     for folder in ["cornell-glass", "soft-shadows", "soft-shadows-2"] {
         assert_eq!(
             names(&out.join(folder)),
-            ["compare.csv", "compare.md", "compare.png", "path.exr", "whitted.exr"],
+            ["compare.csv", "compare.md", "compare.png", "path.exr", "reference.exr", "whitted.exr"],
             "{folder}"
         );
     }

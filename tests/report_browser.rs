@@ -276,24 +276,42 @@ fn the_page_shows_the_exr_values_tone_mapped_and_answers_every_control() {
         .eval("[...document.querySelectorAll('table.results tbody tr')].map(r => [...r.cells].map(c => c.dataset.value))")
         .unwrap();
     let cells = cells.as_array().unwrap();
+    let header: Vec<&str> = csv.lines().next().unwrap().split(',').collect();
     let lines: Vec<&str> = csv.lines().skip(1).collect();
     assert_eq!(cells.len(), lines.len());
+    // The page's numeric columns and the CSV columns they show.
+    let columns = [
+        (1, "spp"),
+        (2, "seconds"),
+        (3, "rays"),
+        (4, "mrays_per_second"),
+        (5, "mse"),
+        (6, "rel_mse"),
+        (7, "rel_mse_trimmed"),
+        (8, "psnr"),
+        (9, "ssim"),
+        (10, "bias"),
+        (11, "efficiency"),
+    ];
     for (row, line) in cells.iter().zip(&lines) {
         let fields: Vec<&str> = line.split(',').collect();
         let row: Vec<&str> = row.as_array().unwrap().iter().map(|v| v.as_str().unwrap()).collect();
         assert_eq!(row[0], fields[0]);
-        for k in 1..8 {
+        for (k, name) in columns {
+            let field = fields[header.iter().position(|h| *h == name).unwrap()];
             let page: Option<f64> = row[k].parse().ok();
-            let file: Option<f64> = fields[k].parse().ok();
+            let file: Option<f64> = field.parse().ok();
             assert_eq!(
                 page, file,
-                "{} column {k}: page {} against compare.csv {}",
-                fields[0], row[k], fields[k]
+                "{} column {k} ({name}): page {} against compare.csv {field}",
+                fields[0], row[k]
             );
         }
+        let verdict = fields[header.len() - 1];
+        assert!(row[12].starts_with(verdict), "{}: verdict {} against {verdict}", fields[0], row[12]);
     }
-    // Sorting: by number, not by text (efficiency 12.5 after 9.07), empty cells (biased
-    // methods) last either way; the second click reverses.
+    // Sorting: by number, not by text (efficiency 12.5 after 9.07), empty cells (methods with
+    // no efficiency) last either way; the second click reverses.
     let column = |browser: &mut Browser, k: usize| {
         let values = browser
             .eval(&format!(
@@ -302,7 +320,7 @@ fn the_page_shows_the_exr_values_tone_mapped_and_answers_every_control() {
             .unwrap();
         values.as_array().unwrap().iter().map(|v| v.as_str().unwrap().to_string()).collect::<Vec<_>>()
     };
-    for k in [6, 7, 2] {
+    for k in [6, 11, 2] {
         for ascending in [true, false] {
             browser.eval(&format!("document.querySelectorAll('table.results th')[{k}].click()")).unwrap();
             let cells = column(&mut browser, k);

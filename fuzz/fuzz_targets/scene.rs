@@ -1,7 +1,7 @@
 //! Fuzz target: parse and compile arbitrary scene text, then look at what `vitrum info` shows
-//! (light powers, effects, BVH statistics) and trace a few camera rays through the BVH. Bad input
-//! must come back as a `SceneError` (the CLI's exit code 2), never as a panic, an overflow, an
-//! unbounded allocation or a hang. Nothing is rendered.
+//! (light powers and the environment's mean radiance, effects, BVH statistics) and trace a few
+//! camera rays through the BVH. Bad input must come back as a `SceneError` (the CLI's exit code
+//! 2), never as a panic, an overflow, an unbounded allocation or a hang. Nothing is rendered.
 
 #![no_main]
 
@@ -22,7 +22,7 @@ fuzz_target!(|data: &[u8]| {
     };
     // What `vitrum info` computes and prints.
     for light in &scene.lights {
-        let _ = light.power();
+        let _ = light.strength();
         let _ = format!("{light:?}");
     }
     for m in &scene.materials {

@@ -426,7 +426,7 @@ impl LaneStages {
         counters: (&mut RayCounts, &mut [u64; DIM_PURPOSES]),
         occupancy: &mut StageOccupancy,
     ) -> Vec<Vec3> {
-        let SampleBatch { y, xs, samples, total } = batch.clone();
+        let SampleBatch { y, xs, samples, total, replicas } = batch.clone();
         let isa = self.isa();
         let per_pixel = samples.len();
         let n = xs.len() * per_pixel;
@@ -434,12 +434,15 @@ impl LaneStages {
         let offset = total != 1;
         let start = |chunks: &mut Vec<PathChunk>| {
             for (p, x) in xs.clone().enumerate() {
-                let key = pixel_key(seed, y as u64 * camera.width as u64 + x as u64);
+                let pixel = y as u64 * camera.width as u64 + x as u64;
                 for (j, s) in samples.clone().enumerate() {
                     let i = p * per_pixel + j;
                     let c = lane_of(chunks, i);
                     let k = i % WIDTH;
-                    (c.key[k], c.reversed[k], c.dimension[k]) = (key, s.reverse_bits(), 2 * offset as u32);
+                    let stream = replicas.stream(seed, s, total);
+                    let key = pixel_key(stream.seed, pixel);
+                    (c.key[k], c.reversed[k], c.dimension[k]) =
+                        (key, stream.index.reverse_bits(), 2 * offset as u32);
                     // The film position's integer part, for now.
                     (c.origin.x.0[k], c.origin.y.0[k]) = (x as f32, y as f32);
                 }

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """vitrum `path` against Mitsuba 3 `path` in one run: speed at equal samples, error at equal time.
 
-Not part of CI: it needs Mitsuba 3 (see ../shared/reference/README.md for the set-up) and runs
+Not part of CI: it needs Mitsuba 3 (set-up: docs/mitsuba-export.md, "Installing Mitsuba") and runs
 for a quarter of an hour with the defaults:
 
     "$HOME/mi/bin/python" scripts/perf/mitsuba_speed.py [SCENE] [options]
@@ -19,7 +19,7 @@ for a quarter of an hour with the defaults:
    vitrum and a Mitsuba (first variant) render of --reference-spp (2048) each, other seeds, so
    neither renderer is favoured. Then vitrum renders for --seconds (20) (`--time`), and each
    Mitsuba variant with the sample count its measured rate gives in that time. relMSE against the
-   reference (vitrum diff, the DESIGN.md definition); since Monte Carlo error falls as 1/time,
+   reference (vitrum diff, the README's "Metrics"); since Monte Carlo error falls as 1/time,
    each relMSE is also scaled to exactly --seconds (relMSE × seconds ÷ --seconds) for the ratio
    vitrum ÷ Mitsuba. --mitsuba-sampler picks Mitsuba's sampler (the export writes `independent`;
    `multijitter` or `ldsampler` give it stratification too).
@@ -151,7 +151,7 @@ def main():
     vitrum = rc.find_vitrum(args.vitrum)
     variants = args.variants.split(",")
     if "llvm_ad_rgb" in variants and not rc.llvm_works(sys.executable):
-        rc.fail(3, "llvm_ad_rgb does not render here (LLVM 19 missing? see ../shared/reference/README.md)")
+        rc.fail(3, "llvm_ad_rgb does not render here (LLVM 19 missing? see docs/mitsuba-export.md, \"Installing Mitsuba\")")
     out = args.out or tempfile.mkdtemp(prefix="mitsuba-speed-")
     os.makedirs(out, exist_ok=True)
     report = {"scene": args.scene, "args": vars(args), "speed": {}, "quality": {}}

@@ -17,10 +17,10 @@ use crate::commands::support::{load_scene, CliError};
 use crate::commands::{parse_crop, parse_integrators, CropArg, SweepArgs};
 use crate::figure::canvas::Canvas;
 use crate::figure::compose::{self, format_number, format_seconds, format_spp, Panel};
-use crate::image::Image;
 use crate::integrators::Integrator;
-use crate::metrics::{self, Crop, Metrics, MetricsError, Split};
-use crate::output::exr::{read_variance, stage_exr, ExrMetadata};
+use crate::metrics::{self, Crop, Efficiency, Metrics, MetricsError, Split};
+use crate::output::exr::{stage_exr_with_notes, ExrMetadata};
+use crate::output::replicas::render_channels;
 use crate::output::{stage, OutputError, Staged};
 use crate::render::{self, Budget, Progression, RenderOutput};
 use crate::report::{Layer, Report, Section, TableRow};
@@ -31,9 +31,14 @@ use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
+/// The copy of the reference in the output folder, so that the folder holds everything its
+/// numbers were measured from (`vitrum diff METHOD.exr reference.exr` reproduces them).
+pub const REFERENCE_FILE: &str = "reference.exr";
+
 /// Seconds per method when neither `--time` nor `--spp` is given.
 pub const DEFAULT_SECONDS: f64 = 10.0;
-/// Samples per pixel of the cached `path` reference when no `--reference` file is given.
+/// Samples per pixel of the cached reference (by the method [`crate::reference::choose_method`]
+/// picks, or `--reference-method`) when no `--reference` file is given.
 pub const DEFAULT_REFERENCE_SPP: u32 = 1024;
 
 /// Options of `vitrum compare`.
@@ -96,9 +101,9 @@ pub(crate) fn parse_seconds(s: &str) -> Result<f64, String> {
 
 /// Where the reference comes from.
 enum ReferenceSource {
-    /// Read from a file: the image, its variance (when it keeps one) and a description for the
-    /// title and the table.
-    File(Image, Option<Image>, String),
+    /// Read from a file: the image with its variance and replicas (when it keeps them) and a
+    /// description for the title and the table.
+    File(Reference, String),
     /// A render by the sweep, cached.
     Cached(super::CachedReference),
 }
@@ -141,8 +146,8 @@ impl Row {
         exposure: f32,
     ) -> Result<Row, MetricsError> {
         let metrics = metrics::compare(&out.image, &reference.image, None, exposure)?;
-        let split = metrics::render_split(method, &out, &reference.image, reference.variance.as_ref())?;
         let fixed = matches!(method.progression(), Progression::Fixed(_));
+        let split = metrics::render_split(fixed, &out, reference.estimate(), None)?;
         Ok(Row { method: method.name(), fixed, out, metrics, split, seed })
     }
 
@@ -157,22 +162,21 @@ impl Row {
         }
     }
 
-    /// 1/(MSE·seconds) where the error is variance ([`metrics::efficiency`]).
-    fn efficiency(&self) -> Option<f64> {
-        metrics::efficiency(self.split.as_ref(), self.metrics.mse, self.out.seconds)
+    /// 1/(relMSE·seconds) with its interval where no bias is detected, else why not
+    /// ([`metrics::efficiency`]).
+    fn efficiency(&self) -> Result<Efficiency, &'static str> {
+        metrics::efficiency(self.split.as_ref(), self.out.seconds)
     }
 
-    /// The split's verdict ([`Split::status`]), or "unknown" (no variance to split the error with).
+    /// The split's verdict ([`metrics::Verdict`]), or "unknown" (no replicas to split the error
+    /// with).
     fn status(&self) -> &'static str {
-        self.split.as_ref().map_or("unknown", Split::status)
+        self.split.as_ref().map_or("unknown", |s| s.verdict().name())
     }
 }
 
 /// The reference every method is measured against.
-struct Reference {
-    image: Image,
-    variance: Option<Image>,
-}
+type Reference = super::SweepReference;
 
 impl Plan {
     /// Checks every input; any problem is bad input (exit 2) and nothing has been rendered.
@@ -230,7 +234,7 @@ impl Plan {
         }
         let reference = match &args.reference {
             Some(path) => {
-                let Judged { image, attributes, variance } =
+                let Judged { image, attributes, variance, replicas } =
                     read_judged(path).map_err(|e| bad(format!("--reference: {e}")))?;
                 if (image.width, image.height) != size {
                     return Err(bad(format!(
@@ -260,7 +264,7 @@ impl Plan {
                     (Some(i), Some(spp)) => format!("{i}, {spp} spp ({name})"),
                     _ => name,
                 };
-                ReferenceSource::File(image, variance, describe)
+                ReferenceSource::File(Reference { image, variance, replicas }, describe)
             }
             None => ReferenceSource::Cached(super::CachedReference::plan(
                 &scene,
@@ -272,9 +276,8 @@ impl Plan {
         check_out_folder(&args.out)?;
         if let Some(reference) = &args.reference {
             let target = |name: &str| args.out.join(format!("{name}.exr"));
-            if let Some(name) =
-                methods.iter().map(|m| m.name()).find(|name| same_file(reference, &target(name)))
-            {
+            let names = methods.iter().map(|m| m.name()).chain(["reference"]);
+            if let Some(name) = names.clone().find(|name| same_file(reference, &target(name))) {
                 return Err(bad(format!(
                     "--reference {}: `{name}` would write its render over the reference; choose another --out",
                     reference.display()
@@ -393,6 +396,8 @@ impl Bars {
 /// What one scene's comparison produced: the reference and one row per method.
 pub(crate) struct Outcome {
     reference: Reference,
+    /// The reference's EXR file (copied into the output folder as `reference.exr`).
+    reference_file: PathBuf,
     /// "path, 1024 spp (.vitrum-cache/….exr)": where the reference came from.
     reference_text: String,
     rows: Vec<Row>,
@@ -463,9 +468,10 @@ pub(crate) fn render_scene(
     pool: &rayon::ThreadPool,
     bars: &Bars,
 ) -> Result<Outcome, CliError> {
-    let (reference, reference_text) = match &plan.reference {
-        ReferenceSource::File(image, variance, text) => {
-            (Reference { image: image.clone(), variance: variance.clone() }, text.clone())
+    let (reference, reference_text, reference_file) = match &plan.reference {
+        ReferenceSource::File(reference, text) => {
+            let path = args.reference.clone().expect("a reference file");
+            (reference.clone(), text.clone(), path)
         }
         ReferenceSource::Cached(plan_ref) => {
             let spp = plan_ref.spp;
@@ -479,10 +485,11 @@ pub(crate) fn render_scene(
             bars.overall.inc(1);
             let r = r?;
             if !args.quiet {
-                bars.println(&plan_ref.describe(&r));
+                bars.println(&r.describe());
             }
-            let text = format!("{}, {} spp ({})", plan_ref.method.name(), r.spp, r.path.display());
-            (Reference { image: r.image, variance: r.variance }, text)
+            let text = format!("{}, {} spp ({})", r.method, r.reference.spp, r.reference.path.display());
+            let path = r.reference.path.clone();
+            (Reference::from(r), text, path)
         }
     };
 
@@ -491,10 +498,7 @@ pub(crate) fn render_scene(
         if let Some(renders) = &plan.renders {
             let r = &renders[index];
             let failure = |e: String| CliError::Failure(format!("{}: {e}", r.path.display()));
-            let mut out = r.out.clone();
-            if out.variance.is_none() {
-                out.variance = read_variance(&r.path).map_err(|e| failure(e.to_string()))?;
-            }
+            let out = r.out.clone();
             let row = Row::new(method.as_ref(), out, r.seed, &reference, plan.exposure)
                 .map_err(|e| failure(e.to_string()))?;
             rows.push(row);
@@ -528,7 +532,15 @@ pub(crate) fn render_scene(
             .map_err(|e| CliError::Failure(format!("{}: {e}", method.name())))?;
         rows.push(row);
     }
-    Ok(Outcome { reference, reference_text, rows })
+    let spp = match &plan.reference {
+        ReferenceSource::Cached(r) => Some(r.spp),
+        ReferenceSource::File(..) => None,
+    };
+    let splits: Vec<(&str, Option<&Split>)> = rows.iter().map(|r| (r.method, r.split.as_ref())).collect();
+    if let Some(warning) = super::reference_noise_warning(&splits, spp) {
+        bars.println(&warning);
+    }
+    Ok(Outcome { reference, reference_text, reference_file, rows })
 }
 
 /// The reference description without its (possibly long) file path.
@@ -607,16 +619,13 @@ pub(crate) fn section(plan: &Plan, outcome: &Outcome, files: &str) -> Section {
         rows: outcome
             .rows
             .iter()
-            .map(|r| TableRow {
-                method: r.method.to_string(),
-                spp: r.spp(),
-                seconds: r.out.seconds,
-                rays: r.out.rays.total(),
-                mrays_per_second: mrays_per_second(&r.out),
-                mse: r.metrics.mse,
-                rel_mse: r.metrics.rel_mse,
-                efficiency: r.efficiency(),
-                status: r.status().to_string(),
+            .map(|r| {
+                TableRow::new(
+                    r.method,
+                    (r.spp(), r.out.seconds, r.out.rays.total()),
+                    &r.metrics,
+                    r.split.as_ref(),
+                )
             })
             .collect(),
         convergence: Vec::new(),
@@ -651,8 +660,17 @@ pub(crate) fn publish(plan: &Plan, outcome: &Outcome, report: Option<&Report>) -
                 scene: format!("{} ({})", plan.scene.origin.name, plan.scene.origin.hash),
                 effects: plan.scene.effects.names(),
             };
-            staged.push(stage_exr(&out.join(format!("{}.exr", row.method)), &row.out.image, &meta)?);
+            let (channels, mut notes) = render_channels(&row.out);
+            notes.push((super::diff::EXPOSURE_ATTRIBUTE.to_string(), plan.exposure.to_string()));
+            let path = out.join(format!("{}.exr", row.method));
+            staged.push(stage_exr_with_notes(&path, &row.out.image, &meta, &channels, &notes)?);
         }
+        let copy = |tmp: &Path| {
+            std::fs::copy(&outcome.reference_file, tmp)
+                .map(|_| ())
+                .map_err(|e| OutputError::io(&outcome.reference_file, e))
+        };
+        staged.push(stage(&out.join(REFERENCE_FILE), copy)?);
         staged.push(figure.stage_png(&out.join("compare.png"))?);
         staged.push(stage_text(&out.join("compare.csv"), &csv)?);
         staged.push(stage_text(&out.join("compare.md"), &markdown)?);
@@ -683,44 +701,70 @@ fn mrays_per_second(out: &RenderOutput) -> f64 {
     metrics::mrays_per_second(out.rays.total(), out.seconds)
 }
 
-/// The split for the summary line: "biased: bias 1.2e-3 ± 4e-5" or "unbiased: variance …".
+/// The split for the summary line: "biased: bias part 1.2e-3 ± 4e-5 …", "no bias detected: …".
 fn split_text(row: &Row) -> String {
     match &row.split {
-        Some(s) if s.biased() => format!(
-            "biased: bias part {} ± {} (RMS bias {})",
-            format_number(s.bias),
-            format_number(s.bias_se),
-            format_number(s.rms_bias())
-        ),
-        Some(s) => format!(
-            "{}: variance part {}, bias part {} ± {}{}",
-            s.status(),
-            format_number(s.variance),
-            format_number(s.bias),
-            format_number(s.bias_se),
-            if s.variance_overestimated() { " (the variance estimate is conservative)" } else { "" }
-        ),
-        None => "bias unknown (no variance estimate)".to_string(),
+        Some(s) => {
+            let flag = if s.reference_too_noisy() && s.verdict() != metrics::Verdict::ReferenceTooNoisy {
+                format!(
+                    " (reference variance {:.0}% of the relative error: too noisy)",
+                    100.0 * s.reference_share()
+                )
+            } else {
+                String::new()
+            };
+            format!(
+                "{}: bias part {} ± {}{flag}",
+                s.verdict().name(),
+                format_number(s.bias),
+                format_number(s.bias_se)
+            )
+        }
+        None => "bias unknown (no replicas)".to_string(),
     }
 }
 
-/// The CSV header: the first nine columns as before, the newer ones after them.
+/// "1.23e-3 [1.1e-3, 1.4e-3]": a value with its 95% interval, or the value alone without one.
+pub(crate) fn with_interval(value: f64, (low, high): (f64, f64)) -> String {
+    if low.is_nan() || high.is_nan() {
+        return format!("{value:.3e}");
+    }
+    let high = if high.is_finite() { format!("{high:.2e}") } else { "∞".into() };
+    format!("{value:.3e} [{low:.2e}, {high}]")
+}
+
+/// The efficiency column: the value with its interval, or why there is none.
+fn efficiency_text(row: &Row) -> String {
+    match row.efficiency() {
+        Ok(e) => with_interval(e.value, (e.low, e.high)),
+        Err(why) => format!("— ({why})"),
+    }
+}
+
+/// The CSV header: the first nine columns as before (efficiency is now 1/(relMSE·seconds)), the
+/// newer ones after them, the split's last.
 pub const CSV_HEADER: &str = concat!(
     "method,spp,seconds,rays,mrays_per_second,mse,rel_mse,efficiency,non_finite_pixels,",
     "rel_mse_trimmed,psnr,psnr_peak,psnr_preview,ssim,",
-    "variance,variance_se,reference_variance,bias,bias_se,bias_status"
+    "rel_mse_low,rel_mse_high,efficiency_low,efficiency_high,efficiency_note,",
+    "rel_mse_se,variance,reference_variance,reference_share,bias,bias_se,detection_limit,verdict"
 );
 
 /// The table as CSV, one row per method (full precision; absent values are empty fields).
 fn csv_table(rows: &[Row]) -> String {
     let mut s = String::from(CSV_HEADER);
     s.push('\n');
-    let opt = |v: Option<f64>| v.map_or(String::new(), |v| v.to_string());
     for r in rows {
         let m = &r.metrics;
+        let (low, high) = r.split.map_or((f64::NAN, f64::NAN), |s| s.rel_mse_interval());
+        let finite = |v: f64| if v.is_nan() { String::new() } else { v.to_string() };
+        let (efficiency, e_low, e_high, note) = match r.efficiency() {
+            Ok(e) => (e.value.to_string(), e.low.to_string(), e.high.to_string(), String::new()),
+            Err(why) => (String::new(), String::new(), String::new(), why.to_string()),
+        };
         let _ = writeln!(
             s,
-            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
             r.method,
             r.spp(),
             r.out.seconds,
@@ -728,13 +772,18 @@ fn csv_table(rows: &[Row]) -> String {
             mrays_per_second(&r.out),
             m.mse,
             m.rel_mse,
-            opt(r.efficiency()),
+            efficiency,
             m.non_finite_test,
             m.rel_mse_trimmed,
             m.psnr,
             m.peak,
             m.psnr_preview,
             m.ssim,
+            finite(low),
+            finite(high),
+            e_low,
+            e_high,
+            note,
             metrics::split_csv(r.split.as_ref()),
         );
     }
@@ -755,14 +804,16 @@ fn markdown_table(plan: &Plan, rows: &[Row], reference: &str, reference_variance
     let _ = writeln!(
         s,
         "{} ({}); {}x{} pixels; reference: {}{}. Metrics over the whole image, defined in the \
-         README's \"Metrics\" section: relMSE and relMSE without the 0.1% worst pixels; PSNR on \
-         the HDR values (peak = largest reference value, stated) and on the 8-bit sRGB preview \
-         at exposure {} EV (peak 1); SSIM of the preview's luma. MSE = bias part + variance part + \
-         the reference's variance part, each ± one standard error; \"biased\" = bias part > {} \
-         standard errors and > {:.0}% of the MSE; \"unresolved\" = bias part < −3 standard errors \
-         (a conservative variance estimate, as with Sobol' samples, that could hide a bias). \
-         Efficiency = 1/(MSE·seconds), given only for methods not biased, whose error is variance \
-         (marked \"unresolved\" where that is so). `ssaa`'s spp is its mean camera rays per pixel.\n",
+         README's \"Metrics\" section: relMSE with its 95% interval and relMSE without the 0.1% \
+         worst pixels; PSNR on the HDR values (peak = largest reference value, stated) and on the \
+         8-bit sRGB preview at exposure {} EV (peak 1); SSIM of the preview's luma. The relative \
+         error (weights 1/(r̃²+0.01), r̃ the reference's mean over each pixel's 8 neighbours) = bias \
+         part + variance part + the reference's variance part (variances from the replicas), the \
+         bias part ± one standard error (jackknife over the replicas). Verdicts: \"biased\" = bias \
+         part > {} standard errors and above the reference's variance part; \"reference too \
+         noisy\" = the reference's variance part > {:.0}% of the error; \"inconclusive\" = a bias \
+         of {:.0}% of the error could hide in the noise; else \"no bias detected\". Efficiency = 1/(relMSE·seconds) with its 95% interval, given only \
+         where no bias is detected. `ssaa`'s spp is its mean camera rays per pixel.\n",
         plan.budget_text(),
         match (&plan.renders, plan.budget) {
             (Some(_), _) => "read from files; seconds of merged parts are summed",
@@ -775,39 +826,38 @@ fn markdown_table(plan: &Plan, rows: &[Row], reference: &str, reference_variance
         if reference_variance { " (its variance kept)" } else { " (no variance: taken as exact)" },
         plan.exposure,
         metrics::BIAS_SIGNIFICANCE,
-        100.0 * metrics::BIAS_FRACTION,
+        100.0 * metrics::REFERENCE_SHARE_LIMIT,
+        100.0 * metrics::INCONCLUSIVE_FRACTION,
     );
     s.push_str(
-        "| method | spp | seconds | rays | Mrays/s | MSE | relMSE | relMSE 99.9% | PSNR HDR (peak) | \
-         PSNR LDR | SSIM | variance part | bias part | efficiency | non-finite px |\n",
+        "| method | spp | seconds | rays | Mrays/s | MSE | relMSE [95%] | relMSE 99.9% | PSNR HDR (peak) | \
+         PSNR LDR | SSIM | bias part | verdict | efficiency [95%] | non-finite px |\n",
     );
-    s.push_str("|---|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|\n");
+    s.push_str("|---|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|---|--:|--:|\n");
     for r in rows {
         let m = &r.metrics;
-        let efficiency = match (r.efficiency(), r.status()) {
-            (Some(e), "unresolved") => format!("{e:.3e} (unresolved)"),
-            (Some(e), _) => format!("{e:.3e}"),
-            (None, "biased") => "biased".to_string(),
-            (None, _) => "n/a (no variance)".to_string(),
+        let rel_mse = match &r.split {
+            Some(split) => with_interval(m.rel_mse, split.rel_mse_interval()),
+            None => format!("{:.3e}", m.rel_mse),
         };
         let _ = writeln!(
             s,
-            "| {} | {} | {:.3} | {} | {:.2} | {:.3e} | {:.3e} | {:.3e} | {:.2} dB ({:.3}) | {:.2} dB | {:.4} | {} | {} | {} | {} |",
+            "| {} | {} | {:.3} | {} | {:.2} | {:.3e} | {} | {:.3e} | {:.2} dB ({:.3}) | {:.2} dB | {:.4} | {} | {} | {} | {} |",
             r.method,
             format_spp(r.spp()),
             r.out.seconds,
             r.out.rays.total(),
             mrays_per_second(&r.out),
             m.mse,
-            m.rel_mse,
+            rel_mse,
             m.rel_mse_trimmed,
             m.psnr,
             m.peak,
             m.psnr_preview,
             m.ssim,
-            value_se(r.split.as_ref(), |s| (s.variance, s.variance_se)),
             value_se(r.split.as_ref(), |s| (s.bias, s.bias_se)),
-            efficiency,
+            r.status(),
+            efficiency_text(r),
             m.non_finite_test
         );
     }
@@ -832,7 +882,7 @@ mod tests {
     #[test]
     fn the_split_columns_end_the_csv_header() {
         assert!(CSV_HEADER.ends_with(metrics::SPLIT_CSV_COLUMNS));
-        assert_eq!(CSV_HEADER.split(',').count(), 9 + 5 + 6);
+        assert_eq!(CSV_HEADER.split(',').count(), 9 + 5 + 5 + 8);
     }
 
     #[test]

@@ -30,14 +30,14 @@
 //! scene's sampler, and then the seconds of a row are those of its own render. `ssaa` renders one fixed pattern: one row.
 
 use super::SweepArgs;
-use crate::commands::diff::{read_judged, Judged};
+use crate::commands::diff::read_judged;
 use crate::commands::support::{load_scene, CliError};
 use crate::figure::compose::format_number;
 use crate::figure::plot::{fit_slope, write_loglog, LogLogPlot, Series};
 use crate::image::Image;
 use crate::integrators::Integrator;
 use crate::metrics::{self, split_csv, Metrics, MetricsError, Split};
-use crate::output::exr::{read_variance, stage_exr, ExrMetadata};
+use crate::output::exr::{stage_exr, ExrMetadata};
 use crate::output::{write_atomically, OutputError};
 use crate::render::{self, Budget, Growth, RenderOutput};
 use crate::report::{self, Layer, Report, Section, TableRow};
@@ -50,13 +50,14 @@ use std::time::Duration;
 
 /// The largest sample count when neither `--spp-max` nor `--time` is given.
 pub const DEFAULT_SPP_MAX: u32 = 64;
-/// Samples per pixel of the cached `path` reference when no `--reference` is given.
+/// Samples per pixel of the cached reference (by the method [`crate::reference::choose_method`]
+/// picks, or `--reference-method`) when no `--reference` is given.
 pub const DEFAULT_REFERENCE_SPP: u32 = 1024;
 /// The CSV header.
 pub const CSV_HEADER: &str = concat!(
     "integrator,spp,seconds,rays,mse,rmse,rel_mse,mae,psnr,non_finite,std_error,est_mse,",
     "rel_mse_trimmed,psnr_peak,psnr_preview,ssim,",
-    "variance,variance_se,reference_variance,bias,bias_se,bias_status"
+    "rel_mse_se,variance,reference_variance,reference_share,bias,bias_se,detection_limit,verdict"
 );
 
 /// Options of `vitrum converge`.
@@ -115,8 +116,9 @@ const PRECOMPUTED: &str = "precomputed renders read from files (--renders)";
 
 /// Where the reference comes from.
 enum ReferenceSource {
-    /// Read from a file: the image, its variance (if it keeps one) and its path.
-    File(Image, Option<Image>, PathBuf),
+    /// Read from a file: the image with its variance and replicas (if it keeps them) and its
+    /// path.
+    File(Reference, PathBuf),
     /// A render by the sweep, cached.
     Cached(super::CachedReference),
 }
@@ -211,8 +213,8 @@ fn plan(args: &ConvergeArgs) -> Result<Plan, CliError> {
     };
     let reference = match &args.reference {
         Some(path) => {
-            let Judged { image, variance, .. } =
-                read_judged(path).map_err(|e| bad(format!("--reference: {e}")))?;
+            let judged = read_judged(path).map_err(|e| bad(format!("--reference: {e}")))?;
+            let image = &judged.image;
             if (image.width, image.height) != (width, height) {
                 return Err(bad(format!(
                     "--reference {}: the reference is {}x{} but the renders are {width}x{height} \
@@ -224,7 +226,7 @@ fn plan(args: &ConvergeArgs) -> Result<Plan, CliError> {
                     image.height
                 )));
             }
-            ReferenceSource::File(image, variance, path.clone())
+            ReferenceSource::File(Reference::from(judged), path.clone())
         }
         None => ReferenceSource::Cached(super::CachedReference::plan(
             &scene,
@@ -373,11 +375,8 @@ impl Regime {
     }
 }
 
-/// The reference of a sweep: its image and, when known, its per-pixel variance.
-struct Reference {
-    image: Image,
-    variance: Option<Image>,
-}
+/// The reference of a sweep.
+type Reference = super::SweepReference;
 
 /// Write `text` to `path` atomically.
 fn write_text(path: &Path, text: &str) -> Result<(), OutputError> {
@@ -407,8 +406,8 @@ fn measure(
     let failure = |e: MetricsError| CliError::Failure(e.to_string());
     let metrics =
         metrics::compare(&out.image, &reference.image, None, scene.settings.exposure).map_err(failure)?;
-    let split =
-        metrics::render_split(method, out, &reference.image, reference.variance.as_ref()).map_err(failure)?;
+    let fixed = matches!(method.progression(), crate::render::Progression::Fixed(_));
+    let split = metrics::render_split(fixed, out, reference.estimate(), None).map_err(failure)?;
     if args.exr {
         let path = args.out.join(format!("{}-{}spp.exr", method.name(), out.spp));
         let meta = ExrMetadata {
@@ -521,16 +520,9 @@ fn report_section(
             })
             .collect(),
         rows: with_image()
-            .map(|(s, _, last)| TableRow {
-                method: s.name.to_string(),
-                spp: f64::from(last.spp),
-                seconds: last.seconds,
-                rays: last.rays,
-                mrays_per_second: metrics::mrays_per_second(last.rays, last.seconds),
-                mse: last.metrics.mse,
-                rel_mse: last.metrics.rel_mse,
-                efficiency: metrics::efficiency(last.split.as_ref(), last.metrics.mse, last.seconds),
-                status: TableRow::status_of(last.split.as_ref()),
+            .map(|(s, _, last)| {
+                let stats = (f64::from(last.spp), last.seconds, last.rays);
+                TableRow::new(s.name, stats, &last.metrics, last.split.as_ref())
             })
             .collect(),
         convergence: summaries
@@ -564,10 +556,11 @@ pub fn run(args: &ConvergeArgs) -> Result<(), CliError> {
 
     // The reference.
     let (reference, reference_json, reference_text) = match &plan.reference {
-        ReferenceSource::File(image, variance, path) => (
-            Reference { image: image.clone(), variance: variance.clone() },
-            json!({"source": "file", "path": path, "variance": variance.is_some()}),
-            format!("reference: {} ({}x{})", path.display(), image.width, image.height),
+        ReferenceSource::File(reference, path) => (
+            reference.clone(),
+            json!({"source": "file", "path": path, "variance": reference.variance.is_some(),
+                   "replicas": reference.replicas.as_ref().map(|r| r.count())}),
+            format!("reference: {} ({}x{})", path.display(), reference.image.width, reference.image.height),
         ),
         ReferenceSource::Cached(plan_ref) => {
             let bar = bars.render("reference", "rows");
@@ -575,24 +568,15 @@ pub fn run(args: &ConvergeArgs) -> Result<(), CliError> {
             let r = pool.install(|| plan_ref.get(scene, &args.render, &progress));
             bar.finish_and_clear();
             let r = r?;
-            let json = json!({"source": plan_ref.method.name(), "why": plan_ref.why, "spp": r.spp,
-                              "path": r.path, "cached": r.cached, "variance": true});
-            let text = plan_ref.describe(&r);
-            (Reference { image: r.image, variance: r.variance }, json, text)
+            let json = json!({"source": r.method, "why": r.why, "spp": r.reference.spp,
+                              "path": r.reference.path, "cached": r.reference.cached, "variance": true,
+                              "replicas": r.reference.replicas.as_ref().map(|m| m.count())});
+            let text = r.describe();
+            (Reference::from(r), json, text)
         }
     };
     if !args.quiet {
         bars.overall.suspend(|| eprintln!("{reference_text}"));
-    }
-    if let (ReferenceSource::Cached(plan_ref), Budget::Samples(max)) = (&plan.reference, plan.budget) {
-        let ref_spp = plan_ref.spp;
-        if ref_spp < 16 * max {
-            eprintln!(
-                "vitrum: warning: the reference ({ref_spp} spp) is less than 16 times the largest sample count \
-                 ({max}): its own noise adds about {:.0}% to the error measured there",
-                100.0 * max as f64 / ref_spp as f64
-            );
-        }
     }
 
     let mut rows: Vec<Row> = Vec::new();
@@ -607,11 +591,7 @@ pub fn run(args: &ConvergeArgs) -> Result<(), CliError> {
                 let mut rows = Vec::with_capacity(mine.len());
                 let last = mine.last().map(|r| r.out.image.clone());
                 for r in mine {
-                    let mut out = r.out.clone();
-                    if out.variance.is_none() {
-                        out.variance = read_variance(&r.path)
-                            .map_err(|e| CliError::BadInput(format!("--renders: {e}")))?;
-                    }
+                    let out = r.out.clone();
                     rows.push(measure(args, scene, method.as_ref(), r.seed, &reference, &out)?);
                 }
                 (Growth::Fresh(PRECOMPUTED), rows, last)
@@ -629,6 +609,16 @@ pub fn run(args: &ConvergeArgs) -> Result<(), CliError> {
         write_text(&csv_path, &csv(&rows)).map_err(failure)?;
     }
     bars.overall.finish_and_clear();
+    // The last checkpoint of each method, the least noisy, is the one the reference must beat.
+    let last: Vec<(&str, Option<&Split>)> =
+        summaries.iter().map(|s| (s.name, s.last.as_ref().and_then(|r| r.split.as_ref()))).collect();
+    let reference_spp = match &plan.reference {
+        ReferenceSource::Cached(r) => Some(r.spp),
+        ReferenceSource::File(..) => None,
+    };
+    if let Some(warning) = super::reference_noise_warning(&last, reference_spp) {
+        eprintln!("{warning}");
+    }
 
     // Plots of relMSE against samples and against seconds.
     let mut plots = Vec::new();
@@ -786,13 +776,15 @@ mod tests {
     /// A split with bias part `bias` ± `bias_se` of an MSE `mse`.
     fn split(mse: f64, bias: f64, bias_se: f64) -> Split {
         Split {
-            mse,
+            error: mse,
+            rel_mse: mse,
+            rel_mse_se: 0.0,
             variance: mse - bias,
-            variance_se: 0.0,
             reference_variance: 0.0,
-            reference_variance_se: 0.0,
             bias,
             bias_se,
+            dof: 7,
+            errors: metrics::ErrorSource::Replicas { test: 8, reference: 0 },
             pixels: 4,
             non_finite_variance: 0,
         }
@@ -805,10 +797,11 @@ mod tests {
         let lines: Vec<&str> = text.lines().collect();
         assert_eq!(lines[0], CSV_HEADER);
         assert!(CSV_HEADER.ends_with(metrics::SPLIT_CSV_COLUMNS));
-        assert_eq!(lines[1], "path,8,1.5,100,0.25,0.5,0.125,0.4,6,1,,,0.1,1,20,0.5,,,,,,unknown");
+        assert_eq!(lines[1], "path,8,1.5,100,0.25,0.5,0.125,0.4,6,1,,,0.1,1,20,0.5,,,,,,,,unknown");
         assert_eq!(lines[1].split(',').count(), CSV_HEADER.split(',').count());
         let biased = csv(&[row(8, 0.125, Some(split(0.25, 0.2, 0.01)))]);
-        assert!(biased.lines().nth(1).unwrap().ends_with(",0,0,0.2,0.01,biased"), "{biased}");
+        let line = biased.lines().nth(1).unwrap().to_string();
+        assert!(line.ends_with(&format!(",0,0,0.2,0.01,{},biased", 3.0 * 0.01)), "{biased}");
     }
 
     #[test]
@@ -817,7 +810,7 @@ mod tests {
         let rows = [
             row(1, 1.0, None),
             row(2, 0.5, Some(split(0.5, 0.01, 0.01))),
-            row(4, 0.25, Some(split(0.25, 0.02, 0.005))),
+            row(4, 0.25, Some(split(0.25, 0.02, 0.01))),
             row(8, 0.2, Some(split(0.2, 0.1, 0.004))),
             row(16, 0.2, Some(split(0.2, 0.15, 0.003))),
         ];

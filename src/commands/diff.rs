@@ -16,11 +16,10 @@ use crate::commands::support::{check_output_path, CliError};
 use crate::figure::colormap::{above_scale, error_map, log_range, power_of_ten_label};
 use crate::figure::compose::format_number;
 use crate::image::Image;
-use crate::metrics::{self, Crop, Metrics, MetricsError, Split};
-use crate::output::exr::read_variance;
+use crate::metrics::{self, Crop, ErrorSource, Estimate, Metrics, MetricsError, Split, Verdict};
 use crate::output::film::read_render;
 use crate::output::OutputError;
-use crate::render::Progression;
+use crate::render::{Progression, ReplicaMeans};
 use serde_json::json;
 use std::collections::BTreeMap;
 use std::io::Write;
@@ -40,13 +39,17 @@ pub struct DiffArgs {
     #[arg(long, value_parser = super::parse_crop)]
     pub crop: Option<super::CropArg>,
     /// Exposure in stops of the tone-mapped preview that the preview PSNR and SSIM judge (as
-    /// `render --png` would show it; default 0).
-    #[arg(long, value_name = "EV", default_value_t = 0.0, allow_hyphen_values = true, value_parser = parse_exposure)]
-    pub exposure: f32,
+    /// `render --png` would show it). Default: the exposure the test image was judged at, kept in
+    /// its `vitrum:exposure` attribute (`compare`, `render`), else 0.
+    #[arg(long, value_name = "EV", allow_hyphen_values = true, value_parser = parse_exposure)]
+    pub exposure: Option<f32>,
     /// Print the metrics as one JSON object on stdout.
     #[arg(long)]
     pub json: bool,
 }
+
+/// The attribute of a render's EXR that keeps the exposure its preview metrics were judged at.
+pub const EXPOSURE_ATTRIBUTE: &str = "vitrum:exposure";
 
 /// Parses a finite exposure in stops.
 pub fn parse_exposure(s: &str) -> Result<f32, String> {
@@ -56,8 +59,9 @@ pub fn parse_exposure(s: &str) -> Result<f32, String> {
     }
 }
 
-/// An EXR read for judging: its image, its header attributes and the per-pixel variance of its
-/// estimate when it keeps one (variance channels, or the sums of a render part).
+/// An EXR read for judging: its image, its header attributes, its replicas and the per-pixel
+/// variance of its estimate when it keeps them (replica and variance channels, or the sums of a
+/// render part).
 pub struct Judged {
     /// The image.
     pub image: Image,
@@ -65,6 +69,8 @@ pub struct Judged {
     pub attributes: BTreeMap<String, String>,
     /// The variance of each pixel's estimate, if the file has it.
     pub variance: Option<Image>,
+    /// The means of its replicas, if the file keeps them.
+    pub replicas: Option<ReplicaMeans>,
 }
 
 impl Judged {
@@ -74,21 +80,23 @@ impl Judged {
         let method = self.attributes.get("vitrum:integrator").and_then(|n| crate::integrators::create(n));
         method.is_some_and(|m| matches!(m.progression(), Progression::Fixed(_)))
     }
+
+    /// The file as the split judges it.
+    pub fn estimate(&self) -> Estimate<'_> {
+        Estimate { image: &self.image, replicas: self.replicas.as_ref(), variance: self.variance.as_ref() }
+    }
 }
 
 /// Reads `path` with its variance: the variance channels, else a render part's sums.
 pub fn read_judged(path: &Path) -> Result<Judged, OutputError> {
     let read = read_render(path)?;
-    let variance = match read.part {
-        Some(part) => part.film.output().variance,
-        None => read_variance(path)?,
-    };
+    let variance = read.variance();
     if let Some(v) = &variance {
         if (v.width, v.height) != (read.image.width, read.image.height) {
             return Err(OutputError::format(path, "the variance channels are not the size of the image"));
         }
     }
-    Ok(Judged { image: read.image, attributes: read.attributes, variance })
+    Ok(Judged { image: read.image, attributes: read.attributes, variance, replicas: read.replicas })
 }
 
 /// The label of the error map's colour bar.
@@ -114,16 +122,16 @@ pub fn run(args: &DiffArgs) -> Result<(), CliError> {
     let test = read_image(&args.test, "test image")?;
     let reference = read_image(&args.reference, "reference image")?;
     let crop = args.crop.map(|c| Crop { x: c.x, y: c.y, width: c.width, height: c.height });
-    let m = metrics::compare(&test.image, &reference.image, crop, args.exposure)
-        .map_err(|e| explain(&e, args))?;
+    let exposure = args.exposure.unwrap_or_else(|| {
+        test.attributes
+            .get(EXPOSURE_ATTRIBUTE)
+            .and_then(|e| e.parse().ok())
+            .filter(|e: &f32| e.is_finite())
+            .unwrap_or(0.0)
+    });
+    let m = metrics::compare(&test.image, &reference.image, crop, exposure).map_err(|e| explain(&e, args))?;
     let split = if test.variance.is_some() || test.deterministic() {
-        let s = metrics::split(
-            &test.image,
-            test.variance.as_ref(),
-            &reference.image,
-            reference.variance.as_ref(),
-            crop,
-        );
+        let s = metrics::split(test.estimate(), reference.estimate(), crop);
         Some(s.map_err(|e| explain(&e, args))?)
     } else {
         None
@@ -238,28 +246,53 @@ fn with_se(value: f64, se: f64) -> String {
     format!("{} ± {}", sci(value), sci(se))
 }
 
-/// The verdict on a split: "biased: …" or "not biased: …", with the rule's numbers.
+/// The verdict on a split with the rule's numbers: "biased: …", "no bias detected: …",
+/// "inconclusive: …" or "reference too noisy: …".
 pub fn verdict(split: &Split) -> String {
-    let share = 100.0 * split.bias / split.mse;
-    if split.biased() {
-        format!(
-            "biased: the bias part is {:.1} standard errors and {share:.0}% of the MSE (RMS bias {})",
+    let share = |v: f64| format!("{:.0}%", 100.0 * v / split.error);
+    let limit = format!(
+        "a bias part above {} ({} of the error) would have been detected",
+        format_number(split.detection_limit()),
+        share(split.detection_limit())
+    );
+    match split.verdict() {
+        Verdict::Biased => format!(
+            "biased: the bias part is {:.1} standard errors above 0 and {} of the relative error (RMS relative bias {})",
             split.bias / split.bias_se,
+            share(split.bias),
             format_number(split.rms_bias())
-        )
-    } else if split.variance_overestimated() {
-        format!(
-            "unresolved: the bias part is {:.1} standard errors below 0, so the test's variance \
-             estimate is conservative (Sobol' or stratified samples) and could hide a bias",
-            -split.bias / split.bias_se
-        )
-    } else {
-        format!(
-            "not biased: the error is variance (bias part {share:.0}% of the MSE; biased means > {} \
-             standard errors and > {:.0}% of the MSE)",
-            metrics::BIAS_SIGNIFICANCE,
-            100.0 * metrics::BIAS_FRACTION
-        )
+        ),
+        Verdict::ReferenceTooNoisy => format!(
+            "reference too noisy: its variance is {} of the relative error (more than {:.0}%); render a longer reference",
+            share(split.reference_variance),
+            100.0 * metrics::REFERENCE_SHARE_LIMIT
+        ),
+        Verdict::Inconclusive => format!(
+            "inconclusive: too noisy to tell ({limit}, more than {:.0}% of it)",
+            100.0 * metrics::INCONCLUSIVE_FRACTION
+        ),
+        Verdict::NoBiasDetected => format!(
+            "no bias detected: the bias part is {:.1} standard errors ({limit})",
+            split.bias / split.bias_se
+        ),
+    }
+}
+
+/// How the split's standard errors were found, for the table.
+pub fn error_source(split: &Split) -> String {
+    match split.errors {
+        ErrorSource::Replicas { test, reference } => {
+            let side = |n: usize, what: &str| match n {
+                0 => None,
+                n => Some(format!("{n} replicas of the {what}")),
+            };
+            let sides: Vec<String> =
+                [side(test, "test"), side(reference, "reference")].into_iter().flatten().collect();
+            format!("jackknife over {} ({} degrees of freedom)", sides.join(" and "), split.dof)
+        }
+        ErrorSource::Pixels => {
+            "spread over the pixels (no replicas: right only for independent pixels)".into()
+        }
     }
 }
 
@@ -304,22 +337,24 @@ fn table(found: &Found, args: &DiffArgs, image: &Image) -> String {
     ];
     match &found.split {
         Some(s) => {
-            rows.push((
-                "variance",
-                format!("{} (mean variance of the test's estimate)", with_se(s.variance, s.variance_se)),
-            ));
+            rows.push(("relMSE CI", {
+                let (lo, hi) = s.rel_mse_interval();
+                format!("{} .. {} (95%, {})", sci(lo), sci(hi), error_source(s))
+            }));
+            rows.push(("variance", format!("{} (the test's variance part of the relative error)", sci(s.variance))));
             let reference = if found.reference_variance {
-                with_se(s.reference_variance, s.reference_variance_se)
+                format!("{} ({:.1}% of the relative error)", sci(s.reference_variance), 100.0 * s.reference_share())
             } else {
                 "0 (the reference keeps no variance: taken as exact)".to_string()
             };
             rows.push(("ref. var.", reference));
-            rows.push(("bias", format!("{} (MSE − variance parts)", with_se(s.bias, s.bias_se))));
+            rows.push(("bias", format!("{} (relative error − variance parts, neighbour weights)", with_se(s.bias, s.bias_se))));
             rows.push(("verdict", verdict(s)));
         }
         None => rows.push((
             "bias/var.",
-            "n/a: the test image keeps no variance (render it with --variance)".to_string(),
+            "n/a: the test image keeps no replicas or variance (render it without --no-variance, 2+ replicas)"
+                .to_string(),
         )),
     }
     for (name, value) in rows {
@@ -377,14 +412,19 @@ fn json_summary(found: &Found, args: &DiffArgs, image: &Image) -> serde_json::Va
 /// A split as a JSON object: the parts, their standard errors and the verdict.
 pub fn split_json(s: &Split) -> serde_json::Value {
     json!({
+        "error": s.error,
+        "rel_mse": s.rel_mse,
+        "rel_mse_se": s.rel_mse_se,
+        "rel_mse_interval": [s.rel_mse_interval().0, s.rel_mse_interval().1],
         "variance": s.variance,
-        "variance_se": s.variance_se,
         "reference_variance": s.reference_variance,
-        "reference_variance_se": s.reference_variance_se,
+        "reference_share": s.reference_share(),
         "bias": s.bias,
         "bias_se": s.bias_se,
-        "biased": s.biased(),
-        "status": s.status(),
+        "detection_limit": s.detection_limit(),
+        "dof": s.dof,
+        "errors": error_source(s),
+        "verdict": s.verdict().name(),
         "pixels": s.pixels,
         "non_finite_variance": s.non_finite_variance,
     })

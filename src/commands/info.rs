@@ -3,6 +3,7 @@
 
 use crate::commands::support::{load_scene, CliError};
 use crate::integrators;
+use crate::light::Strength;
 use crate::scene::describe;
 use crate::scene::effects::Support;
 use serde_json::json;
@@ -80,7 +81,10 @@ pub fn run(args: &InfoArgs) -> Result<(), CliError> {
             }).collect::<Vec<_>>(),
             "lights": scene.lights.iter().map(|l| {
                 let mut d = describe::light(l).json();
-                d["power_watts"] = json!(l.power().to_array());
+                match l.strength() {
+                    Strength::Power(p) => d["power_watts"] = json!(p.to_array()),
+                    Strength::MeanRadiance(r) => d["mean_radiance"] = json!(r.to_array()),
+                }
                 d
             }).collect::<Vec<_>>(),
             "bvh": {"nodes": b.nodes, "primitives": b.primitives, "depth": b.depth, "build_seconds": b.build_seconds,
@@ -140,7 +144,11 @@ pub fn run(args: &InfoArgs) -> Result<(), CliError> {
     }
     println!("lights     {}", scene.lights.len());
     for l in &scene.lights {
-        println!("  {}, power {} W", describe::light(l).text, describe::vec3(l.power()));
+        // The environment's description gives its (mean) radiance already: it has no finite power.
+        match l.strength() {
+            Strength::Power(p) => println!("  {}, power {} W", describe::light(l).text, describe::vec3(p)),
+            Strength::MeanRadiance(_) => println!("  {}", describe::light(l).text),
+        }
     }
     println!(
         "bvh        CwBvh, {} nodes, {} primitives, depth {}, built in {:.3} ms, bounds {} .. {}",

@@ -24,8 +24,8 @@ pub struct MergeArgs {
     /// Also write a tone-mapped sRGB PNG preview.
     #[arg(long)]
     pub png: Option<PathBuf>,
-    /// Exposure of the PNG preview in stops.
-    #[arg(long, allow_hyphen_values = true, default_value_t = 0.0)]
+    /// Exposure of the PNG preview in stops, a finite number.
+    #[arg(long, value_name = "EV", allow_hyphen_values = true, default_value_t = 0.0, value_parser = super::diff::parse_exposure)]
     pub exposure: f32,
     /// Add the per-pixel variance channels (as `vitrum render --variance`).
     #[arg(long)]

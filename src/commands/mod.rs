@@ -16,9 +16,11 @@ pub mod report;
 pub mod support;
 
 use crate::integrators::{self, Integrator, RenderParams};
+use crate::metrics::Split;
 use crate::output::exr::parse_rays;
 use crate::output::film::read_render;
 use crate::render::{Budget, RenderOptions, RenderOutput};
+use crate::sampler::Replicas;
 use crate::scene::compile::{MAX_DEPTH, MAX_PIXELS};
 use crate::scene::Scene;
 use std::path::PathBuf;
@@ -76,6 +78,7 @@ impl SweepArgs {
             spectral: s.spectral,
             sampler: s.sampler,
             planned_spp: None,
+            replicas: Replicas::DEFAULT,
         }
     }
 
@@ -85,24 +88,115 @@ impl SweepArgs {
     }
 }
 
-/// A reference the sweep renders itself (or reads from its cache): the method, why it is the
-/// one, its samples per pixel and the cache folder.
+/// The reference a sweep measures against: its image, with its variance and replicas when they
+/// are known.
+#[derive(Clone, Debug)]
+pub(crate) struct SweepReference {
+    /// The image.
+    pub image: crate::image::Image,
+    /// The variance of each pixel's mean.
+    pub variance: Option<crate::image::Image>,
+    /// Its replicas' means.
+    pub replicas: Option<crate::render::ReplicaMeans>,
+}
+
+impl SweepReference {
+    /// The reference as the split judges it.
+    pub fn estimate(&self) -> crate::metrics::Estimate<'_> {
+        crate::metrics::Estimate {
+            image: &self.image,
+            replicas: self.replicas.as_ref(),
+            variance: self.variance.as_ref(),
+        }
+    }
+}
+
+impl From<crate::reference::Reference> for SweepReference {
+    fn from(r: crate::reference::Reference) -> SweepReference {
+        SweepReference { image: r.image, variance: r.variance, replicas: r.replicas }
+    }
+}
+
+impl From<ChosenReference> for SweepReference {
+    fn from(r: ChosenReference) -> SweepReference {
+        SweepReference::from(r.reference)
+    }
+}
+
+impl From<diff::Judged> for SweepReference {
+    fn from(j: diff::Judged) -> SweepReference {
+        SweepReference { image: j.image, variance: j.variance, replicas: j.replicas }
+    }
+}
+
+/// The warning for a reference too noisy to judge some of `splits` (method, split), with the
+/// samples per pixel a reference would need (from `spp`, its own, when it was rendered by the
+/// sweep): its variance part falls as 1/spp, and must fall to a tenth of the rest of the relative error E.
+pub fn reference_noise_warning(splits: &[(&str, Option<&Split>)], spp: Option<u32>) -> Option<String> {
+    let noisy: Vec<(&str, &Split)> =
+        splits.iter().filter_map(|(m, s)| s.filter(|s| s.reference_too_noisy()).map(|s| (*m, s))).collect();
+    if noisy.is_empty() {
+        return None;
+    }
+    let list = noisy
+        .iter()
+        .map(|(m, s)| format!("{m} ({:.0}% of its MSE)", 100.0 * s.reference_share()))
+        .collect::<Vec<_>>()
+        .join(", ");
+    let limit = crate::metrics::REFERENCE_SHARE_LIMIT;
+    let advice = match spp {
+        Some(spp) => {
+            // V_r·spp/n ≤ limit·(MSE − V_r + V_r·spp/n) ⇔ n ≥ spp·V_r·(1 − limit)/(limit·(MSE − V_r)).
+            let factor = noisy
+                .iter()
+                .map(|(_, s)| {
+                    s.reference_variance * (1.0 - limit) / (limit * (s.error - s.reference_variance))
+                })
+                .fold(1.0f64, f64::max);
+            let needed = (spp as f64 * factor).ceil().min(u32::MAX as f64) as u32;
+            format!(
+                "; render a longer reference: about --reference-spp {}",
+                needed.next_power_of_two().max(spp)
+            )
+        }
+        None => "; give a reference of more samples".to_string(),
+    };
+    Some(format!(
+        "vitrum: warning: the reference is too noisy to judge the bias of {list}: its variance must be at most \
+         {:.0}% of the relative error{advice}",
+        100.0 * limit
+    ))
+}
+
+/// A reference the sweep renders itself (or reads from its cache): the method named by
+/// `--reference-method`, or the one a pilot render of each fit candidate finds the most efficient
+/// ([`crate::reference::choose_by_pilot`]); its samples per pixel and the cache folder.
 pub struct CachedReference {
-    /// The method that renders it.
-    pub method: Box<dyn Integrator>,
-    /// Why that method: chosen for the scene ([`crate::reference::choose_method`]) or named.
-    pub why: String,
+    /// The method named by `--reference-method`, if any.
+    pub named: Option<Box<dyn Integrator>>,
     /// Samples per pixel.
     pub spp: u32,
     /// The cache folder.
     pub cache: PathBuf,
+    /// How long each candidate's pilot renders.
+    pub pilot: std::time::Duration,
+}
+
+/// A sweep's reference with the method that rendered it and why that one.
+pub struct ChosenReference {
+    /// The reference.
+    pub reference: crate::reference::Reference,
+    /// The method that rendered it.
+    pub method: &'static str,
+    /// Why that method (named, the only fit one, or the pilots' numbers).
+    pub why: String,
 }
 
 impl CachedReference {
-    /// The reference of `scene` by `method` (`--reference-method`, else the scene's choice) at
-    /// `spp` samples, cached in `cache` (default `.vitrum-cache`).
+    /// The reference of `scene` by `method` (`--reference-method`, else chosen by pilots when
+    /// rendered) at `spp` samples, cached in `cache` (default `.vitrum-cache`).
     pub fn plan(
-        scene: &Scene,
+        _scene: &Scene,
         method: Option<&str>,
         spp: u32,
         cache: Option<PathBuf>,
@@ -115,60 +209,69 @@ impl CachedReference {
         if cache.exists() && !cache.is_dir() {
             return Err(bad(format!("--cache {}: is not a folder", cache.display())));
         }
-        let (method, why) = match method {
-            Some(name) => {
-                let method = integrators::create(name).ok_or_else(|| {
-                    bad(format!(
-                        "--reference-method {name}: unknown integrator; known: {}",
-                        integrators::names().join(", ")
-                    ))
-                })?;
-                (method, "named by --reference-method".to_string())
-            }
-            None => {
-                let choice = crate::reference::choose_method(scene);
-                (integrators::create(choice.method).expect("a registered method"), choice.why)
-            }
+        let named = match method {
+            Some(name) => Some(integrators::create(name).ok_or_else(|| {
+                bad(format!(
+                    "--reference-method {name}: unknown integrator; known: {}",
+                    integrators::names().join(", ")
+                ))
+            })?),
+            None => None,
         };
-        if let crate::render::Progression::Fixed(why) = method.progression() {
-            let name = method.name();
-            return Err(bad(format!(
-                "--reference-method {name}: its samples are not a sample count ({why})"
-            )));
+        if let Some(method) = &named {
+            if let crate::render::Progression::Fixed(why) = method.progression() {
+                let name = method.name();
+                return Err(bad(format!(
+                    "--reference-method {name}: its samples are not a sample count ({why})"
+                )));
+            }
         }
-        Ok(CachedReference { method, why, spp, cache })
+        let pilot = std::time::Duration::from_secs_f64(crate::reference::PILOT_SECONDS);
+        Ok(CachedReference { named, spp, cache, pilot })
     }
 
-    /// Render it (or read it from the cache) with the sweep's options `sweep`, reporting
-    /// `progress`.
+    /// Choose the method (unless named), then render the reference (or read it from the cache)
+    /// with the sweep's options `sweep`, reporting `progress`.
     pub fn get(
         &self,
         scene: &Scene,
         sweep: &SweepArgs,
         progress: &(dyn Fn(u64, u64) + Sync),
-    ) -> Result<crate::reference::Reference, CliError> {
-        let opts = sweep.reference_options(scene, self.method.as_ref(), Budget::Samples(self.spp));
-        crate::reference::render_reference(
+    ) -> Result<ChosenReference, CliError> {
+        let failure = |e: crate::output::OutputError| CliError::Failure(e.to_string());
+        let (method, why) = match &self.named {
+            Some(m) => {
+                (integrators::create(m.name()).expect("known"), "named by --reference-method".to_string())
+            }
+            None => {
+                let probe = integrators::create("path").expect("known");
+                let opts = sweep.reference_options(scene, probe.as_ref(), Budget::Samples(self.spp));
+                let (choice, _) =
+                    crate::reference::choose_by_pilot(scene, &opts, self.pilot, &self.cache, progress)
+                        .map_err(failure)?;
+                (integrators::create(choice.method).expect("a registered method"), choice.why)
+            }
+        };
+        let opts = sweep.reference_options(scene, method.as_ref(), Budget::Samples(self.spp));
+        let reference = crate::reference::render_reference(
             scene,
-            self.method.as_ref(),
+            method.as_ref(),
             &opts,
             self.spp,
             &self.cache,
             progress,
         )
-        .map_err(|e| CliError::Failure(e.to_string()))
+        .map_err(failure)?;
+        Ok(ChosenReference { reference, method: method.name(), why })
     }
+}
 
-    /// The line that says where the reference `r` came from and why its method.
-    pub fn describe(&self, r: &crate::reference::Reference) -> String {
+impl ChosenReference {
+    /// The line that says where the reference came from and why its method.
+    pub fn describe(&self) -> String {
+        let r = &self.reference;
         let how = if r.cached { "read from the cache" } else { "rendered and cached" };
-        format!(
-            "reference: {}, {} spp, {how}: {} ({})",
-            self.method.name(),
-            r.spp,
-            r.path.display(),
-            self.why
-        )
+        format!("reference: {}, {} spp, {how}: {} ({})", self.method, r.spp, r.path.display(), self.why)
     }
 }
 
@@ -197,8 +300,8 @@ pub struct RenderFile {
     /// Its seed (`vitrum:seed`).
     pub seed: u64,
     /// The render: image, samples (`vitrum:spp`), seconds (`renderTimeSeconds`: for merged
-    /// parts the sum of the parts' render times) and rays; with the per-pixel variance when
-    /// the file is a render part (it keeps its sums, [`crate::output::film`]).
+    /// parts the sum of the parts' render times) and rays; with the replicas and the per-pixel
+    /// variance when the file keeps them (replica channels, or a render part's sums).
     pub out: RenderOutput,
 }
 
@@ -251,7 +354,8 @@ pub fn read_renders(
                 non_finite_samples: 0,
                 spectral: false,
                 samples_per_pixel: None,
-                variance: None,
+                variance: read.variance(),
+                replicas: read.replicas.clone(),
             },
         };
         renders.push(RenderFile { path: path.clone(), method, seed, out });
@@ -313,7 +417,8 @@ mod tests {
             };
             opts.params.max_depth
         };
-        // cornell-glass sets the Whitted depth 5: its `path` reference is not cut by it.
+        // cornell-glass sets the Whitted depth 5: a `path` reference of it (`--reference-method path`)
+        // is not cut by it.
         let cornell = crate::scene::load_default();
         let args = SweepArgs::default();
         assert_eq!(depth(&args, &cornell, false, whitted.as_ref()), 5);

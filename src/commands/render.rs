@@ -9,9 +9,10 @@ use crate::integrators::{self, Integrator, RenderParams};
 use crate::interrupt;
 use crate::output::exr::{stage_exr_with_notes, variance_channels, ExrMetadata};
 use crate::output::png::stage_png;
+use crate::output::replicas::render_channels;
 use crate::output::Staged;
 use crate::render::{self, Budget, RenderOptions, RenderOutput};
-use crate::sampler::SamplerKind;
+use crate::sampler::{Replicas, SamplerKind};
 use crate::scene::compile::MAX_DEPTH;
 use crate::scene::{Scene, SpectralMode};
 use serde_json::json;
@@ -54,8 +55,8 @@ pub struct RenderArgs {
     /// Also write a tone-mapped sRGB PNG preview.
     #[arg(long)]
     pub png: Option<PathBuf>,
-    /// Exposure of the PNG preview in stops (default from the scene file).
-    #[arg(long, allow_hyphen_values = true)]
+    /// Exposure of the PNG preview in stops, a finite number (default from the scene file).
+    #[arg(long, value_name = "EV", allow_hyphen_values = true, value_parser = super::diff::parse_exposure)]
     pub exposure: Option<f32>,
     /// Print the summary as one JSON object on stdout.
     #[arg(long)]
@@ -123,10 +124,29 @@ pub struct RenderArgs {
     /// lane), scalar (one ray at a time: the reference implementation).
     #[arg(long, value_parser = ["auto", "wavefront", "scalar"])]
     pub engine: Option<String>,
-    /// Add the variance of each pixel's estimate (`variance.R`, `variance.G`, `variance.B`) and
-    /// its sample count (`samples`) as extra EXR channels; needs at least 2 samples per pixel.
-    #[arg(long)]
+    /// Require the variance channels: refuse a render that cannot have them (a fixed pattern,
+    /// 1 sample per pixel). Every render with two or more replicas keeps them anyway, with the
+    /// replicas' means: `variance.R`, `variance.G`, `variance.B` (the variance of each pixel's
+    /// estimate), `samples`, and `replica.K.R/G/B`.
+    #[arg(long, conflicts_with = "no_variance")]
     pub variance: bool,
+    /// Leave the variance and replica channels out of the EXR (a file of R, G, B only, which
+    /// `vitrum diff` can judge only without standard errors).
+    #[arg(long)]
+    pub no_variance: bool,
+    /// Independent randomisations the samples are split into (1 to 64, default 8): sample index
+    /// `s` belongs to replica `s mod R`; the spread of the replicas' means gives each pixel's
+    /// variance and the standard errors of every metric. 1 renders one randomisation (no variance).
+    #[arg(long, value_name = "R", value_parser = parse_replicas)]
+    pub replicas: Option<Replicas>,
+}
+
+/// Parses a replica count, 1 to [`Replicas::MAX`].
+pub fn parse_replicas(s: &str) -> Result<Replicas, String> {
+    s.parse::<u32>()
+        .ok()
+        .and_then(Replicas::new)
+        .ok_or_else(|| format!("{s:?}: the replica count must be a whole number from 1 to {}", Replicas::MAX))
 }
 
 /// Options of a render after applying command-line overrides to the scene's defaults.
@@ -212,6 +232,7 @@ pub fn render_options(
         spectral: args.spectral.as_deref().and_then(SpectralMode::from_name).unwrap_or(s.spectral),
         sampler: args.sampler.as_deref().and_then(SamplerKind::from_name).unwrap_or(s.sampler),
         planned_spp: None,
+        replicas: args.replicas.unwrap_or_default(),
     };
     let wavefront_asked = opts.params.engine == crate::params::EngineOption::Wavefront;
     if wavefront_asked && integrator.engine(scene, &opts).wavefront.is_none() {
@@ -256,6 +277,9 @@ pub fn run(args: &RenderArgs) -> Result<(), CliError> {
         }
         if opts.budget == Budget::Samples(1) {
             return Err(CliError::BadInput("--variance needs at least 2 samples per pixel (--spp 2)".into()));
+        }
+        if opts.replicas.count() < 2 {
+            return Err(CliError::BadInput("--variance needs at least 2 replicas (--replicas 2)".into()));
         }
     }
     // A render part (a shard, a resumed or checkpointed render) keeps its sums in the output.
@@ -333,23 +357,26 @@ pub fn run(args: &RenderArgs) -> Result<(), CliError> {
     let meta = exr_metadata(&scene, integrator.name(), opts.seed, (out.spp, out.seconds, out.rays));
     // Encode every output first and publish them together: a failure leaves none behind.
     let failure = |e: crate::output::OutputError| CliError::Failure(e.to_string());
-    let extra = match (&out.variance, args.variance) {
-        (Some(variance), true) => {
-            let counts =
-                out.samples_per_pixel.clone().unwrap_or_else(|| vec![out.spp as f32; variance.pixels.len()]);
-            variance_channels(variance, &counts)
-        }
-        (None, true) => {
-            eprintln!(
-                "vitrum: warning: --variance: no variance after {} sample(s) per pixel; none written",
-                out.spp
-            );
-            Vec::new()
-        }
-        (_, false) => Vec::new(),
+    if args.variance && out.variance.is_none() {
+        eprintln!(
+            "vitrum: warning: --variance: no variance after {} sample(s) per pixel; none written",
+            out.spp
+        );
+    }
+    // A part keeps its replicas' sums in its film layer; a plain render their means as channels.
+    let (extra, mut notes) = match (&part, args.no_variance) {
+        (_, true) => (Vec::new(), Vec::new()),
+        (Some(_), false) => match (&out.variance, args.variance) {
+            (Some(variance), true) => {
+                (variance_channels(variance, &vec![out.spp as f32; variance.pixels.len()]), Vec::new())
+            }
+            _ => (Vec::new(), Vec::new()),
+        },
+        (None, false) => render_channels(&out),
     };
-    let notes: Vec<(String, String)> =
-        interrupted.iter().map(|what| ("vitrum:interrupted".to_string(), what.clone())).collect();
+    notes.extend(interrupted.iter().map(|what| ("vitrum:interrupted".to_string(), what.clone())));
+    let exposure = args.exposure.unwrap_or(scene.settings.exposure);
+    notes.push((super::diff::EXPOSURE_ATTRIBUTE.to_string(), exposure.to_string()));
     let exr = match &part {
         Some(part) => crate::output::film::stage_part(&output, &part.film, &part.info, &meta, &extra, &notes),
         None => stage_exr_with_notes(&output, &out.image, &meta, &extra, &notes),

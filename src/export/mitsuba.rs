@@ -1388,8 +1388,8 @@ impl<'a> Exporter<'a> {
         x.open("emitter", &[("type", "envmap")]);
         x.string("filename", &file);
         x.float("scale", if grey { radiance.x } else { 1.0 });
-        let angle = (map.rotation_degrees() as f64).to_radians();
-        let (c, s) = (angle.cos(), angle.sin());
+        let (c, s) = map.rotation_cos_sin();
+        let (c, s) = (f64::from(c), f64::from(s));
         x.affine("to_world", DVec3::new(c, 0.0, -s), DVec3::Y, DVec3::new(s, 0.0, c), DVec3::ZERO);
         x.close("emitter");
     }

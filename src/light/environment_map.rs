@@ -68,6 +68,8 @@ pub struct EnvironmentMap {
     image: ImageMap,
     /// cos and sin of the rotation about +Y.
     rotation: (f32, f32),
+    /// The rotation about +Y in degrees, as the scene gives it.
+    rotation_degrees: f32,
     /// Over rows, proportional to each row's summed weights.
     rows: Distribution1D,
     /// Per row, over its texels (`None` for a row of zero weight).
@@ -104,7 +106,15 @@ impl EnvironmentMap {
         let black = row_weights.iter().all(|&w| w <= 0.0);
         let rows = if black { Distribution1D::new(&vec![1.0; h]) } else { Distribution1D::new(&row_weights) };
         let r = rotation_degrees.to_radians();
-        EnvironmentMap { image, rotation: (r.cos(), r.sin()), rows, columns, black, mean: mean / (4.0 * PI) }
+        EnvironmentMap {
+            image,
+            rotation: (r.cos(), r.sin()),
+            rotation_degrees,
+            rows,
+            columns,
+            black,
+            mean: mean / (4.0 * PI),
+        }
     }
 
     /// The texels.
@@ -112,9 +122,15 @@ impl EnvironmentMap {
         &self.image
     }
 
-    /// The rotation about +Y in degrees.
+    /// The rotation about +Y in degrees, as the scene gives it (180 stays 180, 450 stays 450: not
+    /// the angle recovered from its cosine and sine, which would print 180 as −180).
     pub fn rotation_degrees(&self) -> f32 {
-        self.rotation.1.atan2(self.rotation.0).to_degrees()
+        self.rotation_degrees
+    }
+
+    /// The cosine and sine of the rotation about +Y, as the map applies them.
+    pub fn rotation_cos_sin(&self) -> (f32, f32) {
+        self.rotation
     }
 
     /// The radiance averaged over all directions.
@@ -229,7 +245,19 @@ pub(crate) mod tests {
         // A rotation of 90° brings the centre (+Z) to +X.
         let r = EnvironmentMap::new(map(4, 2, |_, _| Vec3::ONE), 90.0);
         assert!(close(r.coordinates(Vec3::X), Vec2::new(0.5, 0.5)));
-        assert!((r.rotation_degrees() - 90.0).abs() < 1e-4);
+        assert_eq!(r.rotation_degrees(), 90.0);
+    }
+
+    #[test]
+    fn the_rotation_reads_back_as_the_scene_gives_it() {
+        // Recovered from its cosine and sine, 180 would read −180 and 450 would read 90.
+        for degrees in [0.0, 90.0, 180.0, -180.0, 270.0, -90.0, 450.0, 720.0] {
+            let m = EnvironmentMap::new(map(4, 2, |_, _| Vec3::ONE), degrees);
+            assert_eq!(m.rotation_degrees(), degrees);
+            let (c, s) = m.rotation_cos_sin();
+            let r = f32::to_radians(degrees);
+            assert_eq!((c, s), (r.cos(), r.sin()), "{degrees}");
+        }
     }
 
     #[test]

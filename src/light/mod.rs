@@ -254,19 +254,42 @@ pub struct PointIllumination {
     pub intensity: Vec3,
 }
 
-impl Light {
-    /// Total emitted power (W), as `vitrum info` reports it (a textured emitter with its
-    /// texture's mean colour, exact where the texture coordinates are uniform over the area).
-    pub fn power(&self) -> Vec3 {
+/// How strong a light is, as `vitrum info` reports it ([`Light::strength`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Strength {
+    /// The total emitted power (W) of a light at a finite distance.
+    Power(Vec3),
+    /// The radiance (W/(m²·sr)) of the environment averaged over all directions: an infinitely
+    /// distant light has no finite power.
+    MeanRadiance(Vec3),
+}
+
+impl Strength {
+    /// The number, whatever its unit.
+    pub fn value(self) -> Vec3 {
         match self {
-            Light::Point { intensity, .. } => 4.0 * std::f32::consts::PI * *intensity,
-            Light::Quad { u, v, radiance, .. } => PI * u.cross(*v).length() * *radiance,
-            Light::Sphere { radius, radiance, .. } => 4.0 * PI * PI * radius * radius * *radiance,
-            Light::Surface { shape, radiance, texture } => {
-                2.0 * PI * shape.area() * *radiance * texture.as_ref().map_or(Vec3::ONE, Texture::mean)
+            Strength::Power(v) | Strength::MeanRadiance(v) => v,
+        }
+    }
+}
+
+impl Light {
+    /// How strong the light is, as `vitrum info` reports it: the total emitted power of a light
+    /// at a finite distance (a textured emitter with its texture's mean colour, exact where the
+    /// texture coordinates are uniform over the area), the mean radiance of the environment.
+    pub fn strength(&self) -> Strength {
+        match self {
+            Light::Point { intensity, .. } => Strength::Power(4.0 * std::f32::consts::PI * *intensity),
+            Light::Quad { u, v, radiance, .. } => Strength::Power(PI * u.cross(*v).length() * *radiance),
+            Light::Sphere { radius, radiance, .. } => {
+                Strength::Power(4.0 * PI * PI * radius * radius * *radiance)
             }
-            // Power is not finite for an infinitely distant light; report the mean radiance.
-            Light::Environment { radiance, map } => *radiance * map.as_ref().map_or(Vec3::ONE, |m| m.mean()),
+            Light::Surface { shape, radiance, texture } => Strength::Power(
+                2.0 * PI * shape.area() * *radiance * texture.as_ref().map_or(Vec3::ONE, Texture::mean),
+            ),
+            Light::Environment { radiance, map } => {
+                Strength::MeanRadiance(*radiance * map.as_ref().map_or(Vec3::ONE, |m| m.mean()))
+            }
         }
     }
 

@@ -457,18 +457,37 @@ pub fn read_exr(path: &Path) -> Result<(Image, BTreeMap<String, String>), Output
     decode_rgb(path, &bytes, &file)
 }
 
-/// [`read_exr`] and the layer called `layer` ([`U32Layer`]: all its channels 32-bit unsigned
-/// integers of full size), when the file has one, from one read of the file: both come from the
-/// same version of a file that is being replaced (a live checkpoint).
-#[allow(clippy::type_complexity)]
-pub fn read_exr_with_layer(
-    path: &Path,
-    layer: &str,
-) -> Result<(Image, BTreeMap<String, String>, Option<U32Layer>), OutputError> {
+/// What [`read_exr_with_layer`] reads of a file.
+pub struct ExrRead {
+    /// The first layer's R, G, B.
+    pub image: Image,
+    /// Every header attribute of the first layer, as text.
+    pub attributes: BTreeMap<String, String>,
+    /// The first layer's other full-size channels, as f32, by name.
+    pub channels: BTreeMap<String, Vec<f32>>,
+    /// The layer asked for, when the file has one.
+    pub layer: Option<U32Layer>,
+}
+
+/// [`read_exr`], the first layer's other channels and the layer called `layer` ([`U32Layer`]:
+/// all its channels 32-bit unsigned integers of full size), when the file has one, from one
+/// read of the file: all come from the same version of a file that is being replaced (a live
+/// checkpoint).
+pub fn read_exr_with_layer(path: &Path, layer: &str) -> Result<ExrRead, OutputError> {
     let bytes = std::fs::read(path).map_err(|e| OutputError::io(path, e))?;
     let file = decode_all_layers(path, &bytes)?;
     let (image, attributes) = decode_rgb(path, &bytes, &file)?;
-    Ok((image, attributes, find_u32_layer(path, &file, layer)?))
+    let channels = file.layer_data.first().map_or_else(BTreeMap::new, |l| {
+        l.channel_data
+            .list
+            .iter()
+            .filter(|c| {
+                !["R", "G", "B"].iter().any(|n| c.name.eq(n)) && c.sample_data.len() == image.pixels.len()
+            })
+            .map(|c| (utf8(c.name.as_slice()), c.sample_data.values_as_f32().collect()))
+            .collect()
+    });
+    Ok(ExrRead { image, attributes, channels, layer: find_u32_layer(path, &file, layer)? })
 }
 
 /// The first layer's R, G, B channels of EXR file contents `bytes` read from `path` (named in

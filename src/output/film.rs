@@ -1,11 +1,13 @@
 //! A render part in its EXR file ([`crate::parts`]): the beauty layer as in every render, plus
 //! the state to resume and merge it, exactly.
 //!
-//! - A second layer `film` holds per pixel the f64 sums of the per-sample estimates and of
-//!   their squares, each f64 as two 32-bit unsigned integer channels of its bits (`sum.R.hi`,
-//!   `sum.R.lo`, …, `sum_sq.B.lo`): EXR has no f64 channels, and f32 would lose the bits that
-//!   make a resumed render equal an uninterrupted one. Viewers show the beauty layer (the first);
-//!   the film layer is opaque data.
+//! - A second layer `film` holds per pixel the f64 sums of the per-sample estimates, overall and
+//!   per replica, each f64 as two 32-bit unsigned integer channels of its bits (`sum.R.hi`,
+//!   `sum.R.lo`, …, `sum.B.lo`, then `replica0.R.hi` … `replicaK.B.lo` for the R replicas): EXR
+//!   has no f64 channels, and f32 would lose the bits that make a resumed render equal an
+//!   uninterrupted one. Viewers show the beauty layer (the first); the film layer is opaque data.
+//!   The replica count is in the identity (`vitrum:settings`), the samples each replica holds
+//!   follow from `vitrum:samples`.
 //! - Header attributes of the beauty layer: `vitrum:samples` (the sample indices held, as
 //!   `A..B` ranges), `vitrum:sample-target` (the range asked for), `vitrum:spp-planned`,
 //!   `vitrum:settings` (the [`Identity`]), `vitrum:film-norm`, `vitrum:non-finite`,
@@ -16,10 +18,12 @@
 use super::exr::{
     parse_rays, read_exr_with_layer, stage_exr_with_layer, ExrMetadata, ExtraChannel, U32Layer,
 };
+use super::replicas::decode_replicas;
 use super::{OutputError, Staged};
 use crate::image::Image;
 use crate::parts::{parse_sample_range, Identity, Part, PartInfo, SampleSet};
-use crate::render::Film;
+use crate::render::{Film, ReplicaMeans};
+use crate::sampler::Replicas;
 use glam::DVec3;
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -29,10 +33,14 @@ pub const FILM_LAYER: &str = "film";
 
 /// The film layer's channels for `film`, in a fixed order.
 fn film_layer(film: &Film) -> U32Layer {
-    let mut channels = Vec::with_capacity(12);
-    for (name, values) in [("sum", &film.sum), ("sum_sq", &film.sum_sq)] {
+    let r = film.replicas.count() as usize;
+    let mut channels = Vec::with_capacity(6 * (r + 1));
+    let replica = |k: usize| film.replica_sums[k..].iter().step_by(r);
+    let sums = std::iter::once(("sum".to_string(), film.sum.iter().step_by(1)))
+        .chain((0..r).map(|k| (format!("replica{k}"), replica(k))));
+    for (name, values) in sums {
         for (axis, pick) in [("R", 0usize), ("G", 1), ("B", 2)] {
-            let bits: Vec<u64> = values.iter().map(|v| v.to_array()[pick].to_bits()).collect();
+            let bits: Vec<u64> = values.clone().map(|v| v.to_array()[pick].to_bits()).collect();
             channels.push((format!("{name}.{axis}.hi"), bits.iter().map(|b| (b >> 32) as u32).collect()));
             channels.push((format!("{name}.{axis}.lo"), bits.iter().map(|&b| b as u32).collect()));
         }
@@ -95,6 +103,19 @@ pub struct RenderRead {
     pub attributes: BTreeMap<String, String>,
     /// The part, for a file written by [`stage_part`].
     pub part: Option<Part>,
+    /// The render's replicas: the part's, or those its channels keep
+    /// ([`super::replicas`]); `None` for a render that keeps none.
+    pub replicas: Option<ReplicaMeans>,
+    /// The file's `variance.R/G/B` channels, when it has them.
+    pub variance_channels: Option<Image>,
+}
+
+impl RenderRead {
+    /// The variance of each pixel's mean: from the replicas, else from the file's
+    /// `variance.R/G/B` channels (a file of another tool or version); `None` without either.
+    pub fn variance(&self) -> Option<Image> {
+        self.replicas.as_ref().map(ReplicaMeans::variance).or_else(|| self.variance_channels.clone())
+    }
 }
 
 /// The error for a file at `path` that is not a render part, and why.
@@ -112,12 +133,25 @@ fn not_a_part(path: &Path, what: &str) -> OutputError {
 /// replaced meanwhile cannot mix two versions. A film layer with missing or malformed
 /// attributes is an error, not a plain render.
 pub fn read_render(path: &Path) -> Result<RenderRead, OutputError> {
-    let (image, attributes, layer) = read_exr_with_layer(path, FILM_LAYER)?;
-    let part = match layer {
+    let read = read_exr_with_layer(path, FILM_LAYER)?;
+    let (image, attributes) = (read.image, read.attributes);
+    let part = match read.layer {
         Some(layer) => Some(decode_part(path, &image, &attributes, &layer)?),
         None => None,
     };
-    Ok(RenderRead { image, attributes, part })
+    let replicas = match &part {
+        Some(part) => part.film.replica_means(),
+        None => decode_replicas(path, (image.width, image.height), &read.channels, &attributes)?,
+    };
+    let variance_channels = match ["variance.R", "variance.G", "variance.B"].map(|c| read.channels.get(c)) {
+        [Some(r), Some(g), Some(b)] => Some(Image {
+            width: image.width,
+            height: image.height,
+            pixels: r.iter().zip(g).zip(b).map(|((&r, &g), &b)| glam::Vec3::new(r, g, b)).collect(),
+        }),
+        _ => None,
+    };
+    Ok(RenderRead { image, attributes, part, replicas, variance_channels })
 }
 
 /// Read the part written by [`stage_part`] from `path`; an EXR without the film layer or its
@@ -174,8 +208,17 @@ fn decode_part(
             .filter(|v| v.len() == w * h)
             .ok_or_else(|| not_a_part(&format!("its film layer has no full-size {name} channel")))
     };
-    let mut film = Film::new(w, h, norm, identity.get("wavelengths") == Some("yes"));
-    for (name, values) in [("sum", &mut film.sum), ("sum_sq", &mut film.sum_sq)] {
+    let replicas = identity
+        .get("replicas")
+        .and_then(|r| r.parse().ok())
+        .and_then(Replicas::new)
+        .ok_or_else(|| bad("vitrum:settings", "no replica count from 1 to 64".into()))?;
+    let mut film = Film::new(w, h, norm, identity.get("wavelengths") == Some("yes"), replicas);
+    let r = replicas.count() as usize;
+    let mut replica_sums = vec![vec![DVec3::ZERO; w * h]; r];
+    let sums = std::iter::once(("sum".to_string(), &mut film.sum))
+        .chain(replica_sums.iter_mut().enumerate().map(|(k, v)| (format!("replica{k}"), v)));
+    for (name, values) in sums {
         for (axis, pick) in [("R", 0usize), ("G", 1), ("B", 2)] {
             let (hi, lo) = (channel(&format!("{name}.{axis}.hi"))?, channel(&format!("{name}.{axis}.lo"))?);
             for (v, (&hi, &lo)) in values.iter_mut().zip(hi.iter().zip(lo)) {
@@ -184,6 +227,14 @@ fn decode_part(
                 *v = DVec3::from_array(a);
             }
         }
+    }
+    for (k, sums) in replica_sums.iter().enumerate() {
+        for (p, v) in sums.iter().enumerate() {
+            film.replica_sums[p * r + k] = *v;
+        }
+    }
+    for (k, held) in film.replica_samples.iter_mut().enumerate() {
+        *held = samples.ranges().iter().map(|range| replicas.samples_in_range(k as u32, range.clone())).sum();
     }
     film.first = samples.ranges().first().map_or(target.start, |r| r.start);
     film.samples = count;
@@ -204,17 +255,21 @@ mod tests {
     fn a_part_round_trips_bit_for_bit() {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("part.exr");
-        let mut film = Film::new(5, 3, 0.37, true);
-        for (i, (s, q)) in film.sum.iter_mut().zip(film.sum_sq.iter_mut()).enumerate() {
+        let replicas = Replicas::new(3).unwrap();
+        let mut film = Film::new(5, 3, 0.37, true, replicas);
+        for (i, s) in film.sum.iter_mut().enumerate() {
             *s = DVec3::new(i as f64 * 0.1 + 1e-17, -(i as f64).sqrt() / 3.0, f64::MIN_POSITIVE);
+        }
+        for (i, q) in film.replica_sums.iter_mut().enumerate() {
             *q = DVec3::new(f64::NAN, f64::INFINITY, 1.0 / (i as f64 + 7.0));
         }
         film.first = 16;
-        film.samples = 8;
+        film.advance(8);
         film.rays = RayCounts { primary: 120, reflected: 3, refracted: 4, shadow: 5 };
         film.non_finite = 2;
         film.seconds = 1.234_567_890_123;
-        let identity = Identity::parse("version=0.1.0; seed=7; sampler=sobol; wavelengths=yes").unwrap();
+        let identity =
+            Identity::parse("version=0.1.0; seed=7; sampler=sobol; replicas=3; wavelengths=yes").unwrap();
         let (samples, target, scene_file) = (SampleSet::of(16..24), 16..32, "/s/ü.toml".to_string());
         let info = PartInfo { identity, samples, target, planned: 64, time_budget: Some(2.5), scene_file };
         let part = Part { film, info };
@@ -225,7 +280,10 @@ mod tests {
         let back = read_part(&path).unwrap().part;
         let bits = |v: &[DVec3]| v.iter().flat_map(|d| d.to_array().map(f64::to_bits)).collect::<Vec<u64>>();
         assert_eq!(bits(&back.film.sum), bits(&part.film.sum));
-        assert_eq!(bits(&back.film.sum_sq), bits(&part.film.sum_sq));
+        assert_eq!(bits(&back.film.replica_sums), bits(&part.film.replica_sums));
+        // Samples 16..24 of 3 replicas: 16, 19, 22 in replica 1; 17, 20, 23 in 2; 18, 21 in 0.
+        assert_eq!(back.film.replica_samples, [2, 3, 3]);
+        assert_eq!(back.film.replica_samples, part.film.replica_samples);
         assert_eq!((back.film.first, back.film.samples, back.film.norm), (16, 8, 0.37));
         assert_eq!((back.film.rays, back.film.non_finite, back.film.spectral), (part.film.rays, 2, true));
         assert_eq!(back.info, part.info);
@@ -250,7 +308,7 @@ mod tests {
     fn a_film_layer_without_its_attributes_is_an_error_not_a_plain_render() {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("odd.exr");
-        let film = Film::new(2, 2, 1.0, false);
+        let film = Film::new(2, 2, 1.0, false, Replicas::DEFAULT);
         let image = film.image();
         super::super::exr::stage_exr_with_layer(
             &path,

@@ -10,6 +10,7 @@
 pub mod exr;
 pub mod film;
 pub mod png;
+pub mod replicas;
 
 use crate::image::Image;
 use std::fs;

@@ -5,7 +5,7 @@ use super::*;
 use crate::camera::Camera;
 use crate::geometry::Ray;
 use crate::integrators::{EngineChoice, Integrator, PathContext, SampleBatch, StageOccupancy, Wavefront};
-use crate::sampler::{Dim, Sampler, DIM_PURPOSES};
+use crate::sampler::{Dim, Replicas, Sampler, DIM_PURPOSES};
 use crate::scene::effects::Support;
 use crate::scene::{Effect, Scene, SpectralMode};
 use crate::spectrum::{Channels, Wavelengths};
@@ -51,15 +51,16 @@ pub(super) struct RowStats {
 }
 
 impl RowStats {
-    /// Adds the estimate `l` of one sample to its pixel's sums, counting it if it is not finite.
+    /// Adds the estimate `l` of sample index `s` to its pixel's sums (`sum`, and `replica_sums`
+    /// of its replicas), counting it if it is not finite.
     #[inline]
-    fn add(&mut self, l: Vec3, sum: &mut DVec3, sum_sq: &mut DVec3) {
+    fn add(&mut self, l: Vec3, s: u32, replicas: Replicas, sum: &mut DVec3, replica_sums: &mut [DVec3]) {
         if !l.is_finite() {
             self.non_finite += 1;
         }
         let l = l.as_dvec3();
         *sum += l;
-        *sum_sq += l * l;
+        replica_sums[replicas.of(s) as usize] += l;
     }
 }
 
@@ -93,14 +94,16 @@ impl<'a> Pass<'a> {
 
     /// An empty film of the camera's size.
     pub(super) fn film(&self) -> Film {
-        Film::new(self.camera.width as usize, self.camera.height as usize, 1.0, self.dims.wavelength)
+        let (w, h) = (self.camera.width as usize, self.camera.height as usize);
+        Film::new(w, h, 1.0, self.dims.wavelength, self.opts.replicas)
     }
 
     /// The camera ray of sample `index` (of `total`) of pixel (`x`, `y`), with the context of
     /// its path: the sample's stream after the camera's dimensions, its channels and counters.
     pub(super) fn start(&self, x: u32, y: u32, index: u32, total: u32) -> (Ray, PathContext) {
         let pixel = y as u64 * self.camera.width as u64 + x as u64;
-        let mut sampler = Sampler::new(self.opts.sampler, self.opts.seed, pixel, index, total);
+        let stream = self.opts.replicas.stream(self.opts.seed, index, total);
+        let mut sampler = Sampler::of_stream(self.opts.sampler, stream, pixel);
         let offset = if total == 1 { Vec2::splat(0.5) } else { sampler.get_2d(Dim::Pixel) };
         let lens = if self.dims.lens { sampler.get_2d(Dim::Lens) } else { Vec2::ZERO };
         let (open, close) = self.camera.shutter;
@@ -132,7 +135,7 @@ impl<'a> Pass<'a> {
         self.finish(&ctx, radiance, row)
     }
 
-    /// Continues row `y`'s sums (`sums`: per pixel, the sum and the sum of squares) with the
+    /// Continues row `y`'s sums (`sums`: per pixel, the sum and the replicas' sums) with the
     /// samples `samples` (of `total`) by the wavefront engine: its paths go in batches of at
     /// most [`WAVEFRONT_BATCH`] whole pixels' samples, whose estimates are added pixel by pixel
     /// in sample order, as the one-ray loop adds them.
@@ -140,11 +143,13 @@ impl<'a> Pass<'a> {
         &self,
         engine: &Wavefront,
         y: u32,
-        (sum, sum_sq): (&mut [DVec3], &mut [DVec3]),
+        (sum, replica_sums): (&mut [DVec3], &mut [DVec3]),
         samples: Range<u32>,
         total: u32,
         row: &mut RowStats,
     ) {
+        let replicas = self.opts.replicas;
+        let r = replicas.count() as usize;
         let width = sum.len();
         let per_pixel = samples.len().max(1);
         let pixels_per_batch = (WAVEFRONT_BATCH / per_pixel).max(1);
@@ -152,7 +157,7 @@ impl<'a> Pass<'a> {
         let mut occupancy = StageOccupancy::default();
         for first in (0..width).step_by(pixels_per_batch) {
             let xs = first as u32..(first + pixels_per_batch).min(width) as u32;
-            let batch = SampleBatch { y, xs: xs.clone(), samples: samples.clone(), total };
+            let batch = SampleBatch { y, xs: xs.clone(), samples: samples.clone(), total, replicas };
             let counters = (&mut row.rays, &mut row.requests);
             let (opts, camera) = (&self.opts, &self.camera);
             let estimates = match engine.camera_samples(
@@ -179,25 +184,26 @@ impl<'a> Pass<'a> {
                     ctxs.iter().zip(radiance).map(|(ctx, l)| self.finish(ctx, l, row)).collect()
                 }
             };
-            let pixels =
-                sum[batch.xs.start as usize..].iter_mut().zip(&mut sum_sq[batch.xs.start as usize..]);
-            for ((sum, sum_sq), pixel) in pixels.zip(estimates.chunks(samples.len())) {
-                for &l in pixel {
-                    row.add(l, sum, sum_sq);
+            let first = batch.xs.start as usize;
+            let pixels = sum[first..].iter_mut().zip(replica_sums[first * r..].chunks_mut(r));
+            for ((sum, replica_sums), pixel) in pixels.zip(estimates.chunks(samples.len())) {
+                for (&l, s) in pixel.iter().zip(samples.clone()) {
+                    row.add(l, s, replicas, sum, replica_sums);
                 }
             }
         }
         row.occupancy.merge(&occupancy);
     }
 
-    /// Continue the sums of row `y` with the samples `samples` (of `total`, 0 when unknown).
+    /// Continue the sums of row `y` (`sum` per pixel, `replica_sums` per pixel and replica) with
+    /// the samples `samples` (of `total`, 0 when unknown).
     pub(super) fn row(
         &self,
         y: u32,
         samples: Range<u32>,
         total: u32,
         sum: &mut [DVec3],
-        sum_sq: &mut [DVec3],
+        replica_sums: &mut [DVec3],
     ) -> RowStats {
         let mut row = RowStats {
             rays: RayCounts::default(),
@@ -206,13 +212,15 @@ impl<'a> Pass<'a> {
             requests: [0; DIM_PURPOSES],
         };
         if let Some(engine) = &self.engine.wavefront {
-            self.wavefront_row(engine, y, (sum, sum_sq), samples, total, &mut row);
+            self.wavefront_row(engine, y, (sum, replica_sums), samples, total, &mut row);
             return row;
         }
-        for (x, (sum, sum_sq)) in sum.iter_mut().zip(sum_sq.iter_mut()).enumerate() {
+        let replicas = self.opts.replicas;
+        let r = replicas.count() as usize;
+        for (x, (sum, replica_sums)) in sum.iter_mut().zip(replica_sums.chunks_mut(r)).enumerate() {
             for s in samples.clone() {
                 let l = self.sample(x as u32, y, s, total, &mut row);
-                row.add(l, sum, sum_sq);
+                row.add(l, s, replicas, sum, replica_sums);
             }
         }
         row
@@ -227,14 +235,15 @@ impl<'a> Pass<'a> {
         progress: &(dyn Fn(u64, u64) + Sync),
     ) {
         let (w, h) = (film.width, film.height as u64);
+        let r = film.replicas.count() as usize;
         let done = AtomicU64::new(0);
         let rows: Vec<RowStats> = film
             .sum
             .par_chunks_mut(w)
-            .zip(film.sum_sq.par_chunks_mut(w))
+            .zip(film.replica_sums.par_chunks_mut(w * r))
             .enumerate()
-            .map(|(y, (sum, sum_sq))| {
-                let r = self.row(y as u32, samples.clone(), total, sum, sum_sq);
+            .map(|(y, (sum, replica_sums))| {
+                let r = self.row(y as u32, samples.clone(), total, sum, replica_sums);
                 progress(done.fetch_add(1, Ordering::Relaxed) + 1, h);
                 r
             })

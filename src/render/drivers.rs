@@ -66,7 +66,7 @@ pub(super) fn run_budget(
                     progress(((from - first) as u64 * 1000 + within as u64).min(span), span)
                 };
                 add(film, from..to, total, &pass_progress);
-                film.samples += to - from;
+                film.advance(to - from);
                 let took = pass_start.elapsed();
                 film.seconds += took.as_secs_f64();
                 after_pass(film);
@@ -87,7 +87,7 @@ pub(super) fn run_budget(
                     progress(ms.min(total), total)
                 };
                 add(film, s..s + 1, 0, &timed);
-                film.samples += 1;
+                film.advance(1);
                 let took = pass_start.elapsed().as_secs_f64();
                 (rendered, film.seconds) = (rendered + took, film.seconds + took);
                 after_pass(film);

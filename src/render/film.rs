@@ -1,7 +1,9 @@
-//! The [`Film`]: per-pixel f64 sums of the per-sample estimates and of their squares, by sample index.
+//! The [`Film`]: per-pixel f64 sums of the per-sample estimates, overall and per replica, by
+//! sample index.
 
 use super::*;
 use crate::image::Image;
+use crate::sampler::Replicas;
 use crate::stats::RayCounts;
 use glam::DVec3;
 use std::ops::Range;
@@ -15,12 +17,17 @@ pub struct Film {
     pub height: usize,
     /// Per pixel, the sum over sample indices of the per-sample estimates (before `norm`).
     pub sum: Vec<DVec3>,
-    /// Per pixel, the sum of their squares.
-    pub sum_sq: Vec<DVec3>,
+    /// How the sample indices split into independent replicas.
+    pub replicas: Replicas,
+    /// Per pixel and replica (pixel-major: pixel `p`'s replica `r` at `p·R + r`), the sum of the
+    /// estimates of the replica's sample indices: the replicas' means give the variance.
+    pub replica_sums: Vec<DVec3>,
+    /// Per replica, the sample indices added to it.
+    pub replica_samples: Vec<u32>,
     /// The first sample index of the film (0 but for a part of a larger render: a shard).
     pub first: u32,
     /// Sample indices added so far, `first..first + samples` (the driver advances it after
-    /// each addition).
+    /// each addition, [`Film::advance`]).
     pub samples: u32,
     /// A pixel's estimate is `sum / (samples · norm)`: 1 for the camera pass, the film area for
     /// light tracing.
@@ -39,20 +46,17 @@ pub struct Film {
     pub seconds: f64,
 }
 
-/// `x` clamped below at 0 per channel, NaN kept (a NaN must never turn into a clean 0).
-pub(super) fn non_negative(v: DVec3) -> DVec3 {
-    let f = |x: f64| if x < 0.0 { 0.0 } else { x };
-    DVec3::new(f(v.x), f(v.y), f(v.z))
-}
-
 impl Film {
-    /// An empty film of `width × height` pixels.
-    pub fn new(width: usize, height: usize, norm: f64, spectral: bool) -> Film {
+    /// An empty film of `width × height` pixels whose sample indices split into `replicas`.
+    pub fn new(width: usize, height: usize, norm: f64, spectral: bool, replicas: Replicas) -> Film {
+        let r = replicas.count() as usize;
         Film {
             width,
             height,
             sum: vec![DVec3::ZERO; width * height],
-            sum_sq: vec![DVec3::ZERO; width * height],
+            replicas,
+            replica_sums: vec![DVec3::ZERO; width * height * r],
+            replica_samples: vec![0; r],
             first: 0,
             samples: 0,
             norm,
@@ -75,6 +79,23 @@ impl Film {
         self.first..self.next_sample()
     }
 
+    /// Adds the estimate `v` of sample index `s` to pixel `pixel`'s sums.
+    #[inline]
+    pub fn add(&mut self, pixel: usize, s: u32, v: DVec3) {
+        let r = self.replicas.count() as usize;
+        self.sum[pixel] += v;
+        self.replica_sums[pixel * r + self.replicas.of(s) as usize] += v;
+    }
+
+    /// Counts the `n` sample indices from [`Film::next_sample`] on as added (to the film and to
+    /// their replicas), once their estimates are in the sums.
+    pub fn advance(&mut self, n: u32) {
+        for s in self.next_sample()..self.next_sample() + n {
+            self.replica_samples[self.replicas.of(s) as usize] += 1;
+        }
+        self.samples += n;
+    }
+
     /// The mean per pixel (black before the first sample).
     pub fn image(&self) -> Image {
         let scale = 1.0 / (self.samples.max(1) as f64 * self.norm);
@@ -82,24 +103,35 @@ impl Film {
         Image { width: self.width, height: self.height, pixels }
     }
 
-    /// The variance of each pixel's mean, s²/n; `None` below two samples.
-    pub fn variance(&self) -> Option<Image> {
-        if self.samples < 2 {
+    /// The means of the replicas that hold samples, `None` below two such replicas.
+    pub fn replica_means(&self) -> Option<ReplicaMeans> {
+        let r = self.replicas.count() as usize;
+        let held: Vec<usize> = (0..r).filter(|&i| self.replica_samples[i] > 0).collect();
+        if held.len() < 2 {
             return None;
         }
-        let n = self.samples as f64;
-        let scale = 1.0 / (self.norm * self.norm * n * (n - 1.0));
-        let pixels = self
-            .sum
+        let means = held
             .iter()
-            .zip(&self.sum_sq)
-            .map(|(s, q)| (non_negative(*q - *s * *s / n) * scale).as_vec3())
+            .map(|&i| {
+                let scale = 1.0 / (self.replica_samples[i] as f64 * self.norm);
+                let pixels = (0..self.width * self.height)
+                    .map(|p| (self.replica_sums[p * r + i] * scale).as_vec3())
+                    .collect();
+                Image { width: self.width, height: self.height, pixels }
+            })
             .collect();
-        Some(Image { width: self.width, height: self.height, pixels })
+        Some(ReplicaMeans { means, samples: held.iter().map(|&i| self.replica_samples[i]).collect() })
+    }
+
+    /// The variance of each pixel's mean, from the spread of the replicas' means
+    /// ([`ReplicaMeans::variance`]); `None` below two replicas with samples.
+    pub fn variance(&self) -> Option<Image> {
+        self.replica_means().map(|m| m.variance())
     }
 
     /// The render so far.
     pub fn output(&self) -> RenderOutput {
+        let replicas = self.replica_means();
         RenderOutput {
             image: self.image(),
             spp: self.samples,
@@ -108,7 +140,8 @@ impl Film {
             non_finite_samples: self.non_finite,
             spectral: self.spectral,
             samples_per_pixel: None,
-            variance: self.variance(),
+            variance: replicas.as_ref().map(ReplicaMeans::variance),
+            replicas,
         }
     }
 }

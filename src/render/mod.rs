@@ -59,7 +59,7 @@
 use crate::camera::Camera;
 use crate::image::Image;
 use crate::integrators::{Integrator, RenderParams};
-use crate::sampler::SamplerKind;
+use crate::sampler::{Replicas, SamplerKind};
 use crate::scene::{Scene, SpectralMode};
 use crate::stats::RayCounts;
 use rayon::prelude::*;
@@ -70,11 +70,13 @@ mod camera_pass;
 mod drivers;
 mod film;
 mod progressive;
+mod replicas;
 
 pub use camera_pass::*;
 pub use drivers::*;
 pub use film::*;
 pub use progressive::*;
+pub use replicas::*;
 
 /// How long to render.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -103,6 +105,9 @@ pub struct RenderOptions {
     /// shard, a resumed range): sample `s` is drawn as sample `s` of this many. `None`: the
     /// budget's own count.
     pub planned_spp: Option<u32>,
+    /// How the sample indices split into independent randomisations, whose spread gives the
+    /// variance ([`Replicas`]).
+    pub replicas: Replicas,
 }
 
 impl RenderOptions {
@@ -126,6 +131,7 @@ impl RenderOptions {
             spectral: s.spectral,
             sampler: s.sampler,
             planned_spp: None,
+            replicas: Replicas::DEFAULT,
         }
     }
 }
@@ -148,8 +154,11 @@ pub struct RenderOutput {
     /// Camera samples taken per pixel, when it varies (adaptive supersampling).
     pub samples_per_pixel: Option<Vec<f32>>,
     /// Variance of each pixel's estimate per channel (its squared standard error); `None` when
-    /// it cannot be estimated (fewer than two samples, or a deterministic sample pattern).
+    /// it cannot be estimated (fewer than two replicas with samples, or a deterministic sample
+    /// pattern).
     pub variance: Option<Image>,
+    /// The means of the render's replicas, whose spread gave `variance`; `None` as for it.
+    pub replicas: Option<ReplicaMeans>,
 }
 
 /// A noise estimate of a render that needs no reference, from its per-pixel variance.
@@ -254,21 +263,19 @@ mod tests {
 
     /// Adds `value` for the samples `samples` to every pixel of `film`, in index order.
     fn add_values(film: &mut Film, samples: Range<u32>) {
-        for (pixel, (sum, sq)) in film.sum.iter_mut().zip(film.sum_sq.iter_mut()).enumerate() {
+        for pixel in 0..film.sum.len() {
             for s in samples.clone() {
-                let v = DVec3::splat(value(pixel, s));
-                *sum += v;
-                *sq += v * v;
+                film.add(pixel, s, DVec3::splat(value(pixel, s)));
             }
         }
     }
 
     #[test]
     fn passes_give_the_bits_of_one_range_and_a_stop_lands_between_passes() {
-        let mut whole = Film::new(3, 2, 1.0, false);
+        let mut whole = Film::new(3, 2, 1.0, false, Replicas::DEFAULT);
         add_values(&mut whole, 0..40);
         let mut passes = Vec::new();
-        let mut film = Film::new(3, 2, 1.0, false);
+        let mut film = Film::new(3, 2, 1.0, false, Replicas::DEFAULT);
         run_budget(
             &mut film,
             Budget::Samples(40),
@@ -283,13 +290,16 @@ mod tests {
             &mut |_| {},
         );
         assert_eq!(film.samples, 40);
-        assert_eq!((film.sum.clone(), film.sum_sq.clone()), (whole.sum.clone(), whole.sum_sq.clone()));
+        assert_eq!(
+            (film.sum.clone(), film.replica_sums.clone()),
+            (whole.sum.clone(), whole.replica_sums.clone())
+        );
         assert_eq!(passes.first(), Some(&(0..1)), "the first pass is one sample");
         assert!(passes.windows(2).all(|w| w[0].end == w[1].start) && passes.last().unwrap().end == 40);
 
         // A stop requested during the third pass: that pass finishes, nothing more is added.
         let calls = std::cell::Cell::new(0);
-        let mut film = Film::new(3, 2, 1.0, false);
+        let mut film = Film::new(3, 2, 1.0, false, Replicas::DEFAULT);
         let stop = || calls.get() >= 3;
         let mut ends = Vec::new();
         run_budget(
@@ -307,7 +317,7 @@ mod tests {
         );
         assert_eq!(film.samples, *ends.last().unwrap());
         assert_eq!(ends.len(), 3);
-        let mut expected = Film::new(3, 2, 1.0, false);
+        let mut expected = Film::new(3, 2, 1.0, false, Replicas::DEFAULT);
         add_values(&mut expected, 0..film.samples);
         expected.samples = film.samples;
         assert_eq!(film.sum, expected.sum);
@@ -315,7 +325,7 @@ mod tests {
 
         // A stop requested before the render: one pass all the same; time budgets stop too.
         for budget in [Budget::Samples(40), Budget::Time(Duration::from_secs(3600))] {
-            let mut film = Film::new(3, 2, 1.0, false);
+            let mut film = Film::new(3, 2, 1.0, false, Replicas::DEFAULT);
             run_budget(
                 &mut film,
                 budget,
@@ -331,11 +341,11 @@ mod tests {
 
     #[test]
     fn a_part_adds_its_own_range_from_the_planned_pattern_and_resumes_bit_for_bit() {
-        let mut whole = Film::new(3, 2, 1.0, false);
+        let mut whole = Film::new(3, 2, 1.0, false, Replicas::DEFAULT);
         add_values(&mut whole, 5..30);
         // Sample indices 5..30 of a 40-sample plan, stopped after a few passes, then resumed.
         let calls = std::cell::Cell::new(0);
-        let (mut film, mut seen) = (Film::new(3, 2, 1.0, false), Vec::new());
+        let (mut film, mut seen) = (Film::new(3, 2, 1.0, false, Replicas::DEFAULT), Vec::new());
         film.first = 5;
         let mut add = |f: &mut Film, samples: Range<u32>, total: u32, _: &(dyn Fn(u64, u64) + Sync)| {
             assert_eq!(total, 40, "drawn as samples of the plan");
@@ -355,7 +365,7 @@ mod tests {
         assert!(film.next_sample() < 30 && film.first == 5, "{:?}", film.sample_range());
         run_budget(&mut film, Budget::Samples(30), Some(40), &|| false, &|_, _| {}, &mut add, &mut after);
         assert_eq!(film.sample_range(), 5..30);
-        assert_eq!((film.sum.clone(), film.sum_sq.clone()), (whole.sum, whole.sum_sq));
+        assert_eq!((film.sum.clone(), film.replica_sums.clone()), (whole.sum, whole.replica_sums));
         assert_eq!(seen.first(), Some(&(5..6)), "after every pass, from the first index");
         assert_eq!(seen.last(), Some(&(5..30)));
     }
@@ -363,7 +373,7 @@ mod tests {
     #[test]
     fn progress_covers_the_whole_render() {
         let seen = std::sync::Mutex::new(Vec::new());
-        let mut film = Film::new(1, 1, 1.0, false);
+        let mut film = Film::new(1, 1, 1.0, false, Replicas::DEFAULT);
         let progress = |done: u64, total: u64| seen.lock().unwrap().push((done, total));
         run_budget(
             &mut film,
@@ -407,27 +417,28 @@ mod tests {
             pass.add(&mut split, range, 6, &|_, _| {});
         }
         assert_eq!(once.sum, split.sum);
-        assert_eq!(once.sum_sq, split.sum_sq);
+        assert_eq!(once.replica_sums, split.replica_sums);
+        assert_eq!(once.replica_samples, split.replica_samples);
         assert_eq!(once.rays, split.rays);
         assert!(once.sum.iter().any(|s| s.max_element() > 0.0), "a black image would pass trivially");
     }
 
     /// A 2×1 film with the per-sample values `a` (pixel 0) and `b` (pixel 1).
     fn film(a: &[f64], b: &[f64], norm: f64) -> Film {
-        let mut film = Film::new(2, 1, norm, false);
+        let mut film = Film::new(2, 1, norm, false, Replicas::DEFAULT);
         for (pixel, values) in [a, b].into_iter().enumerate() {
-            for &v in values {
-                film.sum[pixel] += DVec3::splat(v);
-                film.sum_sq[pixel] += DVec3::splat(v * v);
+            for (s, &v) in values.iter().enumerate() {
+                film.add(pixel, s as u32, DVec3::splat(v));
             }
         }
-        film.samples = a.len() as u32;
+        film.advance(a.len() as u32);
         film
     }
 
     #[test]
     fn the_variance_is_that_of_the_mean() {
-        // Samples 1, 2, 3: mean 2, sample variance 1, variance of the mean 1/3.
+        // Samples 1, 2, 3, one per replica: replica means 1, 2, 3, variance of the mean
+        // Σ(m − 2)² / (3·2) = 1/3.
         let f = film(&[1.0, 2.0, 3.0], &[5.0, 5.0, 5.0], 1.0);
         assert_eq!(f.image().pixels, [Vec3::splat(2.0), Vec3::splat(5.0)]);
         let v = f.variance().unwrap();
@@ -448,7 +459,7 @@ mod tests {
         assert!((noise.mse - 1.0 / 6.0).abs() < 1e-7, "{noise:?}");
         assert!((noise.std_error - (1.0f64 / 3.0).sqrt() / 2.0).abs() < 1e-7, "{noise:?}");
         assert_eq!(noise.non_finite, 0);
-        f.sum_sq[1].x = f64::NAN;
+        f.replica_sums[Replicas::DEFAULT.count() as usize].x = f64::NAN;
         let v = f.variance().unwrap();
         assert!(v.pixels[1].x.is_nan(), "a NaN stays NaN, it is not clamped to 0");
         let noise = f.output().noise().unwrap();

@@ -117,7 +117,8 @@ impl<'a> Progressive<'a> {
         }
         let seconds = start.elapsed().as_secs_f64();
         let film = self.film.as_mut().expect("incremental renders have a film");
-        film.samples = film.samples.max(spp);
+        let added = spp.saturating_sub(film.samples);
+        film.advance(added);
         film.seconds += seconds;
         self.spent += seconds;
     }

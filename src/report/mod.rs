@@ -26,7 +26,7 @@ pub mod machine;
 pub mod page;
 
 use crate::image::Image;
-use crate::metrics::Split;
+use crate::metrics::{Efficiency, Metrics, Split, Verdict};
 use crate::output::{stage_bytes, OutputError, Staged};
 use std::path::Path;
 
@@ -102,16 +102,65 @@ pub struct TableRow {
     pub mse: f64,
     /// Relative MSE against the reference.
     pub rel_mse: f64,
-    /// 1/(MSE·seconds) where the error is variance ([`crate::metrics::efficiency`]).
-    pub efficiency: Option<f64>,
-    /// The bias verdict ([`Split::status`], or "unknown").
+    /// Its 95% confidence interval, when the render has replicas.
+    pub rel_mse_interval: Option<(f64, f64)>,
+    /// The relMSE without the 0.1% worst pixels.
+    pub rel_mse_trimmed: f64,
+    /// PSNR on the HDR values, dB.
+    pub psnr: f64,
+    /// SSIM of the preview's luma.
+    pub ssim: f64,
+    /// The bias part of the relative error and its standard error, when the render's bias was judged.
+    pub bias: Option<(f64, f64)>,
+    /// 1/(relMSE·seconds) with its interval, where no bias is detected
+    /// ([`crate::metrics::efficiency`]).
+    pub efficiency: Option<Efficiency>,
+    /// The bias verdict ([`crate::metrics::Verdict`], or "unknown"), with a note on a reference
+    /// too noisy to judge it.
     pub status: String,
 }
 
 impl TableRow {
-    /// The verdict of `split` as the table shows it.
+    /// The row of `method`'s render of `spp` samples per pixel in `seconds` with `rays` rays,
+    /// whose errors are `metrics` and its split `split`.
+    pub fn new(
+        method: &str,
+        (spp, seconds, rays): (f64, f64, u64),
+        metrics: &Metrics,
+        split: Option<&Split>,
+    ) -> TableRow {
+        TableRow {
+            method: method.to_string(),
+            spp,
+            seconds,
+            rays,
+            mrays_per_second: crate::metrics::mrays_per_second(rays, seconds),
+            mse: metrics.mse,
+            rel_mse: metrics.rel_mse,
+            rel_mse_interval: split
+                .map(Split::rel_mse_interval)
+                .filter(|(lo, hi)| lo.is_finite() && hi.is_finite()),
+            rel_mse_trimmed: metrics.rel_mse_trimmed,
+            psnr: metrics.psnr,
+            ssim: metrics.ssim,
+            bias: split.map(|s| (s.bias, s.bias_se)),
+            efficiency: crate::metrics::efficiency(split, seconds).ok(),
+            status: TableRow::status_of(split),
+        }
+    }
+
+    /// The verdict of `split` as the table shows it, with the reference's share of the error where
+    /// it is too large.
     pub fn status_of(split: Option<&Split>) -> String {
-        split.map_or("unknown", Split::status).to_string()
+        match split {
+            None => "unknown".to_string(),
+            Some(s) if s.reference_too_noisy() && s.verdict() != Verdict::ReferenceTooNoisy => format!(
+                "{} (reference too noisy: {:.0}% of the error)",
+                s.verdict().name(),
+                100.0 * s.reference_share()
+            ),
+            Some(s) => s.verdict().name().to_string(),
+        }
     }
 }
 

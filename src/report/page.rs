@@ -43,16 +43,20 @@ const KEYS: &str = "Keys act on the viewer under the mouse (else the last one us
     nearest-neighbour), dragging pans; zoom and pan are shared by all images of a scene.";
 
 /// The columns of the results table: header text, tooltip.
-const COLUMNS: [(&str, &str); 9] = [
+const COLUMNS: [(&str, &str); 13] = [
     ("method", "the rendering method"),
     ("spp", "samples per pixel (ssaa: mean camera rays per pixel)"),
     ("seconds", "render seconds"),
     ("rays", "rays traced (camera, secondary, shadow)"),
     ("Mrays/s", "millions of rays per second"),
     ("MSE", "mean squared error against the reference"),
-    ("relMSE", "mean over pixels and channels of (x − r)² / (r² + 0.01)"),
-    ("efficiency", "1 / (MSE · seconds), for methods whose error is variance"),
-    ("bias", "the bias/variance split's verdict"),
+    ("relMSE [95%]", "mean over pixels and channels of (x − r)² / (r² + 0.01), with its 95% interval (jackknife over the replicas)"),
+    ("relMSE 99.9%", "the relMSE without the 0.1% worst pixels"),
+    ("PSNR", "PSNR on the HDR values, dB (peak: the largest reference value)"),
+    ("SSIM", "SSIM of the 8-bit preview's luma"),
+    ("bias part", "relative error − the variance parts of the render and the reference (weights 1/(r̃² + 0.01), r̃ the neighbours' reference), ± one standard error"),
+    ("efficiency [95%]", "1 / (relMSE · seconds) with its 95% interval, only where no bias is detected"),
+    ("verdict", "biased; reference too noisy; inconclusive (too noisy to tell); no bias detected"),
 ];
 
 /// The whole page.
@@ -182,6 +186,17 @@ fn js_number(v: f64) -> String {
     }
 }
 
+/// "1.23e-3 [1.1e-3, 1.4e-3]", or the value alone without an interval.
+fn interval(value: f64, bounds: Option<(f64, f64)>) -> String {
+    match bounds {
+        Some((lo, hi)) => {
+            let hi = if hi.is_finite() { format_number(hi) } else { "∞".into() };
+            format!("{} [{}, {hi}]", format_number(value), format_number(lo))
+        }
+        None => format_number(value),
+    }
+}
+
 /// The sortable table: each cell's exact value in `data-value` (as the CSV writes it), its
 /// rounded text shown.
 fn table_html(s: &mut String, rows: &[TableRow]) {
@@ -199,8 +214,16 @@ fn table_html(s: &mut String, rows: &[TableRow]) {
             (r.rays.to_string(), r.rays.to_string()),
             number(r.mrays_per_second),
             number(r.mse),
-            number(r.rel_mse),
-            r.efficiency.map_or((String::new(), "n/a".into()), number),
+            (js_number(r.rel_mse), interval(r.rel_mse, r.rel_mse_interval)),
+            number(r.rel_mse_trimmed),
+            number(r.psnr),
+            number(r.ssim),
+            r.bias.map_or((String::new(), "n/a".into()), |(b, se)| {
+                (js_number(b), format!("{} ± {}", format_number(b), format_number(se)))
+            }),
+            r.efficiency.map_or((String::new(), "—".into()), |e| {
+                (js_number(e.value), interval(e.value, Some((e.low, e.high))))
+            }),
             (r.status.clone(), r.status.clone()),
         ];
         s.push_str("<tr>");

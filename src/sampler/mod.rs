@@ -83,6 +83,87 @@ impl SamplerKind {
     }
 }
 
+/// How a render's sample indices split into independent randomisations (randomised quasi-Monte
+/// Carlo, L'Ecuyer): sample index `s` belongs to replica `s mod R` and is sample `s div R` of it.
+/// Each replica draws every stream from a seed of its own ([`Replicas::stream`]), so the replicas
+/// are independent renders of `⌈n/R⌉` or `⌊n/R⌋` samples each, every one stratified by the
+/// Sobol' or stratified sampler on its own. Their means give the variance of the whole render's
+/// mean without assuming its samples independent: the spread of R independent estimates is an
+/// unbiased estimate of their variance, stratification included (`crate::render`).
+///
+/// Interleaving the replicas by index keeps renders progressive (after any n samples every
+/// replica has its share), time budgets and interrupts exact, and shards of any range complete
+/// (a range covers all replicas). With R = 1 the mapping is the identity: the render's own seed
+/// and indices, a single randomisation with no variance estimate.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Replicas(u32);
+
+/// Where a sample index of a render draws its numbers: its replica's seed, its index within the
+/// replica and the replica's planned sample count (0 when unknown).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SampleStream {
+    /// The seed of the sample's replica.
+    pub seed: u64,
+    /// The sample's index within its replica.
+    pub index: u32,
+    /// The replica's planned sample count (for the stratified sampler), 0 when unknown.
+    pub count: u32,
+}
+
+impl Replicas {
+    /// The default replica count: 8 gives a variance estimate of 7 degrees of freedom per pixel
+    /// and costs 8 × 24 bytes per pixel of film.
+    pub const DEFAULT: Replicas = Replicas(8);
+    /// The largest replica count accepted.
+    pub const MAX: u32 = 64;
+
+    /// `count` replicas, `None` outside 1..=[`Replicas::MAX`].
+    pub fn new(count: u32) -> Option<Replicas> {
+        (1..=Replicas::MAX).contains(&count).then_some(Replicas(count))
+    }
+
+    /// The number of replicas.
+    pub fn count(self) -> u32 {
+        self.0
+    }
+
+    /// The replica of sample index `s`.
+    #[inline(always)]
+    pub fn of(self, s: u32) -> u32 {
+        s % self.0
+    }
+
+    /// How many of the sample indices `0..total` replica `r` holds.
+    pub fn samples_in(self, r: u32, total: u32) -> u32 {
+        total / self.0 + u32::from(r < total % self.0)
+    }
+
+    /// How many of the sample indices `range` replica `r` holds.
+    pub fn samples_in_range(self, r: u32, range: std::ops::Range<u32>) -> u32 {
+        self.samples_in(r, range.end) - self.samples_in(r, range.start.min(range.end))
+    }
+
+    /// Where sample index `s` of a render under `seed` (of `total` planned, 0 when unknown)
+    /// draws its numbers.
+    #[inline(always)]
+    pub fn stream(self, seed: u64, s: u32, total: u32) -> SampleStream {
+        let r = self.of(s);
+        // Replica 0 keeps the render's seed, so one replica is the plain render.
+        let seed = if r == 0 { seed } else { mix64(seed ^ (r as u64).wrapping_mul(0x2545_f491_4f6c_dd1d)) };
+        SampleStream {
+            seed,
+            index: s / self.0,
+            count: if total == 0 { 0 } else { self.samples_in(r, total) },
+        }
+    }
+}
+
+impl Default for Replicas {
+    fn default() -> Replicas {
+        Replicas::DEFAULT
+    }
+}
+
 /// A random stream for one sample of one pixel; successive calls consume successive dimensions.
 #[derive(Clone, Debug)]
 pub struct Sampler {
@@ -190,6 +271,12 @@ impl Sampler {
             dimension: 0,
             requests: [0; DIM_PURPOSES],
         }
+    }
+
+    /// The stream of pixel (or path) `pixel` at `stream` (a sample index placed in its replica
+    /// by [`Replicas::stream`]).
+    pub fn of_stream(kind: SamplerKind, stream: SampleStream, pixel: u64) -> Sampler {
+        Sampler::new(kind, stream.seed, pixel, stream.index, stream.count)
     }
 
     /// An independent stream (used where no stratification applies, e.g. tests).

@@ -19,7 +19,7 @@ use crate::dispersion::Ior;
 use crate::geometry::{
     parallelogram_normal, try_unit, Bounds, Disk, Polygon, Quad, Shape, Sphere, VertexAttributes,
 };
-use crate::light::{EmitterShape, EnvironmentMap, Light};
+use crate::light::{EmitterShape, EnvironmentMap, Light, Strength};
 use crate::material::{Bsdf, Material, Medium, Phong, Texture};
 use crate::params::{MergeParams, SsaaParams};
 use crate::sampler::SamplerKind;
@@ -1333,19 +1333,23 @@ impl Compiler<'_> {
         }
     }
 
-    /// A light's power must be finite (`vitrum info` shows it; light tracing starts from it).
+    /// A light's power (the environment's mean radiance) must be finite (`vitrum info` shows it;
+    /// light tracing starts from it).
     fn finite_power(&self, path: &FieldPath, light: &Light) -> Result<(), SceneError> {
-        let power = light.power();
-        if power.is_finite() {
-            Ok(())
-        } else {
-            Err(self.err(
-                path,
-                format!(
-                    "the light's power ({power} W) overflows single precision: make it dimmer or smaller"
-                ),
-            ))
+        let strength = light.strength();
+        if strength.value().is_finite() {
+            return Ok(());
         }
+        let message = match strength {
+            Strength::Power(p) => {
+                format!("the light's power ({p} W) overflows single precision: make it dimmer or smaller")
+            }
+            Strength::MeanRadiance(r) => format!(
+                "the environment's mean radiance ({r} W/(m²·sr)) overflows single precision: lower its \
+                 `scale` or its texels"
+            ),
+        };
+        Err(self.err(path, message))
     }
 
     fn light(&self, path: &FieldPath, l: &LightDesc) -> Result<Light, SceneError> {
@@ -1359,6 +1363,7 @@ impl Compiler<'_> {
         }
         let strength = match l {
             LightDesc::Point { .. } => "intensity",
+            LightDesc::Environment { file: Some(_), .. } => "file",
             _ => "radiance",
         };
         self.finite_power(&path.key(strength), &light)?;

@@ -18,7 +18,7 @@ pub enum Effect {
     DepthOfField,
     /// Area lights: penumbrae need samples over the light.
     SoftShadows,
-    /// A constant environment light: light from every direction that leaves the scene.
+    /// An environment light (constant or a map): light from every direction that leaves the scene.
     Environment,
     /// Rough (GGX) mirrors or dielectrics: glossy reflection and refraction.
     Glossy,
