@@ -30,9 +30,13 @@
 //!   sum 1), C1 = (0.01 L)², C2 = (0.03 L)² and biased (weighted) variances, averaged over every
 //!   window position that lies wholly inside the compared region (no padding, as in the
 //!   authors' `ssim_index.m`); windows touching a non-finite pixel are left out. NaN when the
-//!   region is smaller than 11×11. Why SSIM and not FLIP: the one FLIP crate (`nv-flip` 0.1)
-//!   binds NVIDIA's C++ code through a C++ build, is pre-1.0 with no release since 2023 and
-//!   offers LDR-FLIP only; SSIM is a page of Rust, exactly specified and testable by hand.
+//!   region is smaller than 11×11. SSIM is kept beside HDR-FLIP: exactly specified and
+//!   testable by hand.
+//! - **HDR-FLIP** ([`Metrics::flip`], the perceptual metric of the rendering literature;
+//!   Andersson et al. 2020, 2021): the mean of [`crate::flip::hdr_flip`]'s per-pixel error with
+//!   the reference implementation's defaults (67 pixels per degree, ACES tone mapping, the
+//!   exposure range from the reference), over the compared pixels; checked against NVIDIA's
+//!   `flip-evaluator` in `tests/flip.rs`. NaN for a reference with no positive luminance.
 //! - **Degenerate cases.** Identical images give MSE 0 and PSNR +∞; when no pixel is finite in both
 //!   images every mean is NaN (and `pixels` is 0).
 //!
@@ -84,6 +88,9 @@ pub struct Metrics {
     pub exposure_ev: f32,
     /// SSIM of the preview's luma (module docs); NaN below 11×11 pixels.
     pub ssim: f64,
+    /// Mean HDR-FLIP of the compared pixels (module docs; [`crate::flip`] with its default
+    /// options); NaN where it is undefined (a reference without a positive luminance).
+    pub flip: f64,
     /// Pixels compared (finite in both images).
     pub pixels: usize,
     /// Pixels with a NaN or infinite channel in the test image.
@@ -210,10 +217,22 @@ pub fn compare(
         psnr_preview: -10.0 * preview_mse.log10(),
         exposure_ev,
         ssim: ssim_of_previews(test, reference, &preview_test, &preview_reference, crop),
+        flip: flip_mean(test, reference, crop),
         pixels,
         non_finite_test,
         non_finite_reference,
     })
+}
+
+/// The mean HDR-FLIP of `test` against `reference` over the pixels of `crop` finite in both (the
+/// error map is computed on the whole images, whose surroundings the filters see); NaN when
+/// HDR-FLIP is undefined for the reference or no pixel is finite.
+fn flip_mean(test: &Image, reference: &Image, crop: Crop) -> f64 {
+    let Ok(result) = crate::flip::hdr_flip(test, reference, &crate::flip::FlipOptions::default()) else {
+        return f64::NAN;
+    };
+    let finite = |i: &usize| test.pixels[*i].is_finite() && reference.pixels[*i].is_finite();
+    result.mean_over(region_indices(test.width, crop).filter(finite)).unwrap_or(f64::NAN)
 }
 
 /// The mean of `values` without their ⌊n·[`TRIMMED_FRACTION`]⌋ largest; NaN when empty.

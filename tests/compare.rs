@@ -200,9 +200,13 @@ fn equal_samples_write_the_documented_figure_a_table_row_and_an_exr_per_method()
             .unwrap();
         assert!(out.status.success(), "{}", stderr(&out));
         let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
-        for (column, key) in
-            [("mse", "mse"), ("rel_mse", "rel_mse"), ("psnr_preview", "psnr_preview"), ("ssim", "ssim")]
-        {
+        for (column, key) in [
+            ("mse", "mse"),
+            ("rel_mse", "rel_mse"),
+            ("psnr_preview", "psnr_preview"),
+            ("ssim", "ssim"),
+            ("flip", "flip"),
+        ] {
             assert_eq!(
                 row[column].parse::<f64>().unwrap(),
                 v[key].as_f64().unwrap(),
@@ -397,4 +401,105 @@ fn ssaa_states_its_real_rays_per_pixel_and_is_marked_biased() {
     }
     // It cites the README, not a DESIGN.md that the repository does not have.
     assert!(!md.contains("DESIGN.md"), "{md}");
+}
+
+#[test]
+fn regions_are_measured_beside_the_whole_image_as_diff_measures_a_crop() {
+    let sandbox = Sandbox::new();
+    let out = sandbox.compare(&[
+        "-i",
+        "whitted,path",
+        "--spp",
+        "4",
+        "--region",
+        "caustic=8,6,8,6",
+        "--region",
+        "0,0,4,4",
+    ]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let folder = sandbox.path("out/cmp");
+    let csv = fs::read_to_string(folder.join("compare-regions.csv")).unwrap();
+    let mut lines = csv.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    assert_eq!(header.join(","), vitrum::commands::compare::REGIONS_CSV_HEADER);
+    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+    let key: Vec<(&str, &str)> = rows.iter().map(|r| (r[0], r[1])).collect();
+    assert_eq!(
+        key,
+        [("whitted", "caustic"), ("whitted", "0-0-4-4"), ("path", "caustic"), ("path", "0-0-4-4")]
+    );
+    let column = |name: &str| header.iter().position(|h| *h == name).unwrap();
+    for row in &rows {
+        assert_eq!(row.len(), header.len(), "{row:?}");
+        // `vitrum diff --crop` gives the same numbers over the same rectangle.
+        let crop = format!("{},{},{},{}", row[2], row[3], row[4], row[5]);
+        let test = folder.join(format!("{}.exr", row[0]));
+        let out = Command::new(env!("CARGO_BIN_EXE_vitrum"))
+            .args([
+                "diff",
+                test.to_str().unwrap(),
+                folder.join("reference.exr").to_str().unwrap(),
+                "--crop",
+                &crop,
+                "--json",
+            ])
+            .output()
+            .unwrap();
+        assert!(out.status.success(), "{}", stderr(&out));
+        let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        for name in ["mse", "rel_mse", "ssim"] {
+            let csv: f64 = row[column(name)].parse().unwrap();
+            let json = v[name].as_f64().unwrap_or(f64::NAN);
+            assert!(csv == json || (csv.is_nan() && json.is_nan()), "{name}: {row:?} vs {v}");
+        }
+        assert_eq!(row[column("verdict")], v["split"]["verdict"].as_str().unwrap_or("unknown"), "{v}");
+    }
+    let md = fs::read_to_string(folder.join("compare.md")).unwrap();
+    assert!(md.contains("## Regions") && md.contains("| path | caustic (8,6,8,6) | 48 |"), "{md}");
+
+    // A region outside the image, a bad name, or a name given twice: bad input, nothing written.
+    for bad in [
+        &["--region", "big=30,20,8,8"][..],
+        &["--region", "a b=0,0,2,2"],
+        &["--region", "x=0,0,2,2", "--region", "x=1,1,2,2"],
+    ] {
+        let out = sandbox.compare(&[&["-i", "path", "--spp", "2", "--out", "out/bad"][..], bad].concat());
+        assert_eq!(out.status.code(), Some(2), "{bad:?}: {}", stderr(&out));
+        assert!(!sandbox.path("out/bad").exists(), "{bad:?}");
+    }
+}
+
+#[test]
+fn the_sampler_and_the_replicas_of_the_methods_are_options() {
+    let sandbox = Sandbox::new();
+    let out = sandbox.compare(&["-i", "path", "--spp", "6", "--sampler", "independent", "--replicas", "3"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let (_, attributes) = vitrum::output::exr::read_exr(&sandbox.path("out/cmp/path.exr")).unwrap();
+    // 6 samples in 3 replicas: 2 each.
+    assert_eq!(attributes.get("vitrum:replica-samples").map(String::as_str), Some("2,2,2"));
+    let independent = sandbox.vitrum(&[
+        "render",
+        &scene(),
+        "-i",
+        "path",
+        "--spp",
+        "6",
+        "--sampler",
+        "independent",
+        "--replicas",
+        "3",
+        "--resolution",
+        RESOLUTION,
+        "-o",
+        "plain.exr",
+        "--quiet",
+    ]);
+    assert!(independent.status.success(), "{}", stderr(&independent));
+    let (a, _) = vitrum::output::exr::read_exr(&sandbox.path("out/cmp/path.exr")).unwrap();
+    let (b, _) = vitrum::output::exr::read_exr(&sandbox.path("plain.exr")).unwrap();
+    assert_eq!(a.pixels, b.pixels, "compare's render is the render of the same options");
+    let bad = sandbox.compare(&["-i", "path", "--spp", "2", "--sampler", "halton", "--out", "out/bad"]);
+    assert_eq!(bad.status.code(), Some(2));
+    let bad = sandbox.compare(&["-i", "path", "--spp", "2", "--replicas", "0", "--out", "out/bad"]);
+    assert_eq!(bad.status.code(), Some(2));
 }

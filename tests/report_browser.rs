@@ -290,8 +290,9 @@ fn the_page_shows_the_exr_values_tone_mapped_and_answers_every_control() {
         (7, "rel_mse_trimmed"),
         (8, "psnr"),
         (9, "ssim"),
-        (10, "bias"),
-        (11, "efficiency"),
+        (10, "flip"),
+        (11, "bias"),
+        (12, "efficiency"),
     ];
     for (row, line) in cells.iter().zip(&lines) {
         let fields: Vec<&str> = line.split(',').collect();
@@ -308,7 +309,7 @@ fn the_page_shows_the_exr_values_tone_mapped_and_answers_every_control() {
             );
         }
         let verdict = fields[header.len() - 1];
-        assert!(row[12].starts_with(verdict), "{}: verdict {} against {verdict}", fields[0], row[12]);
+        assert!(row[13].starts_with(verdict), "{}: verdict {} against {verdict}", fields[0], row[13]);
     }
     // Sorting: by number, not by text (efficiency 12.5 after 9.07), empty cells (methods with
     // no efficiency) last either way; the second click reverses.
@@ -320,7 +321,7 @@ fn the_page_shows_the_exr_values_tone_mapped_and_answers_every_control() {
             .unwrap();
         values.as_array().unwrap().iter().map(|v| v.as_str().unwrap().to_string()).collect::<Vec<_>>()
     };
-    for k in [6, 11, 2] {
+    for k in [6, 12, 2] {
         for ascending in [true, false] {
             browser.eval(&format!("document.querySelectorAll('table.results th')[{k}].click()")).unwrap();
             let cells = column(&mut browser, k);

@@ -72,6 +72,10 @@ pub struct CompareArgs {
     /// Zoomed insets of this rectangle, X,Y,W,H in pixels from the top-left.
     #[arg(long, value_name = "X,Y,W,H", value_parser = parse_crop)]
     pub crop: Option<CropArg>,
+    /// Also measure every method over this named rectangle (NAME=X,Y,W,H, e.g. the caustic;
+    /// repeatable): `compare-regions.csv` and a table in `compare.md`, beside the whole image.
+    #[arg(long = "region", value_name = "NAME=X,Y,W,H", value_parser = super::parse_region)]
+    pub regions: Vec<super::RegionArg>,
     /// Exposure of the figure in stops, the same for every render (default from the scene file).
     #[arg(long, value_name = "EV", value_parser = super::diff::parse_exposure, allow_hyphen_values = true)]
     pub exposure: Option<f32>,
@@ -116,6 +120,8 @@ pub(crate) struct Plan {
     budget: Budget,
     size: (usize, usize),
     crop: Option<Crop>,
+    /// Named rectangles measured beside the whole image.
+    regions: Vec<(String, Crop)>,
     exposure: f32,
     reference: ReferenceSource,
     out: PathBuf,
@@ -133,6 +139,8 @@ struct Row {
     metrics: Metrics,
     /// The bias/variance split; `None` when the render's variance is unknown.
     split: Option<Split>,
+    /// The metrics and split over each of the plan's regions, in their order.
+    regions: Vec<(Metrics, Option<Split>)>,
     seed: u64,
 }
 
@@ -143,12 +151,16 @@ impl Row {
         out: RenderOutput,
         seed: u64,
         reference: &Reference,
-        exposure: f32,
+        (exposure, regions): (f32, &[(String, Crop)]),
     ) -> Result<Row, MetricsError> {
-        let metrics = metrics::compare(&out.image, &reference.image, None, exposure)?;
         let fixed = matches!(method.progression(), Progression::Fixed(_));
-        let split = metrics::render_split(fixed, &out, reference.estimate(), None)?;
-        Ok(Row { method: method.name(), fixed, out, metrics, split, seed })
+        let measure = |crop: Option<Crop>| -> Result<(Metrics, Option<Split>), MetricsError> {
+            let metrics = metrics::compare(&out.image, &reference.image, crop, exposure)?;
+            Ok((metrics, metrics::render_split(fixed, &out, reference.estimate(), crop)?))
+        };
+        let (metrics, split) = measure(None)?;
+        let regions = regions.iter().map(|(_, c)| measure(Some(*c))).collect::<Result<_, _>>()?;
+        Ok(Row { method: method.name(), fixed, out, metrics, split, regions, seed })
     }
 
     /// Samples per pixel: for a fixed-pattern (adaptive) method its camera rays per pixel, the
@@ -224,6 +236,20 @@ impl Plan {
             None => methods,
         };
         let crop = args.crop.map(|c| Crop { x: c.x, y: c.y, width: c.width, height: c.height });
+        let mut regions: Vec<(String, Crop)> = Vec::new();
+        for r in &args.regions {
+            let c = Crop { x: r.rect.x, y: r.rect.y, width: r.rect.width, height: r.rect.height };
+            if c.x + c.width > size.0 || c.y + c.height > size.1 {
+                return Err(bad(format!(
+                    "--region {}={},{},{},{} does not fit inside the {}x{} image",
+                    r.name, c.x, c.y, c.width, c.height, size.0, size.1
+                )));
+            }
+            if regions.iter().any(|(n, _)| *n == r.name) {
+                return Err(bad(format!("--region {}: the name is given twice", r.name)));
+            }
+            regions.push((r.name.clone(), c));
+        }
         if let Some(c) = crop {
             if c.x + c.width > size.0 || c.y + c.height > size.1 {
                 return Err(bad(format!(
@@ -292,6 +318,7 @@ impl Plan {
             budget,
             size,
             crop,
+            regions,
             exposure,
             reference,
             out: args.out.clone(),
@@ -499,7 +526,7 @@ pub(crate) fn render_scene(
             let r = &renders[index];
             let failure = |e: String| CliError::Failure(format!("{}: {e}", r.path.display()));
             let out = r.out.clone();
-            let row = Row::new(method.as_ref(), out, r.seed, &reference, plan.exposure)
+            let row = Row::new(method.as_ref(), out, r.seed, &reference, (plan.exposure, &plan.regions))
                 .map_err(|e| failure(e.to_string()))?;
             rows.push(row);
             continue;
@@ -528,7 +555,7 @@ pub(crate) fn render_scene(
                 out.non_finite_samples
             ));
         }
-        let row = Row::new(method.as_ref(), out, opts.seed, &reference, plan.exposure)
+        let row = Row::new(method.as_ref(), out, opts.seed, &reference, (plan.exposure, &plan.regions))
             .map_err(|e| CliError::Failure(format!("{}: {e}", method.name())))?;
         rows.push(row);
     }
@@ -674,6 +701,9 @@ pub(crate) fn publish(plan: &Plan, outcome: &Outcome, report: Option<&Report>) -
         staged.push(figure.stage_png(&out.join("compare.png"))?);
         staged.push(stage_text(&out.join("compare.csv"), &csv)?);
         staged.push(stage_text(&out.join("compare.md"), &markdown)?);
+        if !plan.regions.is_empty() {
+            staged.push(stage_text(&out.join(REGIONS_CSV), &regions_csv(&plan.regions, &outcome.rows))?);
+        }
         if let Some(report) = report {
             staged.extend(crate::report::stage(out, report)?);
         }
@@ -745,7 +775,7 @@ fn efficiency_text(row: &Row) -> String {
 /// newer ones after them, the split's last.
 pub const CSV_HEADER: &str = concat!(
     "method,spp,seconds,rays,mrays_per_second,mse,rel_mse,efficiency,non_finite_pixels,",
-    "rel_mse_trimmed,psnr,psnr_peak,psnr_preview,ssim,",
+    "rel_mse_trimmed,psnr,psnr_peak,psnr_preview,ssim,flip,",
     "rel_mse_low,rel_mse_high,efficiency_low,efficiency_high,efficiency_note,",
     "rel_mse_se,variance,reference_variance,reference_share,bias,bias_se,detection_limit,verdict"
 );
@@ -764,7 +794,7 @@ fn csv_table(rows: &[Row]) -> String {
         };
         let _ = writeln!(
             s,
-            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
             r.method,
             r.spp(),
             r.out.seconds,
@@ -779,6 +809,7 @@ fn csv_table(rows: &[Row]) -> String {
             m.peak,
             m.psnr_preview,
             m.ssim,
+            m.flip,
             finite(low),
             finite(high),
             e_low,
@@ -786,6 +817,51 @@ fn csv_table(rows: &[Row]) -> String {
             note,
             metrics::split_csv(r.split.as_ref()),
         );
+    }
+    s
+}
+
+/// The file of the metrics over the `--region`s.
+pub const REGIONS_CSV: &str = "compare-regions.csv";
+
+/// The header of [`REGIONS_CSV`]: the method, the region, then the metrics and the split over it.
+pub const REGIONS_CSV_HEADER: &str = concat!(
+    "method,region,x,y,width,height,pixels,mse,rel_mse,rel_mse_low,rel_mse_high,rel_mse_trimmed,ssim,flip,",
+    "efficiency,efficiency_low,efficiency_high,",
+    "rel_mse_se,variance,reference_variance,reference_share,bias,bias_se,detection_limit,verdict"
+);
+
+/// The metrics of every row over every region, one line per (method, region).
+fn regions_csv(regions: &[(String, Crop)], rows: &[Row]) -> String {
+    let mut s = String::from(REGIONS_CSV_HEADER);
+    s.push('\n');
+    let finite = |v: f64| if v.is_nan() { String::new() } else { v.to_string() };
+    for r in rows {
+        for ((name, c), (m, split)) in regions.iter().zip(&r.regions) {
+            let (low, high) = split.map_or((f64::NAN, f64::NAN), |s| s.rel_mse_interval());
+            let (e, el, eh) = match metrics::efficiency(split.as_ref(), r.out.seconds) {
+                Ok(e) => (e.value.to_string(), e.low.to_string(), e.high.to_string()),
+                Err(_) => Default::default(),
+            };
+            let _ = writeln!(
+                s,
+                "{},{name},{},{},{},{},{},{},{},{},{},{},{},{},{e},{el},{eh},{}",
+                r.method,
+                c.x,
+                c.y,
+                c.width,
+                c.height,
+                m.pixels,
+                m.mse,
+                m.rel_mse,
+                finite(low),
+                finite(high),
+                m.rel_mse_trimmed,
+                m.ssim,
+                m.flip,
+                metrics::split_csv(split.as_ref()),
+            );
+        }
     }
     s
 }
@@ -831,9 +907,9 @@ fn markdown_table(plan: &Plan, rows: &[Row], reference: &str, reference_variance
     );
     s.push_str(
         "| method | spp | seconds | rays | Mrays/s | MSE | relMSE [95%] | relMSE 99.9% | PSNR HDR (peak) | \
-         PSNR LDR | SSIM | bias part | verdict | efficiency [95%] | non-finite px |\n",
+         PSNR LDR | SSIM | HDR-FLIP | bias part | verdict | efficiency [95%] | non-finite px |\n",
     );
-    s.push_str("|---|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|---|--:|--:|\n");
+    s.push_str("|---|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|---|--:|--:|\n");
     for r in rows {
         let m = &r.metrics;
         let rel_mse = match &r.split {
@@ -842,7 +918,7 @@ fn markdown_table(plan: &Plan, rows: &[Row], reference: &str, reference_variance
         };
         let _ = writeln!(
             s,
-            "| {} | {} | {:.3} | {} | {:.2} | {:.3e} | {} | {:.3e} | {:.2} dB ({:.3}) | {:.2} dB | {:.4} | {} | {} | {} | {} |",
+            "| {} | {} | {:.3} | {} | {:.2} | {:.3e} | {} | {:.3e} | {:.2} dB ({:.3}) | {:.2} dB | {:.4} | {:.4} | {} | {} | {} | {} |",
             r.method,
             format_spp(r.spp()),
             r.out.seconds,
@@ -855,11 +931,39 @@ fn markdown_table(plan: &Plan, rows: &[Row], reference: &str, reference_variance
             m.peak,
             m.psnr_preview,
             m.ssim,
+            m.flip,
             value_se(r.split.as_ref(), |s| (s.bias, s.bias_se)),
             r.status(),
             efficiency_text(r),
             m.non_finite_test
         );
+    }
+    if !plan.regions.is_empty() {
+        s.push_str("\n## Regions\n\nThe same metrics over each `--region` (compare-regions.csv has every column).\n\n");
+        s.push_str("| method | region | pixels | relMSE [95%] | SSIM | HDR-FLIP | bias part | verdict |\n");
+        s.push_str("|---|---|--:|--:|--:|--:|--:|---|\n");
+        for r in rows {
+            for ((name, c), (m, split)) in plan.regions.iter().zip(&r.regions) {
+                let rel_mse = match split {
+                    Some(split) => with_interval(m.rel_mse, split.rel_mse_interval()),
+                    None => format!("{:.3e}", m.rel_mse),
+                };
+                let _ = writeln!(
+                    s,
+                    "| {} | {name} ({},{},{},{}) | {} | {rel_mse} | {:.4} | {:.4} | {} | {} |",
+                    r.method,
+                    c.x,
+                    c.y,
+                    c.width,
+                    c.height,
+                    m.pixels,
+                    m.ssim,
+                    m.flip,
+                    value_se(split.as_ref(), |s| (s.bias, s.bias_se)),
+                    split.map_or("unknown", |s| s.verdict().name()),
+                );
+            }
+        }
     }
     s
 }
@@ -882,7 +986,7 @@ mod tests {
     #[test]
     fn the_split_columns_end_the_csv_header() {
         assert!(CSV_HEADER.ends_with(metrics::SPLIT_CSV_COLUMNS));
-        assert_eq!(CSV_HEADER.split(',').count(), 9 + 5 + 5 + 8);
+        assert_eq!(CSV_HEADER.split(',').count(), 9 + 6 + 5 + 8);
     }
 
     #[test]

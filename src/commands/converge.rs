@@ -56,7 +56,7 @@ pub const DEFAULT_REFERENCE_SPP: u32 = 1024;
 /// The CSV header.
 pub const CSV_HEADER: &str = concat!(
     "integrator,spp,seconds,rays,mse,rmse,rel_mse,mae,psnr,non_finite,std_error,est_mse,",
-    "rel_mse_trimmed,psnr_peak,psnr_preview,ssim,",
+    "rel_mse_trimmed,psnr_peak,psnr_preview,ssim,flip,",
     "rel_mse_se,variance,reference_variance,reference_share,bias,bias_se,detection_limit,verdict"
 );
 
@@ -160,7 +160,7 @@ impl Row {
         let m = &self.metrics;
         let opt = |v: Option<f64>| v.map_or(String::new(), |v| v.to_string());
         format!(
-            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
             self.integrator,
             self.spp,
             self.seconds,
@@ -177,6 +177,7 @@ impl Row {
             m.peak,
             m.psnr_preview,
             m.ssim,
+            m.flip,
             split_csv(self.split.as_ref()),
         )
     }
@@ -754,6 +755,7 @@ mod tests {
             psnr_preview: 20.0,
             exposure_ev: 0.0,
             ssim: 0.5,
+            flip: 0.25,
             pixels: 4,
             non_finite_test: 1,
             non_finite_reference: 0,
@@ -797,7 +799,7 @@ mod tests {
         let lines: Vec<&str> = text.lines().collect();
         assert_eq!(lines[0], CSV_HEADER);
         assert!(CSV_HEADER.ends_with(metrics::SPLIT_CSV_COLUMNS));
-        assert_eq!(lines[1], "path,8,1.5,100,0.25,0.5,0.125,0.4,6,1,,,0.1,1,20,0.5,,,,,,,,unknown");
+        assert_eq!(lines[1], "path,8,1.5,100,0.25,0.5,0.125,0.4,6,1,,,0.1,1,20,0.5,0.25,,,,,,,,unknown");
         assert_eq!(lines[1].split(',').count(), CSV_HEADER.split(',').count());
         let biased = csv(&[row(8, 0.125, Some(split(0.25, 0.2, 0.01)))]);
         let line = biased.lines().nth(1).unwrap().to_string();

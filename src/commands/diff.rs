@@ -329,6 +329,7 @@ fn table(found: &Found, args: &DiffArgs, image: &Image) -> String {
             ),
         ),
         ("SSIM", format!("{} (luma of the same preview, 11x11 Gaussian window)", fixed(m.ssim))),
+        ("HDR-FLIP", format!("{} (mean; 67 px per degree, exposures from the reference)", fixed(m.flip))),
         ("pixels", format!("{} compared", m.pixels)),
         (
             "non-finite",
@@ -400,6 +401,7 @@ fn json_summary(found: &Found, args: &DiffArgs, image: &Image) -> serde_json::Va
         "psnr_preview": m.psnr_preview,
         "exposure": m.exposure_ev,
         "ssim": m.ssim,
+        "flip": m.flip,
         "pixels": m.pixels,
         "non_finite_test": m.non_finite_test,
         "non_finite_reference": m.non_finite_reference,

@@ -42,13 +42,25 @@ pub struct SweepArgs {
     /// Worker threads (default: all cores).
     #[arg(long, allow_negative_numbers = true)]
     pub threads: Option<usize>,
+    /// Sampler of the methods' renders: sobol, stratified or independent (default from the scene
+    /// file; the reference keeps the scene's).
+    #[arg(long, value_parser = ["sobol", "stratified", "independent"])]
+    pub sampler: Option<String>,
+    /// Independent randomisations every render (the reference's too) splits its samples into,
+    /// 1 to 64 (default 8): their spread gives the variances and standard errors.
+    #[arg(long, value_name = "R", value_parser = render::parse_replicas)]
+    pub replicas: Option<Replicas>,
 }
 
 impl SweepArgs {
     /// The options for rendering `scene` with `integrator` under `budget`: the depth from
     /// `--max-depth`, else the scene's `[render.METHOD] max_depth`, else the method's default.
     pub fn options(&self, scene: &Scene, integrator: &dyn Integrator, budget: Budget) -> RenderOptions {
-        self.options_with(scene, scene.settings.params(integrator, self.max_depth), budget)
+        let mut opts = self.options_with(scene, scene.settings.params(integrator, self.max_depth), budget);
+        if let Some(kind) = self.sampler.as_deref().and_then(crate::sampler::SamplerKind::from_name) {
+            opts.sampler = kind;
+        }
+        opts
     }
 
     /// The options for rendering the reference of `scene` with the method `reference` under
@@ -78,7 +90,7 @@ impl SweepArgs {
             spectral: s.spectral,
             sampler: s.sampler,
             planned_spp: None,
-            replicas: Replicas::DEFAULT,
+            replicas: self.replicas.unwrap_or_default(),
         }
     }
 
@@ -374,6 +386,28 @@ pub struct CropArg {
     pub width: usize,
     /// Height.
     pub height: usize,
+}
+
+/// A named rectangle of the image that metrics are also reported for (`--region NAME=X,Y,W,H`).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct RegionArg {
+    /// Its name in the tables.
+    pub name: String,
+    /// The rectangle.
+    pub rect: CropArg,
+}
+
+/// Parses `NAME=X,Y,W,H` (a name of letters, digits, `-` and `_`) or `X,Y,W,H` (named by its
+/// numbers).
+pub fn parse_region(s: &str) -> Result<RegionArg, String> {
+    let (name, rect) = match s.split_once('=') {
+        Some((name, rect)) => (name.trim().to_string(), rect),
+        None => (s.trim().replace(',', "-"), s),
+    };
+    if name.is_empty() || !name.chars().all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_') {
+        return Err(format!("`{s}`: the region's name must be letters, digits, `-` or `_` (NAME=X,Y,W,H)"));
+    }
+    Ok(RegionArg { name, rect: parse_crop(rect)? })
 }
 
 /// Parses `X,Y,W,H` (whole pixels, W and H at least 1).

@@ -37,6 +37,13 @@ pub struct ReportArgs {
     /// Folder of cached references (default `.vitrum-cache`).
     #[arg(long, value_name = "DIR")]
     pub cache: Option<PathBuf>,
+    /// Zoomed insets of this rectangle in every scene's figure, X,Y,W,H in pixels.
+    #[arg(long, value_name = "X,Y,W,H", value_parser = super::parse_crop)]
+    pub crop: Option<super::CropArg>,
+    /// Also measure every method over this named rectangle of every scene (NAME=X,Y,W,H;
+    /// repeatable), as `compare --region` does.
+    #[arg(long = "region", value_name = "NAME=X,Y,W,H", value_parser = super::parse_region)]
+    pub regions: Vec<super::RegionArg>,
     /// Exposure the viewers start at, in stops (default: each scene's own).
     #[arg(long, value_name = "EV", value_parser = super::diff::parse_exposure, allow_hyphen_values = true)]
     pub exposure: Option<f32>,
@@ -85,7 +92,8 @@ fn compare_args(args: &ReportArgs, scene: &Path, out: PathBuf) -> CompareArgs {
         reference_spp: args.reference_spp,
         reference_method: args.reference_method.clone(),
         cache: args.cache.clone(),
-        crop: None,
+        crop: args.crop,
+        regions: args.regions.clone(),
         exposure: args.exposure,
         render: args.render.clone(),
         out,

@@ -110,6 +110,8 @@ pub struct TableRow {
     pub psnr: f64,
     /// SSIM of the preview's luma.
     pub ssim: f64,
+    /// Mean HDR-FLIP.
+    pub flip: f64,
     /// The bias part of the relative error and its standard error, when the render's bias was judged.
     pub bias: Option<(f64, f64)>,
     /// 1/(relMSE·seconds) with its interval, where no bias is detected
@@ -143,6 +145,7 @@ impl TableRow {
             rel_mse_trimmed: metrics.rel_mse_trimmed,
             psnr: metrics.psnr,
             ssim: metrics.ssim,
+            flip: metrics.flip,
             bias: split.map(|s| (s.bias, s.bias_se)),
             efficiency: crate::metrics::efficiency(split, seconds).ok(),
             status: TableRow::status_of(split),

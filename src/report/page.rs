@@ -43,7 +43,7 @@ const KEYS: &str = "Keys act on the viewer under the mouse (else the last one us
     nearest-neighbour), dragging pans; zoom and pan are shared by all images of a scene.";
 
 /// The columns of the results table: header text, tooltip.
-const COLUMNS: [(&str, &str); 13] = [
+const COLUMNS: [(&str, &str); 14] = [
     ("method", "the rendering method"),
     ("spp", "samples per pixel (ssaa: mean camera rays per pixel)"),
     ("seconds", "render seconds"),
@@ -54,6 +54,7 @@ const COLUMNS: [(&str, &str); 13] = [
     ("relMSE 99.9%", "the relMSE without the 0.1% worst pixels"),
     ("PSNR", "PSNR on the HDR values, dB (peak: the largest reference value)"),
     ("SSIM", "SSIM of the 8-bit preview's luma"),
+    ("HDR-FLIP", "mean HDR-FLIP (Andersson et al.): 0 identical, 1 the largest perceived difference"),
     ("bias part", "relative error − the variance parts of the render and the reference (weights 1/(r̃² + 0.01), r̃ the neighbours' reference), ± one standard error"),
     ("efficiency [95%]", "1 / (relMSE · seconds) with its 95% interval, only where no bias is detected"),
     ("verdict", "biased; reference too noisy; inconclusive (too noisy to tell); no bias detected"),
@@ -218,6 +219,7 @@ fn table_html(s: &mut String, rows: &[TableRow]) {
             number(r.rel_mse_trimmed),
             number(r.psnr),
             number(r.ssim),
+            number(r.flip),
             r.bias.map_or((String::new(), "n/a".into()), |(b, se)| {
                 (js_number(b), format!("{} ± {}", format_number(b), format_number(se)))
             }),
