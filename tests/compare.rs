@@ -503,3 +503,48 @@ fn the_sampler_and_the_replicas_of_the_methods_are_options() {
     let bad = sandbox.compare(&["-i", "path", "--spp", "2", "--replicas", "0", "--out", "out/bad"]);
     assert_eq!(bad.status.code(), Some(2));
 }
+
+#[test]
+fn variants_of_one_method_are_columns_of_their_own() {
+    let sandbox = Sandbox::new();
+    let out = sandbox.compare(&["-i", "path,path[max_depth=1,sampler=independent]", "--spp", "4"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let folder = sandbox.path("out/cmp");
+    let rows = csv_rows(&folder);
+    let labels: Vec<&str> = rows.iter().map(|r| r["method"].as_str()).collect();
+    // The label has a comma: the CSV quotes it.
+    assert_eq!(labels[0], "path");
+    let csv = fs::read_to_string(folder.join("compare.csv")).unwrap();
+    assert!(csv.lines().nth(2).unwrap().starts_with("\"path[max_depth=1,sampler=independent]\",4,"), "{csv}");
+    assert!(sandbox.files("out/cmp").contains(&"path-max_depth-1-sampler-independent.exr".to_string()));
+    let (variant, attributes) =
+        vitrum::output::exr::read_exr(&folder.join("path-max_depth-1-sampler-independent.exr")).unwrap();
+    assert_eq!(attributes["vitrum:integrator"], "path");
+    assert_eq!(attributes["vitrum:variant"], "path[max_depth=1,sampler=independent]");
+    // It is the render of those settings.
+    let plain = sandbox.vitrum(&[
+        "render",
+        &scene(),
+        "-i",
+        "path",
+        "--spp",
+        "4",
+        "--max-depth",
+        "1",
+        "--sampler",
+        "independent",
+        "--resolution",
+        RESOLUTION,
+        "-o",
+        "depth1.exr",
+        "--quiet",
+    ]);
+    assert!(plain.status.success(), "{}", stderr(&plain));
+    assert_eq!(variant.pixels, vitrum::output::exr::read_exr(&sandbox.path("depth1.exr")).unwrap().0.pixels);
+    let md = fs::read_to_string(folder.join("compare.md")).unwrap();
+    assert!(md.contains("| path[max_depth=1,sampler=independent] |"), "{md}");
+    // The same method twice without settings of its own is refused.
+    let twice = sandbox.compare(&["-i", "vcm,vcm", "--spp", "1", "--out", "out/twice"]);
+    assert_eq!(twice.status.code(), Some(2));
+    assert!(stderr(&twice).contains("named twice"), "{}", stderr(&twice));
+}

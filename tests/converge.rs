@@ -587,3 +587,36 @@ fn converge_marks_lights_bias_plateau_on_soft_shadows() {
     assert_eq!(status("light").last().map(String::as_str), Some("biased"), "{csv}");
     assert!(!status("path").iter().any(|s| s == "biased"), "{csv}");
 }
+
+#[test]
+fn variants_converge_as_methods_of_their_own() {
+    let sb = Sandbox::new();
+    let out = sb.vitrum(&[
+        "converge",
+        "ball.toml",
+        "-i",
+        "path,path[max_depth=1]",
+        "--spp-max",
+        "4",
+        "--reference-spp",
+        "16",
+        "--reference-method",
+        "path",
+        "--exr",
+        "--out",
+        "out",
+    ]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(sb.path("out/converge.json")).unwrap()).unwrap();
+    let names: Vec<&str> =
+        summary["integrators"].as_array().unwrap().iter().map(|m| m["name"].as_str().unwrap()).collect();
+    assert_eq!(names, ["path", "path[max_depth=1]"]);
+    let csv = std::fs::read_to_string(sb.path("out/converge.csv")).unwrap();
+    assert_eq!(csv.lines().filter(|l| l.starts_with("path[max_depth=1],")).count(), 3, "{csv}");
+    // Its checkpoints are renders of depth 1: darker than the full paths (no indirect light).
+    let (full, _) = vitrum::output::exr::read_exr(&sb.path("out/path-4spp.exr")).unwrap();
+    let (cut, _) = vitrum::output::exr::read_exr(&sb.path("out/path-max_depth-1-4spp.exr")).unwrap();
+    let sum = |i: &Image| i.pixels.iter().map(|p| p.element_sum() as f64).sum::<f64>();
+    assert!(sum(&cut) < sum(&full), "{} vs {}", sum(&cut), sum(&full));
+}

@@ -14,10 +14,10 @@
 
 use crate::commands::diff::{read_judged, Judged};
 use crate::commands::support::{load_scene, CliError};
-use crate::commands::{parse_crop, parse_integrators, CropArg, SweepArgs};
+use crate::commands::variants::{parse_methods, MethodSpec};
+use crate::commands::{parse_crop, CropArg, SweepArgs};
 use crate::figure::canvas::Canvas;
 use crate::figure::compose::{self, format_number, format_seconds, format_spp, Panel};
-use crate::integrators::Integrator;
 use crate::metrics::{self, Crop, Efficiency, Metrics, MetricsError, Split};
 use crate::output::exr::{stage_exr_with_notes, ExrMetadata};
 use crate::output::replicas::render_channels;
@@ -30,6 +30,9 @@ use std::fmt::Write as _;
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
+
+/// The attribute of a variant's render that keeps its label (`vcm[radius=0.002]`).
+pub const VARIANT_ATTRIBUTE: &str = "vitrum:variant";
 
 /// The copy of the reference in the output folder, so that the folder holds everything its
 /// numbers were measured from (`vitrum diff METHOD.exr reference.exr` reproduces them).
@@ -116,7 +119,8 @@ enum ReferenceSource {
 pub(crate) struct Plan {
     scene: Scene,
     scene_name: String,
-    methods: Vec<Box<dyn Integrator>>,
+    /// The methods and variants, in the order of `-i` ([`super::variants`]).
+    methods: Vec<MethodSpec>,
     budget: Budget,
     size: (usize, usize),
     crop: Option<Crop>,
@@ -131,7 +135,12 @@ pub(crate) struct Plan {
 
 /// One method's render and its errors.
 struct Row {
-    method: &'static str,
+    /// The method's label (its name, or the variant as written).
+    method: String,
+    /// The file name of its render, without `.exr`.
+    stem: String,
+    /// The integrator's own name.
+    integrator: &'static str,
     /// Whether the method renders one fixed pattern (`ssaa`): its samples per pixel are then its
     /// real camera rays per pixel.
     fixed: bool,
@@ -147,12 +156,13 @@ struct Row {
 impl Row {
     /// The row of `method`'s render `out`, measured against `reference`.
     fn new(
-        method: &dyn Integrator,
+        spec: &MethodSpec,
         out: RenderOutput,
         seed: u64,
         reference: &Reference,
         (exposure, regions): (f32, &[(String, Crop)]),
     ) -> Result<Row, MetricsError> {
+        let method = spec.integrator.as_ref();
         let fixed = matches!(method.progression(), Progression::Fixed(_));
         let measure = |crop: Option<Crop>| -> Result<(Metrics, Option<Split>), MetricsError> {
             let metrics = metrics::compare(&out.image, &reference.image, crop, exposure)?;
@@ -160,7 +170,8 @@ impl Row {
         };
         let (metrics, split) = measure(None)?;
         let regions = regions.iter().map(|(_, c)| measure(Some(*c))).collect::<Result<_, _>>()?;
-        Ok(Row { method: method.name(), fixed, out, metrics, split, regions, seed })
+        let (label, stem, integrator) = (spec.label.clone(), spec.file_stem(), method.name());
+        Ok(Row { method: label, stem, integrator, fixed, out, metrics, split, regions, seed })
     }
 
     /// Samples per pixel: for a fixed-pattern (adaptive) method its camera rays per pixel, the
@@ -194,12 +205,7 @@ impl Plan {
     /// Checks every input; any problem is bad input (exit 2) and nothing has been rendered.
     pub(crate) fn new(args: &CompareArgs) -> Result<Plan, CliError> {
         let bad = |m: String| CliError::BadInput(m);
-        let methods = parse_integrators(&args.integrators)?;
-        for (i, m) in methods.iter().enumerate() {
-            if methods[..i].iter().any(|n| n.name() == m.name()) {
-                return Err(bad(format!("-i {}: `{}` is named twice", args.integrators, m.name())));
-            }
-        }
+        let methods = parse_methods(&args.integrators)?;
         let budget = match (args.spp, args.time) {
             (Some(n), _) => Budget::Samples(n),
             (None, t) => Budget::Time(Duration::from_secs_f64(t.unwrap_or(DEFAULT_SECONDS))),
@@ -230,9 +236,10 @@ impl Plan {
             Some(renders)
         };
         let methods = match &renders {
-            Some(renders) => {
-                renders.iter().map(|r| crate::integrators::create(r.method.name()).expect("known")).collect()
-            }
+            Some(renders) => renders
+                .iter()
+                .map(|r| MethodSpec::plain(crate::integrators::create(r.method.name()).expect("known")))
+                .collect(),
             None => methods,
         };
         let crop = args.crop.map(|c| Crop { x: c.x, y: c.y, width: c.width, height: c.height });
@@ -302,8 +309,9 @@ impl Plan {
         check_out_folder(&args.out)?;
         if let Some(reference) = &args.reference {
             let target = |name: &str| args.out.join(format!("{name}.exr"));
-            let names = methods.iter().map(|m| m.name()).chain(["reference"]);
-            if let Some(name) = names.clone().find(|name| same_file(reference, &target(name))) {
+            let stems: Vec<String> = methods.iter().map(MethodSpec::file_stem).collect();
+            let mut names = stems.iter().map(String::as_str).chain(["reference"]);
+            if let Some(name) = names.find(|name| same_file(reference, &target(name))) {
                 return Err(bad(format!(
                     "--reference {}: `{name}` would write its render over the reference; choose another --out",
                     reference.display()
@@ -521,19 +529,21 @@ pub(crate) fn render_scene(
     };
 
     let mut rows = Vec::new();
-    for (index, method) in plan.methods.iter().enumerate() {
+    for (index, spec) in plan.methods.iter().enumerate() {
+        let method = spec.integrator.as_ref();
         if let Some(renders) = &plan.renders {
             let r = &renders[index];
             let failure = |e: String| CliError::Failure(format!("{}: {e}", r.path.display()));
             let out = r.out.clone();
-            let row = Row::new(method.as_ref(), out, r.seed, &reference, (plan.exposure, &plan.regions))
+            let row = Row::new(spec, out, r.seed, &reference, (plan.exposure, &plan.regions))
                 .map_err(|e| failure(e.to_string()))?;
             rows.push(row);
             continue;
         }
-        let opts = args.render.options(&plan.scene, method.as_ref(), plan.budget);
-        crate::commands::support::check_effects(&plan.scene, method.as_ref(), &opts, false)?;
-        let bar = bars.render(method.name(), plan.budget);
+        let mut opts = args.render.options(&plan.scene, method, plan.budget);
+        spec.apply(&mut opts);
+        crate::commands::support::check_effects(&plan.scene, method, &opts, false)?;
+        let bar = bars.render(&spec.label, plan.budget);
         let start = Instant::now();
         let progress = |done: u64, total: u64| match plan.budget {
             Budget::Samples(_) => {
@@ -545,25 +555,25 @@ pub(crate) fn render_scene(
                 bar.set_position((start.elapsed().as_millis() as u64).min(limit.as_millis() as u64));
             }
         };
-        let out = pool.install(|| render::render(&plan.scene, method.as_ref(), &opts, &progress));
+        let out = pool.install(|| render::render(&plan.scene, method, &opts, &progress));
         bar.finish_and_clear();
         bars.overall.inc(1);
         if out.non_finite_samples > 0 {
             bars.println(&format!(
                 "vitrum: warning: {}: {} sample(s) were NaN or infinite",
-                method.name(),
-                out.non_finite_samples
+                spec.label, out.non_finite_samples
             ));
         }
-        let row = Row::new(method.as_ref(), out, opts.seed, &reference, (plan.exposure, &plan.regions))
-            .map_err(|e| CliError::Failure(format!("{}: {e}", method.name())))?;
+        let row = Row::new(spec, out, opts.seed, &reference, (plan.exposure, &plan.regions))
+            .map_err(|e| CliError::Failure(format!("{}: {e}", spec.label)))?;
         rows.push(row);
     }
     let spp = match &plan.reference {
         ReferenceSource::Cached(r) => Some(r.spp),
         ReferenceSource::File(..) => None,
     };
-    let splits: Vec<(&str, Option<&Split>)> = rows.iter().map(|r| (r.method, r.split.as_ref())).collect();
+    let splits: Vec<(&str, Option<&Split>)> =
+        rows.iter().map(|r| (r.method.as_str(), r.split.as_ref())).collect();
     if let Some(warning) = super::reference_noise_warning(&splits, spp) {
         bars.println(&warning);
     }
@@ -596,7 +606,7 @@ fn figure(plan: &Plan, outcome: &Outcome) -> Result<Canvas, CliError> {
         .iter()
         .zip(&errors)
         .map(|(row, error)| Panel {
-            method: row.method,
+            method: &row.method,
             image: &row.out.image,
             spp: row.spp(),
             seconds: row.out.seconds,
@@ -648,7 +658,7 @@ pub(crate) fn section(plan: &Plan, outcome: &Outcome, files: &str) -> Section {
             .iter()
             .map(|r| {
                 TableRow::new(
-                    r.method,
+                    &r.method,
                     (r.spp(), r.out.seconds, r.out.rays.total()),
                     &r.metrics,
                     r.split.as_ref(),
@@ -679,7 +689,7 @@ pub(crate) fn publish(plan: &Plan, outcome: &Outcome, report: Option<&Report>) -
         for row in &outcome.rows {
             let meta = ExrMetadata {
                 version: crate::VERSION.to_string(),
-                integrator: row.method.to_string(),
+                integrator: row.integrator.to_string(),
                 spp: row.out.spp,
                 seed: row.seed,
                 render_time_seconds: row.out.seconds,
@@ -689,7 +699,10 @@ pub(crate) fn publish(plan: &Plan, outcome: &Outcome, report: Option<&Report>) -
             };
             let (channels, mut notes) = render_channels(&row.out);
             notes.push((super::diff::EXPOSURE_ATTRIBUTE.to_string(), plan.exposure.to_string()));
-            let path = out.join(format!("{}.exr", row.method));
+            if row.method != row.integrator {
+                notes.push((VARIANT_ATTRIBUTE.to_string(), row.method.clone()));
+            }
+            let path = out.join(format!("{}.exr", row.stem));
             staged.push(stage_exr_with_notes(&path, &row.out.image, &meta, &channels, &notes)?);
         }
         let copy = |tmp: &Path| {
@@ -795,7 +808,7 @@ fn csv_table(rows: &[Row]) -> String {
         let _ = writeln!(
             s,
             "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
-            r.method,
+            super::csv_field(&r.method),
             r.spp(),
             r.out.seconds,
             r.out.rays.total(),
@@ -846,7 +859,7 @@ fn regions_csv(regions: &[(String, Crop)], rows: &[Row]) -> String {
             let _ = writeln!(
                 s,
                 "{},{name},{},{},{},{},{},{},{},{},{},{},{},{},{e},{el},{eh},{}",
-                r.method,
+                super::csv_field(&r.method),
                 c.x,
                 c.y,
                 c.width,

@@ -32,10 +32,10 @@
 use super::SweepArgs;
 use crate::commands::diff::read_judged;
 use crate::commands::support::{load_scene, CliError};
+use crate::commands::variants::{parse_methods, MethodSpec};
 use crate::figure::compose::format_number;
 use crate::figure::plot::{fit_slope, write_loglog, LogLogPlot, Series};
 use crate::image::Image;
-use crate::integrators::Integrator;
 use crate::metrics::{self, split_csv, Metrics, MetricsError, Split};
 use crate::output::exr::{stage_exr, ExrMetadata};
 use crate::output::{write_atomically, OutputError};
@@ -126,7 +126,8 @@ enum ReferenceSource {
 /// Everything checked before rendering.
 struct Plan {
     scene: Scene,
-    methods: Vec<Box<dyn Integrator>>,
+    /// The methods and variants, in the order of `-i` ([`super::variants`]).
+    methods: Vec<MethodSpec>,
     budget: Budget,
     reference: ReferenceSource,
     width: usize,
@@ -161,7 +162,7 @@ impl Row {
         let opt = |v: Option<f64>| v.map_or(String::new(), |v| v.to_string());
         format!(
             "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
-            self.integrator,
+            super::csv_field(&self.integrator),
             self.spp,
             self.seconds,
             self.rays,
@@ -186,7 +187,7 @@ impl Row {
 /// Check everything that can be checked before rendering.
 fn plan(args: &ConvergeArgs) -> Result<Plan, CliError> {
     let bad = CliError::BadInput;
-    let mut methods = super::parse_integrators(&args.integrators)?;
+    let mut methods = parse_methods(&args.integrators)?;
     let scene = load_scene(args.scene.as_deref())?;
     let budget = match (args.spp_max, args.time) {
         (_, Some(t)) if !(t.is_finite() && t > 0.0) => {
@@ -209,6 +210,7 @@ fn plan(args: &ConvergeArgs) -> Result<Plan, CliError> {
         methods = crate::integrators::all()
             .into_iter()
             .filter(|m| renders.iter().any(|r| r.method.name() == m.name()))
+            .map(MethodSpec::plain)
             .collect();
         Some(renders)
     };
@@ -283,7 +285,8 @@ impl Bars {
 
 /// How one method's checkpoints were made, and its fitted slopes.
 struct MethodSummary {
-    name: &'static str,
+    /// The method's label (its name, or the variant as written).
+    name: String,
     growth: Growth,
     regime: Regime,
     last: Option<Row>,
@@ -399,18 +402,19 @@ pub fn csv(rows: &[Row]) -> String {
 fn measure(
     args: &ConvergeArgs,
     scene: &Scene,
-    method: &dyn Integrator,
+    spec: &MethodSpec,
     seed: u64,
     reference: &Reference,
     out: &RenderOutput,
 ) -> Result<Row, CliError> {
     let failure = |e: MetricsError| CliError::Failure(e.to_string());
+    let method = spec.integrator.as_ref();
     let metrics =
         metrics::compare(&out.image, &reference.image, None, scene.settings.exposure).map_err(failure)?;
     let fixed = matches!(method.progression(), crate::render::Progression::Fixed(_));
     let split = metrics::render_split(fixed, out, reference.estimate(), None).map_err(failure)?;
     if args.exr {
-        let path = args.out.join(format!("{}-{}spp.exr", method.name(), out.spp));
+        let path = args.out.join(format!("{}-{}spp.exr", spec.file_stem(), out.spp));
         let meta = ExrMetadata {
             version: crate::VERSION.to_string(),
             integrator: method.name().to_string(),
@@ -426,7 +430,7 @@ fn measure(
             .map_err(|e| CliError::Failure(e.to_string()))?;
     }
     Ok(Row {
-        integrator: method.name().to_string(),
+        integrator: spec.label.clone(),
         spp: out.spp,
         seconds: out.seconds,
         rays: out.rays.total(),
@@ -442,18 +446,20 @@ fn render_rows(
     plan: &Plan,
     bars: &Bars,
     pool: &rayon::ThreadPool,
-    (index, method): (usize, &dyn Integrator),
+    (index, spec): (usize, &MethodSpec),
     reference: &Reference,
 ) -> Result<(Growth, Vec<Row>, Option<Image>), CliError> {
     let scene = &plan.scene;
+    let method = spec.integrator.as_ref();
     let cached = matches!(plan.reference, ReferenceSource::Cached(..));
-    let opts = args.render.options(scene, method, plan.budget);
+    let mut opts = args.render.options(scene, method, plan.budget);
+    spec.apply(&mut opts);
     crate::commands::support::check_effects(scene, method, &opts, false)?;
     let unit = match plan.budget {
         Budget::Samples(_) => "samples",
         Budget::Time(_) => "time",
     };
-    let bar = bars.render(method.name(), unit);
+    let bar = bars.render(&spec.label, unit);
     let step = index as u64 + cached as u64;
     let progress = |done: u64, total: u64| bars.update(&bar, step, done, total);
     let mut error: Option<CliError> = None;
@@ -461,7 +467,7 @@ fn render_rows(
     let mut last: Option<Image> = None;
     let mut checkpoint = |out: &RenderOutput| {
         if error.is_none() {
-            match measure(args, scene, method, opts.seed, reference, out) {
+            match measure(args, scene, spec, opts.seed, reference, out) {
                 Ok(row) => {
                     rows.push(row);
                     last = Some(out.image.clone());
@@ -523,13 +529,13 @@ fn report_section(
         rows: with_image()
             .map(|(s, _, last)| {
                 let stats = (f64::from(last.spp), last.seconds, last.rays);
-                TableRow::new(s.name, stats, &last.metrics, last.split.as_ref())
+                TableRow::new(&s.name, stats, &last.metrics, last.split.as_ref())
             })
             .collect(),
         convergence: summaries
             .iter()
             .map(|s| {
-                let mine = mine(s.name);
+                let mine = mine(&s.name);
                 report::Series {
                     method: s.name.to_string(),
                     points: mine.iter().map(|r| (f64::from(r.spp), r.seconds, r.metrics.rel_mse)).collect(),
@@ -583,7 +589,8 @@ pub fn run(args: &ConvergeArgs) -> Result<(), CliError> {
     let mut rows: Vec<Row> = Vec::new();
     let mut summaries = Vec::new();
     let csv_path = args.out.join("converge.csv");
-    for (index, method) in plan.methods.iter().enumerate() {
+    for (index, spec) in plan.methods.iter().enumerate() {
+        let method = spec.integrator.as_ref();
         let (growth, method_rows, last_image) = match &plan.renders {
             Some(renders) => {
                 let mut mine: Vec<&super::RenderFile> =
@@ -593,14 +600,14 @@ pub fn run(args: &ConvergeArgs) -> Result<(), CliError> {
                 let last = mine.last().map(|r| r.out.image.clone());
                 for r in mine {
                     let out = r.out.clone();
-                    rows.push(measure(args, scene, method.as_ref(), r.seed, &reference, &out)?);
+                    rows.push(measure(args, scene, spec, r.seed, &reference, &out)?);
                 }
                 (Growth::Fresh(PRECOMPUTED), rows, last)
             }
-            None => render_rows(args, &plan, &bars, &pool, (index, method.as_ref()), &reference)?,
+            None => render_rows(args, &plan, &bars, &pool, (index, spec), &reference)?,
         };
         summaries.push(MethodSummary {
-            name: method.name(),
+            name: spec.label.clone(),
             growth,
             regime: regime(&method_rows),
             last: method_rows.last().cloned(),
@@ -612,7 +619,7 @@ pub fn run(args: &ConvergeArgs) -> Result<(), CliError> {
     bars.overall.finish_and_clear();
     // The last checkpoint of each method, the least noisy, is the one the reference must beat.
     let last: Vec<(&str, Option<&Split>)> =
-        summaries.iter().map(|s| (s.name, s.last.as_ref().and_then(|r| r.split.as_ref()))).collect();
+        summaries.iter().map(|s| (s.name.as_str(), s.last.as_ref().and_then(|r| r.split.as_ref()))).collect();
     let reference_spp = match &plan.reference {
         ReferenceSource::Cached(r) => Some(r.spp),
         ReferenceSource::File(..) => None,
@@ -647,7 +654,7 @@ pub fn run(args: &ConvergeArgs) -> Result<(), CliError> {
                 Series {
                     name: s.name.to_string(),
                     points: mine.iter().map(|r| (x(r), r.metrics.rel_mse)).collect(),
-                    legend: Some(s.regime.legend(s.name, slope(&s.regime), &mine)),
+                    legend: Some(s.regime.legend(&s.name, slope(&s.regime), &mine)),
                 }
             })
             .collect();

@@ -14,6 +14,7 @@ pub mod parts;
 pub mod render;
 pub mod report;
 pub mod support;
+pub mod variants;
 
 use crate::integrators::{self, Integrator, RenderParams};
 use crate::metrics::Split;
@@ -386,6 +387,16 @@ pub struct CropArg {
     pub width: usize,
     /// Height.
     pub height: usize,
+}
+
+/// `text` as a CSV field: quoted (its quotes doubled) when it holds a comma or a quote, as a
+/// variant's label does (`path[max_depth=8,sampler=independent]`).
+pub(crate) fn csv_field(text: &str) -> String {
+    if text.contains([',', '"']) {
+        format!("\"{}\"", text.replace('"', "\"\""))
+    } else {
+        text.to_string()
+    }
 }
 
 /// A named rectangle of the image that metrics are also reported for (`--region NAME=X,Y,W,H`).
