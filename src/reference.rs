@@ -1,10 +1,11 @@
 //! High-sample reference renders for sweeps, cached on disk by method, scene content, settings
 //! and version.
 //!
-//! A reference is a `path` render, or a `vcm` render where path tracing is biased: where a point
-//! (delta) light meets a specular surface, path tracing misses the caustics (a point is reached
-//! only by shadow rays, which cannot bend through glass), while vertex connection and merging
-//! finds them ([`choose_method`]). It is stored in the cache folder as an EXR file named after
+//! A reference is rendered by the method a short pilot render of each fit candidate finds the
+//! most efficient ([`choose_by_pilot`]: the lowest relative variance × seconds among `path`,
+//! `bpt` and `vcm`, those that simulate every effect of the scene and, where a point (delta)
+//! light meets a specular surface, `vcm` alone, since path tracing misses those caustics:
+//! [`choose_method`]). It is stored in the cache folder as an EXR file named after
 //! its method, resolution, sample count and a digest of its key, with a JSON sidecar holding the
 //! whole key: the method, the scene's content hash, the resolution, spp, seed, maximum depth, the
 //! other render settings that change the image (Fresnel override, spectral mode, sampler, the
@@ -238,15 +239,34 @@ pub struct Pilot {
     pub spp: u32,
     /// Seconds it took.
     pub seconds: f64,
-    /// The mean over pixels and channels of the variance of its pixels' means (from its
-    /// replicas); infinite without an estimate.
+    /// The mean over pixels and channels of the relative variance of its pixels' means,
+    /// v/(x̄² + 0.01) (from its replicas; relative as the verdicts and the relMSE are: an
+    /// absolute variance would favour a method whose error sits in dark pixels); infinite
+    /// without an estimate.
     pub variance: f64,
 }
 
 impl Pilot {
-    /// Variance × seconds: the variance the method would reach in one second (lower is better).
+    /// Relative variance × seconds: what the method would reach in one second (lower is better).
     pub fn cost(&self) -> f64 {
         self.variance * self.seconds
+    }
+}
+
+/// The mean over pixels and channels of v/(x̄² + 0.01) of a render's mean x̄ and its variance v;
+/// infinite without a variance or where it is not finite.
+fn relative_variance(out: &crate::render::RenderOutput) -> f64 {
+    let Some(v) = &out.variance else { return f64::INFINITY };
+    let mut sum = 0.0f64;
+    for (x, v) in out.image.pixels.iter().zip(&v.pixels) {
+        let (x, v) = (x.as_dvec3(), v.as_dvec3());
+        sum += (v / (x * x + crate::metrics::REL_EPSILON)).element_sum() / 3.0;
+    }
+    let mean = sum / out.image.pixels.len().max(1) as f64;
+    if mean.is_finite() {
+        mean
+    } else {
+        f64::INFINITY
     }
 }
 
@@ -296,7 +316,7 @@ pub fn choose_by_pilot(
     }
     let mut key = ReferenceKey::new(scene, "pilot", opts, 0);
     key.integrator = format!(
-        "pilot-{}-{}s",
+        "pilot-relative-{}-{}s",
         fit.iter().map(|m| m.name()).collect::<Vec<_>>().join("+"),
         pilot.as_secs_f64()
     );
@@ -318,7 +338,7 @@ pub fn choose_by_pilot(
                 let out = crate::render::render(scene, *method, &opts, &|done, total| {
                     progress(i as u64 * 1000 + 1000 * done / total.max(1), n * 1000)
                 });
-                let variance = out.noise().filter(|n| n.mse.is_finite()).map_or(f64::INFINITY, |n| n.mse);
+                let variance = relative_variance(&out);
                 pilots.push(Pilot {
                     method: method.name().into(),
                     spp: out.spp,
@@ -342,7 +362,8 @@ pub fn choose_by_pilot(
         .map(|p| format!("{} {:.3e} ({} spp in {:.2} s)", p.method, p.cost(), p.spp, p.seconds))
         .collect::<Vec<_>>()
         .join(", ");
-    let mut why = format!("the lowest variance × seconds in {:.2} s pilots: {costs}", pilot.as_secs_f64());
+    let mut why =
+        format!("the lowest relative variance × seconds in {:.2} s pilots: {costs}", pilot.as_secs_f64());
     if !excluded.is_empty() {
         why += &format!("; not fit: {excluded}");
     }

@@ -534,10 +534,9 @@ fn render_variance_adds_exr_channels_and_the_summary_reports_the_noise() {
 #[test]
 fn converge_marks_lights_bias_plateau_on_soft_shadows() {
     // `light` cannot see the glass directly (a specular camera path never reaches a light
-    // sub-path), so on soft-shadows its error stops at a bias floor: at 32×32 the bias part is
-    // about 0.05 with a standard error near 0.005, ten of them, and more than 10% of the MSE from
-    // 2 samples on (measured: 0.052 ± 0.005 at 64 spp). `path` is the reference's own method: unbiased, no plateau, its slope
-    // fitted over every checkpoint.
+    // sub-path), so on soft-shadows its error stops at a bias floor: at 32×32 its (relative) bias
+    // part is far above its standard error (measured: 0.143 ± 0.002 at 64 spp). `path`, the
+    // reference's method here, is unbiased: no plateau, its slope fitted over every checkpoint.
     let sb = Sandbox::new();
     let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/soft-shadows.toml");
     let out = sb.vitrum(&[

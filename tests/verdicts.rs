@@ -1,5 +1,5 @@
 //! The bias verdict measured on renders of known bias: how often it calls an unbiased method
-//! biased (false alarms), and how often it misses a known bias. The README's "Comparing methods"
+//! biased (false alarms), and how often it misses a known bias. The README's "Metrics"
 //! states the rates these tests measure (run with `--nocapture` to print them).
 //!
 //! Every render here uses the default sampler (Owen-scrambled Sobol') and 8 replicas, as

@@ -65,8 +65,8 @@ pub struct CompareArgs {
     /// `--reference` is given (default 1024).
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..), allow_negative_numbers = true)]
     pub reference_spp: Option<u32>,
-    /// The method that renders the reference when no `--reference` is given (default: `vcm`
-    /// where a point light meets a specular surface, else `path`).
+    /// The method that renders the reference when no `--reference` is given (default: the
+    /// most efficient of path, bpt and vcm fit for the scene, measured by short pilot renders).
     #[arg(long, value_name = "NAME", conflicts_with = "reference")]
     pub reference_method: Option<String>,
     /// Folder of cached references (default `.vitrum-cache`).

@@ -4,13 +4,13 @@
 //! grows pass by pass and at every power of two of the sample count (and at the last count) the
 //! cumulative image is measured against the reference with the metrics of [`crate::metrics`],
 //! together with the cumulative render seconds and rays. The reference is a file (`--reference`)
-//! or a cached high-sample render ([`crate::reference::render_reference`]) by the method right
-//! for the scene ([`crate::reference::choose_method`]) or by `--reference-method`.
+//! or a cached high-sample render ([`crate::reference::render_reference`]) by the method the
+//! pilots choose for the scene ([`crate::reference::choose_by_pilot`]) or by `--reference-method`.
 //!
 //! # Rates and plateaus
 //! Each checkpoint's MSE is split into its bias and variance parts ([`crate::metrics::split`],
 //! with the render's per-pixel variance and the reference's). The error falls like variance
-//! until the first checkpoint called biased (bias part > 3 standard errors and > 10% of the MSE);
+//! until the first checkpoint called biased ([`crate::metrics::Verdict::Biased`]);
 //! from there on the error is held up by a bias floor. The relMSE slopes (against samples and
 //! against seconds) are fitted over the checkpoints before that one only, and the rest is
 //! reported as "plateau from N spp (bias part ≈ B ± SE)", B and SE being the last checkpoint's,
@@ -75,8 +75,8 @@ pub struct ConvergeArgs {
     /// Samples per pixel of the cached reference (default 1024).
     #[arg(long)]
     pub reference_spp: Option<u32>,
-    /// The method that renders the reference (default: `vcm` where a point light meets a
-    /// specular surface, else `path`).
+    /// The method that renders the reference (default: the most efficient of path, bpt and vcm
+    /// fit for the scene, measured by short pilot renders).
     #[arg(long, value_name = "NAME")]
     pub reference_method: Option<String>,
     /// Folder of cached references (default `.vitrum-cache`).

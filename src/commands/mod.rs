@@ -153,7 +153,7 @@ pub fn reference_noise_warning(splits: &[(&str, Option<&Split>)], spp: Option<u3
     }
     let list = noisy
         .iter()
-        .map(|(m, s)| format!("{m} ({:.0}% of its MSE)", 100.0 * s.reference_share()))
+        .map(|(m, s)| format!("{m} ({:.0}% of its error)", 100.0 * s.reference_share()))
         .collect::<Vec<_>>()
         .join(", ");
     let limit = crate::metrics::REFERENCE_SHARE_LIMIT;

@@ -540,7 +540,7 @@ fn report(
                 "std_error": n.std_error,
                 "mse": n.mse,
                 "non_finite_pixels": n.non_finite,
-                "basis": noise_basis(integrator, opts, out),
+                "basis": noise_basis(opts, out),
             })),
             "output": output,
             "png": args.png,
@@ -582,16 +582,16 @@ fn report(
 }
 
 /// What the noise estimate of a render rests on, for the JSON summary.
-fn noise_basis(integrator: &str, opts: &RenderOptions, out: &RenderOutput) -> String {
-    let n = out.spp;
-    if integrator == "light" {
-        format!("spread of {n} light-path batches (one per sample index, w·h paths each)")
-    } else if opts.sampler == SamplerKind::Sobol {
-        format!("variance of {n} Sobol' samples per pixel: an upper bound (stratification not credited)")
-    } else if opts.sampler == SamplerKind::Stratified && matches!(opts.budget, Budget::Samples(_)) {
-        format!("variance of {n} stratified samples per pixel: an upper bound (stratification not credited)")
-    } else {
-        format!("variance of {n} independent samples per pixel")
+fn noise_basis(opts: &RenderOptions, out: &RenderOutput) -> String {
+    match &out.replicas {
+        Some(r) => format!(
+            "spread of {} independent replicas' means ({} samples per pixel, {} sampler): the variance of the \
+             estimator used, stratification included",
+            r.count(),
+            out.spp,
+            opts.sampler.name()
+        ),
+        None => "no estimate: fewer than two replicas hold samples".to_string(),
     }
 }
 

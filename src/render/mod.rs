@@ -48,13 +48,12 @@
 //! caller and ignore the flag.
 //!
 //! # Variance
-//! The variance of a pixel's estimate (its squared standard error) is s²/n, with s² the unbiased
-//! variance of its n per-sample estimates: the camera samples of the pixel, or for light tracing
-//! the n images made by one sample index's `w·h` paths each (batches, independent of each other
-//! up to the 16-path strata of the stratified sampler, and the sequences of the Sobol' one, that
-//! span batches). With the Sobol' or stratified camera sampler the samples of a pixel are not
-//! independent and s²/n overestimates the error (the gain of stratification is not seen): a
-//! conservative estimate. With fewer than two samples there is no estimate.
+//! The sample indices of a render split into independent replicas ([`crate::sampler::Replicas`]:
+//! index `s` in replica `s mod R`, each replica's streams from a seed of its own); the film keeps
+//! each replica's sums beside the total. The variance of a pixel's estimate (its squared standard
+//! error) is the spread of its replicas' means ([`ReplicaMeans::variance`]): unbiased for the
+//! estimator actually used, the gain of Sobol' or stratified sampling within a replica included.
+//! With fewer than two replicas holding samples there is no estimate.
 
 use crate::camera::Camera;
 use crate::image::Image;

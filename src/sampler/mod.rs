@@ -1,6 +1,8 @@
 //! Deterministic random streams: every number is a pure function of
 //! (seed, pixel, sample index, dimension), so images do not depend on thread count or order,
 //! any sample range can be rendered separately, and one sample can be re-run for debugging.
+//! A render's sample index first goes to its replica ([`Replicas::stream`]): the seed is the
+//! replica's and the index the sample's within the replica.
 //!
 //! Three kinds:
 //! - `sobol` (the default): Owen-scrambled Sobol' points ([`sobol`]). Each request (a 1D or 2D
