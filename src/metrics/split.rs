@@ -341,27 +341,21 @@ pub fn split(test: Estimate, reference: Estimate, crop: Option<Crop>) -> Result<
     let reference_variance = mean(&|&(_, (_, w), _, _, _, vr)| weighted(w, vr));
     let bias = error - variance - reference_variance;
 
-    // The jackknife: (relMSE, B) without each replica of the render, then of the reference.
-    let test_loo = |j: usize, reps: &ReplicaMeans| {
+    // The jackknife: (relMSE, B) without replica j of one side (`test_side`: the render's, else
+    // the reference's), the other side fixed.
+    let leave_out = |j: usize, reps: &ReplicaMeans, test_side: bool| {
         let (mut e, mut b) = (0.0, 0.0);
-        for &(i, (w, wn), _, r, _, vr) in &used {
+        for &(i, (w, wn), x, r, vx, vr) in &used {
             let (m, v) = reps.leave_one_out_at(i, j);
-            let d2 = (m - r) * (m - r);
+            let (x, r, vx, vr) = if test_side { (m, r, v, vr) } else { (x, m, vx, v) };
+            let d2 = (x - r) * (x - r);
             e += weighted(w, d2);
-            b += weighted(wn, d2 - v - vr);
+            b += weighted(wn, d2 - vx - vr);
         }
         (e / n, b / n)
     };
-    let reference_loo = |j: usize, reps: &ReplicaMeans| {
-        let (mut e, mut b) = (0.0, 0.0);
-        for &(i, (w, wn), x, _, vx, _) in &used {
-            let (m, v) = reps.leave_one_out_at(i, j);
-            let d2 = (x - m) * (x - m);
-            e += weighted(w, d2);
-            b += weighted(wn, d2 - vx - v);
-        }
-        (e / n, b / n)
-    };
+    let test_loo = |j: usize, reps: &ReplicaMeans| leave_out(j, reps, true);
+    let reference_loo = |j: usize, reps: &ReplicaMeans| leave_out(j, reps, false);
     let jackknife = |reps: &ReplicaMeans, loo: &(dyn Fn(usize, &ReplicaMeans) -> (f64, f64) + Sync)| {
         let values: Vec<(f64, f64)> = (0..reps.count()).into_par_iter().map(|j| loo(j, reps)).collect();
         let se = |pick: fn(&(f64, f64)) -> f64| {
