@@ -23,7 +23,6 @@
 use crate::image::Image;
 use crate::integrators::Integrator;
 use crate::light::Light;
-use crate::metrics::Estimate;
 use crate::output::exr::{stage_exr_with_notes, ExrMetadata};
 use crate::output::film::{read_render, RenderRead};
 use crate::output::replicas::render_channels;
@@ -53,13 +52,6 @@ pub struct Reference {
     /// The means of its replicas (kept in the EXR's replica channels): the standard errors of
     /// every judgement against it include the reference's own noise.
     pub replicas: Option<ReplicaMeans>,
-}
-
-impl Reference {
-    /// The reference as the split judges it.
-    pub fn estimate(&self) -> Estimate<'_> {
-        Estimate { image: &self.image, replicas: self.replicas.as_ref(), variance: self.variance.as_ref() }
-    }
 }
 
 /// Everything a cached reference depends on (the sidecar's contents).

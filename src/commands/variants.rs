@@ -48,11 +48,6 @@ impl MethodSpec {
         MethodSpec { label: integrator.name().to_string(), integrator, settings: Vec::new() }
     }
 
-    /// Whether it has settings of its own.
-    pub fn is_variant(&self) -> bool {
-        !self.settings.is_empty()
-    }
-
     /// Applies the settings to `opts` (the sweep's options for the method).
     pub fn apply(&self, opts: &mut RenderOptions) {
         for setting in &self.settings {
@@ -206,7 +201,6 @@ mod tests {
         assert_eq!(specs[1].settings, [Setting::Radius(0.002)]);
         assert_eq!(specs[2].settings, [Setting::MaxDepth(8), Setting::Sampler(SamplerKind::Independent)]);
         assert_eq!(specs[1].file_stem(), "vcm-radius-0.002");
-        assert!(!specs[0].is_variant() && specs[1].is_variant());
         let scene = crate::scene::load_default();
         let mut opts = RenderOptions::for_method(&scene, specs[2].integrator.as_ref(), 4);
         specs[2].apply(&mut opts);

@@ -77,13 +77,6 @@ impl ReplicaMeans {
         let variance = if self.count() > 2 { spread(others, self.count() - 1) } else { DVec3::ZERO };
         (sum / n.max(1.0), variance)
     }
-
-    /// The render without replica `j`: its mean image.
-    pub fn leave_one_out(&self, j: usize) -> Image {
-        let pixels =
-            (0..self.width() * self.height()).map(|p| self.leave_one_out_at(p, j).0.as_vec3()).collect();
-        Image { width: self.width(), height: self.height(), pixels }
-    }
 }
 
 /// Σ (m − m̃)² / (k (k − 1)) over the `k` values `m` (0 for k < 2).
