@@ -43,9 +43,15 @@
 //! # Bias and variance
 //! [`split`] divides a render's relMSE into the part its noise explains and its bias, with
 //! standard errors from its replicas and a verdict ([`split`]'s module documentation).
+//!
+//! # Repeated runs
+//! [`RunSpread`] gives relMSE, seconds and efficiency with intervals over K runs of one method
+//! under K seeds (`vitrum compare --repeat K`; [`repeats`]'s module documentation).
 
+mod repeats;
 mod split;
 
+pub use repeats::*;
 pub use split::*;
 
 use crate::image::Image;
@@ -62,6 +68,51 @@ pub struct Crop {
     pub width: usize,
     /// Height.
     pub height: usize,
+}
+
+/// The pixels a metric covers: a rectangle and, within it, only the pixels a mask selects when
+/// there is one (`--mask`). A mask's rectangle is the bounding box of its selected pixels.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Region {
+    /// The rectangle (a mask's bounding box).
+    pub rect: Crop,
+    /// Which pixels of the whole image count, row by row (`width·height` flags); `None` for every
+    /// pixel of the rectangle.
+    pub mask: Option<std::sync::Arc<[bool]>>,
+}
+
+impl Region {
+    /// The whole of a rectangle.
+    pub fn rect(rect: Crop) -> Region {
+        Region { rect, mask: None }
+    }
+
+    /// The pixels `selected` (row by row) of a `width`-wide image; `None` when none is.
+    pub fn masked(width: usize, selected: Vec<bool>) -> Option<Region> {
+        let chosen = || selected.iter().enumerate().filter(|(_, &s)| s).map(|(i, _)| (i % width, i / width));
+        let (x0, x1) = (chosen().map(|p| p.0).min()?, chosen().map(|p| p.0).max()?);
+        let (y0, y1) = (chosen().map(|p| p.1).min()?, chosen().map(|p| p.1).max()?);
+        let rect = Crop { x: x0, y: y0, width: x1 - x0 + 1, height: y1 - y0 + 1 };
+        Some(Region { rect, mask: Some(selected.into()) })
+    }
+
+    /// How many pixels the region covers.
+    pub fn pixel_count(&self) -> usize {
+        match &self.mask {
+            Some(mask) => mask.iter().filter(|&&m| m).count(),
+            None => self.rect.width * self.rect.height,
+        }
+    }
+
+    /// Whether pixel `i` of the whole image counts (for a pixel of the rectangle).
+    fn selects(&self, i: usize) -> bool {
+        self.mask.as_ref().is_none_or(|m| m[i])
+    }
+
+    /// The indices of the region's pixels in a `width`-wide raster, row by row.
+    fn indices(&self, width: usize) -> impl Iterator<Item = usize> + '_ {
+        region_indices(width, self.rect).filter(|&i| self.selects(i))
+    }
 }
 
 /// The metrics of one comparison.
@@ -115,6 +166,16 @@ pub enum MetricsError {
         reference_width: usize,
         /// Reference height.
         reference_height: usize,
+    },
+    /// A mask whose size is not the images'.
+    #[error("the mask has {mask} pixels, the {image_width}x{image_height} image {}", image_width * image_height)]
+    MaskSize {
+        /// The mask's pixel count.
+        mask: usize,
+        /// Image width.
+        image_width: usize,
+        /// Image height.
+        image_height: usize,
     },
     /// A crop that does not lie inside the images.
     #[error("the crop {x},{y},{width},{height} does not fit inside the {image_width}x{image_height} image")]
@@ -173,14 +234,26 @@ pub fn compare(
     crop: Option<Crop>,
     exposure_ev: f32,
 ) -> Result<Metrics, MetricsError> {
+    compare_over(test, reference, crop.map(Region::rect).as_ref(), exposure_ev)
+}
+
+/// The metrics of `test` against `reference` over `region` (or the whole image), as [`compare`];
+/// SSIM takes the windows of the region's rectangle whose pixels all count.
+pub fn compare_over(
+    test: &Image,
+    reference: &Image,
+    region: Option<&Region>,
+    exposure_ev: f32,
+) -> Result<Metrics, MetricsError> {
     check_sizes(test, reference)?;
-    let crop = resolve_crop(test, crop)?;
+    let region = resolve_region(test, region)?;
+    let crop = region.rect;
 
     let (mut sq, mut abs) = (0.0f64, 0.0f64);
     let mut rel_per_pixel: Vec<f64> = Vec::with_capacity(crop.width * crop.height);
     let mut max_reference = f64::NEG_INFINITY;
     let (mut pixels, mut non_finite_test, mut non_finite_reference) = (0usize, 0usize, 0usize);
-    for (x, r) in region_pairs(test, reference, crop) {
+    for (x, r) in region.indices(test.width).map(|i| (test.pixels[i], reference.pixels[i])) {
         let (x_ok, r_ok) = (x.is_finite(), r.is_finite());
         non_finite_test += usize::from(!x_ok);
         non_finite_reference += usize::from(!r_ok);
@@ -205,7 +278,7 @@ pub fn compare(
     let peak = if max_reference > 0.0 { max_reference } else { 1.0 };
     let rel_mse = rel_per_pixel.iter().sum::<f64>() / pixels as f64;
     let (preview_test, preview_reference) = (preview(test, exposure_ev), preview(reference, exposure_ev));
-    let preview_mse = preview_squared_error(test, reference, &preview_test, &preview_reference, crop);
+    let preview_mse = preview_squared_error(test, reference, &preview_test, &preview_reference, &region);
     Ok(Metrics {
         mse,
         rmse: mse.sqrt(),
@@ -216,8 +289,8 @@ pub fn compare(
         peak,
         psnr_preview: -10.0 * preview_mse.log10(),
         exposure_ev,
-        ssim: ssim_of_previews(test, reference, &preview_test, &preview_reference, crop),
-        flip: flip_mean(test, reference, crop),
+        ssim: ssim_of_previews(test, reference, &preview_test, &preview_reference, &region),
+        flip: flip_mean(test, reference, &region),
         pixels,
         non_finite_test,
         non_finite_reference,
@@ -227,12 +300,12 @@ pub fn compare(
 /// The mean HDR-FLIP of `test` against `reference` over the pixels of `crop` finite in both (the
 /// error map is computed on the whole images, whose surroundings the filters see); NaN when
 /// HDR-FLIP is undefined for the reference or no pixel is finite.
-fn flip_mean(test: &Image, reference: &Image, crop: Crop) -> f64 {
+fn flip_mean(test: &Image, reference: &Image, region: &Region) -> f64 {
     let Ok(result) = crate::flip::hdr_flip(test, reference, &crate::flip::FlipOptions::default()) else {
         return f64::NAN;
     };
     let finite = |i: &usize| test.pixels[*i].is_finite() && reference.pixels[*i].is_finite();
-    result.mean_over(region_indices(test.width, crop).filter(finite)).unwrap_or(f64::NAN)
+    result.mean_over(region.indices(test.width).filter(finite)).unwrap_or(f64::NAN)
 }
 
 /// The mean of `values` without their ⌊n·[`TRIMMED_FRACTION`]⌋ largest; NaN when empty.
@@ -251,9 +324,9 @@ fn preview(image: &Image, exposure_ev: f32) -> Vec<f64> {
 }
 
 /// The mean squared difference of the previews over the pixels of `crop` finite in both images.
-fn preview_squared_error(test: &Image, reference: &Image, pt: &[f64], pr: &[f64], crop: Crop) -> f64 {
+fn preview_squared_error(test: &Image, reference: &Image, pt: &[f64], pr: &[f64], region: &Region) -> f64 {
     let (mut sum, mut count) = (0.0, 0usize);
-    for i in region_indices(test.width, crop) {
+    for i in region.indices(test.width) {
         if test.pixels[i].is_finite() && reference.pixels[i].is_finite() {
             sum += (0..3).map(|c| (pt[3 * i + c] - pr[3 * i + c]).powi(2)).sum::<f64>();
             count += 3;
@@ -264,13 +337,14 @@ fn preview_squared_error(test: &Image, reference: &Image, pt: &[f64], pr: &[f64]
 
 /// The SSIM of the previews' luma over `crop`; windows touching a pixel not finite in either
 /// image are left out.
-fn ssim_of_previews(test: &Image, reference: &Image, pt: &[f64], pr: &[f64], crop: Crop) -> f64 {
+fn ssim_of_previews(test: &Image, reference: &Image, pt: &[f64], pr: &[f64], region: &Region) -> f64 {
     let luma = |p: &[f64], i: usize| (0..3).map(|c| LUMA[c] * p[3 * i + c]).sum::<f64>();
+    let crop = region.rect;
     let (mut x, mut y, mut valid) = (Vec::new(), Vec::new(), Vec::new());
     for i in region_indices(test.width, crop) {
         x.push(luma(pt, i));
         y.push(luma(pr, i));
-        valid.push(test.pixels[i].is_finite() && reference.pixels[i].is_finite());
+        valid.push(region.selects(i) && test.pixels[i].is_finite() && reference.pixels[i].is_finite());
     }
     ssim(&x, &y, &valid, crop.width, crop.height)
 }
@@ -399,6 +473,25 @@ fn check_sizes(test: &Image, reference: &Image) -> Result<(), MetricsError> {
         });
     }
     Ok(())
+}
+
+/// The region, or the whole image: [`MetricsError::CropOutside`] unless its rectangle is
+/// non-empty and inside, [`MetricsError::MaskSize`] unless its mask covers the image.
+fn resolve_region(image: &Image, region: Option<&Region>) -> Result<Region, MetricsError> {
+    let Some(region) = region else {
+        return Ok(Region::rect(resolve_crop(image, None)?));
+    };
+    resolve_crop(image, Some(region.rect))?;
+    if let Some(mask) = &region.mask {
+        if mask.len() != image.width * image.height {
+            return Err(MetricsError::MaskSize {
+                mask: mask.len(),
+                image_width: image.width,
+                image_height: image.height,
+            });
+        }
+    }
+    Ok(region.clone())
 }
 
 /// The crop, or the whole image; [`MetricsError::CropOutside`] unless it is non-empty and inside.
@@ -578,6 +671,19 @@ mod tests {
         // Its mean over the finite pixels is relMSE.
         let m = compare(&test_image(), &reference(), None, 0.0).unwrap();
         assert!(close((e[0] + e[1] + e[2]) as f64 / 3.0, m.rel_mse));
+    }
+
+    #[test]
+    fn a_mask_region_is_its_pixels_in_their_bounding_box() {
+        // 4 wide: pixels (1,0) and (2,2) selected.
+        let mut selected = vec![false; 12];
+        selected[1] = true;
+        selected[10] = true;
+        let region = Region::masked(4, selected).unwrap();
+        assert_eq!(region.rect, Crop { x: 1, y: 0, width: 2, height: 3 });
+        assert_eq!(region.pixel_count(), 2);
+        assert_eq!(region.indices(4).collect::<Vec<_>>(), [1, 10]);
+        assert_eq!(Region::masked(4, vec![false; 12]), None);
     }
 
     #[test]

@@ -548,3 +548,138 @@ fn variants_of_one_method_are_columns_of_their_own() {
     assert_eq!(twice.status.code(), Some(2));
     assert!(stderr(&twice).contains("named twice"), "{}", stderr(&twice));
 }
+
+/// Writes a `SIZE` PNG mask that is white where `selected(x, y)`.
+fn write_mask(path: &Path, selected: impl Fn(u32, u32) -> bool) {
+    let mask =
+        image::GrayImage::from_fn(SIZE.0, SIZE.1, |x, y| image::Luma([if selected(x, y) { 255 } else { 0 }]));
+    mask.save(path).unwrap();
+}
+
+#[test]
+fn a_mask_restricts_every_metric_to_its_white_pixels() {
+    let sandbox = Sandbox::new();
+    // A mask that is the rectangle 8,6,8,6 gives that region's numbers; a ring (a rectangle less
+    // its centre) counts only its own pixels.
+    write_mask(&sandbox.path("box.png"), |x, y| (8..16).contains(&x) && (6..12).contains(&y));
+    let ring = |x: u32, y: u32| {
+        (4..20).contains(&x) && (4..16).contains(&y) && !((8..16).contains(&x) && (8..12).contains(&y))
+    };
+    write_mask(&sandbox.path("ring.png"), ring);
+    let out = sandbox.compare(&[
+        "-i",
+        "path",
+        "--spp",
+        "4",
+        "--region",
+        "rect=8,6,8,6",
+        "--mask",
+        "box.png",
+        "--mask",
+        "hole=ring.png",
+    ]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let folder = sandbox.path("out/cmp");
+    let csv = fs::read_to_string(folder.join("compare-regions.csv")).unwrap();
+    let mut lines = csv.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+    let names: Vec<&str> = rows.iter().map(|r| r[1]).collect();
+    assert_eq!(names, ["rect", "box", "hole"]);
+    let column = |name: &str| header.iter().position(|h| *h == name).unwrap();
+    // Every metric of the box mask is the rectangle's.
+    for name in ["pixels", "mse", "rel_mse", "ssim", "flip", "bias", "bias_se", "verdict"] {
+        assert_eq!(rows[0][column(name)], rows[1][column(name)], "{name}");
+    }
+    // The ring: its bounding box, and only its own pixels.
+    let ring_pixels =
+        (0..SIZE.1).flat_map(|y| (0..SIZE.0).map(move |x| (x, y))).filter(|&(x, y)| ring(x, y)).count();
+    assert_eq!(rows[2][column("pixels")], ring_pixels.to_string());
+    assert_eq!(&rows[2][2..6], ["4", "4", "16", "12"]);
+    // `vitrum diff --mask` gives the same numbers.
+    let diff = sandbox.vitrum(&[
+        "diff",
+        folder.join("path.exr").to_str().unwrap(),
+        folder.join("reference.exr").to_str().unwrap(),
+        "--mask",
+        "ring.png",
+        "--json",
+    ]);
+    assert!(diff.status.success(), "{}", stderr(&diff));
+    let v: serde_json::Value = serde_json::from_slice(&diff.stdout).unwrap();
+    for name in ["mse", "rel_mse", "flip"] {
+        assert_eq!(rows[2][column(name)].parse::<f64>().unwrap(), v[name].as_f64().unwrap(), "{name}");
+    }
+    assert_eq!(rows[2][column("verdict")], v["split"]["verdict"].as_str().unwrap());
+    let md = fs::read_to_string(folder.join("compare.md")).unwrap();
+    assert!(md.contains(&format!("| path | hole (mask in 4,4,16,12) | {ring_pixels} |")), "{md}");
+
+    // A mask of another size, one that selects nothing, a file that is no image, or a name taken
+    // by a region: bad input, nothing written.
+    image::GrayImage::new(8, 8).save(sandbox.path("small.png")).unwrap();
+    write_mask(&sandbox.path("black.png"), |_, _| false);
+    fs::write(sandbox.path("text.png"), "not a png").unwrap();
+    for bad in [
+        &["--mask", "small.png"][..],
+        &["--mask", "black.png"],
+        &["--mask", "text.png"],
+        &["--mask", "missing.png"],
+        &["--region", "box=0,0,2,2", "--mask", "box.png"],
+    ] {
+        let out = sandbox.compare(&[&["-i", "path", "--spp", "2", "--out", "out/bad"][..], bad].concat());
+        assert_eq!(out.status.code(), Some(2), "{bad:?}: {}", stderr(&out));
+        assert!(stderr(&out).contains("--mask"), "{bad:?}: {}", stderr(&out));
+        assert!(!sandbox.path("out/bad").exists(), "{bad:?}");
+    }
+}
+
+#[test]
+fn repeated_runs_give_intervals_over_seeds_and_the_first_run_is_the_plain_render() {
+    let sandbox = Sandbox::new();
+    let out = sandbox.compare(&["-i", "path,whitted", "--spp", "2", "--repeat", "4", "--seed", "7"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let folder = sandbox.path("out/cmp");
+    let runs = fs::read_to_string(folder.join("compare-runs.csv")).unwrap();
+    let mut lines = runs.lines();
+    assert_eq!(lines.next().unwrap(), vitrum::commands::compare::RUNS_CSV_HEADER);
+    let runs: Vec<Vec<String>> = lines.map(|l| l.split(',').map(String::from).collect()).collect();
+    assert_eq!(runs.len(), 8, "{runs:?}");
+    let path_runs: Vec<&Vec<String>> = runs.iter().filter(|r| r[0] == "path").collect();
+    let seeds: Vec<&str> = path_runs.iter().map(|r| r[2].as_str()).collect();
+    assert_eq!(seeds, ["7", "8", "9", "10"]);
+    let rel: Vec<f64> = path_runs.iter().map(|r| r[5].parse().unwrap()).collect();
+    // Independent runs of a noisy method differ.
+    assert!(rel.windows(2).all(|w| w[0] != w[1]), "{rel:?}");
+    // The table's relMSE is their mean, inside its interval; the first run is the plain render of
+    // the seed (the file kept, whose relMSE diff measures).
+    let rows = csv_rows(&folder);
+    let path = rows.iter().find(|r| r["method"] == "path").unwrap();
+    let mean = rel.iter().sum::<f64>() / 4.0;
+    let table: f64 = path["rel_mse"].parse().unwrap();
+    assert!((table - mean).abs() <= 1e-12 * mean, "{table} vs {mean}");
+    let (low, high): (f64, f64) =
+        (path["rel_mse_low"].parse().unwrap(), path["rel_mse_high"].parse().unwrap());
+    assert!(low < mean && mean < high, "{low} {mean} {high}");
+    assert_eq!(path["runs"], "4");
+    let (s_low, s_high): (f64, f64) =
+        (path["seconds_low"].parse().unwrap(), path["seconds_high"].parse().unwrap());
+    assert!(s_low <= path["seconds"].parse::<f64>().unwrap() && s_low <= s_high);
+    let diff = sandbox.vitrum(&[
+        "diff",
+        folder.join("path.exr").to_str().unwrap(),
+        folder.join("reference.exr").to_str().unwrap(),
+        "--json",
+    ]);
+    assert!(diff.status.success(), "{}", stderr(&diff));
+    let v: serde_json::Value = serde_json::from_slice(&diff.stdout).unwrap();
+    assert_eq!(v["rel_mse"].as_f64().unwrap(), rel[0], "run 0 is the file kept");
+    let (_, attributes) = vitrum::output::exr::read_exr(&folder.join("path.exr")).unwrap();
+    assert_eq!(attributes["vitrum:seed"], "7");
+    assert_eq!(runs.iter().filter(|r| r[0] == "whitted").count(), 4);
+    let md = fs::read_to_string(folder.join("compare.md")).unwrap();
+    assert!(md.contains("rendered 4 times"), "{md}");
+    // --repeat 0 and --repeat with --renders are refused.
+    let bad = sandbox.compare(&["-i", "path", "--spp", "2", "--repeat", "0", "--out", "out/bad"]);
+    assert_eq!(bad.status.code(), Some(2));
+    assert!(!sandbox.path("out/bad").exists());
+}

@@ -18,7 +18,7 @@ use crate::commands::variants::{parse_methods, MethodSpec};
 use crate::commands::{parse_crop, CropArg, SweepArgs};
 use crate::figure::canvas::Canvas;
 use crate::figure::compose::{self, format_number, format_seconds, format_spp, Panel};
-use crate::metrics::{self, Crop, Efficiency, Metrics, MetricsError, Split};
+use crate::metrics::{self, Crop, Efficiency, Metrics, MetricsError, Region, Run, RunSpread, Split};
 use crate::output::exr::{stage_exr_with_notes, ExrMetadata};
 use crate::output::replicas::render_channels;
 use crate::output::{stage, OutputError, Staged};
@@ -79,6 +79,11 @@ pub struct CompareArgs {
     /// repeatable): `compare-regions.csv` and a table in `compare.md`, beside the whole image.
     #[arg(long = "region", value_name = "NAME=X,Y,W,H", value_parser = super::parse_region)]
     pub regions: Vec<super::RegionArg>,
+    /// Also measure every method over the white pixels of this PNG, of the renders' size
+    /// ([NAME=]FILE.png, named by its stem unless named; repeatable), beside the whole image and
+    /// the `--region`s.
+    #[arg(long = "mask", value_name = "[NAME=]FILE.png", value_parser = super::parse_mask)]
+    pub masks: Vec<super::MaskArg>,
     /// Exposure of the figure in stops, the same for every render (default from the scene file).
     #[arg(long, value_name = "EV", value_parser = super::diff::parse_exposure, allow_hyphen_values = true)]
     pub exposure: Option<f32>,
@@ -95,7 +100,15 @@ pub struct CompareArgs {
     /// merged shards from a cluster); their size is the first file's unless --resolution is given.
     #[arg(long, num_args = 1.., value_name = "EXR", conflicts_with_all = ["time", "spp"])]
     pub renders: Vec<PathBuf>,
+    /// Render every method K times, run k with seed + k, for confidence intervals of relMSE,
+    /// seconds and efficiency over the runs (`compare-runs.csv` has every run; the images and
+    /// the other metrics are the first run's).
+    #[arg(long, value_name = "K", default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=MAX_REPEAT as i64), conflicts_with = "renders")]
+    pub repeat: u32,
 }
+
+/// The most runs `--repeat` accepts.
+pub const MAX_REPEAT: u32 = 100;
 
 /// Parses a positive, finite number of seconds.
 pub(crate) fn parse_seconds(s: &str) -> Result<f64, String> {
@@ -125,12 +138,14 @@ pub(crate) struct Plan {
     size: (usize, usize),
     crop: Option<Crop>,
     /// Named rectangles measured beside the whole image.
-    regions: Vec<(String, Crop)>,
+    regions: Vec<(String, Region)>,
     exposure: f32,
     reference: ReferenceSource,
     out: PathBuf,
     /// The renders laid out instead of rendering (`--renders`), in the order of `methods`.
     renders: Option<Vec<super::RenderFile>>,
+    /// Runs per method (`--repeat`).
+    repeat: u32,
 }
 
 /// One method's render and its errors.
@@ -151,6 +166,10 @@ struct Row {
     /// The metrics and split over each of the plan's regions, in their order.
     regions: Vec<(Metrics, Option<Split>)>,
     seed: u64,
+    /// Every run of `--repeat` (the first is this row's render), and their spread when there are
+    /// two or more.
+    runs: Vec<Run>,
+    spread: Option<RunSpread>,
 }
 
 impl Row {
@@ -160,41 +179,97 @@ impl Row {
         out: RenderOutput,
         seed: u64,
         reference: &Reference,
-        (exposure, regions): (f32, &[(String, Crop)]),
+        (exposure, regions): (f32, &[(String, Region)]),
     ) -> Result<Row, MetricsError> {
         let method = spec.integrator.as_ref();
         let fixed = matches!(method.progression(), Progression::Fixed(_));
-        let measure = |crop: Option<Crop>| -> Result<(Metrics, Option<Split>), MetricsError> {
-            let metrics = metrics::compare(&out.image, &reference.image, crop, exposure)?;
-            Ok((metrics, metrics::render_split(fixed, &out, reference.estimate(), crop)?))
+        let measure = |region: Option<&Region>| -> Result<(Metrics, Option<Split>), MetricsError> {
+            let metrics = metrics::compare_over(&out.image, &reference.image, region, exposure)?;
+            Ok((metrics, metrics::render_split(fixed, &out, reference.estimate(), region)?))
         };
         let (metrics, split) = measure(None)?;
-        let regions = regions.iter().map(|(_, c)| measure(Some(*c))).collect::<Result<_, _>>()?;
+        let regions = regions.iter().map(|(_, r)| measure(Some(r))).collect::<Result<_, _>>()?;
         let (label, stem, integrator) = (spec.label.clone(), spec.file_stem(), method.name());
-        Ok(Row { method: label, stem, integrator, fixed, out, metrics, split, regions, seed })
+        let mut row = Row {
+            method: label,
+            stem,
+            integrator,
+            fixed,
+            out,
+            metrics,
+            split,
+            regions,
+            seed,
+            runs: Vec::new(),
+            spread: None,
+        };
+        row.runs.push(Run { seed, spp: row.spp(), seconds: row.out.seconds, rel_mse: row.metrics.rel_mse });
+        Ok(row)
+    }
+
+    /// Adds a further run of `--repeat`: its render `out` under `seed`, measured against
+    /// `reference`.
+    fn add_run(&mut self, out: &RenderOutput, seed: u64, reference: &Reference) -> Result<(), MetricsError> {
+        let rel_mse = metrics::compare(&out.image, &reference.image, None, 0.0)?.rel_mse;
+        let spp = spp_of(self.fixed, out);
+        self.runs.push(Run { seed, spp, seconds: out.seconds, rel_mse });
+        self.spread = RunSpread::of(&self.runs);
+        Ok(())
+    }
+
+    /// The relMSE the tables show with its 95% interval: the mean over the runs with their
+    /// interval under `--repeat`, else the render's own with the interval from its replicas.
+    fn rel_mse(&self) -> (f64, Option<(f64, f64)>) {
+        match (&self.spread, &self.split) {
+            (Some(s), _) => (s.rel_mse.mean, Some((s.rel_mse.low, s.rel_mse.high))),
+            (None, Some(split)) => (self.metrics.rel_mse, Some(split.rel_mse_interval())),
+            (None, None) => (self.metrics.rel_mse, None),
+        }
+    }
+
+    /// The seconds the tables show: the mean over the runs with their interval under
+    /// `--repeat`, else the render's own.
+    fn seconds(&self) -> (f64, Option<(f64, f64)>) {
+        match &self.spread {
+            Some(s) => (s.seconds.mean, Some((s.seconds.low, s.seconds.high))),
+            None => (self.out.seconds, None),
+        }
     }
 
     /// Samples per pixel: for a fixed-pattern (adaptive) method its camera rays per pixel, the
     /// real mean, else the whole samples every pixel got.
     fn spp(&self) -> f64 {
-        if self.fixed {
-            let pixels = (self.out.image.width * self.out.image.height).max(1) as f64;
-            self.out.rays.primary as f64 / pixels
-        } else {
-            f64::from(self.out.spp)
-        }
+        spp_of(self.fixed, &self.out)
     }
 
     /// 1/(relMSE·seconds) with its interval where no bias is detected, else why not
-    /// ([`metrics::efficiency`]).
+    /// ([`metrics::efficiency`]); under `--repeat` of the runs' mean relMSE and seconds, with the
+    /// interval over the runs ([`RunSpread`]), the verdict still the first run's.
     fn efficiency(&self) -> Result<Efficiency, &'static str> {
-        metrics::efficiency(self.split.as_ref(), self.out.seconds)
+        let own = metrics::efficiency(self.split.as_ref(), self.out.seconds)?;
+        Ok(match &self.spread {
+            Some(s) => {
+                Efficiency { value: s.efficiency.mean, low: s.efficiency.low, high: s.efficiency.high }
+            }
+            None => own,
+        })
     }
 
     /// The split's verdict ([`metrics::Verdict`]), or "unknown" (no replicas to split the error
     /// with).
     fn status(&self) -> &'static str {
         self.split.as_ref().map_or("unknown", |s| s.verdict().name())
+    }
+}
+
+/// Samples per pixel of the render `out`: for a fixed-pattern (adaptive) method its camera rays
+/// per pixel, the real mean, else the whole samples every pixel got.
+fn spp_of(fixed: bool, out: &RenderOutput) -> f64 {
+    if fixed {
+        let pixels = (out.image.width * out.image.height).max(1) as f64;
+        out.rays.primary as f64 / pixels
+    } else {
+        f64::from(out.spp)
     }
 }
 
@@ -243,20 +318,7 @@ impl Plan {
             None => methods,
         };
         let crop = args.crop.map(|c| Crop { x: c.x, y: c.y, width: c.width, height: c.height });
-        let mut regions: Vec<(String, Crop)> = Vec::new();
-        for r in &args.regions {
-            let c = Crop { x: r.rect.x, y: r.rect.y, width: r.rect.width, height: r.rect.height };
-            if c.x + c.width > size.0 || c.y + c.height > size.1 {
-                return Err(bad(format!(
-                    "--region {}={},{},{},{} does not fit inside the {}x{} image",
-                    r.name, c.x, c.y, c.width, c.height, size.0, size.1
-                )));
-            }
-            if regions.iter().any(|(n, _)| *n == r.name) {
-                return Err(bad(format!("--region {}: the name is given twice", r.name)));
-            }
-            regions.push((r.name.clone(), c));
-        }
+        let regions = super::plan_regions(&args.regions, &args.masks, size)?;
         if let Some(c) = crop {
             if c.x + c.width > size.0 || c.y + c.height > size.1 {
                 return Err(bad(format!(
@@ -331,6 +393,7 @@ impl Plan {
             reference,
             out: args.out.clone(),
             renders,
+            repeat: args.repeat,
         })
     }
 
@@ -442,7 +505,7 @@ impl Plan {
     /// The renders this plan makes: one per method, and the reference unless it is a file.
     pub(crate) fn renders(&self) -> u64 {
         let cached = matches!(self.reference, ReferenceSource::Cached(..));
-        self.methods.len() as u64 + u64::from(cached)
+        self.methods.len() as u64 * u64::from(self.repeat) + u64::from(cached)
     }
 
     /// The warnings of the scene, printed before rendering.
@@ -492,6 +555,20 @@ pub(crate) fn print_summary(outcome: &Outcome) {
             format_number(row.metrics.mse),
             split_text(row)
         );
+        if let Some(s) = &row.spread {
+            eprintln!(
+                "{:<11} over {} runs: relMSE {} [{}, {}], {} s [{}, {}], efficiency {}",
+                "",
+                s.runs,
+                format_number(s.rel_mse.mean),
+                format_number(s.rel_mse.low),
+                format_number(s.rel_mse.high),
+                format_seconds(s.seconds.mean),
+                format_seconds(s.seconds.low),
+                format_seconds(s.seconds.high),
+                efficiency_text(row)
+            );
+        }
     }
 }
 
@@ -543,29 +620,16 @@ pub(crate) fn render_scene(
         let mut opts = args.render.options(&plan.scene, method, plan.budget);
         spec.apply(&mut opts);
         crate::commands::support::check_effects(&plan.scene, method, &opts, false)?;
-        let bar = bars.render(&spec.label, plan.budget);
-        let start = Instant::now();
-        let progress = |done: u64, total: u64| match plan.budget {
-            Budget::Samples(_) => {
-                bar.set_length(total);
-                bar.set_position(done);
-            }
-            Budget::Time(limit) => {
-                bar.set_length(limit.as_millis() as u64);
-                bar.set_position((start.elapsed().as_millis() as u64).min(limit.as_millis() as u64));
-            }
-        };
-        let out = pool.install(|| render::render(&plan.scene, method, &opts, &progress));
-        bar.finish_and_clear();
-        bars.overall.inc(1);
-        if out.non_finite_samples > 0 {
-            bars.println(&format!(
-                "vitrum: warning: {}: {} sample(s) were NaN or infinite",
-                spec.label, out.non_finite_samples
-            ));
+        let seed = opts.seed;
+        let failure = |e: MetricsError| CliError::Failure(format!("{}: {e}", spec.label));
+        let out = render_run(plan, spec, &opts, 0, (pool, bars));
+        let mut row =
+            Row::new(spec, out, seed, &reference, (plan.exposure, &plan.regions)).map_err(failure)?;
+        for k in 1..plan.repeat {
+            opts.seed = seed.wrapping_add(u64::from(k));
+            let out = render_run(plan, spec, &opts, k, (pool, bars));
+            row.add_run(&out, opts.seed, &reference).map_err(failure)?;
         }
-        let row = Row::new(spec, out, opts.seed, &reference, (plan.exposure, &plan.regions))
-            .map_err(|e| CliError::Failure(format!("{}: {e}", spec.label)))?;
         rows.push(row);
     }
     let spp = match &plan.reference {
@@ -578,6 +642,44 @@ pub(crate) fn render_scene(
         bars.println(&warning);
     }
     Ok(Outcome { reference, reference_text, reference_file, rows })
+}
+
+/// Renders run `k` (from 0) of `spec` with `opts` under a bar of its own, warning of non-finite
+/// samples.
+fn render_run(
+    plan: &Plan,
+    spec: &MethodSpec,
+    opts: &render::RenderOptions,
+    k: u32,
+    (pool, bars): (&rayon::ThreadPool, &Bars),
+) -> RenderOutput {
+    let name = if plan.repeat > 1 {
+        format!("{} {}/{}", spec.label, k + 1, plan.repeat)
+    } else {
+        spec.label.clone()
+    };
+    let bar = bars.render(&name, plan.budget);
+    let start = Instant::now();
+    let progress = |done: u64, total: u64| match plan.budget {
+        Budget::Samples(_) => {
+            bar.set_length(total);
+            bar.set_position(done);
+        }
+        Budget::Time(limit) => {
+            bar.set_length(limit.as_millis() as u64);
+            bar.set_position((start.elapsed().as_millis() as u64).min(limit.as_millis() as u64));
+        }
+    };
+    let out = pool.install(|| render::render(&plan.scene, spec.integrator.as_ref(), opts, &progress));
+    bar.finish_and_clear();
+    bars.overall.inc(1);
+    if out.non_finite_samples > 0 {
+        bars.println(&format!(
+            "vitrum: warning: {name}: {} sample(s) were NaN or infinite (seed {})",
+            out.non_finite_samples, opts.seed
+        ));
+    }
+    out
 }
 
 /// The reference description without its (possibly long) file path.
@@ -717,6 +819,9 @@ pub(crate) fn publish(plan: &Plan, outcome: &Outcome, report: Option<&Report>) -
         if !plan.regions.is_empty() {
             staged.push(stage_text(&out.join(REGIONS_CSV), &regions_csv(&plan.regions, &outcome.rows))?);
         }
+        if plan.repeat > 1 {
+            staged.push(stage_text(&out.join(RUNS_CSV), &runs_csv(&outcome.rows))?);
+        }
         if let Some(report) = report {
             staged.extend(crate::report::stage(out, report)?);
         }
@@ -785,11 +890,13 @@ fn efficiency_text(row: &Row) -> String {
 }
 
 /// The CSV header: the first nine columns as before (efficiency is now 1/(relMSE·seconds)), the
-/// newer ones after them, the split's last.
+/// newer ones after them, the split's last. Under `--repeat`, `seconds`, `rel_mse` and
+/// `efficiency` are the means over the runs and their `_low`/`_high` the runs' 95% interval.
 pub const CSV_HEADER: &str = concat!(
     "method,spp,seconds,rays,mrays_per_second,mse,rel_mse,efficiency,non_finite_pixels,",
     "rel_mse_trimmed,psnr,psnr_peak,psnr_preview,ssim,flip,",
     "rel_mse_low,rel_mse_high,efficiency_low,efficiency_high,efficiency_note,",
+    "runs,seconds_low,seconds_high,",
     "rel_mse_se,variance,reference_variance,reference_share,bias,bias_se,detection_limit,verdict"
 );
 
@@ -799,7 +906,10 @@ fn csv_table(rows: &[Row]) -> String {
     s.push('\n');
     for r in rows {
         let m = &r.metrics;
-        let (low, high) = r.split.map_or((f64::NAN, f64::NAN), |s| s.rel_mse_interval());
+        let (rel_mse, interval) = r.rel_mse();
+        let (low, high) = interval.unwrap_or((f64::NAN, f64::NAN));
+        let (seconds, seconds_interval) = r.seconds();
+        let (seconds_low, seconds_high) = seconds_interval.unwrap_or((f64::NAN, f64::NAN));
         let finite = |v: f64| if v.is_nan() { String::new() } else { v.to_string() };
         let (efficiency, e_low, e_high, note) = match r.efficiency() {
             Ok(e) => (e.value.to_string(), e.low.to_string(), e.high.to_string(), String::new()),
@@ -807,14 +917,14 @@ fn csv_table(rows: &[Row]) -> String {
         };
         let _ = writeln!(
             s,
-            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
             super::csv_field(&r.method),
             r.spp(),
-            r.out.seconds,
+            seconds,
             r.out.rays.total(),
             mrays_per_second(&r.out),
             m.mse,
-            m.rel_mse,
+            rel_mse,
             efficiency,
             m.non_finite_test,
             m.rel_mse_trimmed,
@@ -828,8 +938,36 @@ fn csv_table(rows: &[Row]) -> String {
             e_low,
             e_high,
             note,
+            r.runs.len(),
+            finite(seconds_low),
+            finite(seconds_high),
             metrics::split_csv(r.split.as_ref()),
         );
+    }
+    s
+}
+
+/// The file of every run of `--repeat`.
+pub const RUNS_CSV: &str = "compare-runs.csv";
+
+/// The header of [`RUNS_CSV`]: one line per method and run.
+pub const RUNS_CSV_HEADER: &str = "method,run,seed,spp,seconds,rel_mse";
+
+/// Every run of every row, one line each.
+fn runs_csv(rows: &[Row]) -> String {
+    let mut s = format!("{RUNS_CSV_HEADER}\n");
+    for r in rows {
+        for (k, run) in r.runs.iter().enumerate() {
+            let _ = writeln!(
+                s,
+                "{},{k},{},{},{},{}",
+                super::csv_field(&r.method),
+                run.seed,
+                run.spp,
+                run.seconds,
+                run.rel_mse
+            );
+        }
     }
     s
 }
@@ -845,12 +983,13 @@ pub const REGIONS_CSV_HEADER: &str = concat!(
 );
 
 /// The metrics of every row over every region, one line per (method, region).
-fn regions_csv(regions: &[(String, Crop)], rows: &[Row]) -> String {
+fn regions_csv(regions: &[(String, Region)], rows: &[Row]) -> String {
     let mut s = String::from(REGIONS_CSV_HEADER);
     s.push('\n');
     let finite = |v: f64| if v.is_nan() { String::new() } else { v.to_string() };
     for r in rows {
-        for ((name, c), (m, split)) in regions.iter().zip(&r.regions) {
+        for ((name, region), (m, split)) in regions.iter().zip(&r.regions) {
+            let c = region.rect;
             let (low, high) = split.map_or((f64::NAN, f64::NAN), |s| s.rel_mse_interval());
             let (e, el, eh) = match metrics::efficiency(split.as_ref(), r.out.seconds) {
                 Ok(e) => (e.value.to_string(), e.low.to_string(), e.high.to_string()),
@@ -887,6 +1026,27 @@ fn value_se(split: Option<&Split>, f: fn(&Split) -> (f64, f64)) -> String {
     })
 }
 
+/// What the table's numbers are under `--repeat` (nothing for one run).
+fn repeat_caption(repeat: u32) -> String {
+    if repeat < 2 {
+        return String::new();
+    }
+    format!(
+        " Repeated runs: every method rendered {repeat} times (seeds seed … seed + {}); seconds, relMSE \
+         and efficiency are the means over the runs with the 95% interval of their spread (efficiency \
+         = 1/(mean relMSE · mean seconds), jackknife interval; compare-runs.csv has every run); the \
+         images, the other metrics and the verdict are the first run's.",
+        repeat - 1
+    )
+}
+
+/// "caustic (10,20,30,40)" for a rectangle, "glass (mask in 10,20,30,40)" for a mask.
+pub(crate) fn region_label(name: &str, region: &Region) -> String {
+    let c = region.rect;
+    let kind = if region.mask.is_some() { "mask in " } else { "" };
+    format!("{name} ({kind}{},{},{},{})", c.x, c.y, c.width, c.height)
+}
+
 /// The table as Markdown with a caption stating the scene, budget, reference and definitions.
 fn markdown_table(plan: &Plan, rows: &[Row], reference: &str, reference_variance: bool) -> String {
     let mut s = format!("# vitrum compare: {}\n\n", plan.scene_name);
@@ -902,7 +1062,7 @@ fn markdown_table(plan: &Plan, rows: &[Row], reference: &str, reference_variance
          part > {} standard errors and above the reference's variance part; \"reference too \
          noisy\" = the reference's variance part > {:.0}% of the error; \"inconclusive\" = a bias \
          of {:.0}% of the error could hide in the noise; else \"no bias detected\". Efficiency = 1/(relMSE·seconds) with its 95% interval, given only \
-         where no bias is detected. `ssaa`'s spp is its mean camera rays per pixel.\n",
+         where no bias is detected. `ssaa`'s spp is its mean camera rays per pixel.{}\n",
         plan.budget_text(),
         match (&plan.renders, plan.budget) {
             (Some(_), _) => "read from files; seconds of merged parts are summed",
@@ -917,6 +1077,7 @@ fn markdown_table(plan: &Plan, rows: &[Row], reference: &str, reference_variance
         metrics::BIAS_SIGNIFICANCE,
         100.0 * metrics::REFERENCE_SHARE_LIMIT,
         100.0 * metrics::INCONCLUSIVE_FRACTION,
+        repeat_caption(plan.repeat),
     );
     s.push_str(
         "| method | spp | seconds | rays | Mrays/s | MSE | relMSE [95%] | relMSE 99.9% | PSNR HDR (peak) | \
@@ -925,16 +1086,19 @@ fn markdown_table(plan: &Plan, rows: &[Row], reference: &str, reference_variance
     s.push_str("|---|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|---|--:|--:|\n");
     for r in rows {
         let m = &r.metrics;
-        let rel_mse = match &r.split {
-            Some(split) => with_interval(m.rel_mse, split.rel_mse_interval()),
-            None => format!("{:.3e}", m.rel_mse),
+        let rel_mse = match r.rel_mse() {
+            (v, Some(interval)) => with_interval(v, interval),
+            (v, None) => format!("{v:.3e}"),
+        };
+        let seconds = match r.seconds() {
+            (v, Some((low, high))) => format!("{v:.3} [{low:.3}, {high:.3}]"),
+            (v, None) => format!("{v:.3}"),
         };
         let _ = writeln!(
             s,
-            "| {} | {} | {:.3} | {} | {:.2} | {:.3e} | {} | {:.3e} | {:.2} dB ({:.3}) | {:.2} dB | {:.4} | {:.4} | {} | {} | {} | {} |",
+            "| {} | {} | {seconds} | {} | {:.2} | {:.3e} | {} | {:.3e} | {:.2} dB ({:.3}) | {:.2} dB | {:.4} | {:.4} | {} | {} | {} | {} |",
             r.method,
             format_spp(r.spp()),
-            r.out.seconds,
             r.out.rays.total(),
             mrays_per_second(&r.out),
             m.mse,
@@ -952,23 +1116,23 @@ fn markdown_table(plan: &Plan, rows: &[Row], reference: &str, reference_variance
         );
     }
     if !plan.regions.is_empty() {
-        s.push_str("\n## Regions\n\nThe same metrics over each `--region` (compare-regions.csv has every column).\n\n");
+        s.push_str(
+            "\n## Regions\n\nThe same metrics over each `--region` and `--mask` (compare-regions.csv has \
+             every column; a mask's x, y, width and height are its bounding box).\n\n",
+        );
         s.push_str("| method | region | pixels | relMSE [95%] | SSIM | HDR-FLIP | bias part | verdict |\n");
         s.push_str("|---|---|--:|--:|--:|--:|--:|---|\n");
         for r in rows {
-            for ((name, c), (m, split)) in plan.regions.iter().zip(&r.regions) {
+            for ((name, region), (m, split)) in plan.regions.iter().zip(&r.regions) {
                 let rel_mse = match split {
                     Some(split) => with_interval(m.rel_mse, split.rel_mse_interval()),
                     None => format!("{:.3e}", m.rel_mse),
                 };
                 let _ = writeln!(
                     s,
-                    "| {} | {name} ({},{},{},{}) | {} | {rel_mse} | {:.4} | {:.4} | {} | {} |",
+                    "| {} | {} | {} | {rel_mse} | {:.4} | {:.4} | {} | {} |",
                     r.method,
-                    c.x,
-                    c.y,
-                    c.width,
-                    c.height,
+                    region_label(name, region),
                     m.pixels,
                     m.ssim,
                     m.flip,
@@ -999,7 +1163,7 @@ mod tests {
     #[test]
     fn the_split_columns_end_the_csv_header() {
         assert!(CSV_HEADER.ends_with(metrics::SPLIT_CSV_COLUMNS));
-        assert_eq!(CSV_HEADER.split(',').count(), 9 + 6 + 5 + 8);
+        assert_eq!(CSV_HEADER.split(',').count(), 9 + 6 + 5 + 3 + 8);
     }
 
     #[test]

@@ -16,7 +16,7 @@ use crate::commands::support::{check_output_path, CliError};
 use crate::figure::colormap::{above_scale, error_map, log_range, power_of_ten_label};
 use crate::figure::compose::format_number;
 use crate::image::Image;
-use crate::metrics::{self, Crop, ErrorSource, Estimate, Metrics, MetricsError, Split, Verdict};
+use crate::metrics::{self, Crop, ErrorSource, Estimate, Metrics, MetricsError, Region, Split, Verdict};
 use crate::output::film::read_render;
 use crate::output::OutputError;
 use crate::render::{Progression, ReplicaMeans};
@@ -38,6 +38,10 @@ pub struct DiffArgs {
     /// Only this rectangle, X,Y,W,H in pixels from the top-left.
     #[arg(long, value_parser = super::parse_crop)]
     pub crop: Option<super::CropArg>,
+    /// Only the white pixels of this PNG of the images' size (grey level and alpha at least 128);
+    /// the error map shows their bounding box.
+    #[arg(long, value_name = "FILE.png", conflicts_with = "crop", value_parser = super::parse_mask)]
+    pub mask: Option<super::MaskArg>,
     /// Exposure in stops of the tone-mapped preview that the preview PSNR and SSIM judge (as
     /// `render --png` would show it). Default: the exposure the test image was judged at, kept in
     /// its `vitrum:exposure` attribute (`compare`, `render`), else 0.
@@ -121,7 +125,12 @@ pub fn run(args: &DiffArgs) -> Result<(), CliError> {
     }
     let test = read_image(&args.test, "test image")?;
     let reference = read_image(&args.reference, "reference image")?;
-    let crop = args.crop.map(|c| Crop { x: c.x, y: c.y, width: c.width, height: c.height });
+    let size = (test.image.width, test.image.height);
+    let region = match &args.mask {
+        Some(mask) => super::plan_regions(&[], std::slice::from_ref(mask), size)?.pop().map(|(_, r)| r),
+        None => args.crop.map(|c| Region::rect(Crop { x: c.x, y: c.y, width: c.width, height: c.height })),
+    };
+    let crop = region.as_ref().map(|r| r.rect);
     let exposure = args.exposure.unwrap_or_else(|| {
         test.attributes
             .get(EXPOSURE_ATTRIBUTE)
@@ -129,9 +138,10 @@ pub fn run(args: &DiffArgs) -> Result<(), CliError> {
             .filter(|e: &f32| e.is_finite())
             .unwrap_or(0.0)
     });
-    let m = metrics::compare(&test.image, &reference.image, crop, exposure).map_err(|e| explain(&e, args))?;
+    let m = metrics::compare_over(&test.image, &reference.image, region.as_ref(), exposure)
+        .map_err(|e| explain(&e, args))?;
     let split = if test.variance.is_some() || test.deterministic() {
-        let s = metrics::split(test.estimate(), reference.estimate(), crop);
+        let s = metrics::split_over(test.estimate(), reference.estimate(), region.as_ref());
         Some(s.map_err(|e| explain(&e, args))?)
     } else {
         None
@@ -186,7 +196,9 @@ fn explain(error: &MetricsError, args: &DiffArgs) -> CliError {
             "--crop {x},{y},{width},{height} does not fit inside the {image_width}x{image_height} images \
              ({test}, {reference})"
         ),
-        MetricsError::VarianceSize { .. } => format!("{error} ({test}, {reference})"),
+        MetricsError::VarianceSize { .. } | MetricsError::MaskSize { .. } => {
+            format!("{error} ({test}, {reference})")
+        }
     })
 }
 
@@ -299,11 +311,20 @@ pub fn error_source(split: &Split) -> String {
 /// The metrics as a small table.
 fn table(found: &Found, args: &DiffArgs, image: &Image) -> String {
     let m = &found.metrics;
-    let region = match args.crop {
-        Some(c) => {
+    let region = match (&args.mask, args.crop) {
+        (Some(mask), _) => {
+            format!(
+                "the {} pixels of mask {} in {}x{}",
+                m.pixels,
+                mask.path.display(),
+                image.width,
+                image.height
+            )
+        }
+        (None, Some(c)) => {
             format!("crop {},{},{},{} of {}x{}", c.x, c.y, c.width, c.height, image.width, image.height)
         }
-        None => format!("{}x{}", image.width, image.height),
+        (None, None) => format!("{}x{}", image.width, image.height),
     };
     let mut out = format!("{} against {} ({region})\n", args.test.display(), args.reference.display());
     let mut rows = vec![
@@ -391,6 +412,7 @@ fn json_summary(found: &Found, args: &DiffArgs, image: &Image) -> serde_json::Va
         "width": image.width,
         "height": image.height,
         "crop": args.crop.map(|c| json!({"x": c.x, "y": c.y, "width": c.width, "height": c.height})),
+        "mask": args.mask.as_ref().map(|mask| mask.path.display().to_string()),
         "mse": m.mse,
         "rmse": m.rmse,
         "rel_mse": m.rel_mse,

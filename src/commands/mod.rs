@@ -421,6 +421,85 @@ pub fn parse_region(s: &str) -> Result<RegionArg, String> {
     Ok(RegionArg { name, rect: parse_crop(rect)? })
 }
 
+/// A `--mask`: the PNG file whose white pixels are measured, and its name in the tables.
+#[derive(Clone, Debug)]
+pub struct MaskArg {
+    /// Its name in the tables.
+    pub name: String,
+    /// The PNG file.
+    pub path: PathBuf,
+}
+
+/// Parses `NAME=FILE.png`, or `FILE.png` (named by its file stem).
+pub fn parse_mask(s: &str) -> Result<MaskArg, String> {
+    let (name, path) = match s.split_once('=') {
+        Some((name, path)) => (name.trim().to_string(), PathBuf::from(path)),
+        None => {
+            let path = PathBuf::from(s);
+            let stem = path.file_stem().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+            let stem =
+                stem.chars().map(|c| if c.is_ascii_alphanumeric() || c == '-' { c } else { '_' }).collect();
+            (stem, path)
+        }
+    };
+    if name.is_empty() || !name.chars().all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_') {
+        return Err(format!("`{s}`: the mask's name must be letters, digits, `-` or `_` (NAME=FILE.png)"));
+    }
+    Ok(MaskArg { name, path })
+}
+
+/// The smallest grey level (0–255) of a mask pixel that selects it, and the smallest alpha.
+pub const MASK_THRESHOLD: u8 = 128;
+
+/// The regions of `regions` and `masks` for renders of `size` (width, height), named, in the
+/// order given (rectangles first): every rectangle inside the image, every mask a readable
+/// image of that size selecting at least one pixel (grey level and alpha both at least
+/// [`MASK_THRESHOLD`]), no name twice.
+pub fn plan_regions(
+    regions: &[RegionArg],
+    masks: &[MaskArg],
+    size: (usize, usize),
+) -> Result<Vec<(String, crate::metrics::Region)>, CliError> {
+    use crate::metrics::{Crop, Region};
+    let bad = |m: String| CliError::BadInput(m);
+    let mut planned: Vec<(String, Region)> = Vec::new();
+    let mut add = |name: &str, region: Region, what: String| {
+        if planned.iter().any(|(n, _)| n == name) {
+            return Err(bad(format!("{what}: the name `{name}` is given twice")));
+        }
+        planned.push((name.to_string(), region));
+        Ok(())
+    };
+    for r in regions {
+        let c = Crop { x: r.rect.x, y: r.rect.y, width: r.rect.width, height: r.rect.height };
+        let what = format!("--region {}={},{},{},{}", r.name, c.x, c.y, c.width, c.height);
+        if c.x + c.width > size.0 || c.y + c.height > size.1 {
+            return Err(bad(format!("{what} does not fit inside the {}x{} image", size.0, size.1)));
+        }
+        add(&r.name, Region::rect(c), what)?;
+    }
+    for m in masks {
+        let what = format!("--mask {}={}", m.name, m.path.display());
+        let image = ::image::open(&m.path).map_err(|e| bad(format!("{what}: cannot read the image: {e}")))?;
+        let image = image.to_luma_alpha8();
+        let (w, h) = (image.width() as usize, image.height() as usize);
+        if (w, h) != size {
+            return Err(bad(format!(
+                "{what}: the mask is {w}x{h} but the renders are {}x{}",
+                size.0, size.1
+            )));
+        }
+        let selected = image.pixels().map(|p| p[0] >= MASK_THRESHOLD && p[1] >= MASK_THRESHOLD).collect();
+        let region = Region::masked(w, selected).ok_or_else(|| {
+            bad(format!(
+                "{what}: selects no pixel (white, grey level ≥ {MASK_THRESHOLD}, selects; black leaves out)"
+            ))
+        })?;
+        add(&m.name, region, what)?;
+    }
+    Ok(planned)
+}
+
 /// Parses `X,Y,W,H` (whole pixels, W and H at least 1).
 pub fn parse_crop(s: &str) -> Result<CropArg, String> {
     let parts: Vec<&str> = s.split(',').map(str::trim).collect();

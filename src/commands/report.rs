@@ -94,11 +94,13 @@ fn compare_args(args: &ReportArgs, scene: &Path, out: PathBuf) -> CompareArgs {
         cache: args.cache.clone(),
         crop: args.crop,
         regions: args.regions.clone(),
+        masks: Vec::new(),
         exposure: args.exposure,
         render: args.render.clone(),
         out,
         quiet: args.quiet,
         renders: Vec::new(),
+        repeat: 1,
     }
 }
 

@@ -46,7 +46,7 @@
 //! A deterministic render (no variance: `ssaa`'s fixed pattern) has V = 0; its standard error is
 //! then the reference's alone.
 
-use super::{check_sizes, region_indices, resolve_crop, Crop, MetricsError, REL_EPSILON};
+use super::{check_sizes, resolve_region, Crop, MetricsError, Region, REL_EPSILON};
 use crate::image::Image;
 use crate::render::{t95, RenderOutput, ReplicaMeans};
 use glam::DVec3;
@@ -314,14 +314,23 @@ fn weighted(w: DVec3, v: DVec3) -> f64 {
 /// The bias and variance parts of the relMSE of `test` against `reference` over `crop` (or the
 /// whole image), with their standard errors (module documentation).
 pub fn split(test: Estimate, reference: Estimate, crop: Option<Crop>) -> Result<Split, MetricsError> {
+    split_over(test, reference, crop.map(Region::rect).as_ref())
+}
+
+/// The split of [`split`] over `region` (or the whole image).
+pub fn split_over(
+    test: Estimate,
+    reference: Estimate,
+    region: Option<&Region>,
+) -> Result<Split, MetricsError> {
     check_sizes(test.image, reference.image)?;
     test.check("test", reference.image)?;
     reference.check("reference", reference.image)?;
-    let crop = resolve_crop(test.image, crop)?;
+    let region = resolve_region(test.image, region)?;
     // The pixels of the split, with their weights, errors and variances.
     let mut used: Vec<Used> = Vec::new();
     let mut non_finite_variance = 0;
-    for i in region_indices(test.image.width, crop) {
+    for i in region.indices(test.image.width) {
         let (x, r) = (test.image.pixels[i].as_dvec3(), reference.image.pixels[i].as_dvec3());
         if !(x.is_finite() && r.is_finite()) {
             continue;
@@ -434,13 +443,13 @@ pub fn render_split(
     deterministic: bool,
     out: &RenderOutput,
     reference: Estimate,
-    crop: Option<Crop>,
+    region: Option<&Region>,
 ) -> Result<Option<Split>, MetricsError> {
     let test = Estimate::of(out);
     if !test.has_noise() && !deterministic {
         return Ok(None);
     }
-    split(test, reference, crop).map(Some)
+    split_over(test, reference, region).map(Some)
 }
 
 #[cfg(test)]
