@@ -683,3 +683,42 @@ fn repeated_runs_give_intervals_over_seeds_and_the_first_run_is_the_plain_render
     assert_eq!(bad.status.code(), Some(2));
     assert!(!sandbox.path("out/bad").exists());
 }
+
+#[test]
+fn a_deliberately_short_reference_is_flagged_in_the_table_on_stderr_and_in_the_page() {
+    // glass-in-sky's sun through glass: the reference method is chosen by pilot renders, and a
+    // 16-sample reference is far noisier than half a second of path or vcm (its variance part
+    // was about 100% of their error when measured, the limit is 10%).
+    let sandbox = Sandbox::new();
+    let sky = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/glass-in-sky.toml");
+    let out = sandbox.vitrum(&[
+        "compare",
+        sky.to_str().unwrap(),
+        "-i",
+        "path,vcm",
+        "--time",
+        "0.5",
+        "--resolution",
+        "48x36",
+        "--reference-spp",
+        "16",
+        "--cache",
+        "cache",
+        "--out",
+        "out/sky",
+    ]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let err = stderr(&out);
+    assert!(err.contains("relative variance × seconds in 0.50 s pilots"), "chosen by measurement: {err}");
+    assert!(err.contains("the reference is too noisy to judge the bias of path"), "{err}");
+    assert!(err.contains("--reference-spp"), "it says what would do: {err}");
+    let folder = sandbox.path("out/sky");
+    for row in csv_rows(&folder) {
+        assert_eq!(row["verdict"], "reference too noisy", "{row:?}");
+        assert!(row["efficiency"].is_empty(), "no efficiency against a noisy reference: {row:?}");
+    }
+    let md = fs::read_to_string(folder.join("compare.md")).unwrap();
+    assert_eq!(md.lines().filter(|l| l.contains("| reference too noisy |")).count(), 2, "{md}");
+    let page = fs::read_to_string(folder.join("index.html")).unwrap();
+    assert!(page.contains("<td data-value=\"reference too noisy\">"), "the page's table flags it");
+}
