@@ -655,6 +655,10 @@ pub fn run(args: &ConvergeArgs) -> Result<(), CliError> {
                     name: s.name.to_string(),
                     points: mine.iter().map(|r| (x(r), r.metrics.rel_mse)).collect(),
                     legend: Some(s.regime.legend(&s.name, slope(&s.regime), &mine)),
+                    intervals: mine
+                        .iter()
+                        .map(|r| r.split.map_or((f64::NAN, f64::NAN), |s| s.rel_mse_interval()))
+                        .collect(),
                 }
             })
             .collect();

@@ -5,7 +5,8 @@
 //! colour-blind-safe palette (Okabe–Ito), and the legend gives its name with the least-squares
 //! slope of log y against log x: Monte Carlo error falls with slope −0.5 for RMSE and −1 for MSE.
 //! Points that cannot be shown on log axes (not positive or not finite) are left out of the
-//! drawing and of the fit.
+//! drawing and of the fit. A series may give each point's 95% confidence interval, drawn as a
+//! vertical error bar with caps (a lower bound at or below zero reaches the bottom of the axis).
 
 use super::canvas::{for_each_text_pixel, text_height, FONT_BYTES};
 use crate::output::{stage, OutputError};
@@ -27,6 +28,9 @@ pub struct Series {
     /// The whole legend text instead of the name and the slope fitted to every point (for a
     /// slope fitted to some of them, such as `converge`'s variance regime).
     pub legend: Option<String>,
+    /// The 95% interval (low, high) of each point's y, in the points' order; empty when the
+    /// series has none, NaN bounds for a point without one.
+    pub intervals: Vec<(f64, f64)>,
 }
 
 /// A log-log plot.
@@ -142,8 +146,19 @@ fn register_font() -> Result<(), String> {
 /// the usable points; `None` when there is none.
 #[allow(clippy::type_complexity)]
 fn decade_ranges(plot: &LogLogPlot) -> Option<((i32, i32), (i32, i32))> {
-    let points: Vec<(f64, f64)> =
-        plot.series.iter().flat_map(|s| s.points.iter().copied()).filter(usable).collect();
+    let bounds = |s: &'_ Series| {
+        s.points
+            .iter()
+            .zip(&s.intervals)
+            .flat_map(|(&(x, _), &(lo, hi))| [(x, lo), (x, hi)])
+            .collect::<Vec<_>>()
+    };
+    let points: Vec<(f64, f64)> = plot
+        .series
+        .iter()
+        .flat_map(|s| s.points.iter().copied().chain(bounds(s).into_iter().filter(|&(_, y)| y < f64::MAX)))
+        .filter(usable)
+        .collect();
     let decades = |values: &mut dyn Iterator<Item = f64>| -> Option<(i32, i32)> {
         let (min, max) = values.fold(None, |acc: Option<(f64, f64)>, v| {
             Some(acc.map_or((v, v), |(a, b)| (a.min(v), b.max(v))))
@@ -223,6 +238,13 @@ fn draw<DB: DrawingBackend>(
                     + Circle::new((12, 0), 4, colour.filled())
             });
         chart.draw_series(points.iter().map(|&p| Circle::new(p, 4, colour.filled()))).map_err(err)?;
+        let bottom = 10f64.powi(y_lo);
+        let bars = series.points.iter().zip(&series.intervals).filter_map(|(&(x, y), &(lo, hi))| {
+            let drawable = usable(&(x, y)) && lo.is_finite() && hi.is_finite() && hi > 0.0;
+            drawable.then(|| error_bar(x, lo.max(bottom), hi))
+        });
+        let style = colour.stroke_width(1);
+        chart.draw_series(bars.flatten().map(|line| PathElement::new(line, style))).map_err(err)?;
     }
     if !plot.series.is_empty() {
         chart
@@ -237,6 +259,13 @@ fn draw<DB: DrawingBackend>(
             .map_err(err)?;
     }
     root.present().map_err(err)
+}
+
+/// The three lines of a vertical error bar at `x` from `low` to `high`: the bar and its caps, each
+/// cap 3% of x to either side (the same width anywhere on a log axis).
+fn error_bar(x: f64, low: f64, high: f64) -> [Vec<(f64, f64)>; 3] {
+    let cap = |y: f64| vec![(x / 1.03, y), (x * 1.03, y)];
+    [vec![(x, low), (x, high)], cap(low), cap(high)]
 }
 
 /// A bitmap backend that sets text itself: plotters' own ab_glyph text drawing places each glyph
@@ -385,7 +414,9 @@ mod tests {
 
     #[test]
     fn the_legend_sits_where_the_curves_are_not() {
-        let series = |points: Vec<(f64, f64)>| [Series { name: "s".into(), points, legend: None }];
+        let series = |points: Vec<(f64, f64)>| {
+            [Series { name: "s".into(), points, legend: None, intervals: Vec::new() }]
+        };
         let plot = |series| LogLogPlot { title: "t", x_label: "x", y_label: "y", series };
         let falling = series(vec![(1.0, 1.0), (10.0, 0.1), (100.0, 0.01)]);
         let rising = series(vec![(1.0, 0.1), (10.0, 0.2), (100.0, 0.4)]);
@@ -395,9 +426,15 @@ mod tests {
 
     #[test]
     fn legend_names_carry_the_slope() {
-        let s = Series { name: "path".into(), points: vec![(1.0, 1.0), (100.0, 0.1)], legend: None };
+        let s = Series {
+            name: "path".into(),
+            points: vec![(1.0, 1.0), (100.0, 0.1)],
+            legend: None,
+            intervals: Vec::new(),
+        };
         assert_eq!(legend_label(&s), "path (slope −0.50)");
-        let lone = Series { name: "light".into(), points: vec![(1.0, 1.0)], legend: None };
+        let lone =
+            Series { name: "light".into(), points: vec![(1.0, 1.0)], legend: None, intervals: Vec::new() };
         assert_eq!(legend_label(&lone), "light");
         let given = Series { legend: Some("light (plateau)".into()), ..s };
         assert_eq!(legend_label(&given), "light (plateau)");
@@ -414,13 +451,36 @@ mod tests {
     fn sample_plot_series() -> Vec<Series> {
         let spp = [1.0, 4.0, 16.0, 64.0, 256.0];
         vec![
-            Series { name: "path".into(), points: spp.iter().map(|&n| (n, 0.3 / n)).collect(), legend: None },
+            Series {
+                name: "path".into(),
+                points: spp.iter().map(|&n| (n, 0.3 / n)).collect(),
+                legend: None,
+                intervals: Vec::new(),
+            },
             Series {
                 name: "light".into(),
                 points: spp.iter().map(|&n| (n, 0.9 * f64::powf(n, -0.9))).collect(),
                 legend: None,
+                intervals: spp
+                    .iter()
+                    .map(|&n| (0.5 * f64::powf(n, -0.9), 1.5 * f64::powf(n, -0.9)))
+                    .collect(),
             },
         ]
+    }
+
+    #[test]
+    fn error_bars_widen_the_axes_to_show_them_and_a_bound_at_zero_is_left_to_the_axis() {
+        let series = |intervals: Vec<(f64, f64)>| {
+            vec![Series { name: "s".into(), points: vec![(1.0, 1.0), (10.0, 0.5)], legend: None, intervals }]
+        };
+        let plot = |s: &[Series]| {
+            decade_ranges(&LogLogPlot { title: "", x_label: "", y_label: "", series: s }).unwrap()
+        };
+        assert_eq!(plot(&series(Vec::new())).1, (-1, 0));
+        assert_eq!(plot(&series(vec![(0.5, 20.0), (0.0, 0.6)])).1, (-1, 2), "the upper bound 20 is shown");
+        assert_eq!(plot(&series(vec![(0.005, 2.0), (f64::NAN, f64::NAN)])).1, (-3, 1));
+        assert_eq!(error_bar(10.0, 1.0, 2.0)[0], vec![(10.0, 1.0), (10.0, 2.0)]);
     }
 
     #[test]
@@ -464,7 +524,12 @@ mod tests {
     fn nothing_to_plot_is_an_error_and_writes_nothing() {
         let dir = tempfile::tempdir().unwrap();
         let (svg, png) = (dir.path().join("plot.svg"), dir.path().join("plot.png"));
-        let series = [Series { name: "zero".into(), points: vec![(1.0, 0.0), (0.0, 1.0)], legend: None }];
+        let series = [Series {
+            name: "zero".into(),
+            points: vec![(1.0, 0.0), (0.0, 1.0)],
+            legend: None,
+            intervals: Vec::new(),
+        }];
         let plot = LogLogPlot { title: "t", x_label: "x", y_label: "y", series: &series };
         let err = write_loglog(&plot, &svg, &png).unwrap_err();
         assert!(err.to_string().contains("plot.svg"), "{err}");
