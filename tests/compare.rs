@@ -93,21 +93,35 @@ fn stderr(out: &Output) -> String {
     String::from_utf8_lossy(&out.stderr).into_owned()
 }
 
-/// The figure size by the formula of `figure::compose`'s documentation.
+/// The figure size by the formula of `figure::compose`'s documentation, for `methods` columns
+/// after the reference's, all in one row.
 fn expected_figure_size(image: (u32, u32), methods: u32, crop: Option<(u32, u32)>) -> (u32, u32) {
+    expected_wrapped_figure_size(image, methods, crop, None)
+}
+
+/// The figure size with at most `columns` panels per row (the reference's panel first).
+fn expected_wrapped_figure_size(
+    image: (u32, u32),
+    methods: u32,
+    crop: Option<(u32, u32)>,
+    columns: Option<u32>,
+) -> (u32, u32) {
+    let panels = methods + 1;
+    let per_row = columns.map_or(panels, |c| c.min(panels));
+    let rows = panels.div_ceil(per_row);
     let (w, h) = image;
     let column = w.max(160);
     let font = column / 11;
     let line = 5 * font / 4;
     let gap = (column / 40).max(4);
     let bar = font / 2;
-    let width = methods * column + (methods + 1) * gap;
-    let mut height = 6 * gap + 6 * line + bar + 2 * h;
+    let width = per_row * column + (per_row + 1) * gap;
+    let mut row = 2 * h + 3 * line + 3 * gap;
     if let Some((cw, ch)) = crop {
         let zoom = (w / cw).min(h / ch).max(1);
-        height += gap + zoom * ch;
+        row += gap + zoom * ch;
     }
-    (width, height)
+    (width, 3 * gap + 3 * line + bar + rows * row)
 }
 
 /// The decoded size of a PNG file.
@@ -245,6 +259,19 @@ fn a_crop_adds_the_magnified_inset_to_the_figure() {
     );
     let (csv, md) = table_methods(&sandbox.path("out/cmp"));
     assert_eq!((csv.len(), md.len()), (2, 2));
+}
+
+#[test]
+fn many_columns_wrap_into_rows_of_the_figure() {
+    let sandbox = Sandbox::new();
+    let out = sandbox.compare(&["-i", "raycast,whitted,light", "--spp", "1", "--columns", "3"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    // The reference and three methods in rows of three: two rows, three columns wide.
+    let size = png_size(&sandbox.path("out/cmp/compare.png"));
+    assert_eq!(size, expected_wrapped_figure_size(SIZE, 3, None, Some(3)));
+    assert!(size.0 < expected_figure_size(SIZE, 3, None).0 && size.1 > expected_figure_size(SIZE, 3, None).1);
+    let bad = sandbox.compare(&["-i", "raycast", "--spp", "1", "--columns", "0", "--out", "out/bad"]);
+    assert_eq!(bad.status.code(), Some(2));
 }
 
 #[test]

@@ -84,6 +84,10 @@ pub struct CompareArgs {
     /// the `--region`s.
     #[arg(long = "mask", value_name = "[NAME=]FILE.png", value_parser = super::parse_mask)]
     pub masks: Vec<super::MaskArg>,
+    /// At most N panels per row of `compare.png` (the reference's included), for many methods;
+    /// default: all in one row.
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..), allow_negative_numbers = true)]
+    pub columns: Option<u32>,
     /// Exposure of the figure in stops, the same for every render (default from the scene file).
     #[arg(long, value_name = "EV", value_parser = super::diff::parse_exposure, allow_hyphen_values = true)]
     pub exposure: Option<f32>,
@@ -146,6 +150,8 @@ pub(crate) struct Plan {
     renders: Option<Vec<super::RenderFile>>,
     /// Runs per method (`--repeat`).
     repeat: u32,
+    /// The most panels per row of the figure (`--columns`).
+    columns: Option<u32>,
 }
 
 /// One method's render and its errors.
@@ -394,6 +400,7 @@ impl Plan {
             out: args.out.clone(),
             renders,
             repeat: args.repeat,
+            columns: args.columns,
         })
     }
 
@@ -716,7 +723,17 @@ fn figure(plan: &Plan, outcome: &Outcome) -> Result<Canvas, CliError> {
             error,
         })
         .collect();
-    Ok(compose::compose(&title, &panels, plan.exposure, plan.crop))
+    let reference = compose::ReferencePanel {
+        image: &outcome.reference.image,
+        description: short_reference(&outcome.reference_text),
+    };
+    let options = compose::FigureOptions {
+        exposure_ev: plan.exposure,
+        crop: plan.crop,
+        reference: Some(reference),
+        columns: plan.columns,
+    };
+    Ok(compose::compose(&title, &panels, &options))
 }
 
 /// The report section of one scene's comparison; `files` is where its EXR renders and tables

@@ -95,6 +95,7 @@ fn compare_args(args: &ReportArgs, scene: &Path, out: PathBuf) -> CompareArgs {
         crop: args.crop,
         regions: args.regions.clone(),
         masks: Vec::new(),
+        columns: None,
         exposure: args.exposure,
         render: args.render.clone(),
         out,
