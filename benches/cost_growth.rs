@@ -86,6 +86,7 @@ fn main() {
                     mean_ns(name, n).map(|ns| (n as f64, ns / 1e3 / (SIDE * SIDE * SPP) as f64))
                 })
                 .collect(),
+            intervals: Vec::new(),
             legend: None,
         })
         .collect();

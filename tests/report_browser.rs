@@ -558,3 +558,61 @@ fn keys_act_on_the_viewer_under_the_mouse_and_a_flip_ends_where_it_began() {
     assert_eq!(shown(&mut browser, 1), (2, false));
     assert_eq!(browser.problems(), Vec::<String>::new());
 }
+
+#[test]
+fn regions_are_outlined_on_the_viewer_and_their_tables_sort() {
+    if !common::system::may_run_browser() {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("report");
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/soft-shadows.toml");
+    vitrum(&[
+        "report",
+        scene.to_str().unwrap(),
+        "-i",
+        "path,whitted,light",
+        "--spp",
+        "1",
+        "--reference-spp",
+        "2",
+        "--resolution",
+        "32x24",
+        "--region",
+        "floor=10,12,8,6",
+        "--cache",
+        dir.path().join("cache").to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--quiet",
+    ]);
+    let mut browser = Browser::launch_with_size(1000, 700).expect("headless Chromium (.ci/run installs it)");
+    open_ready(&mut browser, &out.join("index.html"));
+    // The canvas just left of the region's left edge, and the region's first pixel.
+    let edge_and_inside = |browser: &mut Browser| -> Vec<u64> {
+        let js = "(() => { const v = vitrumReport.viewers[0]; const r = v.meta.regions[0];
+            const c = v.canvas.getContext('2d');
+            const y = Math.floor(v.oy + (r.y + r.height / 2) * v.zoom);
+            const edge = c.getImageData(v.ox + r.x * v.zoom - 1, y, 1, 1).data;
+            const inside = c.getImageData(Math.floor(v.ox + (r.x + 0.5) * v.zoom), y, 1, 1).data;
+            return [edge[0], edge[1], edge[2], inside[0], inside[1], inside[2]]; })()";
+        browser.eval(js).unwrap().as_array().unwrap().iter().map(|v| v.as_u64().unwrap()).collect()
+    };
+    assert_eq!(state(&mut browser)["outlines"], true);
+    let outlined = edge_and_inside(&mut browser);
+    assert_eq!(outlined[..3], [255, 212, 0], "the outline is drawn outside the region");
+    browser.eval("document.querySelector('input.regions').click()").unwrap();
+    assert_eq!(state(&mut browser)["outlines"], false);
+    let plain = edge_and_inside(&mut browser);
+    assert_ne!(plain[..3], [255, 212, 0], "the outline is gone");
+    assert_eq!(plain[3..], outlined[3..], "the region's own pixels are never covered");
+    // A click on the region table's relMSE header sorts its rows by their exact values.
+    browser.eval("document.querySelectorAll('table.region th')[6].click()").unwrap();
+    let values = browser
+        .eval("[...document.querySelectorAll('table.region tbody tr')].map(r => Number(r.cells[6].dataset.value))")
+        .unwrap();
+    let values: Vec<f64> = values.as_array().unwrap().iter().map(|v| v.as_f64().unwrap()).collect();
+    assert_eq!(values.len(), 3);
+    assert!(values.windows(2).all(|w| w[0] <= w[1]), "{values:?}");
+    assert_eq!(browser.problems(), Vec::<String>::new());
+}

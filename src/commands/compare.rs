@@ -599,7 +599,10 @@ pub(crate) fn render_scene(
                 bar.set_length(total);
                 bar.set_position(done);
             };
-            let r = pool.install(|| plan_ref.get(&plan.scene, &args.render, &progress));
+            // At the renders' size: with --renders and no --resolution, the size read from them.
+            let size = (plan.size.0 as u32, plan.size.1 as u32);
+            let sweep = SweepArgs { resolution: Some(size), ..args.render.clone() };
+            let r = pool.install(|| plan_ref.get(&plan.scene, &sweep, &progress));
             bar.finish_and_clear();
             bars.overall.inc(1);
             let r = r?;
@@ -736,8 +739,8 @@ fn figure(plan: &Plan, outcome: &Outcome) -> Result<Canvas, CliError> {
     Ok(compose::compose(&title, &panels, &options))
 }
 
-/// The report section of one scene's comparison; `files` is where its EXR renders and tables
-/// are, relative to the page ("" when beside it).
+/// The report section of one scene's comparison, with a table per `--region`; `files` is where
+/// its EXR renders and tables are, relative to the page ("" when beside it).
 pub(crate) fn section(plan: &Plan, outcome: &Outcome, files: &str) -> Section {
     let scene = &plan.scene;
     let objects: Vec<String> =
@@ -753,6 +756,20 @@ pub(crate) fn section(plan: &Plan, outcome: &Outcome, files: &str) -> Section {
     ];
     let layer_note = |row: &Row| {
         format!("{} spp, {} s, seed {}", format_spp(row.spp()), format_seconds(row.out.seconds), row.seed)
+    };
+    // A row of the page's tables: the method's budget with errors over the image or a region.
+    let table_row = |r: &Row, metrics: &Metrics, split: Option<&Split>| {
+        TableRow::new(&r.method, (r.spp(), r.out.seconds, r.out.rays.total()), metrics, split)
+    };
+    // The whole image's row: under `--repeat` with the runs' means and intervals.
+    let main_row = |r: &Row| {
+        let mut row = table_row(r, &r.metrics, r.split.as_ref());
+        if r.spread.is_some() {
+            (row.rel_mse, row.rel_mse_interval) = r.rel_mse();
+            (row.seconds, row.seconds_interval) = r.seconds();
+            row.efficiency = r.efficiency().ok();
+        }
+        row
     };
     Section {
         scene: plan.scene_name.clone(),
@@ -772,16 +789,20 @@ pub(crate) fn section(plan: &Plan, outcome: &Outcome, files: &str) -> Section {
                 image: row.out.image.clone(),
             })
             .collect(),
-        rows: outcome
-            .rows
+        rows: outcome.rows.iter().map(main_row).collect(),
+        regions: plan
+            .regions
             .iter()
-            .map(|r| {
-                TableRow::new(
-                    &r.method,
-                    (r.spp(), r.out.seconds, r.out.rays.total()),
-                    &r.metrics,
-                    r.split.as_ref(),
-                )
+            .enumerate()
+            .map(|(k, (name, c))| crate::report::RegionTable {
+                name: name.clone(),
+                rect: (c.rect.x, c.rect.y, c.rect.width, c.rect.height),
+                mask: c.mask.is_some(),
+                rows: outcome
+                    .rows
+                    .iter()
+                    .map(|r| table_row(r, &r.regions[k].0, r.regions[k].1.as_ref()))
+                    .collect(),
             })
             .collect(),
         convergence: Vec::new(),

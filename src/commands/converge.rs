@@ -156,6 +156,11 @@ pub struct Row {
 }
 
 impl Row {
+    /// The 95% interval of the relMSE from the split, NaN bounds without one.
+    pub fn rel_mse_interval(&self) -> (f64, f64) {
+        self.split.map_or((f64::NAN, f64::NAN), |s| s.rel_mse_interval())
+    }
+
     /// The row as a CSV line (no newline); absent values are empty fields.
     pub fn csv(&self) -> String {
         let m = &self.metrics;
@@ -532,6 +537,7 @@ fn report_section(
                 TableRow::new(&s.name, stats, &last.metrics, last.split.as_ref())
             })
             .collect(),
+        regions: Vec::new(),
         convergence: summaries
             .iter()
             .map(|s| {
@@ -539,6 +545,7 @@ fn report_section(
                 report::Series {
                     method: s.name.to_string(),
                     points: mine.iter().map(|r| (f64::from(r.spp), r.seconds, r.metrics.rel_mse)).collect(),
+                    intervals: mine.iter().map(Row::rel_mse_interval).collect(),
                     legend: format!("{}: {}", s.name, s.regime.describe(&mine)),
                 }
             })
@@ -655,10 +662,7 @@ pub fn run(args: &ConvergeArgs) -> Result<(), CliError> {
                     name: s.name.to_string(),
                     points: mine.iter().map(|r| (x(r), r.metrics.rel_mse)).collect(),
                     legend: Some(s.regime.legend(&s.name, slope(&s.regime), &mine)),
-                    intervals: mine
-                        .iter()
-                        .map(|r| r.split.map_or((f64::NAN, f64::NAN), |s| s.rel_mse_interval()))
-                        .collect(),
+                    intervals: mine.iter().map(Row::rel_mse_interval).collect(),
                 }
             })
             .collect();

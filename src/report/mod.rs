@@ -1,8 +1,9 @@
 //! The interactive HTML report: one self-contained folder that opens offline from `file://`.
 //!
 //! `vitrum compare`, `vitrum converge` and `vitrum report` describe what they measured as a
-//! [`Report`] (one [`Section`] per scene: its images, its table, its convergence curves) and
-//! [`stage`] turns it into files, published together with the command's other outputs:
+//! [`Report`] (one [`Section`] per scene: its images, its table, its tables over `--region`s,
+//! its convergence curves) and [`stage`] turns it into files, published together with the
+//! command's other outputs:
 //!
 //! - `index.html`: the page. Every text from a scene or the command line is HTML-escaped
 //!   ([`page::escape`]); the section's numbers travel as JSON in a
@@ -68,6 +69,8 @@ pub struct Section {
     pub layers: Vec<Layer>,
     /// The table: one row per method.
     pub rows: Vec<TableRow>,
+    /// The same metrics over each `--region`, a table each, in the order given; empty without.
+    pub regions: Vec<RegionTable>,
     /// Error against samples and seconds, one series per method; empty when there is none.
     pub convergence: Vec<Series>,
     /// Where the section's files (EXR, CSV) are, relative to the page; empty if beside it.
@@ -92,8 +95,10 @@ pub struct TableRow {
     pub method: String,
     /// Samples per pixel (a mean for adaptive methods).
     pub spp: f64,
-    /// Render seconds.
+    /// Render seconds (the mean over the runs under `compare --repeat`).
     pub seconds: f64,
+    /// The seconds' 95% interval over the runs, under `compare --repeat`.
+    pub seconds_interval: Option<(f64, f64)>,
     /// Rays traced.
     pub rays: u64,
     /// Millions of rays per second.
@@ -135,6 +140,7 @@ impl TableRow {
             method: method.to_string(),
             spp,
             seconds,
+            seconds_interval: None,
             rays,
             mrays_per_second: crate::metrics::mrays_per_second(rays, seconds),
             mse: metrics.mse,
@@ -167,6 +173,20 @@ impl TableRow {
     }
 }
 
+/// The methods' metrics over one named rectangle of the image (`--region NAME=X,Y,W,H`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct RegionTable {
+    /// The region's name.
+    pub name: String,
+    /// The rectangle: left, top, width and height in pixels from the image's top-left corner
+    /// (a mask's bounding box).
+    pub rect: (usize, usize, usize, usize),
+    /// Whether only a mask's pixels inside the rectangle count (`--mask`).
+    pub mask: bool,
+    /// One row per method, in the main table's order, every metric over the rectangle only.
+    pub rows: Vec<TableRow>,
+}
+
 /// One method's convergence: relMSE at each checkpoint.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Series {
@@ -174,6 +194,9 @@ pub struct Series {
     pub method: String,
     /// (samples per pixel, seconds, relMSE) of each checkpoint, in order.
     pub points: Vec<(f64, f64, f64)>,
+    /// The 95% interval (low, high) of each point's relMSE, in the points' order (NaN bounds
+    /// where a point has none), drawn as error bars.
+    pub intervals: Vec<(f64, f64)>,
     /// The legend text (fitted slope, plateau).
     pub legend: String,
 }

@@ -1,7 +1,8 @@
 //! The report's `index.html`: the static structure of every section (details, tabs, controls,
-//! canvas, table) with every text escaped, and the numbers the viewer needs as JSON.
+//! canvas, table, a table per region) with every text escaped, and the numbers the viewer needs
+//! as JSON.
 
-use super::{data, Report, Section, TableRow};
+use super::{data, RegionTable, Report, Section, TableRow};
 use crate::figure::colormap::{log_range, ABOVE_COLOR, NAN_COLOR, VIRIDIS};
 use crate::figure::compose::{format_number, format_spp};
 use crate::metrics::relative_squared_error;
@@ -144,6 +145,11 @@ fn section_html(s: &mut String, i: usize, section: &Section) {
         let _ = writeln!(s, "<option value=\"{k}\">{}</option>", escape(label));
     }
     let exposure = section.exposure;
+    let outlines = if section.regions.is_empty() {
+        ""
+    } else {
+        "<label><input type=\"checkbox\" class=\"regions\" checked> region outlines</label>\n"
+    };
     let _ = write!(
         s,
         "</select></label>\n\
@@ -153,13 +159,16 @@ fn section_html(s: &mut String, i: usize, section: &Section) {
          <output class=\"exposure-value\">{exposure:+.1}</output> EV</label>\n\
          <label>gamma <input type=\"range\" class=\"gamma\" min=\"1\" max=\"3\" step=\"0.05\" value=\"2.2\" disabled>\
          <output class=\"gamma-value\">2.20</output></label>\n\
-         <label><input type=\"checkbox\" class=\"srgb\" checked> sRGB curve</label>\n</div>\n\
+         <label><input type=\"checkbox\" class=\"srgb\" checked> sRGB curve</label>\n{outlines}</div>\n\
          <canvas class=\"view\" width=\"{w}\" height=\"{h}\" aria-label=\"render\"></canvas>\n\
          <input type=\"range\" class=\"split-position\" min=\"0\" max=\"1\" step=\"0.001\" value=\"0.5\" hidden>\n\
          <div class=\"readout\">move the mouse over the image to read its values</div>\n\
          <div class=\"legend\" hidden></div>\n</div>\n"
     );
-    table_html(s, &section.rows);
+    table_html(s, &section.rows, None);
+    for region in &section.regions {
+        table_html(s, &region.rows, Some(&region_caption(region)));
+    }
     if !section.convergence.is_empty() {
         s.push_str("<div class=\"convergence\"></div>\n");
     }
@@ -198,10 +207,26 @@ fn interval(value: f64, bounds: Option<(f64, f64)>) -> String {
     }
 }
 
+/// "Region caustic: x 8, y 6, 8 × 6 pixels (every metric over the region only)".
+fn region_caption(region: &RegionTable) -> String {
+    let (x, y, w, h) = region.rect;
+    let what = if region.mask { "mask pixels within " } else { "" };
+    format!(
+        "Region {}: {what}x {x}, y {y}, {w} × {h} pixels (every metric over the region only)",
+        region.name
+    )
+}
+
 /// The sortable table: each cell's exact value in `data-value` (as the CSV writes it), its
-/// rounded text shown.
-fn table_html(s: &mut String, rows: &[TableRow]) {
-    s.push_str("<table class=\"results\">\n<thead><tr>");
+/// rounded text shown; a region's table (class `region`) under its `caption`.
+fn table_html(s: &mut String, rows: &[TableRow], caption: Option<&str>) {
+    match caption {
+        Some(caption) => {
+            let _ = write!(s, "<table class=\"results region\">\n<caption>{}</caption>\n", escape(caption));
+        }
+        None => s.push_str("<table class=\"results\">\n"),
+    }
+    s.push_str("<thead><tr>");
     for (k, (name, tip)) in COLUMNS.iter().enumerate() {
         let _ = write!(s, "<th data-column=\"{k}\" title=\"{}\">{name}</th>", escape(tip));
     }
@@ -211,7 +236,7 @@ fn table_html(s: &mut String, rows: &[TableRow]) {
         let cells = [
             (r.method.clone(), r.method.clone()),
             (r.spp.to_string(), format_spp(r.spp)),
-            number(r.seconds),
+            (js_number(r.seconds), interval(r.seconds, r.seconds_interval)),
             (r.rays.to_string(), r.rays.to_string()),
             number(r.mrays_per_second),
             number(r.mse),
@@ -237,7 +262,8 @@ fn table_html(s: &mut String, rows: &[TableRow]) {
     s.push_str("</tbody>\n</table>\n");
 }
 
-/// What the viewer needs of a section: image keys and sizes, the error scale, the curves.
+/// What the viewer needs of a section: image keys and sizes, the error scale, the regions to
+/// outline, the curves.
 fn section_json(i: usize, section: &Section) -> serde_json::Value {
     let reference = &section.reference.image;
     let errors: Vec<f32> = section
@@ -258,10 +284,19 @@ fn section_json(i: usize, section: &Section) -> serde_json::Value {
         "exposure": section.exposure,
         "layers": layers,
         "decades": [lo, hi],
+        "regions": section.regions.iter().map(|r| json!({
+            "name": r.name,
+            "x": r.rect.0,
+            "y": r.rect.1,
+            "width": r.rect.2,
+            "height": r.rect.3,
+        })).collect::<Vec<_>>(),
         "convergence": section.convergence.iter().map(|c| json!({
             "method": c.method,
             "legend": c.legend,
-            "points": c.points.iter().map(|p| [p.0, p.1, p.2]).collect::<Vec<_>>(),
+            "points": c.points.iter().zip(c.intervals.iter().chain(std::iter::repeat(&(f64::NAN, f64::NAN))))
+                .map(|(p, i)| json!([p.0, p.1, p.2, i.0, i.1]))
+                .collect::<Vec<_>>(),
         })).collect::<Vec<_>>(),
     })
 }

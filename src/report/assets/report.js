@@ -6,7 +6,8 @@
 // tone-maps those values itself, exactly as vitrum's PNG previews do: v·2^EV clamped to [0, 1],
 // then the sRGB curve (or v^(1/γ)), rounded to 8 bits, NaN pixels magenta. Error maps show the
 // per-pixel relative squared error, mean over channels of (x − r)² / (r² + 0.01), in viridis on
-// the log scale of the section's decades. Texts reach the page only through textContent.
+// the log scale of the section's decades. The section's --regions are outlined on the image (with
+// their names) while "region outlines" is on. Texts reach the page only through textContent.
 "use strict";
 
 (function () {
@@ -126,6 +127,7 @@
         gammaValue: root.querySelector("output.gamma-value"),
         srgb: root.querySelector("input.srgb"),
         splitPosition: root.querySelector("input.split-position"),
+        regions: root.querySelector("input.regions"),
       };
       this.tabs = Array.from(root.querySelectorAll("button.tab"));
       // Layer 0 is the reference, 1… the methods.
@@ -138,6 +140,7 @@
       this.exposure = meta.exposure;
       this.gamma = 2.2;
       this.srgb = true;
+      this.outlines = meta.regions.length > 0;
       this.zoom = 1;
       this.ox = 0;
       this.oy = 0;
@@ -164,6 +167,7 @@
         exposure: this.exposure,
         gamma: this.gamma,
         srgb: this.srgb,
+        outlines: this.outlines,
         zoom: this.zoom,
         ox: this.ox,
         oy: this.oy,
@@ -194,6 +198,7 @@
       c.gamma.addEventListener("input", () => this.set({ gamma: Number(c.gamma.value) }));
       c.srgb.addEventListener("change", () => this.set({ srgb: c.srgb.checked }));
       c.splitPosition.addEventListener("input", () => this.set({ splitAt: Number(c.splitPosition.value) }));
+      if (c.regions) c.regions.addEventListener("change", () => this.set({ outlines: c.regions.checked }));
       const canvas = this.canvas;
       canvas.addEventListener("wheel", (e) => {
         if (e.deltaY === 0) return; // a horizontal scroll: not a zoom
@@ -317,6 +322,7 @@
       c.srgb.checked = this.srgb;
       c.splitPosition.hidden = !this.split;
       c.splitPosition.value = String(this.splitAt);
+      if (c.regions) c.regions.checked = this.outlines;
       this.tabs.forEach((tab) => tab.setAttribute("aria-selected", String(Number(tab.dataset.layer) === this.a)));
       this.draw();
       this.showReadout();
@@ -409,7 +415,28 @@
         context.fillStyle = "#ffffff";
         context.fillRect(x, 0, 1, this.canvas.height);
       }
+      if (this.outlines) this.drawRegions(context);
       this.drawLegend();
+    }
+
+    /** Each region's outline, just outside its pixels (which stay visible), and its name above it (below at the top edge). */
+    drawRegions(context) {
+      const line = Math.max(1, Math.round(this.dpr));
+      const text = Math.round(12 * this.dpr);
+      context.save();
+      context.strokeStyle = REGION_COLOUR;
+      context.fillStyle = REGION_COLOUR;
+      context.lineWidth = line;
+      context.font = `${text}px system-ui, sans-serif`;
+      context.textBaseline = "bottom";
+      for (const r of this.meta.regions) {
+        const x = this.ox + r.x * this.zoom, y = this.oy + r.y * this.zoom;
+        const w = r.width * this.zoom, h = r.height * this.zoom;
+        context.strokeRect(x - line / 2, y - line / 2, w + line, h + line);
+        const above = y - line - 2;
+        context.fillText(r.name, x, above >= text ? above : y + h + line + 2 + text);
+      }
+      context.restore();
     }
 
     /** The error map's colour bar and counts, shown in error mode. */
@@ -482,6 +509,9 @@
     });
   }
 
+  /** The colour of the regions' outlines and names. */
+  const REGION_COLOUR = "#ffd400";
+
   /** Wheel travel (in pixels) per power-of-two zoom step: one notch of a mouse wheel is about 100. */
   const WHEEL_STEP = 50;
 
@@ -496,10 +526,15 @@
     return e;
   }
 
-  /** A log-log plot of relMSE against the point's coordinate `axis` (0 spp, 1 seconds). */
+  /**
+   * A log-log plot of relMSE against the point's coordinate `axis` (0 spp, 1 seconds); each point
+   * [spp, seconds, relMSE, low, high] with a 95% interval (low, high; null without) gets an error
+   * bar, a lower bound at or below zero reaching the bottom of the axis.
+   */
   function plot(series, axis, label) {
     const W = 460, H = 320, left = 64, right = 12, top = 28, bottom = 44;
     const points = series.flatMap((s) => s.points.filter((p) => p[axis] > 0 && p[2] > 0));
+    const highs = points.filter((p) => p[4] > 0 && Number.isFinite(p[4])).map((p) => p[4]);
     const root = svg("svg", { width: W, height: H, viewBox: `0 0 ${W} ${H}`, class: "plot" });
     root.append(svg("text", { x: W / 2, y: 18, "text-anchor": "middle", class: "title" }, `relMSE against ${label}`));
     if (points.length === 0) return root;
@@ -510,7 +545,7 @@
       return [lo, hi];
     };
     const [xlo, xhi] = range(points.map((p) => p[axis]));
-    const [ylo, yhi] = range(points.map((p) => p[2]));
+    const [ylo, yhi] = range(points.map((p) => p[2]).concat(highs));
     const px = (v) => left + ((Math.log10(v) - xlo) / (xhi - xlo)) * (W - left - right);
     const py = (v) => H - bottom - ((Math.log10(v) - ylo) / (yhi - ylo)) * (H - top - bottom);
     root.append(svg("rect", { x: left, y: top, width: W - left - right, height: H - top - bottom, class: "frame" }));
@@ -530,6 +565,12 @@
       const mine = s.points.filter((p) => p[axis] > 0 && p[2] > 0);
       root.append(svg("polyline", { points: mine.map((p) => `${px(p[axis])},${py(p[2])}`).join(" "), stroke: colour, class: "series" }));
       mine.forEach((p) => root.append(svg("circle", { cx: px(p[axis]), cy: py(p[2]), r: 2.5, fill: colour })));
+      mine.filter((p) => p[4] > 0 && Number.isFinite(p[4])).forEach((p) => {
+        const x = px(p[axis]);
+        const [y1, y2] = [py(Math.max(p[3] || 0, 10 ** ylo)), py(p[4])];
+        root.append(svg("line", { x1: x, x2: x, y1, y2, stroke: colour, class: "error-bar" }));
+        [y1, y2].forEach((y) => root.append(svg("line", { x1: x - 3, x2: x + 3, y1: y, y2: y, stroke: colour, class: "error-bar" })));
+      });
     });
     return root;
   }
@@ -600,7 +641,7 @@
       const viewer = new Viewer(root, meta, data);
       viewer.set({});
       report.viewers.push(viewer);
-      sortable(root.querySelector("table.results"));
+      root.querySelectorAll("table.results").forEach(sortable);
       const container = root.querySelector(".convergence");
       if (container && meta.convergence.length > 0) convergence(container, meta.convergence);
     });
