@@ -1,4 +1,7 @@
-//! A linear HDR RGB image in memory.
+//! A linear HDR RGB image in memory, and the size limit on every image file vitrum reads
+//! ([`limits`]).
+
+pub mod limits;
 
 use glam::Vec3;
 

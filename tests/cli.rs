@@ -10,6 +10,8 @@ use std::process::{Command, Output};
 use std::time::{Duration, Instant};
 use tempfile::TempDir;
 
+mod common;
+
 /// The scene every scene-file case mutates (also the embedded default scene).
 const CORNELL: &str = include_str!("../scenes/cornell-glass.toml");
 
@@ -1368,6 +1370,28 @@ fn non_finite_exposures_are_refused_by_every_command_that_takes_one() {
         assert!(!sandbox.out_files().is_empty(), "{command} wrote nothing");
         fs::remove_dir_all(sandbox.out()).unwrap();
         fs::create_dir(sandbox.out()).unwrap();
+    }
+}
+
+#[test]
+fn exr_inputs_declaring_too_many_pixels_are_refused_by_every_command_that_reads_one() {
+    let sandbox = Sandbox::new();
+    sandbox.scene(CORNELL);
+    let (width, height) = common::oversized::DECLARED;
+    common::oversized::write_exr_declaring(&sandbox.path("huge.exr"), width, height);
+    let commands = [
+        "merge huge.exr -o out/merged.exr",
+        "render --resume huge.exr",
+        "compare scene.toml -i raycast --reference huge.exr --out out/compare",
+        "compare scene.toml --renders huge.exr --out out/compare",
+        "converge scene.toml -i raycast --reference huge.exr --out out/converge",
+        "converge scene.toml --renders huge.exr --out out/converge",
+    ];
+    for command in commands {
+        let args: Vec<&str> = command.split(' ').collect();
+        let out = common::oversized::vitrum_capped(sandbox.dir.path(), &args);
+        common::oversized::assert_refused_as_too_large(&out, "huge.exr");
+        assert!(sandbox.out_files().is_empty(), "{command} wrote {:?}", sandbox.out_files());
     }
 }
 

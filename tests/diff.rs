@@ -1,6 +1,7 @@
 //! `vitrum diff` end to end: the metrics it prints are the hand-computed ones, every bad input
-//! (missing, corrupt or truncated EXR, different sizes, a crop outside) exits with code 2 and a
-//! message naming the problem, and `--error-map` writes a PNG — or, on failure, nothing at all.
+//! (missing, corrupt or truncated EXR, one declaring too many pixels, different sizes, a crop
+//! outside) exits with code 2 and a message naming the problem, and `--error-map` writes a PNG —
+//! or, on failure, nothing at all.
 
 use glam::Vec3;
 use serde_json::Value;
@@ -10,6 +11,8 @@ use std::process::{Command, Output};
 use tempfile::TempDir;
 use vitrum::image::Image;
 use vitrum::output::exr::{stage_exr_with_channels, variance_channels, write_exr, ExrMetadata};
+
+mod common;
 
 /// Run `vitrum diff` with `args`.
 fn vitrum<S: AsRef<std::ffi::OsStr>>(args: &[S]) -> Output {
@@ -232,6 +235,27 @@ fn unreadable_images_are_bad_input_naming_the_file() {
     let empty = s.path("empty.exr");
     fs::write(&empty, b"").unwrap();
     assert_bad_input(&s, &vitrum(&[empty.as_path(), &good]), &["empty.exr"]);
+}
+
+#[test]
+fn images_declaring_too_many_pixels_are_bad_input_refused_before_allocating() {
+    let s = Sandbox::new();
+    let (width, height) = common::oversized::DECLARED;
+    common::oversized::write_exr_declaring(&s.path("huge.exr"), width, height);
+    common::oversized::write_png_declaring(&s.path("huge.png"), width, height);
+    let cases: [(&[&str], &str); 3] = [
+        (&["diff", "huge.exr", "reference.exr"], "huge.exr"),
+        (&["diff", "test.exr", "huge.exr"], "huge.exr"),
+        (&["diff", "test.exr", "reference.exr", "--mask", "huge.png"], "huge.png"),
+    ];
+    for (args, file) in cases {
+        let out = common::oversized::vitrum_capped(s.dir.path(), args);
+        common::oversized::assert_refused_as_too_large(&out, file);
+        assert!(stdout(&out).is_empty(), "{args:?}: {}", stdout(&out));
+    }
+    // The library's readers refuse it too.
+    let err = vitrum::output::exr::read_exr_channels(&s.path("huge.exr")).unwrap_err().to_string();
+    assert!(err.contains("huge.exr") && err.contains("limit"), "{err}");
 }
 
 #[test]

@@ -182,3 +182,20 @@ fn bad_maps_exit_2_naming_the_field() {
         assert!(!d.join("out.exr").exists(), "{light}: nothing is written");
     }
 }
+
+#[test]
+fn a_map_declaring_too_many_pixels_is_refused_before_allocating() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let (width, height) = common::oversized::DECLARED;
+    common::oversized::write_exr_declaring(&d.join("huge.exr"), width, height);
+    let text = "[camera]\nposition = [0.0, 0.0, 1.0]\nlook_at = [0.0, 0.0, 0.0]\nresolution = [4, 4]\n\
+                [[lights]]\ntype = \"environment\"\nfile = \"huge.exr\"\n";
+    std::fs::write(d.join("scene.toml"), text).unwrap();
+    let out =
+        common::oversized::vitrum_capped(d, &["render", "scene.toml", "-i", "raycast", "-o", "out.exr"]);
+    common::oversized::assert_refused_as_too_large(&out, "huge.exr");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("scene.toml:7:"), "the line of `file` is named: {stderr}");
+    assert!(!d.join("out.exr").exists(), "nothing is written");
+}

@@ -1,6 +1,7 @@
 //! Image textures and texture coordinates: the uv of every shape at known points (corners, poles,
 //! seams), an image texture rendered texel for texel, one decode per file, the scene hash over the
-//! image's bytes, and bad image input (exit 2 naming the scene line and the file, nothing written).
+//! image's bytes, and bad image input (exit 2 naming the scene line and the file, nothing written),
+//! images declaring more pixels than vitrum reads among it.
 
 mod common;
 
@@ -287,6 +288,25 @@ fn bad_images_exit_2_naming_the_line_and_the_file() {
     let (code, stderr, written) = render_cli(d, &framed_quad("{ type = \"image\", file = \"good.png\" }"));
     assert_eq!(code, Some(0), "{stderr}");
     assert!(written);
+}
+
+#[test]
+fn images_declaring_too_many_pixels_are_refused_before_allocating() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let (width, height) = common::oversized::DECLARED;
+    common::oversized::write_png_declaring(&d.join("huge.png"), width, height);
+    common::oversized::write_exr_declaring(&d.join("huge.exr"), width, height);
+    for file in ["huge.png", "huge.exr"] {
+        let texture = format!("{{ type = \"image\", file = \"{file}\" }}");
+        fs::write(d.join("scene.toml"), framed_quad(&texture)).unwrap();
+        let out =
+            common::oversized::vitrum_capped(d, &["render", "scene.toml", "-i", "raycast", "-o", "out.exr"]);
+        common::oversized::assert_refused_as_too_large(&out, file);
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(stderr.contains("scene.toml:10:"), "{file}: the line is named: {stderr}");
+        assert!(!d.join("out.exr").exists(), "{file}: nothing is written");
+    }
 }
 
 /// A scene text of a diffuse floor lit from 1 m above by `emitters` (objects), seen from below

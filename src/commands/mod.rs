@@ -480,8 +480,9 @@ pub fn plan_regions(
     }
     for m in masks {
         let what = format!("--mask {}={}", m.name, m.path.display());
-        let image = ::image::open(&m.path).map_err(|e| bad(format!("{what}: cannot read the image: {e}")))?;
-        let image = image.to_luma_alpha8();
+        let image = crate::image::limits::read_raster(&m.path)
+            .map_err(|e| bad(format!("{what}: cannot read the image: {e}")))?;
+        let image = image.into_luma_alpha8();
         let (w, h) = (image.width() as usize, image.height() as usize);
         if (w, h) != size {
             return Err(bad(format!(

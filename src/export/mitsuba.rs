@@ -1621,8 +1621,13 @@ mod tests {
         use crate::texture::ColorSpace;
         let (w, h) = (8usize, 4usize);
         let texels = (0..w * h).map(|i| Vec3::new((i % 7) as f32, (i / w) as f32, 1.0)).collect();
-        let image =
-            ImageMap { width: w, height: h, texels, file: "sky".into(), colorspace: ColorSpace::Linear };
+        let image = std::sync::Arc::new(ImageMap {
+            width: w,
+            height: h,
+            texels,
+            file: "sky".into(),
+            colorspace: ColorSpace::Linear,
+        });
         let env = EnvironmentMap::new(image.clone(), 0.0);
         let (out, k) = envmap_texels(&image, Vec3::new(1.0, 2.0, 0.5));
         assert_eq!((k, out.width, out.height), (ENVMAP_MAX_FACTOR, k * w, k * h + 1));
@@ -1643,7 +1648,13 @@ mod tests {
             }
         }
         // Too large to resample: as it is.
-        let big = ImageMap { width: 2048, height: 1024, texels: vec![Vec3::ONE; 2048 * 1024], ..image };
+        let big = ImageMap {
+            width: 2048,
+            height: 1024,
+            texels: vec![Vec3::ONE; 2048 * 1024],
+            file: "sky".into(),
+            colorspace: ColorSpace::Linear,
+        };
         let (out, k) = envmap_texels(&big, Vec3::ONE);
         assert_eq!((k, out.width, out.height), (1, 2048, 1024));
     }

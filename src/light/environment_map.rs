@@ -14,6 +14,7 @@
 use crate::texture::ImageMap;
 use glam::{Vec2, Vec3};
 use std::f32::consts::{PI, TAU};
+use std::sync::Arc;
 
 /// A piecewise-constant distribution over `0..n` with its cumulative sums (in f64, so that maps
 /// of millions of texels keep every cell's share).
@@ -64,8 +65,8 @@ impl Distribution1D {
 /// An environment map with its sampling distribution.
 #[derive(Clone, Debug, PartialEq)]
 pub struct EnvironmentMap {
-    /// The linear texels.
-    image: ImageMap,
+    /// The linear texels, shared with every texture that reads the same file (never copied).
+    image: Arc<ImageMap>,
     /// cos and sin of the rotation about +Y.
     rotation: (f32, f32),
     /// The rotation about +Y in degrees, as the scene gives it.
@@ -88,7 +89,7 @@ fn row_edge_cos(j: usize, height: usize) -> f32 {
 
 impl EnvironmentMap {
     /// The map of `image` (linear radiance) turned by `rotation_degrees` about +Y.
-    pub fn new(image: ImageMap, rotation_degrees: f32) -> EnvironmentMap {
+    pub fn new(image: Arc<ImageMap>, rotation_degrees: f32) -> EnvironmentMap {
         let (w, h) = (image.width, image.height);
         let row_solid_angle = |j: usize| (TAU / w as f32) * (row_edge_cos(j, h) - row_edge_cos(j + 1, h));
         let mut row_weights = Vec::with_capacity(h);
@@ -226,10 +227,10 @@ pub(crate) mod tests {
     /// The χ² cases of this module (part of the family-wise level of `bsdf::chi2`).
     pub(crate) const CHI2_CASES: usize = 2;
 
-    fn map(width: usize, height: usize, f: impl Fn(usize, usize) -> Vec3) -> ImageMap {
+    fn map(width: usize, height: usize, f: impl Fn(usize, usize) -> Vec3) -> Arc<ImageMap> {
         let texels =
             (0..height).flat_map(|j| (0..width).map(move |i| (i, j))).map(|(i, j)| f(i, j)).collect();
-        ImageMap { width, height, texels, file: "test".into(), colorspace: ColorSpace::Linear }
+        Arc::new(ImageMap { width, height, texels, file: "test".into(), colorspace: ColorSpace::Linear })
     }
 
     #[test]
@@ -301,7 +302,7 @@ pub(crate) mod tests {
     }
 
     /// A sky gradient brighter towards the horizon with a sun 100× as bright in two texels.
-    fn sky(width: usize, height: usize) -> ImageMap {
+    fn sky(width: usize, height: usize) -> Arc<ImageMap> {
         map(width, height, |i, j| {
             if (i == 5 || i == 6) && j == 3 {
                 Vec3::splat(100.0)
@@ -312,7 +313,7 @@ pub(crate) mod tests {
     }
 
     /// Texels of random brightness, a quarter of them black.
-    fn random(width: usize, height: usize) -> ImageMap {
+    fn random(width: usize, height: usize) -> Arc<ImageMap> {
         let mut rng = rand_pcg::Pcg64::seed_from_u64(9);
         let texels: Vec<Vec3> = (0..width * height)
             .map(|_| {

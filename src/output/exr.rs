@@ -1,6 +1,8 @@
-//! OpenEXR output: float32 linear RGB in one scanline layer, with the render's metadata in the header.
+//! OpenEXR output: float32 linear RGB in one scanline layer, with the render's metadata in the header;
+//! and input, each file's declared size checked against the image size limit before decoding.
 
 use super::{check_pixel_count, stage_bytes, OutputError, Staged};
+use crate::image::limits::check_image_size;
 use crate::image::Image;
 use crate::stats::RayCounts;
 use exr::image::{Encoding, Layer, SpecificChannels};
@@ -379,8 +381,21 @@ fn stage_layers(
 /// An EXR image of every layer and channel, full resolution, any sample type.
 type FlatImage = exr::image::Image<exr::image::Layers<exr::image::AnyChannels<exr::image::FlatSamples>>>;
 
+/// Refuses the EXR file contents `bytes` read from `path` when a layer's data window holds more
+/// than [`MAX_IMAGE_PIXELS`](crate::image::limits::MAX_IMAGE_PIXELS): read from the headers
+/// alone, before any pixel is allocated.
+fn check_declared_size(path: &Path, bytes: &[u8]) -> Result<(), OutputError> {
+    let meta = MetaData::read_from_buffered(Cursor::new(bytes), false).map_err(|e| exr_error(path, e))?;
+    for size in meta.headers.iter().map(|h| h.layer_size) {
+        check_image_size(size.width() as u64, size.height() as u64)
+            .map_err(|e| OutputError::format(path, e.to_string()))?;
+    }
+    Ok(())
+}
+
 /// Every layer and channel (any sample type) of the EXR file `bytes` read from `path`.
 fn decode_all_layers(path: &Path, bytes: &[u8]) -> Result<FlatImage, OutputError> {
+    check_declared_size(path, bytes)?;
     read()
         .no_deep_data()
         .largest_resolution_level()
@@ -391,31 +406,35 @@ fn decode_all_layers(path: &Path, bytes: &[u8]) -> Result<FlatImage, OutputError
         .map_err(|e| exr_error(path, e))
 }
 
-/// The layer called `name` of the decoded `file`, when it has one; an error unless all its
+/// One layer of a [`FlatImage`].
+type FlatLayer = exr::image::Layer<exr::image::AnyChannels<exr::image::FlatSamples>>;
+
+/// The values of decoded `samples` as f32: moved when they are f32 already, never copied.
+fn into_f32(samples: exr::prelude::FlatSamples) -> Vec<f32> {
+    match samples {
+        exr::prelude::FlatSamples::F32(values) => values,
+        other => other.values_as_f32().collect(),
+    }
+}
+
+/// The decoded `layer` called `name` with its channels moved out; an error unless all its
 /// channels are 32-bit unsigned integers of the layer's full size.
-fn find_u32_layer(path: &Path, file: &FlatImage, name: &str) -> Result<Option<U32Layer>, OutputError> {
+fn into_u32_layer(path: &Path, layer: FlatLayer, name: &str) -> Result<U32Layer, OutputError> {
     use exr::prelude::FlatSamples;
-    let Some(layer) =
-        file.layer_data.iter().find(|l| l.attributes.layer_name.as_ref().is_some_and(|n| n.eq(name)))
-    else {
-        return Ok(None);
-    };
     let pixels = layer.size.area();
     let mut channels = Vec::new();
-    for c in &layer.channel_data.list {
-        let FlatSamples::U32(values) = &c.sample_data else {
-            let what = format!(
-                "channel {} of layer {name} is not a 32-bit unsigned integer",
-                utf8(c.name.as_slice())
-            );
+    for c in layer.channel_data.list {
+        let channel = utf8(c.name.as_slice());
+        let FlatSamples::U32(values) = c.sample_data else {
+            let what = format!("channel {channel} of layer {name} is not a 32-bit unsigned integer");
             return Err(OutputError::format(path, what));
         };
         if values.len() != pixels {
             return Err(OutputError::format(path, format!("layer {name} is subsampled")));
         }
-        channels.push((utf8(c.name.as_slice()), values.clone()));
+        channels.push((channel, values));
     }
-    Ok(Some(U32Layer { name: name.to_string(), channels }))
+    Ok(U32Layer { name: name.to_string(), channels })
 }
 
 /// Every channel of an EXR file's first layer.
@@ -431,22 +450,25 @@ pub struct ExrChannels {
 
 /// Every channel of the first layer as f32 values, by name, with the layer's width and height.
 pub fn read_exr_channels(path: &Path) -> Result<ExrChannels, OutputError> {
+    let bytes = std::fs::read(path).map_err(|e| OutputError::io(path, e))?;
+    check_declared_size(path, &bytes)?;
     let file = read()
         .no_deep_data()
         .largest_resolution_level()
         .all_channels()
         .first_valid_layer()
         .all_attributes()
-        .from_file(path)
+        .from_buffered(Cursor::new(&bytes))
         .map_err(|e| exr_error(path, e))?;
-    let layer = &file.layer_data;
+    let layer = file.layer_data;
+    let (width, height) = (layer.size.width(), layer.size.height());
     let channels = layer
         .channel_data
         .list
-        .iter()
-        .map(|c| (utf8(c.name.as_slice()), c.sample_data.values_as_f32().collect()))
+        .into_iter()
+        .map(|c| (utf8(c.name.as_slice()), into_f32(c.sample_data)))
         .collect();
-    Ok(ExrChannels { width: layer.size.width(), height: layer.size.height(), channels })
+    Ok(ExrChannels { width, height, channels })
 }
 
 /// Read the first layer's R, G, B channels as f32 plus all header attributes (image- and layer-level) as strings.
@@ -469,25 +491,26 @@ pub struct ExrRead {
     pub layer: Option<U32Layer>,
 }
 
-/// [`read_exr`], the first layer's other channels and the layer called `layer` ([`U32Layer`]:
-/// all its channels 32-bit unsigned integers of full size), when the file has one, from one
-/// read of the file: all come from the same version of a file that is being replaced (a live
-/// checkpoint).
+/// [`read_exr`], the first layer's other channels and the first of the later layers called
+/// `layer` ([`U32Layer`]: all its channels 32-bit unsigned integers of full size), when the file
+/// has one, from one read of the file: all come from the same version of a file that is being
+/// replaced (a live checkpoint). The decoded channels move into the result, never copied.
 pub fn read_exr_with_layer(path: &Path, layer: &str) -> Result<ExrRead, OutputError> {
     let bytes = std::fs::read(path).map_err(|e| OutputError::io(path, e))?;
     let file = decode_all_layers(path, &bytes)?;
     let (image, attributes) = decode_rgb(path, &bytes, &file)?;
-    let channels = file.layer_data.first().map_or_else(BTreeMap::new, |l| {
-        l.channel_data
-            .list
-            .iter()
-            .filter(|c| {
-                !["R", "G", "B"].iter().any(|n| c.name.eq(n)) && c.sample_data.len() == image.pixels.len()
-            })
-            .map(|c| (utf8(c.name.as_slice()), c.sample_data.values_as_f32().collect()))
-            .collect()
-    });
-    Ok(ExrRead { image, attributes, channels, layer: find_u32_layer(path, &file, layer)? })
+    let mut layers = file.layer_data.into_iter();
+    let first = layers.next().map_or_else(Vec::new, |l| l.channel_data.list.into_vec());
+    let channels = first
+        .into_iter()
+        .filter(|c| {
+            !["R", "G", "B"].iter().any(|n| c.name.eq(n)) && c.sample_data.len() == image.pixels.len()
+        })
+        .map(|c| (utf8(c.name.as_slice()), into_f32(c.sample_data)))
+        .collect();
+    let named = layers.find(|l| l.attributes.layer_name.as_ref().is_some_and(|n| n.eq(layer)));
+    let layer = named.map(|l| into_u32_layer(path, l, layer)).transpose()?;
+    Ok(ExrRead { image, attributes, channels, layer })
 }
 
 /// The first layer's R, G, B channels of EXR file contents `bytes` read from `path` (named in

@@ -1407,7 +1407,7 @@ impl Compiler<'_> {
                     let scale = self.positive(&path.key("scale"), *scale)?;
                     let rotation = self.finite(&path.key("rotation"), *rotation)?;
                     let image = self.image(&path.key("file"), file, None)?;
-                    let map = EnvironmentMap::new((*image).clone(), rotation);
+                    let map = EnvironmentMap::new(image, rotation);
                     Light::Environment { radiance: Vec3::splat(scale), map: Some(Arc::new(map)) }
                 }
                 (Some(_), Some(_)) => {

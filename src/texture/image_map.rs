@@ -1,6 +1,7 @@
 //! Images as texel grids: loading PNG, JPEG and OpenEXR files into linear RGB, and filtered
 //! lookups by texture coordinates.
 
+use crate::image::limits::{decode_raster, RasterError};
 use glam::{Vec2, Vec3};
 use std::path::Path;
 
@@ -51,8 +52,9 @@ pub fn srgb_to_linear(c: f32) -> f32 {
     }
 }
 
-/// An image's linear RGB texels, loaded once per scene however many textures read it.
-#[derive(Clone, PartialEq)]
+/// An image's linear RGB texels, loaded once per scene however many textures and lights read
+/// it (shared as an `Arc`; not `Clone`, so that a decoded image is never copied).
+#[derive(PartialEq)]
 pub struct ImageMap {
     /// Width in texels.
     pub width: usize,
@@ -77,10 +79,28 @@ fn is_exr(bytes: &[u8]) -> bool {
     bytes.starts_with(&[0x76, 0x2f, 0x31, 0x01])
 }
 
+/// Rows of a decoded PNG or JPEG converted to texels at a time.
+const STRIP_ROWS: u32 = 64;
+
+/// The RGB values of a decoded PNG or JPEG `image` as f32 texels (alpha dropped), converted a
+/// strip of [`STRIP_ROWS`] rows at a time: the decoded image and its texels are the only
+/// full-size buffers, never a whole converted copy between them.
+fn raster_texels(image: &image::DynamicImage) -> Vec<Vec3> {
+    let (width, height) = (image.width(), image.height());
+    let mut texels = Vec::with_capacity(width as usize * height as usize);
+    for top in (0..height).step_by(STRIP_ROWS as usize) {
+        let strip = image.crop_imm(0, top, width, STRIP_ROWS.min(height - top)).into_rgb32f();
+        texels.extend(strip.pixels().map(|p| Vec3::from_array(p.0)));
+    }
+    texels
+}
+
 impl ImageMap {
     /// The texels of an image file's contents `bytes` (PNG, JPEG or OpenEXR, told apart by their
     /// first bytes), read from `path` (named in errors). `colorspace` overrides the default
-    /// (sRGB for PNG and JPEG, linear for EXR). The alpha channel is ignored.
+    /// (sRGB for PNG and JPEG, linear for EXR). The alpha channel is ignored. A file declaring
+    /// more than [`MAX_IMAGE_PIXELS`](crate::image::limits::MAX_IMAGE_PIXELS) is refused before
+    /// its pixels are decoded.
     pub fn decode(path: &Path, bytes: &[u8], colorspace: Option<ColorSpace>) -> Result<ImageMap, String> {
         let file = path.display().to_string();
         if bytes.is_empty() {
@@ -90,12 +110,13 @@ impl ImageMap {
             let image = crate::output::exr::decode_exr_rgb(path, bytes).map_err(|e| e.to_string())?;
             (image.width, image.height, image.pixels, ColorSpace::Linear)
         } else {
-            let image = image::load_from_memory(bytes).map_err(|e| {
-                format!("{file}: cannot decode the image ({e}); PNG, JPEG and OpenEXR files are supported")
+            let image = decode_raster(bytes).map_err(|e| match e {
+                RasterError::TooLarge(e) => format!("{file}: {e}"),
+                e => format!(
+                    "{file}: cannot decode the image ({e}); PNG, JPEG and OpenEXR files are supported"
+                ),
             })?;
-            let rgb = image.to_rgb32f();
-            let texels = rgb.pixels().map(|p| Vec3::new(p.0[0], p.0[1], p.0[2])).collect();
-            (rgb.width() as usize, rgb.height() as usize, texels, ColorSpace::Srgb)
+            (image.width() as usize, image.height() as usize, raster_texels(&image), ColorSpace::Srgb)
         };
         if width == 0 || height == 0 {
             return Err(format!("{file}: the image has no texels ({width}x{height})"));
@@ -282,6 +303,18 @@ mod tests {
         let linear = ImageMap::decode(Path::new("a.png"), &bytes, Some(ColorSpace::Linear)).unwrap();
         assert_eq!(linear.texel(0, 0), Vec3::new(1.0, 0.0, 128.0 / 255.0));
         assert_eq!(linear.texel(1, 0), Vec3::Y);
+    }
+
+    #[test]
+    fn strips_convert_as_the_whole_image_does() {
+        // 16-bit RGBA over more rows than a strip (and not a multiple of it): alpha dropped,
+        // every value kept to f32 as one conversion of the whole image gives it.
+        let (w, h) = (3u32, 2 * STRIP_ROWS + 5);
+        let image = image::DynamicImage::ImageRgba16(image::ImageBuffer::from_fn(w, h, |x, y| {
+            image::Rgba([(x * 1000 + y) as u16, (y * 97) as u16, 65535 - y as u16, 7])
+        }));
+        let whole: Vec<Vec3> = image.to_rgb32f().pixels().map(|p| Vec3::from_array(p.0)).collect();
+        assert_eq!(raster_texels(&image), whole);
     }
 
     #[test]

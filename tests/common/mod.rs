@@ -9,6 +9,7 @@ use vitrum::sampler::SamplerKind;
 use vitrum::scene::{load_str, Scene};
 
 pub mod browser;
+pub mod oversized;
 pub mod system;
 
 /// A render of `scene` by `integrator` with the given options.
