@@ -723,6 +723,10 @@ fn figure(plan: &Plan, outcome: &Outcome) -> Result<Canvas, CliError> {
             spp: row.spp(),
             seconds: row.out.seconds,
             rel_mse: row.metrics.rel_mse,
+            rel_mse_interval: row
+                .split
+                .map(|s| s.rel_mse_interval())
+                .filter(|(l, h)| l.is_finite() && h.is_finite()),
             error,
         })
         .collect();

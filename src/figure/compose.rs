@@ -26,7 +26,7 @@
 //! From the top: the title (one line); the R rows of panels, filled left to right in order (the
 //! reference first; a last row with fewer than P panels leaves its right-hand columns empty), row
 //! r starting r·S below the first; per panel, each block centred in its column, the render, a
-//! three-line label (method; samples and seconds; relMSE), the inset when there is a crop, and
+//! three-line label (method; samples and seconds; relMSE with its 95% interval when known), the inset when there is a crop, and
 //! the error map (W × H, pixel for pixel under the render); then, across the figure, the error
 //! maps' caption (one line), their colour bar (B) and its decade labels (one line). Blocks are
 //! separated by g. The reference's panel is a method's but for its label ("reference"; its
@@ -189,6 +189,8 @@ pub struct Panel<'a> {
     pub seconds: f64,
     /// relMSE against the reference.
     pub rel_mse: f64,
+    /// Its 95% confidence interval, shown after it when known.
+    pub rel_mse_interval: Option<(f64, f64)>,
     /// Per-pixel relative squared error against the reference, row by row (W·H values; NaN where
     /// a pixel is not finite), as [`crate::metrics::relative_squared_error`] gives it.
     pub error: &'a [f32],
@@ -383,7 +385,17 @@ fn method_label(panel: &Panel) -> [String; 3] {
     [
         panel.method.to_string(),
         format!("{} spp, {} s", format_spp(panel.spp), format_seconds(panel.seconds)),
-        format!("relMSE {}", format_number(panel.rel_mse)),
+        match panel.rel_mse_interval {
+            Some((low, high)) => {
+                format!(
+                    "relMSE {} [{}, {}]",
+                    format_number(panel.rel_mse),
+                    format_number(low),
+                    format_number(high)
+                )
+            }
+            None => format!("relMSE {}", format_number(panel.rel_mse)),
+        },
     ]
 }
 
@@ -517,7 +529,7 @@ mod tests {
 
     /// A panel of `image` with the given errors.
     fn panel<'a>(image: &'a Image, method: &'a str, error: &'a [f32]) -> Panel<'a> {
-        Panel { method, image, spp: 16.0, seconds: 1.5, rel_mse: 0.01, error }
+        Panel { method, image, spp: 16.0, seconds: 1.5, rel_mse: 0.01, rel_mse_interval: None, error }
     }
 
     /// Whether any pixel of rows y0..y1 is dark (text).
@@ -703,9 +715,33 @@ mod tests {
         let low: Vec<f32> = (0..40 * 30).map(|i| 1e-4 * (1.0 + (i % 7) as f32)).collect();
         let high: Vec<f32> = (0..40 * 30).map(|i| 1e-2 * (1.0 + (i % 13) as f32)).collect();
         let panels = [
-            Panel { method: "whitted", image: &image, spp: 16.0, seconds: 1.5, rel_mse: 0.01, error: &low },
-            Panel { method: "path", image: &image, spp: 4.25, seconds: 12.0, rel_mse: 0.2, error: &high },
-            Panel { method: "vcm", image: &image, spp: 8.0, seconds: 3.0, rel_mse: 0.05, error: &low },
+            Panel {
+                method: "whitted",
+                image: &image,
+                spp: 16.0,
+                seconds: 1.5,
+                rel_mse: 0.01,
+                rel_mse_interval: None,
+                error: &low,
+            },
+            Panel {
+                method: "path",
+                image: &image,
+                spp: 4.25,
+                seconds: 12.0,
+                rel_mse: 0.2,
+                rel_mse_interval: None,
+                error: &high,
+            },
+            Panel {
+                method: "vcm",
+                image: &image,
+                spp: 8.0,
+                seconds: 3.0,
+                rel_mse: 0.05,
+                rel_mse_interval: None,
+                error: &low,
+            },
         ];
         let crop = Crop { x: 18, y: 10, width: 5, height: 5 };
         // Sizes and hashes of the figures the code before reference columns and rows drew.
