@@ -28,6 +28,9 @@ pub struct Camera {
     pub shutter: (f32, f32),
     /// Half the image plane's height at distance 1.
     pub(crate) tan_half_fov: f32,
+    /// The point looked at and the up vector as given (before they were made an orthonormal
+    /// frame), which `vitrum export` writes back so that a round trip keeps the same frame.
+    pub placement: (Vec3, Vec3),
 }
 
 impl Camera {
@@ -41,6 +44,7 @@ impl Camera {
         width: u32,
         height: u32,
     ) -> Option<Camera> {
+        let placement = (look_at, up);
         let forward = try_unit(look_at - position)?;
         let up = try_unit(up)?;
         if forward.cross(up).length() < 1e-6 {
@@ -60,6 +64,7 @@ impl Camera {
             focus_distance: (look_at - position).length(),
             shutter: (0.0, 0.0),
             tan_half_fov: (0.5 * fov_degrees.to_radians()).tan(),
+            placement,
         })
     }
 

@@ -22,6 +22,10 @@ pub struct Cli {
     /// What to do.
     #[command(subcommand)]
     pub command: Command,
+    /// Read Mitsuba XML scenes leniently: a plugin or parameter vitrum lacks is dropped or
+    /// approximated with a warning instead of refused (any command that reads a scene).
+    #[arg(long, global = true)]
+    pub lenient: bool,
 }
 
 /// The subcommands.
@@ -36,6 +40,8 @@ pub enum Command {
     Integrators,
     /// Write the scene for another renderer (Mitsuba 3 XML), to render the same scene there.
     Export(ExportArgs),
+    /// Write a Mitsuba XML scene as vitrum's TOML, with comments for what is not exact.
+    Import(crate::commands::import::ImportArgs),
     /// Error metrics of an EXR image against a reference, and an optional false-colour error map.
     Diff(crate::commands::diff::DiffArgs),
     /// Render progressively and record error against samples and seconds at every power of two.
@@ -57,10 +63,12 @@ pub fn main() -> i32 {
             return if e.use_stderr() { 2 } else { 0 };
         }
     };
+    crate::scene::mitsuba::set_lenient(cli.lenient);
     let result = match cli.command {
         Command::Render(args) => crate::commands::render::run(&args),
         Command::Info(args) => crate::commands::info::run(&args),
         Command::Export(args) => crate::commands::export::run(&args),
+        Command::Import(args) => crate::commands::import::run(&args),
         Command::Diff(args) => crate::commands::diff::run(&args),
         Command::Converge(args) => crate::commands::converge::run(&args),
         Command::Compare(args) => crate::commands::compare::run(&args),

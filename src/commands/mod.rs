@@ -8,6 +8,7 @@ pub mod compare;
 pub mod converge;
 pub mod diff;
 pub mod export;
+pub mod import;
 pub mod info;
 pub mod merge;
 pub mod parts;

@@ -213,13 +213,24 @@ impl Xml {
         let mut value = String::new();
         for row in rows {
             for v in row {
-                let _ = write!(value, "{} ", num(v as f32));
+                let _ = write!(value, "{} ", num64(v));
             }
         }
         value.push_str("0 0 0 1");
         self.open("transform", &[("name", name)]);
         self.leaf("matrix", &[("value", &value)]);
         self.close("transform");
+    }
+}
+
+/// A double as the shortest text that reads back to it (never `-0`): an affine map's entries
+/// are sums of single-precision numbers, exact in double precision, so an import recovers the
+/// single-precision corners and edges they came from.
+fn num64(x: f64) -> String {
+    if x == 0.0 {
+        "0".into()
+    } else {
+        format!("{x}")
     }
 }
 
@@ -839,10 +850,11 @@ impl<'a> Exporter<'a> {
         x.float("near_clip", 1e-4 * reach);
         x.float("far_clip", 1e2 * reach);
         x.open("transform", &[("name", "to_world")]);
-        let target = cam.position + cam.forward;
+        // The point and up vector the scene gave: both renderers make the same frame of them.
+        let (target, up) = cam.placement;
         x.leaf(
             "lookat",
-            &[("origin", &triple(cam.position)), ("target", &triple(target)), ("up", &triple(cam.up))],
+            &[("origin", &triple(cam.position)), ("target", &triple(target)), ("up", &triple(up))],
         );
         x.close("transform");
         x.open("sampler", &[("type", "independent")]);

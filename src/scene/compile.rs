@@ -60,9 +60,13 @@ pub const DEFAULT_SCENE_NAME: &str = "<embedded default scene>";
 /// `/dev/zero` given as the scene must not be read forever.
 pub const MAX_SCENE_BYTES: u64 = 64 << 20;
 
-/// Load and compile a scene file.
+/// Load and compile a scene file: vitrum's TOML, or Mitsuba XML (`.xml`, read through
+/// [`super::mitsuba`], leniently after [`super::mitsuba::set_lenient`]).
 pub fn load(path: &Path) -> Result<Scene, SceneError> {
     use std::io::Read;
+    if super::mitsuba::is_mitsuba(path) {
+        return super::mitsuba::load(path, super::mitsuba::lenient());
+    }
     let io_error = |source| SceneError::Io { path: path.to_path_buf(), source };
     let mut bytes = Vec::new();
     std::fs::File::open(path)

@@ -7,6 +7,7 @@ pub mod desc;
 pub mod describe;
 pub mod effects;
 pub mod mesh;
+pub mod mitsuba;
 pub mod overlap;
 pub mod source;
 pub mod transform;

@@ -1,0 +1,1140 @@
+//! A Mitsuba scene ([`super::xml::Document`]) in vitrum's own TOML format.
+//!
+//! Every plugin and parameter is either translated exactly, translated with a stated difference
+//! (a warning, and a comment in the TOML), ignored with a warning (the parameters only Mitsuba
+//! 0.5/0.6 knew, [`LEGACY_PARAMETERS`]), or refused: an unknown parameter or a plugin vitrum
+//! lacks is an error at its position listing what is supported, or with `lenient` a warning
+//! saying what was dropped or approximated. The supported subset is documented in the README
+//! ("Scenes from other renderers").
+
+use super::toml_writer::{number, vector, TomlWriter};
+use super::xml::{Document, Object, Position, Property, Value, XmlError};
+use glam::{DMat3, DMat4, DQuat, DVec3};
+use std::cell::RefCell;
+use std::collections::{HashMap, HashSet};
+use std::rc::Rc;
+
+/// Parameters of Mitsuba 0.5/0.6 that Mitsuba 3 refuses and vitrum accepts with a warning
+/// naming each: (plugin tag, parameter, why it is ignored).
+pub const LEGACY_PARAMETERS: [(&str, &str, &str); 6] = [
+    ("integrator", "strict_normals", "vitrum always uses the geometric normal for the side of a surface"),
+    ("film", "gamma", "vitrum's films are linear (the PNG preview applies the sRGB curve)"),
+    ("film", "banner", "vitrum writes no banner"),
+    ("film", "file_format", "vitrum writes OpenEXR (and a PNG preview with --png)"),
+    ("film", "pixel_format", "vitrum renders RGB"),
+    ("bsdf", "ext_eta", "the conductor's outside index is taken as 1"),
+];
+
+/// Mitsuba's named refractive indices (its `dielectric` plugin's table).
+pub const NAMED_IORS: [(&str, f64); 23] = [
+    ("vacuum", 1.0),
+    ("helium", 1.000036),
+    ("hydrogen", 1.000132),
+    ("air", 1.000277),
+    ("carbon dioxide", 1.00045),
+    ("water", 1.333),
+    ("acetone", 1.36),
+    ("ethanol", 1.361),
+    ("carbon tetrachloride", 1.461),
+    ("glycerol", 1.4729),
+    ("benzene", 1.501),
+    ("silicone oil", 1.52045),
+    ("bromine", 1.661),
+    ("water ice", 1.31),
+    ("fused quartz", 1.458),
+    ("pyrex", 1.47),
+    ("acrylic glass", 1.49),
+    ("polypropylene", 1.49),
+    ("bk7", 1.5046),
+    ("sodium chloride", 1.544),
+    ("amber", 1.55),
+    ("pet", 1.575),
+    ("diamond", 2.419),
+];
+
+/// The plugins translated, by tag, for the error listing what is supported.
+pub const SUPPORTED: [(&str, &str); 8] = [
+    ("sensor", "perspective, thinlens"),
+    ("film", "hdrfilm, ldrfilm"),
+    ("rfilter", "box"),
+    ("sampler", "independent, stratified, multijitter, ldsampler, orthogonal (their sample_count and seed)"),
+    ("integrator", "path, volpath (as path), bdpt (as bpt), ptracer (as light)"),
+    ("shape", "rectangle, cube, sphere, disk, cylinder, obj"),
+    ("bsdf", "diffuse, twosided, dielectric, roughdielectric (ggx)"),
+    ("emitter", "area (on rectangles and spheres; elsewhere as emission), point, constant, envmap"),
+];
+
+/// An imported scene: its TOML (with the element of every line) and the warnings.
+pub struct Translation {
+    /// The TOML.
+    pub toml: TomlWriter,
+    /// What was ignored, approximated or dropped, one sentence each.
+    pub warnings: Vec<String>,
+}
+
+/// Translates `doc`; with `lenient` what vitrum lacks is dropped or approximated with a warning
+/// instead of refused. `file` writes a file name of the XML (relative to its folder) as the TOML
+/// must name it.
+pub fn translate(
+    doc: &Document,
+    lenient: bool,
+    file: &dyn Fn(&str) -> String,
+) -> Result<Translation, XmlError> {
+    let mut t =
+        Translator { lenient, warnings: Vec::new(), materials: HashMap::new(), names: HashSet::new(), file };
+    let scene = &doc.scene;
+    let mut head = TomlWriter::default();
+    let (mut camera, mut render) = (TomlWriter::default(), TomlWriter::default());
+    let (mut materials, mut objects, mut lights) =
+        (TomlWriter::default(), TomlWriter::default(), TomlWriter::default());
+    let sensor = scene
+        .children_tagged("sensor")
+        .next()
+        .ok_or_else(|| error(&scene.position, "<scene>", "has no <sensor>: vitrum needs a camera"))?;
+    render.from(&scene.position, "<scene>");
+    render.table("render");
+    let size = t.sensor(sensor, &mut camera, &mut render)?;
+    let integrator = scene.children_tagged("integrator").next();
+    t.integrator(integrator.map(Rc::as_ref), &mut render)?;
+    for (i, shape) in scene.children_tagged("shape").enumerate() {
+        t.shape(shape, i, &mut materials, &mut objects, &mut lights)?;
+    }
+    for emitter in scene.children_tagged("emitter") {
+        t.emitter(emitter, &mut lights)?;
+    }
+    for child in &scene.children {
+        if !["sensor", "integrator", "shape", "emitter", "bsdf", "texture"].contains(&child.tag.as_str()) {
+            t.lacks(child, &format!("<{}> objects", child.tag))?;
+        }
+    }
+    let _ = size;
+    head.comment(&format!(
+        "Imported by vitrum {} from {} (Mitsuba scene version {}.{}.{}).",
+        crate::VERSION,
+        scene.position.file,
+        doc.version.0,
+        doc.version.1,
+        doc.version.2
+    ));
+    for w in &t.warnings {
+        head.comment(&format!("Not exact: {w}"));
+    }
+    let mut toml = head;
+    for part in [camera, render, materials, objects, lights] {
+        toml.append(part);
+    }
+    Ok(Translation { toml, warnings: t.warnings })
+}
+
+/// The state of a translation.
+struct Translator<'f> {
+    /// How a file name of the XML is written in the TOML.
+    file: &'f dyn Fn(&str) -> String,
+    lenient: bool,
+    warnings: Vec<String>,
+    /// The material key of every BSDF object already written (by address).
+    materials: HashMap<*const Object, String>,
+    /// Material keys taken.
+    names: HashSet<String>,
+}
+
+/// The properties of one object, remembering which were read.
+struct Props<'a> {
+    object: &'a Object,
+    used: RefCell<HashSet<String>>,
+}
+
+impl<'a> Props<'a> {
+    fn of(object: &'a Object) -> Props<'a> {
+        Props { object, used: RefCell::new(HashSet::new()) }
+    }
+
+    fn get(&self, name: &str) -> Option<&'a Property> {
+        self.used.borrow_mut().insert(name.to_string());
+        self.object.property(name)
+    }
+
+    fn wrong(&self, p: &Property, wanted: &str) -> XmlError {
+        error(
+            &p.position,
+            &self.object.describe(),
+            &format!("`{}` must be {wanted}, not {}", p.name, p.value.kind()),
+        )
+    }
+
+    fn float(&self, name: &str) -> Result<Option<f64>, XmlError> {
+        match self.get(name) {
+            None => Ok(None),
+            Some(Property { value: Value::Float(v), .. }) => Ok(Some(*v)),
+            Some(Property { value: Value::Integer(v), .. }) => Ok(Some(*v as f64)),
+            Some(p) => Err(self.wrong(p, "a <float>")),
+        }
+    }
+
+    fn integer(&self, name: &str) -> Result<Option<i64>, XmlError> {
+        match self.get(name) {
+            None => Ok(None),
+            Some(Property { value: Value::Integer(v), .. }) => Ok(Some(*v)),
+            Some(p) => Err(self.wrong(p, "an <integer>")),
+        }
+    }
+
+    fn boolean(&self, name: &str) -> Result<Option<bool>, XmlError> {
+        match self.get(name) {
+            None => Ok(None),
+            Some(Property { value: Value::Boolean(v), .. }) => Ok(Some(*v)),
+            Some(p) => Err(self.wrong(p, "a <boolean>")),
+        }
+    }
+
+    fn string(&self, name: &str) -> Result<Option<String>, XmlError> {
+        match self.get(name) {
+            None => Ok(None),
+            Some(Property { value: Value::String(v), .. }) => Ok(Some(v.clone())),
+            Some(p) => Err(self.wrong(p, "a <string>")),
+        }
+    }
+
+    fn point(&self, name: &str) -> Result<Option<DVec3>, XmlError> {
+        match self.get(name) {
+            None => Ok(None),
+            Some(Property { value: Value::Point(v) | Value::Vector(v), .. }) => Ok(Some(*v)),
+            Some(p) => Err(self.wrong(p, "a <point>")),
+        }
+    }
+
+    /// A colour: `<rgb>`, a constant `<spectrum>` or a `<float>`.
+    fn color(&self, name: &str) -> Result<Option<[f64; 3]>, XmlError> {
+        match self.get(name) {
+            None => Ok(None),
+            Some(Property { value: Value::Rgb(c), .. }) => Ok(Some(*c)),
+            Some(Property { value: Value::Constant(v) | Value::Float(v), .. }) => Ok(Some([*v; 3])),
+            Some(p @ Property { value: Value::Sampled(_), .. }) => Err(error(
+                &p.position,
+                &self.object.describe(),
+                &format!("`{}`: a sampled spectrum is not supported yet; give an <rgb>", p.name),
+            )),
+            Some(p) => Err(self.wrong(p, "an <rgb>, <spectrum> or <float>")),
+        }
+    }
+
+    fn transform(&self, name: &str) -> Result<Option<DMat4>, XmlError> {
+        match self.get(name) {
+            None => Ok(None),
+            Some(Property { value: Value::Transform(m, _), .. }) => Ok(Some(*m)),
+            Some(p) => Err(self.wrong(p, "a <transform>")),
+        }
+    }
+
+    /// Every property not read: the legacy ones a warning each, the others an error (a warning
+    /// when lenient).
+    fn finish(self, t: &mut Translator<'_>) -> Result<(), XmlError> {
+        let used = self.used.into_inner();
+        for p in self.object.properties.iter().filter(|p| !used.contains(&p.name)) {
+            let legacy =
+                LEGACY_PARAMETERS.iter().find(|(tag, name, _)| *tag == self.object.tag && *name == p.name);
+            match legacy {
+                Some((_, _, why)) => {
+                    t.warn(&p.position, &format!("`{}` of {} ignored: {why}", p.name, self.object.describe()))
+                }
+                None => {
+                    let message = format!("unknown parameter `{}` of {}", p.name, self.object.describe());
+                    if t.lenient {
+                        t.warn(&p.position, &format!("{message}: dropped (--lenient)"));
+                    } else {
+                        return Err(error(&p.position, &self.object.describe(), &format!(
+                            "unknown parameter `{}` (or one vitrum does not support yet); --lenient drops it with a warning",
+                            p.name
+                        )));
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+impl Translator<'_> {
+    fn warn(&mut self, at: &Position, message: &str) {
+        let warning = format!("{at}: {message}");
+        if !self.warnings.contains(&warning) {
+            self.warnings.push(warning);
+        }
+    }
+
+    /// A plugin or feature vitrum lacks: an error, or with `lenient` a warning (Ok, dropped).
+    fn lacks(&mut self, object: &Object, what: &str) -> Result<(), XmlError> {
+        let supported = SUPPORTED
+            .iter()
+            .find(|(tag, _)| *tag == object.tag)
+            .map_or("none".to_string(), |(_, list)| list.to_string());
+        if self.lenient {
+            self.warn(
+                &object.position,
+                &format!("{} ({what}): not supported, dropped (--lenient)", object.describe()),
+            );
+            Ok(())
+        } else {
+            Err(error(
+                &object.position,
+                &object.describe(),
+                &format!("{what} not supported by vitrum; supported <{}> plugins: {supported}; --lenient drops it with a warning", object.tag),
+            ))
+        }
+    }
+
+    /// The camera and film; returns the image size.
+    fn sensor(
+        &mut self,
+        sensor: &Object,
+        camera: &mut TomlWriter,
+        render: &mut TomlWriter,
+    ) -> Result<(u32, u32), XmlError> {
+        camera.from(&sensor.position, &sensor.describe());
+        let p = Props::of(sensor);
+        let thin = match sensor.plugin.as_str() {
+            "perspective" => false,
+            "thinlens" => true,
+            _ => {
+                self.lacks(sensor, &format!("the sensor `{}`", sensor.plugin))?;
+                false
+            }
+        };
+        let film = sensor.children_tagged("film").next();
+        let (w, h) = match film {
+            Some(film) => self.film(film)?,
+            None => (768, 576),
+        };
+        let m = p.transform("to_world")?.unwrap_or(DMat4::IDENTITY);
+        let origin = m.transform_point3(DVec3::ZERO);
+        let dir = m.transform_vector3(DVec3::Z).normalize_or_zero();
+        let up = m.transform_vector3(DVec3::Y).normalize_or_zero();
+        let left = m.transform_vector3(DVec3::X).normalize_or_zero();
+        if left.dot(up.cross(dir)) < 0.0 {
+            let message = "the camera's to_world mirrors the image (its x axis is not up × view direction)";
+            if !self.lenient {
+                return Err(error(
+                    &sensor.position,
+                    &sensor.describe(),
+                    &format!("{message}; vitrum's cameras cannot mirror; --lenient renders it unmirrored"),
+                ));
+            }
+            self.warn(&sensor.position, &format!("{message}: rendered unmirrored (--lenient)"));
+        }
+        let fov = p.float("fov")?.unwrap_or(39.3077);
+        let axis = p.string("fov_axis")?.unwrap_or_else(|| "x".into());
+        let tan_half = (fov.to_radians() / 2.0).tan();
+        let (wf, hf) = (f64::from(w), f64::from(h));
+        let vertical = match axis.as_str() {
+            "x" => tan_half * hf / wf,
+            "y" => tan_half,
+            "diagonal" => tan_half * hf / (wf * wf + hf * hf).sqrt(),
+            "smaller" if w < h => tan_half * hf / wf,
+            "smaller" => tan_half,
+            "larger" if w > h => tan_half * hf / wf,
+            "larger" => tan_half,
+            other => {
+                return Err(error(
+                    &sensor.position,
+                    &sensor.describe(),
+                    &format!("fov_axis `{other}`: one of x, y, diagonal, smaller, larger"),
+                ))
+            }
+        };
+        if let Some(near) = p.float("near_clip")? {
+            self.warn(
+                &sensor.position,
+                &format!("near_clip {near} ignored: vitrum's camera sees from its position on"),
+            );
+        }
+        let _ = p.float("far_clip")?;
+        p.get("focus_distance");
+        p.get("aperture_radius");
+        camera.table("camera");
+        camera.comment(&format!("Mitsuba's fov {fov}° along `{axis}` at {w}x{h}: vitrum's fov is vertical"));
+        // A lone lookat keeps its own numbers: vitrum's camera orthonormalises them as Mitsuba does.
+        let exact = match p.get("to_world") {
+            Some(Property { value: Value::Transform(_, Some(look_at)), .. }) => Some(*look_at),
+            _ => None,
+        };
+        let [origin, target, up] = exact.unwrap_or([origin, origin + dir, up]);
+        camera.vector("position", origin.to_array());
+        camera.vector("look_at", target.to_array());
+        camera.vector("up", up.to_array());
+        camera.number("fov", 2.0 * vertical.atan().to_degrees());
+        camera.raw("resolution", &format!("[{w}, {h}]"));
+        if thin {
+            let aperture = p.float("aperture_radius")?.unwrap_or(0.03);
+            camera.number("aperture", aperture);
+            if let Some(d) = p.float("focus_distance")? {
+                camera.number("focus_distance", d);
+            }
+        }
+        if let Some(sampler) = sensor.children_tagged("sampler").next() {
+            self.sampler(sampler, render)?;
+        }
+        p.finish(self)?;
+        for child in &sensor.children {
+            if !["film", "sampler"].contains(&child.tag.as_str()) {
+                self.lacks(child, &format!("<{}> inside a sensor", child.tag))?;
+            }
+        }
+        Ok((w, h))
+    }
+
+    /// The film's size (its filter and crop checked).
+    fn film(&mut self, film: &Object) -> Result<(u32, u32), XmlError> {
+        if !["hdrfilm", "ldrfilm"].contains(&film.plugin.as_str()) {
+            self.lacks(film, &format!("the film `{}`", film.plugin))?;
+        }
+        let p = Props::of(film);
+        let size = |name: &str, default: i64| -> Result<u32, XmlError> {
+            let v = p.integer(name)?.unwrap_or(default);
+            u32::try_from(v).ok().filter(|&v| v > 0).ok_or_else(|| {
+                error(
+                    &film.position,
+                    &film.describe(),
+                    &format!("`{name}` {v}: must be a positive number of pixels"),
+                )
+            })
+        };
+        let (w, h) = (size("width", 768)?, size("height", 576)?);
+        for crop in ["crop_offset_x", "crop_offset_y", "crop_width", "crop_height"] {
+            if let Some(prop) = p.get(crop) {
+                let (at, d) = (prop.position.clone(), film.describe());
+                if !self.lenient {
+                    return Err(error(
+                        &at,
+                        &d,
+                        "a film crop window is not supported yet; --lenient renders the whole film",
+                    ));
+                }
+                self.warn(&at, &format!("`{crop}` of {d}: the whole film is rendered (--lenient)"));
+            }
+        }
+        for name in
+            ["filename", "component_format", "rfilter", "high_quality_edges", "tonemap_method", "exposure"]
+        {
+            p.get(name);
+        }
+        p.finish(self)?;
+        for child in &film.children {
+            if child.tag == "rfilter" {
+                if child.plugin != "box" {
+                    self.lacks(
+                        child,
+                        &format!(
+                            "the reconstruction filter `{}` (vitrum filters with a one-pixel box)",
+                            child.plugin
+                        ),
+                    )?;
+                }
+            } else {
+                self.lacks(child, &format!("<{}> inside a film", child.tag))?;
+            }
+        }
+        Ok((w, h))
+    }
+
+    fn sampler(&mut self, sampler: &Object, render: &mut TomlWriter) -> Result<(), XmlError> {
+        render.from(&sampler.position, &sampler.describe());
+        let p = Props::of(sampler);
+        let count = p.integer("sample_count")?.unwrap_or(4);
+        let count = u32::try_from(count).ok().filter(|&c| c > 0).ok_or_else(|| {
+            error(&sampler.position, &sampler.describe(), &format!("sample_count {count}: must be positive"))
+        })?;
+        render.raw("spp", &count.to_string());
+        if let Some(seed) = p.integer("seed")? {
+            render.raw("seed", &seed.max(0).to_string());
+        }
+        let kind = match sampler.plugin.as_str() {
+            "independent" => "independent",
+            "stratified" => "stratified",
+            "multijitter" | "ldsampler" | "orthogonal" | "sobol" => "sobol",
+            other => {
+                self.lacks(sampler, &format!("the sampler `{other}`"))?;
+                "sobol"
+            }
+        };
+        render.string("sampler", kind);
+        for name in ["jitter", "scramble_seed", "dimension"] {
+            p.get(name);
+        }
+        p.finish(self)
+    }
+
+    fn integrator(&mut self, integrator: Option<&Object>, render: &mut TomlWriter) -> Result<(), XmlError> {
+        let Some(integrator) = integrator else {
+            return Ok(());
+        };
+        render.from(&integrator.position, &integrator.describe());
+        let p = Props::of(integrator);
+        let method = match integrator.plugin.as_str() {
+            "path" => "path",
+            "volpath" => {
+                self.warn(&integrator.position, "volpath rendered as vitrum's path (no participating media)");
+                "path"
+            }
+            "bdpt" => "bpt",
+            "ptracer" => "light",
+            other => {
+                self.lacks(integrator, &format!("the integrator `{other}`"))?;
+                "path"
+            }
+        };
+        let depth = p.integer("max_depth")?.unwrap_or(-1);
+        if p.get("rr_depth").is_some() {
+            self.warn(
+                &integrator.position,
+                "rr_depth ignored: vitrum's Russian roulette starts at its own depth",
+            );
+        }
+        p.get("hide_emitters");
+        p.get("strict_normals");
+        let max = i64::from(crate::scene::compile::MAX_DEPTH);
+        // Mitsuba counts path segments (1: emitters seen directly); vitrum's path-like methods
+        // count scattering events (0: the same), Whitted's family also gathers light at its last hit.
+        let (bounces, whitted) = match depth {
+            -1 => (max, max),
+            d if d >= 1 => ((d - 1).min(max), (d - 2).clamp(0, max)),
+            d => {
+                return Err(error(
+                    &integrator.position,
+                    &integrator.describe(),
+                    &format!("max_depth {d}: −1 (unlimited) or at least 1"),
+                ))
+            }
+        };
+        render.line(&format!("integrator = \"{method}\""));
+        render.comment(&format!(
+            "Mitsuba's max_depth {depth} counts path segments; vitrum's depth counts bounces: {bounces} (Whitted's family {whitted})"
+        ));
+        for m in ["path", "light", "bpt", "ppm", "bpm", "vcm"] {
+            render.table(&format!("render.{m}"));
+            render.raw("max_depth", &bounces.to_string());
+        }
+        for m in ["whitted", "ssaa", "distributed"] {
+            render.table(&format!("render.{m}"));
+            render.raw("max_depth", &whitted.to_string());
+        }
+        p.finish(self)
+    }
+
+    /// One `<shape>`: its objects (or light) and its material.
+    fn shape(
+        &mut self,
+        shape: &Object,
+        index: usize,
+        materials: &mut TomlWriter,
+        objects: &mut TomlWriter,
+        lights: &mut TomlWriter,
+    ) -> Result<(), XmlError> {
+        let p = Props::of(shape);
+        let m = p.transform("to_world")?.unwrap_or(DMat4::IDENTITY);
+        let flip = p.boolean("flip_normals")?.unwrap_or(false);
+        let name = shape.id.clone().unwrap_or_else(|| format!("shape{index}-{}", shape.plugin));
+        let emitter = shape.children_tagged("emitter").next();
+        let radiance = match emitter {
+            Some(e) if e.plugin == "area" => {
+                let ep = Props::of(e);
+                let r = ep.color("radiance")?.unwrap_or([1.0; 3]);
+                ep.finish(self)?;
+                Some(r)
+            }
+            Some(e) => {
+                self.lacks(e, &format!("the emitter `{}` on a shape", e.plugin))?;
+                None
+            }
+            None => None,
+        };
+        for child in &shape.children {
+            if !["bsdf", "emitter"].contains(&child.tag.as_str()) {
+                self.lacks(child, &format!("<{}> inside a shape", child.tag))?;
+            }
+        }
+        let at = (&shape.position, shape.describe());
+        let fail = |m: &str| error(at.0, &at.1, m);
+        let mut geometry: Vec<(String, Vec<(&str, String)>)> = Vec::new();
+        let mut quad_light = None;
+        match shape.plugin.as_str() {
+            "rectangle" => {
+                let (corner, u, v) =
+                    parallelogram(&m, DVec3::new(-1.0, -1.0, 0.0), DVec3::X * 2.0, DVec3::Y * 2.0, flip);
+                if radiance.is_some() {
+                    quad_light = Some((corner, u, v));
+                } else {
+                    geometry.push((name.clone(), quad(corner, u, v)));
+                }
+            }
+            "cube" => {
+                for (k, (corner, u, v)) in cube_faces().into_iter().enumerate() {
+                    let (corner, u, v) = parallelogram(&m, corner, u, v, flip);
+                    geometry.push((format!("{name}.face{k}"), quad(corner, u, v)));
+                }
+            }
+            "sphere" => {
+                let center = p.point("center")?.unwrap_or(DVec3::ZERO);
+                let radius = p.float("radius")?.unwrap_or(1.0);
+                let (scale, _) = similarity(&m).ok_or_else(|| fail("to_world is not a similarity (uniform scale, rotation, translation): an ellipsoid is not supported yet"))?;
+                let c = m.transform_point3(center);
+                let r = radius * scale;
+                if radiance.is_some() && !flip {
+                    quad_light = None;
+                    geometry.push((
+                        name.clone(),
+                        vec![
+                            ("shape", "\"sphere\"".into()),
+                            ("center", vector(c.to_array())),
+                            ("radius", number(r)),
+                        ],
+                    ));
+                } else {
+                    if flip {
+                        self.warn(
+                            &shape.position,
+                            "flip_normals on a sphere ignored (vitrum's spheres face outwards)",
+                        );
+                    }
+                    geometry.push((
+                        name.clone(),
+                        vec![
+                            ("shape", "\"sphere\"".into()),
+                            ("center", vector(c.to_array())),
+                            ("radius", number(r)),
+                        ],
+                    ));
+                }
+            }
+            "disk" => {
+                let scale = round_in_plane(&m).ok_or_else(|| {
+                    fail(
+                        "to_world stretches the disk's plane unevenly: an elliptic disk is not supported yet",
+                    )
+                })?;
+                let c = m.transform_point3(DVec3::ZERO);
+                let n = normal_of(&m, flip);
+                geometry.push((
+                    name.clone(),
+                    vec![
+                        ("shape", "\"disk\"".into()),
+                        ("center", vector(c.to_array())),
+                        ("normal", vector(n.to_array())),
+                        ("radius", number(scale)),
+                    ],
+                ));
+            }
+            "cylinder" => {
+                let p0 = p.point("p0")?.unwrap_or(DVec3::ZERO);
+                let p1 = p.point("p1")?.unwrap_or(DVec3::Z);
+                let radius = p.float("radius")?.unwrap_or(1.0);
+                let (a, b) = (m.transform_point3(p0), m.transform_point3(p1));
+                let axis = b - a;
+                let upright = |l: DMat3| {
+                    let tol = 1e-5 * l.x_axis.length() * axis.length();
+                    axis.dot(l.x_axis).abs() <= tol && axis.dot(l.y_axis).abs() <= tol
+                };
+                // Along object z, any frame that keeps the xy circle round and the axis upright
+                // (the exporter's); along another axis, a similarity.
+                let along_z = (p1 - p0).truncate().length() <= 1e-12 * (p1 - p0).length();
+                let scale = if along_z {
+                    round_in_plane(&m).filter(|_| upright(DMat3::from_mat4(m)))
+                } else {
+                    similarity(&m).map(|(s, _)| s)
+                };
+                let scale = scale.ok_or_else(|| {
+                    fail("to_world makes the cylinder elliptic or oblique, which is not supported yet")
+                })?;
+                if flip {
+                    self.warn(
+                        &shape.position,
+                        "flip_normals on a cylinder ignored (vitrum's cylinders face outwards)",
+                    );
+                }
+                geometry.push((
+                    name.clone(),
+                    vec![
+                        ("shape", "\"cylinder\"".into()),
+                        ("base", vector(a.to_array())),
+                        ("axis", vector(axis.normalize_or_zero().to_array())),
+                        ("radius", number(radius * scale)),
+                        ("height", number(axis.length())),
+                        ("caps", "false".into()),
+                    ],
+                ));
+            }
+            "obj" => {
+                let file = p.string("filename")?.ok_or_else(|| fail("has no `filename`"))?;
+                if p.boolean("face_normals")?.unwrap_or(false) {
+                    self.warn(
+                        &shape.position,
+                        "face_normals ignored: vitrum shades with the normals the OBJ file holds",
+                    );
+                }
+                if flip {
+                    self.warn(&shape.position, "flip_normals on a mesh ignored");
+                }
+                let mut fields = vec![
+                    ("shape", "\"mesh\"".into()),
+                    ("file", toml::Value::String((self.file)(&file)).to_string()),
+                ];
+                fields.extend(placement(&m).ok_or_else(|| {
+                    fail("to_world has a shear or a mirror, which a mesh's transform cannot hold yet")
+                })?);
+                geometry.push((name.clone(), fields));
+            }
+            other => return self.lacks(shape, &format!("the shape `{other}`")),
+        }
+        p.finish(self)?;
+        let bsdf = shape.children_tagged("bsdf").next();
+        if let (Some((corner, u, v)), Some(r)) = (quad_light, radiance) {
+            lights.from(&shape.position, &shape.describe());
+            lights.array_table("lights");
+            lights
+                .comment(&format!("{name}: a rectangle with an area emitter (one-sided, along its normal)"));
+            lights.string("type", "quad");
+            lights.vector("corner", corner.to_array());
+            lights.vector("u", u.to_array());
+            lights.vector("v", v.to_array());
+            lights.vector("radiance", r);
+            if let Some(b) = bsdf {
+                self.warn(&b.position, &format!("{name}: the bsdf of an emitting rectangle is dropped (vitrum's quad lights reflect nothing)"));
+            }
+            return Ok(());
+        }
+        let material = self.material(bsdf.map(Rc::as_ref), radiance, &shape.position, materials)?;
+        if radiance.is_some() && shape.plugin != "sphere" {
+            self.warn(&shape.position, &format!("{name}: the area emitter is written as the material's emission, which vitrum emits on both sides"));
+        }
+        for (object, fields) in geometry {
+            objects.from(&shape.position, &shape.describe());
+            objects.array_table("objects");
+            objects.string("name", &object);
+            objects.string("material", &material);
+            for (key, value) in fields {
+                objects.raw(key, &value);
+            }
+        }
+        Ok(())
+    }
+
+    /// The key of the material for `bsdf` (written once per BSDF object), with `radiance`.
+    fn material(
+        &mut self,
+        bsdf: Option<&Object>,
+        radiance: Option<[f64; 3]>,
+        at: &Position,
+        out: &mut TomlWriter,
+    ) -> Result<String, XmlError> {
+        let key_of = bsdf.map(|b| b as *const Object);
+        if radiance.is_none() {
+            if let Some(key) = key_of.and_then(|k| self.materials.get(&k)) {
+                return Ok(key.clone());
+            }
+        }
+        let base = bsdf.and_then(|b| b.id.clone()).unwrap_or_else(|| "material".into());
+        let mut key: String = base
+            .chars()
+            .map(|c| if c.is_ascii_alphanumeric() || c == '-' || c == '_' { c } else { '_' })
+            .collect();
+        let stem = key.clone();
+        let mut n = 2;
+        while self.names.contains(&key) {
+            key = format!("{stem}-{n}");
+            n += 1;
+        }
+        self.names.insert(key.clone());
+        match bsdf {
+            Some(b) => out.from(&b.position, &b.describe()),
+            None => out.from(at, "<shape> without a <bsdf>"),
+        }
+        out.table(&format!("materials.{key}"));
+        match bsdf {
+            None => {
+                out.comment("Mitsuba's default: a diffuse BSDF of reflectance 0.5");
+                out.string("type", "diffuse");
+                out.vector("color", [0.5; 3]);
+                self.warn(at, "a shape without a bsdf: Mitsuba's one-sided diffuse 0.5, written as vitrum's two-sided diffuse");
+            }
+            Some(b) => self.bsdf(b, out, false)?,
+        }
+        if let Some(r) = radiance {
+            out.vector("emission", r);
+        }
+        if radiance.is_none() {
+            if let Some(k) = key_of {
+                self.materials.insert(k, key.clone());
+            }
+        }
+        Ok(key)
+    }
+
+    /// The fields of a material from `bsdf` (`two_sided` when inside a `twosided`).
+    fn bsdf(&mut self, b: &Object, out: &mut TomlWriter, two_sided: bool) -> Result<(), XmlError> {
+        let p = Props::of(b);
+        match b.plugin.as_str() {
+            "twosided" => {
+                let inner: Vec<&Rc<Object>> = b.children_tagged("bsdf").collect();
+                match inner[..] {
+                    [one] => self.bsdf(one, out, true)?,
+                    _ => return Err(error(
+                        &b.position,
+                        &b.describe(),
+                        "a twosided BSDF wraps exactly one <bsdf> (two different sides are not supported)",
+                    )),
+                }
+            }
+            "diffuse" => {
+                out.string("type", "diffuse");
+                let texture = b
+                    .children
+                    .iter()
+                    .find(|c| c.tag == "texture" && c.name.as_deref() == Some("reflectance"));
+                match texture {
+                    Some(t) => self.texture(t, out)?,
+                    None => out.vector("color", p.color("reflectance")?.unwrap_or([0.5; 3])),
+                }
+                if !two_sided {
+                    out.comment("Mitsuba's diffuse is one-sided (black from behind); vitrum's is two-sided");
+                    self.warn(
+                        &b.position,
+                        &format!(
+                            "{}: one-sided in Mitsuba, two-sided in vitrum (lit from behind too)",
+                            b.describe()
+                        ),
+                    );
+                }
+            }
+            "dielectric" | "roughdielectric" => {
+                out.string("type", "dielectric");
+                let ior = |name: &str, default: &str| -> Result<f64, XmlError> {
+                    match p.get(name) {
+                        None => Ok(named_ior(default).expect("a default in the table")),
+                        Some(Property { value: Value::Float(v), .. }) => Ok(*v),
+                        Some(prop @ Property { value: Value::String(s), .. }) => {
+                            named_ior(s).ok_or_else(|| {
+                                error(
+                                    &prop.position,
+                                    &b.describe(),
+                                    &format!(
+                                        "`{name}` `{s}` is not one of Mitsuba's named indices: {}",
+                                        NAMED_IORS.iter().map(|(n, _)| *n).collect::<Vec<_>>().join(", ")
+                                    ),
+                                )
+                            })
+                        }
+                        Some(prop) => Err(p.wrong(prop, "a <float> or a <string> naming a material")),
+                    }
+                };
+                out.comment("int_ior: the side opposite the normal (inside); ext_ior: the side it points to");
+                out.number("ior", ior("int_ior", "bk7")?);
+                out.number("ior_outside", ior("ext_ior", "air")?);
+                if b.plugin == "roughdielectric" {
+                    let distribution = p.string("distribution")?.unwrap_or_else(|| "beckmann".into());
+                    let alpha = p.float("alpha")?.unwrap_or(0.1);
+                    if p.get("alpha_u").is_some() || p.get("alpha_v").is_some() {
+                        return self.lacks(b, "an anisotropic roughness");
+                    }
+                    if distribution != "ggx" {
+                        if !self.lenient {
+                            return Err(error(&b.position, &b.describe(), &format!("the `{distribution}` distribution is not supported yet (ggx is); --lenient renders it as ggx of the same alpha")));
+                        }
+                        self.warn(
+                            &b.position,
+                            &format!(
+                                "{}: {distribution} rendered as ggx of the same alpha (--lenient)",
+                                b.describe()
+                            ),
+                        );
+                    }
+                    out.comment(&format!("GGX of Mitsuba's alpha {alpha}: vitrum's roughness is √alpha"));
+                    out.number("roughness", alpha.max(0.0).sqrt());
+                }
+                for name in ["specular_reflectance", "specular_transmittance"] {
+                    if let Some(c) = p.color(name)? {
+                        if c != [1.0; 3] {
+                            return self.lacks(b, &format!("`{name}` other than 1"));
+                        }
+                    }
+                }
+            }
+            other => {
+                self.lacks(b, &format!("the BSDF `{other}`"))?;
+                out.comment(&format!(
+                    "Mitsuba's `{other}` is not supported: dropped, written as black diffuse (--lenient)"
+                ));
+                out.string("type", "diffuse");
+                out.vector("color", [0.0; 3]);
+                return Ok(());
+            }
+        }
+        p.finish(self)
+    }
+
+    /// An image texture (`bitmap`) for a diffuse colour.
+    fn texture(&mut self, t: &Object, out: &mut TomlWriter) -> Result<(), XmlError> {
+        if t.plugin != "bitmap" {
+            return self.lacks(t, &format!("the texture `{}`", t.plugin));
+        }
+        let p = Props::of(t);
+        let file =
+            p.string("filename")?.ok_or_else(|| error(&t.position, &t.describe(), "has no `filename`"))?;
+        let mut fields =
+            vec![format!("type = \"image\""), format!("file = {}", toml::Value::String((self.file)(&file)))];
+        match p.string("filter_type")?.as_deref() {
+            None | Some("bilinear") => {}
+            Some("nearest") => fields.push("filter = \"nearest\"".into()),
+            Some(other) => {
+                return Err(error(
+                    &t.position,
+                    &t.describe(),
+                    &format!("filter_type `{other}`: bilinear or nearest"),
+                ))
+            }
+        }
+        match p.string("wrap_mode")?.as_deref() {
+            None | Some("repeat") => {}
+            Some("clamp") => fields.push("wrap = \"clamp\"".into()),
+            Some(other) => {
+                return Err(error(
+                    &t.position,
+                    &t.describe(),
+                    &format!("wrap_mode `{other}`: repeat or clamp (mirror is not supported yet)"),
+                ))
+            }
+        }
+        if p.boolean("raw")?.unwrap_or(false) {
+            fields.push("colorspace = \"linear\"".into());
+        }
+        if p.get("to_uv").is_some() {
+            return self.lacks(t, "a texture's to_uv");
+        }
+        out.raw("texture", &format!("{{ {} }}", fields.join(", ")));
+        p.finish(self)
+    }
+
+    /// A light without a shape of its own.
+    fn emitter(&mut self, e: &Object, lights: &mut TomlWriter) -> Result<(), XmlError> {
+        lights.from(&e.position, &e.describe());
+        let p = Props::of(e);
+        match e.plugin.as_str() {
+            "point" => {
+                let m = p.transform("to_world")?;
+                let position = p
+                    .point("position")?
+                    .or(m.map(|m| m.transform_point3(DVec3::ZERO)))
+                    .unwrap_or(DVec3::ZERO);
+                lights.array_table("lights");
+                lights.string("type", "point");
+                lights.vector("position", position.to_array());
+                lights.vector("intensity", p.color("intensity")?.unwrap_or([1.0; 3]));
+            }
+            "constant" => {
+                lights.array_table("lights");
+                lights.string("type", "environment");
+                lights.vector("radiance", p.color("radiance")?.unwrap_or([1.0; 3]));
+            }
+            "envmap" => {
+                let file = p
+                    .string("filename")?
+                    .ok_or_else(|| error(&e.position, &e.describe(), "has no `filename`"))?;
+                let scale = p.float("scale")?.unwrap_or(1.0);
+                let m = p.transform("to_world")?.unwrap_or(DMat4::IDENTITY);
+                let angle = y_rotation(&m).ok_or_else(|| {
+                    error(
+                        &e.position,
+                        &e.describe(),
+                        "to_world must be a rotation about +Y (vitrum turns environment maps about +Y only)",
+                    )
+                })?;
+                lights.array_table("lights");
+                lights.string("type", "environment");
+                lights.string("file", &(self.file)(&file));
+                lights.number("scale", scale);
+                lights.number("rotation", angle);
+            }
+            "area" => {
+                return Err(error(&e.position, &e.describe(), "an area emitter belongs inside a <shape>"))
+            }
+            other => return self.lacks(e, &format!("the emitter `{other}`")),
+        }
+        p.finish(self)
+    }
+}
+
+/// The `key = value` fields of a quad.
+fn quad(corner: DVec3, u: DVec3, v: DVec3) -> Vec<(&'static str, String)> {
+    vec![
+        ("shape", "\"quad\"".into()),
+        ("corner", vector(corner.to_array())),
+        ("u", vector(u.to_array())),
+        ("v", vector(v.to_array())),
+    ]
+}
+
+/// The parallelogram `corner + a·u + b·v` (object space) under `m`, with vitrum's normal u × v
+/// along the transformed normal (the inverse transpose of `m` applied to the object's u × v,
+/// flipped with `flip`): a mirroring `m` swaps the edges.
+fn parallelogram(m: &DMat4, corner: DVec3, u: DVec3, v: DVec3, flip: bool) -> (DVec3, DVec3, DVec3) {
+    let (c, wu, wv) = (m.transform_point3(corner), m.transform_vector3(u), m.transform_vector3(v));
+    let mirrored = DMat3::from_mat4(*m).determinant() < 0.0;
+    if mirrored != flip {
+        (c, wv, wu)
+    } else {
+        (c, wu, wv)
+    }
+}
+
+/// The six faces of Mitsuba's cube [−1, 1]³ as (corner, u, v) with u × v outwards.
+fn cube_faces() -> [(DVec3, DVec3, DVec3); 6] {
+    let (x, y, z) = (DVec3::X * 2.0, DVec3::Y * 2.0, DVec3::Z * 2.0);
+    let lo = DVec3::splat(-1.0);
+    [
+        (lo + z, x, y), // +z
+        (lo, y, x),     // −z
+        (lo + x, y, z), // +x
+        (lo, z, y),     // −x
+        (lo + y, z, x), // +y
+        (lo, x, z),     // −y
+    ]
+}
+
+/// The world normal of the object's +z under `m` (inverse transpose), flipped with `flip`.
+fn normal_of(m: &DMat4, flip: bool) -> DVec3 {
+    let n = DMat3::from_mat4(*m).inverse().transpose() * DVec3::Z;
+    let n = n.normalize_or_zero();
+    if flip {
+        -n
+    } else {
+        n
+    }
+}
+
+/// The uniform scale and rotation of `m`'s linear part when it is a similarity (orthogonal
+/// columns of equal length, no mirror), within a relative 1e-5.
+fn similarity(m: &DMat4) -> Option<(f64, DMat3)> {
+    let l = DMat3::from_mat4(*m);
+    let s = l.x_axis.length();
+    let tol = 1e-5 * s;
+    let equal = (l.y_axis.length() - s).abs() <= tol && (l.z_axis.length() - s).abs() <= tol;
+    let orthogonal = l.x_axis.dot(l.y_axis).abs() <= tol * s
+        && l.y_axis.dot(l.z_axis).abs() <= tol * s
+        && l.x_axis.dot(l.z_axis).abs() <= tol * s;
+    (s > 0.0 && equal && orthogonal && l.determinant() > 0.0).then(|| (s, l * (1.0 / s)))
+}
+
+/// The scale of `m` in its object's xy plane when it keeps circles round there (the x and y
+/// columns orthogonal and of equal length; the z column may be anything): disks and cylinders.
+fn round_in_plane(m: &DMat4) -> Option<f64> {
+    let l = DMat3::from_mat4(*m);
+    let s = l.x_axis.length();
+    let tol = 1e-5 * s;
+    let round = (l.y_axis.length() - s).abs() <= tol && l.x_axis.dot(l.y_axis).abs() <= tol * s;
+    (s > 0.0 && round && l.determinant() != 0.0).then_some(s)
+}
+
+/// A mesh's `transform = { scale, rotate, translate }` fields for `m` = translate · rotate ·
+/// scale (per axis); `None` when `m` has a shear or a mirror.
+fn placement(m: &DMat4) -> Option<Vec<(&'static str, String)>> {
+    let l = DMat3::from_mat4(*m);
+    let s = DVec3::new(l.x_axis.length(), l.y_axis.length(), l.z_axis.length());
+    if s.min_element() <= 0.0 {
+        return None;
+    }
+    let r = DMat3::from_cols(l.x_axis / s.x, l.y_axis / s.y, l.z_axis / s.z);
+    let tol = 1e-5;
+    let orthonormal = (r.transpose() * r - DMat3::IDENTITY).to_cols_array().iter().all(|e| e.abs() <= tol);
+    if !orthonormal || r.determinant() < 0.0 {
+        return None;
+    }
+    let (axis, angle) = DQuat::from_mat3(&r).to_axis_angle();
+    let t = m.w_axis.truncate();
+    let mut parts = vec![format!("scale = {}", vector(s.to_array()))];
+    if angle.abs() > 1e-12 {
+        parts.push(format!(
+            "rotate = {{ axis = {}, angle = {} }}",
+            vector(axis.to_array()),
+            number(angle.to_degrees())
+        ));
+    }
+    parts.push(format!("translate = {}", vector(t.to_array())));
+    Some(vec![("transform", format!("{{ {} }}", parts.join(", ")))])
+}
+
+/// The angle in degrees of `m` as a rotation about +Y in vitrum's sense (the exporter writes
+/// vitrum's turn θ as Mitsuba's to_world with columns (cos θ, 0, −sin θ), +Y, (sin θ, 0, cos θ));
+/// `None` for any other transform.
+fn y_rotation(m: &DMat4) -> Option<f64> {
+    let l = DMat3::from_mat4(*m);
+    let (c, s) = (l.x_axis.x, l.z_axis.x);
+    let expected = DMat3::from_cols(DVec3::new(c, 0.0, -s), DVec3::Y, DVec3::new(s, 0.0, c));
+    let close = (l - expected).to_cols_array().iter().all(|e| e.abs() <= 1e-6)
+        && ((c * c + s * s) - 1.0).abs() <= 1e-6;
+    (close && m.w_axis.truncate().length() <= 1e-9).then(|| s.atan2(c).to_degrees())
+}
+
+/// Mitsuba's index for a material name.
+fn named_ior(name: &str) -> Option<f64> {
+    NAMED_IORS.iter().find(|(n, _)| n.eq_ignore_ascii_case(name.trim())).map(|(_, v)| *v)
+}
+
+/// An error at `position` about `element`.
+fn error(position: &Position, element: &str, message: &str) -> XmlError {
+    XmlError { position: position.clone(), element: element.to_string(), message: message.to_string() }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn cube_faces_point_outwards_and_cover_the_cube() {
+        for (corner, u, v) in cube_faces() {
+            let centre = corner + 0.5 * (u + v);
+            let n = u.cross(v).normalize();
+            assert!((n.dot(centre) - 1.0).abs() < 1e-12, "{corner} {u} {v}");
+            assert_eq!(centre.abs().max_element(), 1.0);
+        }
+    }
+
+    #[test]
+    fn similarities_and_placements_are_recognised() {
+        let m = DMat4::from_scale_rotation_translation(
+            DVec3::splat(2.0),
+            DQuat::from_rotation_y(0.3),
+            DVec3::ONE,
+        );
+        let (s, _) = similarity(&m).unwrap();
+        assert!((s - 2.0).abs() < 1e-12);
+        let stretched = DMat4::from_scale(DVec3::new(1.0, 2.0, 1.0));
+        assert!(similarity(&stretched).is_none());
+        assert!(placement(&stretched).is_some());
+        let sheared = DMat4::from_cols_array(&[
+            1.0, 0.0, 0.0, 0.0, 0.5, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0,
+        ]);
+        assert!(placement(&sheared).is_none());
+        assert!(similarity(&DMat4::from_scale(DVec3::new(-1.0, 1.0, 1.0))).is_none());
+    }
+
+    #[test]
+    fn a_mirroring_transform_keeps_the_normal_of_the_inverse_transpose() {
+        let m = DMat4::from_scale(DVec3::new(-1.0, 1.0, 1.0));
+        let (_, u, v) = parallelogram(&m, DVec3::new(-1.0, -1.0, 0.0), DVec3::X * 2.0, DVec3::Y * 2.0, false);
+        assert!(u.cross(v).normalize().dot(normal_of(&m, false)) > 0.999);
+    }
+
+    #[test]
+    fn rotations_about_y_round_trip_the_exporters_convention() {
+        for deg in [0.0f64, 30.0, -120.0, 180.0] {
+            let (s, c) = deg.to_radians().sin_cos();
+            let m = DMat4::from_cols(
+                DVec3::new(c, 0.0, -s).extend(0.0),
+                DVec3::Y.extend(0.0),
+                DVec3::new(s, 0.0, c).extend(0.0),
+                DVec3::ZERO.extend(1.0),
+            );
+            let back = y_rotation(&m).unwrap();
+            assert!(((back - deg + 540.0) % 360.0 - 180.0).abs() < 1e-9, "{deg} → {back}");
+        }
+        assert!(y_rotation(&DMat4::from_rotation_x(0.5)).is_none());
+    }
+}

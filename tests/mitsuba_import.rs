@@ -1,0 +1,334 @@
+//! Mitsuba XML scenes: read as Mitsuba 3 reads them (version upgrade, defaults, includes,
+//! references, transforms), translated into vitrum's TOML with the same image bits as the
+//! XML, `vitrum export` round trips, and bad or hostile XML exiting 2 at its position.
+
+use std::fs;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+use vitrum::scene::mitsuba;
+
+fn vitrum(dir: &Path, args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_vitrum")).args(args).current_dir(dir).output().unwrap()
+}
+
+fn stderr(out: &Output) -> String {
+    String::from_utf8_lossy(&out.stderr).into_owned()
+}
+
+/// A small scene in Mitsuba 3's format: a camera, a diffuse floor, a glass sphere and cube, a
+/// rectangle light.
+const SMALL: &str = r#"<scene version="3.0.0">
+    <default name="spp" value="4"/>
+    <integrator type="path"><integer name="max_depth" value="8"/></integrator>
+    <sensor type="perspective">
+        <float name="fov" value="45"/>
+        <transform name="to_world"><lookat origin="0, 1, 4" target="0, 0.5, 0" up="0, 1, 0"/></transform>
+        <sampler type="independent"><integer name="sample_count" value="$spp"/></sampler>
+        <film type="hdrfilm"><integer name="width" value="24"/><integer name="height" value="16"/></film>
+    </sensor>
+    <bsdf type="twosided" id="white"><bsdf type="diffuse"><rgb name="reflectance" value="0.8, 0.8, 0.8"/></bsdf></bsdf>
+    <bsdf type="dielectric" id="glass"><string name="int_ior" value="bk7"/></bsdf>
+    <shape type="rectangle">
+        <transform name="to_world"><scale value="3"/><rotate x="1" angle="-90"/></transform>
+        <ref id="white"/>
+    </shape>
+    <shape type="sphere"><point name="center" x="-0.6" y="0.5" z="0"/><float name="radius" value="0.5"/><ref id="glass"/></shape>
+    <shape type="cube">
+        <transform name="to_world"><scale x="0.3" y="0.4" z="0.3"/><rotate y="1" angle="30"/><translate x="0.7" y="0.45"/></transform>
+        <ref id="glass"/>
+    </shape>
+    <shape type="rectangle">
+        <transform name="to_world"><scale value="0.5"/><rotate x="1" angle="90"/><translate y="2.5"/></transform>
+        <emitter type="area"><rgb name="radiance" value="10, 10, 10"/></emitter>
+    </shape>
+</scene>
+"#;
+
+/// A folder holding `files` (name, text).
+fn folder(files: &[(&str, &str)]) -> tempfile::TempDir {
+    let dir = tempfile::tempdir().unwrap();
+    for (name, text) in files {
+        fs::write(dir.path().join(name), text).unwrap();
+    }
+    dir
+}
+
+/// Renders `scene` in `dir` with `args`, returning the EXR's pixels.
+fn render(dir: &Path, scene: &str, args: &[&str]) -> Vec<glam::Vec3> {
+    let out_name = format!("{scene}.exr");
+    let out = vitrum(dir, &[&["render", scene, "-i", "path", "-o", &out_name, "--quiet"][..], args].concat());
+    assert!(out.status.success(), "{scene}: {}", stderr(&out));
+    vitrum::output::exr::read_exr(&dir.join(&out_name)).unwrap().0.pixels
+}
+
+#[test]
+fn the_toml_that_import_writes_renders_the_same_bits_as_the_xml() {
+    let dir = folder(&[("small.xml", SMALL)]);
+    let out = vitrum(dir.path(), &["import", "small.xml", "-o", "small.toml"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let toml = fs::read_to_string(dir.path().join("small.toml")).unwrap();
+    assert!(toml.starts_with("# Imported by vitrum"), "{toml}");
+    // The defaults of the file: 4 samples, 24x16, Mitsuba's max_depth 8 = 7 bounces.
+    assert!(toml.contains("spp = 4") && toml.contains("resolution = [24, 16]"), "{toml}");
+    assert!(toml.contains("[render.path]\nmax_depth = 7"), "{toml}");
+    let xml = render(dir.path(), "small.xml", &[]);
+    let imported = render(dir.path(), "small.toml", &[]);
+    assert_eq!(xml, imported, "the XML and its TOML are one scene");
+    assert!(xml.iter().all(|p| p.is_finite()) && xml.iter().any(|p| p.max_element() > 0.0));
+}
+
+#[test]
+fn transforms_compose_in_order_and_shapes_land_where_mitsuba_puts_them() {
+    let dir = folder(&[("small.xml", SMALL)]);
+    let imported = mitsuba::import(&dir.path().join("small.xml"), false, None).unwrap();
+    let scene = vitrum::scene::load_str(&imported.toml, "small.toml", Some(dir.path())).unwrap();
+    // The floor: [-1, 1]² scaled by 3, then turned −90° about x: the plane y = 0, facing +y.
+    assert!(imported.toml.contains("corner = [-3.0, 0.0, 3.0]"), "{}", imported.toml);
+    // The light: scaled, turned +90° about x (facing −y), raised to y = 2.5: one quad light.
+    assert!(imported.toml.contains("type = \"quad\""));
+    assert!(imported.toml.contains("corner = [-0.5, 2.5, -0.5]"), "{}", imported.toml);
+    // The cube: six faces.
+    assert_eq!(imported.toml.matches("cube.face").count(), 6);
+    // Floor, sphere and six cube faces, and the light's quad.
+    assert_eq!(scene.primitives.len(), 9);
+}
+
+#[test]
+fn a_version_below_two_has_its_camel_case_names_upgraded_and_its_legacy_parameters_warned() {
+    let old = SMALL
+        .replace("version=\"3.0.0\"", "version=\"0.5.0\"")
+        .replace("to_world", "toWorld")
+        .replace("sample_count", "sampleCount")
+        .replace("max_depth", "maxDepth")
+        .replace("int_ior", "intIOR")
+        .replace(
+            "<integer name=\"height\" value=\"16\"/>",
+            "<integer name=\"height\" value=\"16\"/><float name=\"gamma\" value=\"2.2\"/>",
+        );
+    let dir = folder(&[("old.xml", &old), ("new.xml", SMALL)]);
+    let a = render(dir.path(), "old.xml", &[]);
+    let b = render(dir.path(), "new.xml", &[]);
+    assert_eq!(a, b);
+    let out = vitrum(dir.path(), &["info", "old.xml"]);
+    assert!(stderr(&out).contains("old.xml:8:") && stderr(&out).contains("`gamma`"), "{}", stderr(&out));
+    // In a 3.x file a camelCase name is an unknown parameter.
+    let wrong = SMALL.replace("sample_count", "sampleCount");
+    let dir = folder(&[("wrong.xml", &wrong)]);
+    let out = vitrum(dir.path(), &["info", "wrong.xml"]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(
+        stderr(&out).contains("wrong.xml:7:") && stderr(&out).contains("sampleCount"),
+        "{}",
+        stderr(&out)
+    );
+}
+
+#[test]
+fn includes_defaults_and_references_are_resolved() {
+    let main = SMALL.replace(
+        "<bsdf type=\"dielectric\" id=\"glass\"><string name=\"int_ior\" value=\"bk7\"/></bsdf>",
+        "<include filename=\"glass.xml\"/>",
+    );
+    let glass = r#"<scene version="3.0.0"><default name="ior" value="1.5046"/>
+        <bsdf type="dielectric" id="glass"><float name="int_ior" value="$ior"/></bsdf></scene>"#;
+    let dir = folder(&[("main.xml", &main), ("glass.xml", glass), ("small.xml", SMALL)]);
+    assert_eq!(render(dir.path(), "main.xml", &[]), render(dir.path(), "small.xml", &[]));
+}
+
+/// `vitrum info FILE` in a folder holding `files`: its exit code and stderr.
+fn info(files: &[(&str, &str)], file: &str) -> (Option<i32>, String) {
+    let dir = folder(files);
+    let out = vitrum(dir.path(), &["info", file]);
+    (out.status.code(), stderr(&out))
+}
+
+#[test]
+fn bad_and_hostile_xml_exits_2_at_its_position() {
+    let cases: Vec<(String, &str)> = vec![
+        (SMALL.replace("value=\"45\"", "value=\"wide\""), "s.xml:5:"),
+        (SMALL.replace("value=\"45\"", "value=\"nan\""), "not a finite number"),
+        (SMALL.replace("type=\"sphere\"", "type=\"hair\""), "the shape `hair`"),
+        (SMALL.replace("<ref id=\"glass\"/>\n    </shape>", "<ref id=\"missing\"/>\n    </shape>"), "no object with id `missing`"),
+        (SMALL.replace("$spp", "$count"), "`$count` has no value"),
+        (SMALL.replace("<scene version=\"3.0.0\">", "<scene>"), "version"),
+        (SMALL.replace("</scene>", ""), "not well-formed XML"),
+        (SMALL.replace("<shape type=\"cube\">", "<shape type=\"obj\"><string name=\"filename\" value=\"gone.obj\"/></shape><shape type=\"cube\">"), "gone.obj"),
+        (SMALL.replace("<float name=\"fov\" value=\"45\"/>", "<float name=\"fov\" value=\"45\"/><float name=\"fov\" value=\"40\"/>"), "given twice"),
+        (SMALL.replace("<scene version=\"3.0.0\">", "<scene version=\"3.0.0\"><include filename=\"s.xml\"/>"), "includes itself"),
+    ];
+    for (text, needle) in &cases {
+        let (code, err) = info(&[("s.xml", text)], "s.xml");
+        assert_eq!(code, Some(2), "{needle}: {err}");
+        assert!(err.contains(needle) && err.contains("s.xml:"), "`{needle}` not in: {err}");
+        assert!(!err.contains("panicked"), "{err}");
+    }
+    // Deep nesting and huge sizes.
+    let deep = format!(
+        "<scene version=\"3.0.0\">{}{}</scene>",
+        "<shape type=\"sphere\">".repeat(200),
+        "</shape>".repeat(200)
+    );
+    let (code, err) = info(&[("d.xml", &deep)], "d.xml");
+    assert_eq!(code, Some(2), "{err}");
+    assert!(err.contains("nest deeper"), "{err}");
+    let huge = SMALL.replace("value=\"24\"", "value=\"4000000000\"");
+    let (code, err) = info(&[("h.xml", &huge)], "h.xml");
+    assert_eq!(code, Some(2), "{err}");
+    let huge = SMALL.replace("value=\"24\"", "value=\"100000\"");
+    let (code, err) = info(&[("h.xml", &huge)], "h.xml");
+    assert_eq!(code, Some(2), "{err}");
+    assert!(err.contains("h.xml:"), "a compile error is reported at the XML element: {err}");
+}
+
+#[test]
+fn what_vitrum_lacks_is_refused_or_with_lenient_dropped_with_a_warning() {
+    let plastic = SMALL.replace(
+        "<bsdf type=\"dielectric\" id=\"glass\">",
+        "<bsdf type=\"plastic\" id=\"unused\"/><bsdf type=\"dielectric\" id=\"glass\">",
+    );
+    let scene = plastic.replace(
+        "<ref id=\"glass\"/>\n    </shape>\n    <shape type=\"rectangle\">",
+        "<ref id=\"unused\"/>\n    </shape>\n    <shape type=\"rectangle\">",
+    );
+    let dir = folder(&[("p.xml", &scene)]);
+    let strict = vitrum(dir.path(), &["info", "p.xml"]);
+    assert_eq!(strict.status.code(), Some(2));
+    assert!(
+        stderr(&strict).contains("plastic") && stderr(&strict).contains("--lenient"),
+        "{}",
+        stderr(&strict)
+    );
+    let lenient = vitrum(dir.path(), &["info", "--lenient", "p.xml"]);
+    assert!(lenient.status.success(), "{}", stderr(&lenient));
+    assert!(
+        stderr(&lenient).contains("plastic") && stderr(&lenient).contains("dropped"),
+        "{}",
+        stderr(&lenient)
+    );
+}
+
+/// A vitrum scene of what the import translates exactly: quads, a sphere, a disk, an open
+/// cylinder, diffuse (two-sided), glass, a point light and a quad light.
+const PLAIN: &str = r#"
+[camera]
+position = [0.0, 1.0, 3.8]
+look_at = [0.0, 0.9, 0.0]
+fov = 40.0
+resolution = [24, 24]
+
+[render]
+spp = 4
+
+[materials.white]
+type = "diffuse"
+color = [0.7, 0.6, 0.5]
+
+[materials.glass]
+type = "dielectric"
+ior = 1.5
+
+[[objects]]
+shape = "quad"
+corner = [-1.0, 0.0, -1.0]
+u = [0.0, 0.0, 2.0]
+v = [2.0, 0.0, 0.0]
+material = "white"
+
+[[objects]]
+shape = "sphere"
+center = [-0.3, 0.4, 0.1]
+radius = 0.35
+material = "glass"
+
+[[objects]]
+shape = "disk"
+center = [0.5, 0.001, -0.3]
+normal = [0.0, 1.0, 0.0]
+radius = 0.3
+material = "white"
+
+[[objects]]
+shape = "cylinder"
+base = [0.5, 0.0, 0.4]
+axis = [0.0, 1.0, 0.0]
+radius = 0.2
+height = 0.6
+caps = false
+material = "white"
+
+# The exporter writes lights with a surface first, then the others: the import keeps that order.
+[[lights]]
+type = "quad"
+corner = [-0.2, 1.9, -0.2]
+u = [0.4, 0.0, 0.0]
+v = [0.0, 0.0, 0.4]
+radiance = [5.0, 5.0, 5.0]
+
+[[lights]]
+type = "point"
+position = [0.3, 1.8, 0.5]
+intensity = [2.0, 2.0, 2.0]
+"#;
+
+#[test]
+fn an_imported_scene_exported_and_reimported_renders_the_same_bits() {
+    // Mitsuba XML → vitrum TOML → `vitrum export` → XML again: the image of the first import.
+    let dir = folder(&[("small.xml", SMALL)]);
+    let out = vitrum(dir.path(), &["import", "small.xml", "-o", "a.toml", "--quiet"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let out = vitrum(dir.path(), &["export", "a.toml", "-o", "b.xml", "--quiet"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let first = render(dir.path(), "a.toml", &[]);
+    let again = render(dir.path(), "b.xml", &[]);
+    let differing = first.iter().zip(&again).filter(|(a, b)| a != b).count();
+    assert_eq!(differing, 0, "{differing} of {} pixels differ", first.len());
+}
+
+#[test]
+fn a_vitrum_scene_exported_and_imported_is_the_same_scene() {
+    // A vitrum scene → Mitsuba XML → vitrum: the same image up to the sampler, which the
+    // export does not carry (Mitsuba's is independent): render both with the independent one.
+    let dir = folder(&[("plain.toml", PLAIN)]);
+    let out = vitrum(dir.path(), &["export", "plain.toml", "-o", "x.xml", "--quiet"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let args = ["--max-depth", "3", "--sampler", "independent"];
+    let original = render(dir.path(), "plain.toml", &args);
+    let reimported = render(dir.path(), "x.xml", &args);
+    let differing = original.iter().zip(&reimported).filter(|(a, b)| a != b).count();
+    assert_eq!(differing, 0, "{differing} of {} pixels differ", original.len());
+    assert!(original.iter().any(|p| p.max_element() > 0.0));
+}
+
+#[test]
+fn the_shared_standard_scenes_load_leniently_and_render_finite() {
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared/scenes/bitterli");
+    if !root.exists() {
+        eprintln!("not run: the_shared_standard_scenes_load: needs {}", root.display());
+        return;
+    }
+    for name in ["cornell-box", "veach-mis", "water-caustic"] {
+        let file = root.join(name).join("scene.xml");
+        let dir = tempfile::tempdir().unwrap();
+        let out = vitrum(
+            dir.path(),
+            &[
+                "render",
+                "--lenient",
+                file.to_str().unwrap(),
+                "-i",
+                "path",
+                "--resolution",
+                "32x24",
+                "--spp",
+                "2",
+                "-o",
+                "x.exr",
+                "--quiet",
+            ],
+        );
+        assert!(out.status.success(), "{name}: {}", stderr(&out));
+        let pixels = vitrum::output::exr::read_exr(&dir.path().join("x.exr")).unwrap().0.pixels;
+        assert!(pixels.iter().all(|p| p.is_finite()), "{name}");
+        assert!(pixels.iter().any(|p| p.max_element() > 0.0), "{name} is black");
+    }
+}
