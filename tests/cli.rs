@@ -751,9 +751,9 @@ fn polygon_with_two_vertices() {
 #[test]
 fn bad_transforms_exit_2_naming_the_field() {
     let extra = extra_object(
-        "shape = \"sphere\"\ncenter = [0.0, 1.0, 0.0]\nradius = 0.5\ntransform = { scale = [1.0, 2.0, 1.0] }",
+        "shape = \"sphere\"\ncenter = [0.0, 1.0, 0.0]\nradius = 0.5\ntransform = { matrix = [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0] }",
     );
-    assert_extra_error(&extra, "transform", "objects[7].transform.scale", &["different factors per axis"]);
+    assert_extra_error(&extra, "transform", "objects[7].transform.matrix", &["singular"]);
     let extra = extra_object(
         "shape = \"quad\"\ncorner = [0.0, 1.0, 0.0]\nu = [1.0, 0.0, 0.0]\nv = [0.0, 1.0, 0.0]\ntransform = { scale = -1.0 }",
     );

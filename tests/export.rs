@@ -788,3 +788,42 @@ scale = 0.5
     let map = decode(&e.xml.parent().unwrap().join(env.param("string", "filename").unwrap()));
     assert!(map.texels.iter().all(|t| *t == glam::Vec3::splat(2.0)));
 }
+
+#[test]
+fn ellipsoids_export_as_spheres_under_their_affine_map() {
+    // A sphere of radius 0.5 at (0.25, 0, 0) under a shear: Mitsuba's unit sphere with
+    // to_world = [M·r·t₁, M·r·t₂, M·r·axis, M·centre + t] (t₁, t₂ of +Y: +X, −Z).
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("ellipsoid.toml");
+    std::fs::write(
+        &file,
+        r#"
+[camera]
+position = [0.0, 0.0, 5.0]
+look_at = [0.0, 0.0, 0.0]
+resolution = [16, 16]
+[materials.glass]
+type = "dielectric"
+ior = 1.5
+[[objects]]
+material = "glass"
+shape = "sphere"
+center = [0.25, 0.0, 0.0]
+radius = 0.5
+transform = { matrix = [2.0, 1.0, 0.0, 0.5, 0.0, 1.0, 0.0, 0.25, 0.0, 0.0, 0.5, -1.0, 0.0, 0.0, 0.0, 1.0] }
+[[lights]]
+type = "environment"
+radiance = 1.0
+"#,
+    )
+    .unwrap();
+    let e = export_with(&file, &[]);
+    let spheres = e.shapes("sphere");
+    assert_eq!(spheres.len(), 1);
+    // Columns M·(0.5, 0, 0) = (1, 0, 0), M·(0, 0, −0.5) = (0, 0, −0.25), M·(0, 0.5, 0) =
+    // (0.5, 0.5, 0), M·(0.25, 0, 0) + t = (1, 0.25, −1); written row by row.
+    assert_eq!(
+        matrix(spheres[0], "to_world")[..12],
+        [1.0, 0.0, 0.5, 1.0, 0.0, 0.0, 0.5, 0.25, 0.0, -0.25, 0.0, -1.0]
+    );
+}

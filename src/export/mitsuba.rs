@@ -25,7 +25,6 @@
 //! single precision), so nothing is rounded on the way.
 
 use super::ExtraFile;
-use crate::geometry::texture_frame;
 use crate::geometry::{Disk, Polygon, Quad, Shape, Sphere};
 use crate::image::Image;
 use crate::light::EnvironmentMap;
@@ -33,7 +32,7 @@ use crate::light::Light;
 use crate::material::{Bsdf, Material, Texture};
 use crate::scene::{Primitive, Scene};
 use crate::texture::{Filter, ImageMap, ImageTexture, Wrap};
-use glam::{DVec3, Vec3};
+use glam::{DAffine3, DVec3, Vec3};
 use std::collections::BTreeSet;
 use std::fmt::Write as _;
 use std::path::PathBuf;
@@ -431,6 +430,29 @@ fn sphere_zone(s: &Sphere, shift: Vec3) -> Option<Mesh> {
     Some(mesh)
 }
 
+/// `to_world` for a shape whose own frame has the images `columns` of the local axes and
+/// `origin`, placed in the world by `map` (the identity for shapes not under a general map).
+fn placed_frame(x: &mut Xml, map: &DAffine3, columns: [DVec3; 3], origin: DVec3) {
+    let [a, b, c] = columns.map(|v| map.transform_vector3(v));
+    x.affine("to_world", a, b, c, map.transform_point3(origin));
+}
+
+/// `mesh` placed by `map`: positions mapped, vertex normals by the inverse transpose (the
+/// winding stays outward: the map does not mirror).
+fn mapped(mut mesh: Mesh, map: DAffine3) -> Mesh {
+    if map == DAffine3::IDENTITY {
+        return mesh;
+    }
+    let normal_map = map.matrix3.inverse().transpose();
+    for p in &mut mesh.positions {
+        *p = map.transform_point3(p.as_dvec3()).as_vec3();
+    }
+    for n in mesh.normals.iter_mut().flatten() {
+        *n = (normal_map * n.as_dvec3()).normalize().as_vec3();
+    }
+    mesh
+}
+
 /// An annulus as a flat ring of quads between its two circles (vertices on the circles).
 fn annulus(d: &Disk, shift: Vec3) -> Mesh {
     let (c, n) = (d.center() + shift, d.normal());
@@ -610,10 +632,12 @@ fn envmap_texels(map: &ImageMap, tint: Vec3) -> (Image, usize) {
 }
 
 /// Everything that belongs to one exported shape element.
+/// The round shapes carry their texture frame (pole or normal, tangents) and `map`, the general
+/// affine map an ellipsoid or elliptic disk or cylinder applies to them (identity otherwise).
 enum Geometry {
-    Sphere { center: Vec3, radius: f32, axis: Vec3 },
-    Cylinder { p0: Vec3, p1: Vec3, radius: f32, axis: Vec3, height: f32 },
-    Disk { center: Vec3, normal: Vec3, radius: f32 },
+    Sphere { center: Vec3, radius: f32, frame: (Vec3, (Vec3, Vec3)), map: DAffine3 },
+    Cylinder { p0: Vec3, p1: Vec3, radius: f32, frame: (Vec3, (Vec3, Vec3)), height: f32, map: DAffine3 },
+    Disk { center: Vec3, normal: Vec3, radius: f32, frame: (Vec3, Vec3), map: DAffine3 },
     Rectangle { corner: Vec3, u: Vec3, v: Vec3 },
     Mesh { mesh: Mesh, smooth: bool },
 }
@@ -1134,27 +1158,48 @@ impl<'a> Exporter<'a> {
             let prim = &scene.primitives[i];
             let shift = self.shift(prim);
             let name = self.object_name(prim);
-            let geometry = match &prim.shape {
-                Shape::Sphere(s) if s.is_clipped() => match sphere_zone(s, shift) {
-                    Some(mesh) => Geometry::Mesh { mesh, smooth: true },
+            // An ellipsoid (elliptic disk, cylinder) is its object-space shape under `map`.
+            let (shape, map, round_shift) = match &prim.shape {
+                Shape::Affine(a) => (
+                    a.object(),
+                    DAffine3::from_mat3_translation(
+                        a.linear().as_dmat3(),
+                        (a.translation() + shift).as_dvec3(),
+                    ),
+                    Vec3::ZERO,
+                ),
+                other => (other, DAffine3::IDENTITY, shift),
+            };
+            let geometry = match shape {
+                Shape::Sphere(s) if s.is_clipped() => match sphere_zone(s, round_shift) {
+                    Some(mesh) => Geometry::Mesh { mesh: mapped(mesh, map), smooth: true },
                     None => continue,
                 },
-                Shape::Sphere(s) => {
-                    Geometry::Sphere { center: s.center() + shift, radius: s.radius(), axis: s.axis() }
-                }
+                Shape::Sphere(s) => Geometry::Sphere {
+                    center: s.center() + round_shift,
+                    radius: s.radius(),
+                    frame: s.texture_frame(),
+                    map,
+                },
                 Shape::Cylinder(c) => Geometry::Cylinder {
-                    p0: c.base() + shift,
-                    p1: c.base() + c.axis() * c.height() + shift,
+                    p0: c.base() + round_shift,
+                    p1: c.base() + c.axis() * c.height() + round_shift,
                     radius: c.radius(),
-                    axis: c.axis(),
+                    frame: (c.axis(), c.texture_frame()),
                     height: c.height(),
+                    map,
                 },
                 Shape::Disk(d) if d.inner_radius() > 0.0 => {
-                    Geometry::Mesh { mesh: annulus(d, shift), smooth: false }
+                    Geometry::Mesh { mesh: mapped(annulus(d, round_shift), map), smooth: false }
                 }
-                Shape::Disk(d) => {
-                    Geometry::Disk { center: d.center() + shift, normal: d.normal(), radius: d.radius() }
-                }
+                Shape::Disk(d) => Geometry::Disk {
+                    center: d.center() + round_shift,
+                    normal: d.normal(),
+                    radius: d.radius(),
+                    frame: d.texture_frame(),
+                    map,
+                },
+                Shape::Affine(_) => unreachable!("an affine shape holds a sphere, disk or cylinder"),
                 Shape::Quad(q) => Geometry::Rectangle { corner: q.corner() + shift, u: q.u(), v: q.v() },
                 Shape::Polygon(p) => Geometry::Mesh { mesh: polygon(p, shift), smooth: false },
                 Shape::Triangle(_) => {
@@ -1211,18 +1256,20 @@ impl<'a> Exporter<'a> {
         let image = matches!(texture, Some(Texture::Image(_)));
         let mut checker = None;
         let uv = match &geometry {
-            Geometry::Sphere { center, radius, axis } => {
-                x.comment(&format!("{name}: sphere"));
+            Geometry::Sphere { center, radius, frame: (axis, (t1, t2)), map } => {
+                let general = *map != DAffine3::IDENTITY;
+                x.comment(&format!(
+                    "{name}: {}",
+                    if general { "ellipsoid (a sphere under to_world)" } else { "sphere" }
+                ));
                 x.open("shape", &[("type", "sphere")]);
-                if image {
+                if image || general {
                     x.comment("to_world [r·t1, r·t2, r·axis, centre]: Mitsuba's uv (φ/2π, θ/π) is vitrum's (u, 1 − v)");
-                    let (t1, t2) = texture_frame(*axis);
                     let r = *radius as f64;
-                    x.affine(
-                        "to_world",
-                        t1.as_dvec3() * r,
-                        t2.as_dvec3() * r,
-                        axis.as_dvec3() * r,
+                    placed_frame(
+                        x,
+                        map,
+                        [t1.as_dvec3() * r, t2.as_dvec3() * r, axis.as_dvec3() * r],
                         center.as_dvec3(),
                     );
                 } else {
@@ -1231,19 +1278,17 @@ impl<'a> Exporter<'a> {
                 }
                 Some(UvFrame::SPHERE)
             }
-            Geometry::Cylinder { p0, p1, radius, axis, height } => {
+            Geometry::Cylinder { p0, p1, radius, frame: (axis, (t1, t2)), height, map } => {
                 x.comment(&format!("{name}: cylinder wall (Mitsuba's cylinder has no caps; caps are disks)"));
                 x.open("shape", &[("type", "cylinder")]);
-                if image {
+                if image || *map != DAffine3::IDENTITY {
                     x.comment("to_world [r·t1, r·t2, h·axis, base]: Mitsuba's uv (φ/2π, height fraction) is vitrum's");
-                    let (t1, t2) = texture_frame(*axis);
                     let r = *radius as f64;
                     let h = *height as f64;
-                    x.affine(
-                        "to_world",
-                        t1.as_dvec3() * r,
-                        t2.as_dvec3() * r,
-                        axis.as_dvec3() * h,
+                    placed_frame(
+                        x,
+                        map,
+                        [t1.as_dvec3() * r, t2.as_dvec3() * r, axis.as_dvec3() * h],
                         p0.as_dvec3(),
                     );
                 } else {
@@ -1253,17 +1298,15 @@ impl<'a> Exporter<'a> {
                 }
                 Some(UvFrame::SAME)
             }
-            Geometry::Disk { center, normal, radius } => {
+            Geometry::Disk { center, normal, radius, frame: (t1, t2), map } => {
                 x.comment(&format!("{name}: disk (Mitsuba's unit disk in the xy plane, normal +z)"));
                 x.open("shape", &[("type", "disk")]);
                 // vitrum's texture frame: Mitsuba's disk uv is then a fixed map of vitrum's.
-                let (t1, t2) = texture_frame(*normal);
                 let r = *radius as f64;
-                x.affine(
-                    "to_world",
-                    t1.as_dvec3() * r,
-                    t2.as_dvec3() * r,
-                    normal.as_dvec3(),
+                placed_frame(
+                    x,
+                    map,
+                    [t1.as_dvec3() * r, t2.as_dvec3() * r, normal.as_dvec3()],
                     center.as_dvec3(),
                 );
                 Some(UvFrame::DISK)
@@ -1288,6 +1331,7 @@ impl<'a> Exporter<'a> {
                 let what = match prim.shape {
                     Shape::Sphere(_) => "clipped sphere, tessellated (smooth vertex normals)",
                     Shape::Disk(_) => "annulus, tessellated",
+                    Shape::Affine(_) => "clipped sphere or annulus under an affine map, tessellated",
                     Shape::Polygon(_) => "convex polygon as a triangle fan",
                     _ => "triangle mesh",
                 };
@@ -1444,6 +1488,7 @@ impl<'a> Exporter<'a> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::geometry::texture_frame;
 
     #[test]
     fn numbers_read_back_exactly_and_never_as_negative_zero() {

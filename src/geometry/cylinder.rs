@@ -2,7 +2,7 @@
 
 use std::f32::consts::TAU;
 
-use glam::{Vec2, Vec3};
+use glam::{Mat3, Vec2, Vec3};
 
 use super::disk::circle_extent;
 use super::sphere::radial_roots;
@@ -18,6 +18,9 @@ pub struct Cylinder {
     pub(crate) w: Vec3,
     pub(crate) radius: f32,
     pub(crate) height: f32,
+    /// The frame the texture's angle is measured in: `(u, v)`, turned with the cylinder by a
+    /// rotation (apart from `u` and `v`, so that intersections do not change).
+    uv_frame: (Vec3, Vec3),
 }
 
 impl Cylinder {
@@ -25,7 +28,7 @@ impl Cylinder {
     pub fn new(base: Vec3, axis: Vec3, radius: f32, height: f32) -> Cylinder {
         let w = unit_or(axis, Vec3::Z);
         let (u, v) = texture_frame(w);
-        Cylinder { base, u, v, w, radius, height }
+        Cylinder { base, u, v, w, radius, height, uv_frame: (u, v) }
     }
 
     /// `x` expressed in the local frame (axial component last).
@@ -69,7 +72,7 @@ impl Cylinder {
             p,
             n,
             shading_n: n,
-            uv: if with_uv { Vec2::new(azimuth((self.u, self.v), n), v.clamp(0.0, 1.0)) } else { Vec2::ZERO },
+            uv: if with_uv { Vec2::new(azimuth(self.uv_frame, n), v.clamp(0.0, 1.0)) } else { Vec2::ZERO },
             // Radially, as for the sphere, n·r is within γ(6)·r of the wall (roundoff of
             // `q − z·w` only tilts n, moving p along the wall); z·w carries the roundoff of the
             // dot product, γ(4)·|z|, along the axis; summing the two rounds twice more: γ(8)
@@ -103,6 +106,18 @@ impl Cylinder {
         let top = self.base + self.w * self.height;
         let extent = circle_extent(self.w, self.radius);
         Bounds { min: self.base.min(top) - extent, max: self.base.max(top) + extent }
+    }
+
+    /// The cross-section frame the texture's angle is measured in ([`texture_frame`] of the
+    /// axis, unless turned by [`Cylinder::turn_texture_frame`]).
+    pub fn texture_frame(&self) -> (Vec3, Vec3) {
+        self.uv_frame
+    }
+
+    /// Sets the texture frame to `unplaced`'s turned by `rotation` (the cylinder is `unplaced`
+    /// placed by a similarity with that rotation): the image turns with the cylinder.
+    pub fn turn_texture_frame(&mut self, unplaced: &Cylinder, rotation: Mat3) {
+        self.uv_frame = (rotation * unplaced.uv_frame.0, rotation * unplaced.uv_frame.1);
     }
 
     /// Wall area 2πrh.

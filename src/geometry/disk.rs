@@ -2,7 +2,7 @@
 
 use std::f32::consts::PI;
 
-use glam::{Vec2, Vec3};
+use glam::{Mat3, Vec2, Vec3};
 
 use super::{
     azimuth, planar_surface, plane_hit, plane_point, seam_slack, texture_frame, unit_or, Bounds, Ray,
@@ -93,6 +93,18 @@ impl Disk {
     pub fn bounds(&self) -> Bounds {
         let extent = circle_extent(self.normal, self.radius);
         Bounds { min: self.center - extent, max: self.center + extent }
+    }
+
+    /// The in-plane texture frame the angle is measured in ([`texture_frame`] of the normal,
+    /// unless turned by [`Disk::turn_texture_frame`]).
+    pub fn texture_frame(&self) -> (Vec3, Vec3) {
+        self.tangent
+    }
+
+    /// Sets the texture frame to `unplaced`'s turned by `rotation` (the disk is `unplaced`
+    /// placed by a similarity with that rotation): the image turns with the disk.
+    pub fn turn_texture_frame(&mut self, unplaced: &Disk, rotation: Mat3) {
+        self.tangent = (rotation * unplaced.tangent.0, rotation * unplaced.tangent.1);
     }
 
     /// Area π(r² − r_inner²).

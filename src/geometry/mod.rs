@@ -5,6 +5,7 @@
 //! for the one hit that won). Hit points come with a conservative absolute error bound so that new
 //! rays can leave the surface without re-hitting it (see [`spawn_origin`]).
 
+mod affine;
 mod cylinder;
 mod disk;
 mod polygon;
@@ -12,6 +13,7 @@ mod quad;
 mod sphere;
 mod triangle;
 
+pub use affine::AffineShape;
 pub use cylinder::Cylinder;
 pub use disk::{disk_uv, Disk};
 pub use polygon::Polygon;
@@ -187,6 +189,9 @@ pub enum Shape {
     Polygon(Box<Polygon>),
     /// Triangle (from a mesh).
     Triangle(Triangle),
+    /// A sphere, disk or cylinder under a general affine map (an ellipsoid, an elliptic disk or
+    /// cylinder), intersected in its object space.
+    Affine(Box<AffineShape>),
 }
 
 impl Shape {
@@ -200,6 +205,7 @@ impl Shape {
             Shape::Quad(s) => s.intersect(ray, tmin, tmax),
             Shape::Polygon(s) => s.intersect(ray, tmin, tmax),
             Shape::Triangle(s) => s.intersect(ray, tmin, tmax),
+            Shape::Affine(s) => s.intersect(ray, tmin, tmax),
         }
     }
 
@@ -244,6 +250,7 @@ impl Shape {
             (Shape::Sphere(s), _) => s.surface_uv(ray, t, with_uv),
             (Shape::Cylinder(s), _) => s.surface_uv(ray, t, with_uv),
             (Shape::Disk(s), _) => s.surface_uv(ray, t, with_uv),
+            (Shape::Affine(s), _) => s.surface_uv(ray, t, with_uv),
             _ => self.surface(ray, t),
         }
     }
@@ -258,6 +265,7 @@ impl Shape {
             Shape::Quad(s) => s.surface(ray, t),
             Shape::Polygon(s) => s.surface(ray, t),
             Shape::Triangle(s) => s.surface(ray, t),
+            Shape::Affine(s) => s.surface(ray, t),
         }
     }
 
@@ -270,6 +278,7 @@ impl Shape {
             Shape::Quad(s) => s.bounds(),
             Shape::Polygon(s) => s.bounds(),
             Shape::Triangle(s) => s.bounds(),
+            Shape::Affine(s) => s.bounds(),
         }
     }
 
@@ -282,6 +291,20 @@ impl Shape {
             Shape::Quad(s) => s.area(),
             Shape::Polygon(s) => s.area(),
             Shape::Triangle(s) => s.area(),
+            Shape::Affine(s) => s.area(),
+        }
+    }
+
+    /// Turns the texture frame of a sphere, disk or cylinder that is `unplaced` placed by a
+    /// similarity with `rotation` to `unplaced`'s frame turned by it, so that the image turns
+    /// with the shape (its intersections do not change); other shapes, or shapes of different
+    /// kinds, are left as they are (quads, polygons and meshes carry their uv with them).
+    pub fn turn_texture_frame(&mut self, unplaced: &Shape, rotation: glam::Mat3) {
+        match (self, unplaced) {
+            (Shape::Sphere(s), Shape::Sphere(u)) => s.turn_texture_frame(u, rotation),
+            (Shape::Disk(s), Shape::Disk(u)) => s.turn_texture_frame(u, rotation),
+            (Shape::Cylinder(s), Shape::Cylinder(u)) => s.turn_texture_frame(u, rotation),
+            _ => {}
         }
     }
 
@@ -294,6 +317,7 @@ impl Shape {
             Shape::Quad(_) => "quad",
             Shape::Polygon(_) => "polygon",
             Shape::Triangle(_) => "triangle",
+            Shape::Affine(s) => s.kind(),
         }
     }
 }

@@ -3,7 +3,7 @@
 
 use std::f32::consts::{PI, TAU};
 
-use glam::{Vec2, Vec3};
+use glam::{Mat3, Vec2, Vec3};
 
 use super::{azimuth, point_error, seam_slack, texture_frame, unit_or, Bounds, Ray, SurfaceHit};
 
@@ -58,9 +58,11 @@ pub fn sphere_uv(axis: Vec3, frame: (Vec3, Vec3), n: Vec3) -> Vec2 {
 pub struct Sphere {
     pub(crate) center: Vec3,
     pub(crate) radius: f32,
-    /// Pole of the uv parameterisation and normal of the clipping planes (unit).
+    /// Normal of the clipping planes (unit).
     pub(crate) axis: Vec3,
-    /// Tangents completing `axis` to an orthonormal frame (uv longitude origin).
+    /// Pole of the uv parameterisation (unit): `axis`, turned with the sphere by a rotation.
+    pole: Vec3,
+    /// Tangents completing `pole` to an orthonormal frame (uv longitude origin).
     tangent: (Vec3, Vec3),
     pub(crate) min_height: f32,
     pub(crate) max_height: f32,
@@ -86,6 +88,7 @@ impl Sphere {
             center,
             radius,
             axis,
+            pole: axis,
             tangent: texture_frame(axis),
             min_height,
             max_height,
@@ -130,7 +133,7 @@ impl Sphere {
             p,
             n,
             shading_n: n,
-            uv: if with_uv { sphere_uv(self.axis, self.tangent, n) } else { Vec2::ZERO },
+            uv: if with_uv { sphere_uv(self.pole, self.tangent, n) } else { Vec2::ZERO },
             // Radially only the length of n matters: `normalize` (dot, sqrt, reciprocal,
             // product) leaves a relative error below γ(5) and scaling by r rounds once more,
             // γ(6)·r; the roundoff of q only tilts n, moving p along the surface. Adding the
@@ -152,6 +155,19 @@ impl Sphere {
     /// Unit normal of the clipping plane (the uv pole of a full sphere).
     pub fn axis(&self) -> Vec3 {
         self.axis
+    }
+
+    /// The texture frame: the uv pole (v = 1) and the tangents from which the longitude is
+    /// measured ([`texture_frame`] of the pole, unless turned by [`Sphere::turn_texture_frame`]).
+    pub fn texture_frame(&self) -> (Vec3, (Vec3, Vec3)) {
+        (self.pole, self.tangent)
+    }
+
+    /// Sets the texture frame to `unplaced`'s turned by `rotation` (the sphere is `unplaced`
+    /// placed by a similarity with that rotation): the image turns with the sphere.
+    pub fn turn_texture_frame(&mut self, unplaced: &Sphere, rotation: Mat3) {
+        self.pole = rotation * unplaced.pole;
+        self.tangent = (rotation * unplaced.tangent.0, rotation * unplaced.tangent.1);
     }
 
     /// The kept part is `(p − center)·axis <= max_height` (infinite for a full sphere).

@@ -103,6 +103,9 @@ pub enum EmitterShape {
         center: Vec3,
         /// Radius.
         radius: f32,
+        /// The texture frame of the object's sphere: uv pole and longitude tangents (turned with
+        /// a rotated object), so that a sampled point's uv is the one a ray's hit there gets.
+        frame: (Vec3, (Vec3, Vec3)),
     },
     /// A parallelogram `corner + a·u + b·v`.
     Quad {
@@ -123,10 +126,22 @@ pub enum EmitterShape {
         radius: f32,
         /// Radius of the hole.
         inner_radius: f32,
+        /// The in-plane texture frame of the object's disk (turned with a rotated object).
+        frame: (Vec3, Vec3),
     },
 }
 
 impl EmitterShape {
+    /// A sphere with the texture frame of an unrotated one (pole +Y).
+    pub fn sphere(center: Vec3, radius: f32) -> EmitterShape {
+        EmitterShape::Sphere { center, radius, frame: (Vec3::Y, texture_frame(Vec3::Y)) }
+    }
+
+    /// A disk or annulus facing the unit `normal`, with the texture frame of an unrotated one.
+    pub fn disk(center: Vec3, normal: Vec3, radius: f32, inner_radius: f32) -> EmitterShape {
+        EmitterShape::Disk { center, normal, radius, inner_radius, frame: texture_frame(normal) }
+    }
+
     /// Surface area.
     pub fn area(&self) -> f32 {
         match *self {
@@ -141,14 +156,14 @@ impl EmitterShape {
     /// A point uniformly distributed over the surface, with its unit normal.
     pub fn sample(&self, u: Vec2) -> (Vec3, Vec3) {
         match *self {
-            EmitterShape::Sphere { center, radius } => {
+            EmitterShape::Sphere { center, radius, .. } => {
                 let n = uniform_sphere(u);
                 (center + radius * n, n)
             }
             EmitterShape::Quad { corner, u: eu, v: ev } => {
                 (corner + u.x * eu + u.y * ev, eu.cross(ev).normalize())
             }
-            EmitterShape::Disk { center, normal, radius, inner_radius } => {
+            EmitterShape::Disk { center, normal, radius, inner_radius, .. } => {
                 let r = (inner_radius * inner_radius + u.x * (radius * radius - inner_radius * inner_radius))
                     .sqrt();
                 let phi = 2.0 * PI * u.y;
@@ -163,9 +178,9 @@ impl EmitterShape {
     pub fn uv_at(&self, u: Vec2, p: Vec3, n: Vec3) -> Vec2 {
         match *self {
             EmitterShape::Quad { .. } => u,
-            EmitterShape::Sphere { .. } => sphere_uv(Vec3::Y, texture_frame(Vec3::Y), n),
-            EmitterShape::Disk { center, normal, radius, inner_radius } => {
-                disk_uv(texture_frame(normal), p - center, radius, inner_radius)
+            EmitterShape::Sphere { frame: (pole, tangents), .. } => sphere_uv(pole, tangents, n),
+            EmitterShape::Disk { center, radius, inner_radius, frame, .. } => {
+                disk_uv(frame, p - center, radius, inner_radius)
             }
         }
     }
@@ -578,7 +593,7 @@ impl Light {
     pub fn encloses(&self, p: Vec3) -> bool {
         let (center, radius) = match *self {
             Light::Sphere { center, radius, .. }
-            | Light::Surface { shape: EmitterShape::Sphere { center, radius }, .. } => (center, radius),
+            | Light::Surface { shape: EmitterShape::Sphere { center, radius, .. }, .. } => (center, radius),
             _ => return false,
         };
         // Well inside: a point sampled on the surface (roundoff included) is not enclosed.
@@ -675,17 +690,14 @@ pub(crate) mod tests {
     fn only_the_inside_of_a_sphere_is_enclosed() {
         let center = Vec3::new(0.5, 1.0, -2.0);
         let sphere = Light::Sphere { center, radius: 0.05, radiance: Vec3::ONE };
-        let ball = Light::Surface {
-            shape: EmitterShape::Sphere { center, radius: 0.05 },
-            radiance: Vec3::ONE,
-            texture: None,
-        };
+        let ball =
+            Light::Surface { shape: EmitterShape::sphere(center, 0.05), radiance: Vec3::ONE, texture: None };
         for light in [&sphere, &ball] {
             assert!(light.encloses(center));
             assert!(light.encloses(center + Vec3::new(0.0, 0.049, 0.0)));
             // Sampled surface points, roundoff included, are outside.
             for k in 0..100 {
-                let (p, _) = EmitterShape::Sphere { center, radius: 0.05 }
+                let (p, _) = EmitterShape::sphere(center, 0.05)
                     .sample(Vec2::new(k as f32 / 100.0, (k as f32 * 0.618).fract()));
                 assert!(!light.encloses(p), "{p}");
             }
@@ -738,7 +750,7 @@ pub(crate) mod tests {
                 parallelogram_hit(p, w, corner, u, v).map(|y| (y, normal)).into_iter().collect()
             }
             Light::Sphere { center, radius, .. }
-            | Light::Surface { shape: EmitterShape::Sphere { center, radius }, .. } => {
+            | Light::Surface { shape: EmitterShape::Sphere { center, radius, .. }, .. } => {
                 sphere_hits(p, w, center, radius)
                     .into_iter()
                     .map(|t| {
@@ -753,14 +765,14 @@ pub(crate) mod tests {
                     .into_iter()
                     .collect()
             }
-            Light::Surface { shape: EmitterShape::Disk { center, normal, radius, inner_radius }, .. } => {
-                plane_hit(p, w, center, normal)
-                    .map(|t| p + w * t)
-                    .filter(|y| (inner_radius..=radius).contains(&(*y - center).length()))
-                    .map(|y| (y, normal))
-                    .into_iter()
-                    .collect()
-            }
+            Light::Surface {
+                shape: EmitterShape::Disk { center, normal, radius, inner_radius, .. }, ..
+            } => plane_hit(p, w, center, normal)
+                .map(|t| p + w * t)
+                .filter(|y| (inner_radius..=radius).contains(&(*y - center).length()))
+                .map(|y| (y, normal))
+                .into_iter()
+                .collect(),
         };
         points
             .into_iter()
@@ -779,9 +791,9 @@ pub(crate) mod tests {
         let (corner, eu, ev) =
             (Vec3::new(-1.0, 0.5, 0.0), Vec3::new(2.0, 0.0, 0.3), Vec3::new(0.0, 1.5, 0.0));
         let cases: [(EmitterShape, Shape); 3] = [
-            (EmitterShape::Sphere { center, radius: 0.7 }, Shape::Sphere(Box::new(Sphere::new(center, 0.7)))),
+            (EmitterShape::sphere(center, 0.7), Shape::Sphere(Box::new(Sphere::new(center, 0.7)))),
             (
-                EmitterShape::Disk { center, normal, radius: 0.9, inner_radius: 0.2 },
+                EmitterShape::disk(center, normal, 0.9, 0.2),
                 Shape::Disk(Box::new(Disk::new(center, normal, 0.9, 0.2))),
             ),
             (EmitterShape::Quad { corner, u: eu, v: ev }, Shape::Quad(Box::new(Quad::new(corner, eu, ev)))),
@@ -823,7 +835,7 @@ pub(crate) mod tests {
             // the near and the far side, where the cell quadrature reaches only 0.99984 of the
             // exact mass 1 and so cannot judge the samples.
             Light::Surface {
-                shape: EmitterShape::Sphere { center: Vec3::new(0.3, 0.4, 0.2), radius: 1.0 },
+                shape: EmitterShape::sphere(Vec3::new(0.3, 0.4, 0.2), 1.0),
                 radiance: Vec3::ONE,
                 texture: None,
             },
@@ -837,22 +849,17 @@ pub(crate) mod tests {
                 texture: None,
             },
             Light::Surface {
-                shape: EmitterShape::Disk {
-                    center: Vec3::new(0.0, 0.4, 0.0),
-                    normal: Vec3::new(0.3, 1.0, 0.1).normalize(),
-                    radius: 1.0,
-                    inner_radius: 0.3,
-                },
+                shape: EmitterShape::disk(
+                    Vec3::new(0.0, 0.4, 0.0),
+                    Vec3::new(0.3, 1.0, 0.1).normalize(),
+                    1.0,
+                    0.3,
+                ),
                 radiance: Vec3::ONE,
                 texture: None,
             },
             Light::Surface {
-                shape: EmitterShape::Disk {
-                    center: Vec3::new(0.5, 0.1, 0.0),
-                    normal: Vec3::X,
-                    radius: 2.0,
-                    inner_radius: 0.0,
-                },
+                shape: EmitterShape::disk(Vec3::new(0.5, 0.1, 0.0), Vec3::X, 2.0, 0.0),
                 radiance: Vec3::ONE,
                 texture: None,
             },

@@ -17,7 +17,7 @@ use super::{
 use crate::camera::Camera;
 use crate::dispersion::Ior;
 use crate::geometry::{
-    parallelogram_normal, try_unit, Bounds, Disk, Polygon, Quad, Shape, Sphere, VertexAttributes,
+    parallelogram_normal, try_unit, AffineShape, Bounds, Disk, Polygon, Quad, Shape, Sphere, VertexAttributes,
 };
 use crate::light::{EmitterShape, EnvironmentMap, Light, Strength};
 use crate::material::{Bsdf, Material, Medium, Phong, Texture};
@@ -425,29 +425,61 @@ impl Compiler<'_> {
                 Some(t) => Some(self.transform(&path.key("transform"), t)?),
                 None => None,
             };
-            // (NaN cannot reach here: the parser refuses it.) A transformed analytic shape is the shape with transformed defining numbers; its
+            // (NaN cannot reach here: the parser refuses it.) A transformed analytic shape's
             // numbers as written are checked first, so that messages quote the file's values.
-            let placed = match &transform {
-                Some(t) if !matches!(object.shape, ShapeDesc::Mesh { .. }) => {
-                    self.shape(&path, &object.shape, None, &mut warnings, &mut inputs, &mut Vec::new())?;
-                    std::borrow::Cow::Owned(self.placed(&path, &object.shape, t)?)
+            // Under a similarity it is the shape with transformed defining numbers (its texture
+            // frame turned by the rotation); a round shape under a general affine map keeps its
+            // numbers and is intersected in object space.
+            let unplaced = match &transform {
+                Some(_) if !matches!(object.shape, ShapeDesc::Mesh { .. }) => Some(self.shape(
+                    &path,
+                    &object.shape,
+                    None,
+                    &mut warnings,
+                    &mut inputs,
+                    &mut Vec::new(),
+                )?),
+                _ => None,
+            };
+            let general = transform.filter(|t| is_round(&object.shape) && t.uniform_scale().is_none());
+            let placed = match (&transform, &unplaced) {
+                (Some(t), Some(_)) if general.is_none() => {
+                    std::borrow::Cow::Owned(self.placed(&object.shape, t))
                 }
                 _ => std::borrow::Cow::Borrowed(&object.shape),
             };
             // A mesh's per-triangle uv and normals, in the order of its surfaces.
             let mut mesh_attributes = Vec::new();
-            let surfaces = self
-                .shape(&path, &placed, transform.as_ref(), &mut warnings, &mut inputs, &mut mesh_attributes)
-                .map_err(|e| match (e, &placed) {
-                    // The numbers as written passed: the transform made the shape invalid.
-                    (SceneError::Invalid { field, message, .. }, std::borrow::Cow::Owned(_)) => self.err(
-                        &path.key("transform"),
-                        format!(
-                            "the transformed shape is invalid (`{field}` after the transform: {message})"
-                        ),
-                    ),
-                    (e, _) => e,
-                })?;
+            let surfaces = match (general, unplaced) {
+                (Some(t), Some(object_space)) => self.affine_surfaces(&path, object_space, &t)?,
+                (_, unplaced) => {
+                    let mut surfaces = self
+                        .shape(
+                            &path,
+                            &placed,
+                            transform.as_ref(),
+                            &mut warnings,
+                            &mut inputs,
+                            &mut mesh_attributes,
+                        )
+                        .map_err(|e| match (e, &placed) {
+                            // The numbers as written passed: the transform made the shape invalid.
+                            (SceneError::Invalid { field, message, .. }, std::borrow::Cow::Owned(_)) => self
+                                .err(
+                                    &path.key("transform"),
+                                    format!(
+                                        "the transformed shape is invalid (`{field}` after the transform: \
+                                         {message})"
+                                    ),
+                                ),
+                            (e, _) => e,
+                        })?;
+                    if let (Some(rotation), Some(unplaced)) = (transform.and_then(|t| t.rotation), unplaced) {
+                        turn_texture_frames(&mut surfaces, &unplaced, rotation);
+                    }
+                    surfaces
+                }
+            };
             if let ShapeDesc::Mesh { file, .. } = &object.shape {
                 let image = match &materials[material as usize].bsdf {
                     Bsdf::Diffuse(Texture::Image(t)) | Bsdf::Mirror { color: Texture::Image(t), .. } => {
@@ -525,9 +557,24 @@ impl Compiler<'_> {
                     if velocity.is_some() {
                         return Err(self.err(&path.key("velocity"), "an emitting object cannot move"));
                     }
-                    let shape = emitter_shape(&placed).ok_or_else(|| {
-                        self.err(&path.key("material"), "emission is supported on spheres, quads and disks")
-                    })?;
+                    if general.is_some() {
+                        return Err(self.err(
+                            &path.key("transform"),
+                            format!(
+                                "an emitting {} takes only a similarity (one scale factor, a rotation, \
+                                 a translation): under a per-axis scale or a matrix it would be an \
+                                 ellipsoid or ellipse, whose light sampling is not implemented",
+                                shape_kind(&object.shape)
+                            ),
+                        ));
+                    }
+                    let shape =
+                        emitter_shape(&placed, surfaces.first().map(|(s, _)| s)).ok_or_else(|| {
+                            self.err(
+                                &path.key("material"),
+                                "emission is supported on spheres, quads and disks",
+                            )
+                        })?;
                     let size = match object.shape {
                         ShapeDesc::Quad { .. } => "u",
                         _ => "radius",
@@ -1015,6 +1062,16 @@ impl Compiler<'_> {
 
     /// The `transform` table of an object, checked.
     fn transform(&self, path: &FieldPath, t: &TransformDesc) -> Result<Transform, SceneError> {
+        if let Some(m) = &t.matrix {
+            if t.scale.is_some() || t.rotate.is_some() || t.translate.is_some() {
+                return Err(self.err(
+                    &path.key("matrix"),
+                    "a matrix is the whole transform: give `matrix` alone, or `scale`, `rotate` and \
+                     `translate` without it",
+                ));
+            }
+            return self.matrix(&path.key("matrix"), m);
+        }
         let scale = match t.scale {
             None => Vec3::ONE,
             Some(s) => {
@@ -1036,54 +1093,90 @@ impl Compiler<'_> {
             Some(r) => Some(rotation(self.direction(&path.key("rotate").key("axis"), r.axis)?, r.angle)),
         };
         let translate = t.translate.map_or(Vec3::ZERO, Vec3::from_array);
-        Ok(Transform { scale, rotation, translate })
+        Ok(Transform { scale, rotation, matrix: None, translate })
+    }
+
+    /// A `transform.matrix`, checked: 16 finite numbers, row by row, the last row `[0, 0, 0, 1]`
+    /// and the 3×3 block invertible without mirroring.
+    fn matrix(&self, path: &FieldPath, m: &[f32; 16]) -> Result<Transform, SceneError> {
+        if let Some(bad) = m.iter().find(|x| !x.is_finite()) {
+            return Err(self.err(path, format!("every entry must be a finite number (got {bad})")));
+        }
+        if m[12..] != [0.0, 0.0, 0.0, 1.0] {
+            return Err(self.err(
+                path,
+                format!(
+                    "the last row must be [0, 0, 0, 1] (an affine map; got {:?}): projective maps are not \
+                     supported",
+                    &m[12..]
+                ),
+            ));
+        }
+        let row = |i: usize| Vec3::new(m[4 * i], m[4 * i + 1], m[4 * i + 2]);
+        let linear = glam::Mat3::from_cols(row(0), row(1), row(2)).transpose();
+        let det = f64::from(linear.determinant());
+        // The volume relative to the box of its rows: near 0 for a nearly singular matrix.
+        let volume = f64::from(row(0).length()) * f64::from(row(1).length()) * f64::from(row(2).length());
+        // (Finite entries: the determinant is finite, never NaN.)
+        if det <= 1e-6 * volume || !linear.inverse().is_finite() {
+            let what = if det < 0.0 && det.abs() > 1e-6 * volume {
+                "mirrors (negative determinant), which turns an object inside out"
+            } else {
+                "is singular or nearly so (it flattens the object)"
+            };
+            return Err(self.err(path, format!("the 3×3 part of the matrix {what} (determinant {det:e})")));
+        }
+        Ok(Transform::affine(linear, Vec3::new(m[3], m[7], m[11])))
+    }
+
+    /// The surfaces of a round shape or body (`object_space`: as written) under the general
+    /// affine map `t`, each intersected in its object space.
+    fn affine_surfaces(
+        &self,
+        path: &FieldPath,
+        object_space: Vec<BodySurface>,
+        t: &Transform,
+    ) -> Result<Vec<BodySurface>, SceneError> {
+        object_space
+            .into_iter()
+            .map(|(shape, interface)| {
+                let placed = AffineShape::new(shape, t.linear(), t.translate).ok_or_else(|| {
+                    self.err(&path.key("transform"), "the transform is singular, mirrors or is not finite")
+                })?;
+                Ok((Shape::Affine(Box::new(placed)), interface))
+            })
+            .collect()
     }
 
     /// An analytic shape (or composite body) with `t` applied to its defining numbers: points
-    /// transformed, directions rotated, lengths scaled (spheres, cylinders and disks, and the
-    /// bodies made of them, only by a uniform scale); a quad's edges and a polygon's vertices
-    /// take any scale. A mesh is returned as it is (its vertices are transformed as it loads).
-    fn placed(&self, path: &FieldPath, shape: &ShapeDesc, t: &Transform) -> Result<ShapeDesc, SceneError> {
+    /// transformed, directions rotated, lengths scaled. A quad's edges and a polygon's vertices
+    /// take any transform; the round shapes (spheres, cylinders, disks and the bodies made of
+    /// them) come here only under a similarity, whose one factor scales their lengths (a general
+    /// map goes to [`AffineShape`]). A mesh is returned as it is (its vertices are transformed as
+    /// it loads).
+    fn placed(&self, shape: &ShapeDesc, t: &Transform) -> ShapeDesc {
         let point = |x: &Vec3Desc| t.point(Vec3::from_array(*x)).to_array();
         let edge = |x: &Vec3Desc| t.vector(Vec3::from_array(*x)).to_array();
         let direction = |x: &Vec3Desc| t.rotate(Vec3::from_array(*x)).to_array();
-        let uniform = || {
-            t.uniform_scale().ok_or_else(|| {
-                self.err(
-                    &path.key("transform").key("scale"),
-                    format!(
-                        "a {} cannot be scaled by different factors per axis: it is analytic and stays \
-                         round (a sphere cannot become an ellipsoid, a circle an ellipse); give one \
-                         number, or model it as a mesh (quads, polygons and meshes take any scale)",
-                        shape_kind(shape)
-                    ),
-                )
-            })
-        };
-        Ok(match shape {
+        let s = t.scale.x;
+        debug_assert!(!is_round(shape) || t.uniform_scale().is_some(), "a round shape under a general map");
+        match shape {
             ShapeDesc::Sphere { center, radius } => {
-                let s = uniform()?;
                 ShapeDesc::Sphere { center: point(center), radius: radius * s }
             }
-            ShapeDesc::Cylinder { base, axis, radius, height, caps } => {
-                let s = uniform()?;
-                ShapeDesc::Cylinder {
-                    base: point(base),
-                    axis: direction(axis),
-                    radius: radius * s,
-                    height: height * s,
-                    caps: *caps,
-                }
-            }
-            ShapeDesc::Disk { center, normal, radius, inner_radius } => {
-                let s = uniform()?;
-                ShapeDesc::Disk {
-                    center: point(center),
-                    normal: direction(normal),
-                    radius: radius * s,
-                    inner_radius: inner_radius * s,
-                }
-            }
+            ShapeDesc::Cylinder { base, axis, radius, height, caps } => ShapeDesc::Cylinder {
+                base: point(base),
+                axis: direction(axis),
+                radius: radius * s,
+                height: height * s,
+                caps: *caps,
+            },
+            ShapeDesc::Disk { center, normal, radius, inner_radius } => ShapeDesc::Disk {
+                center: point(center),
+                normal: direction(normal),
+                radius: radius * s,
+                inner_radius: inner_radius * s,
+            },
             ShapeDesc::Quad { corner, u, v } => {
                 ShapeDesc::Quad { corner: point(corner), u: edge(u), v: edge(v) }
             }
@@ -1091,27 +1184,20 @@ impl Compiler<'_> {
                 ShapeDesc::Polygon { vertices: vertices.iter().map(point).collect() }
             }
             ShapeDesc::Mesh { .. } => shape.clone(),
-            ShapeDesc::HollowSphere { center, radius, inner_radius } => {
-                let s = uniform()?;
-                ShapeDesc::HollowSphere {
-                    center: point(center),
-                    radius: radius * s,
-                    inner_radius: inner_radius * s,
-                }
-            }
-            ShapeDesc::Bowl { center, axis, radius, thickness, fill, liquid } => {
-                let s = uniform()?;
-                ShapeDesc::Bowl {
-                    center: point(center),
-                    axis: direction(axis),
-                    radius: radius * s,
-                    thickness: thickness * s,
-                    fill: fill.map(|f| f * s),
-                    liquid: liquid.clone(),
-                }
-            }
+            ShapeDesc::HollowSphere { center, radius, inner_radius } => ShapeDesc::HollowSphere {
+                center: point(center),
+                radius: radius * s,
+                inner_radius: inner_radius * s,
+            },
+            ShapeDesc::Bowl { center, axis, radius, thickness, fill, liquid } => ShapeDesc::Bowl {
+                center: point(center),
+                axis: direction(axis),
+                radius: radius * s,
+                thickness: thickness * s,
+                fill: fill.map(|f| f * s),
+                liquid: liquid.clone(),
+            },
             ShapeDesc::DrinkingGlass { base, axis, radius, height, wall, bottom, fill, liquid } => {
-                let s = uniform()?;
                 ShapeDesc::DrinkingGlass {
                     base: point(base),
                     axis: direction(axis),
@@ -1123,7 +1209,7 @@ impl Compiler<'_> {
                     liquid: liquid.clone(),
                 }
             }
-        })
+        }
     }
 
     /// The surfaces of a shape; `transform` places a mesh (analytic shapes arrive placed).
@@ -1482,23 +1568,43 @@ fn within_extent(b: Bounds) -> bool {
     b.min.cmpge(Vec3::splat(-MAX_EXTENT)).all() && b.max.cmple(Vec3::splat(MAX_EXTENT)).all()
 }
 
-/// The geometry of an emissive object, for the shapes that can emit.
-fn emitter_shape(s: &ShapeDesc) -> Option<EmitterShape> {
+/// The geometry of an emissive object, for the shapes that can emit: `s` placed, and `surface`
+/// the primitive compiled from it (whose texture frame, turned with a rotated object, the
+/// emitter's uv follows).
+fn emitter_shape(s: &ShapeDesc, surface: Option<&Shape>) -> Option<EmitterShape> {
     let v = Vec3::from_array;
-    match s {
-        ShapeDesc::Sphere { center, radius } => {
-            Some(EmitterShape::Sphere { center: v(*center), radius: *radius })
+    match (s, surface) {
+        (ShapeDesc::Sphere { center, radius }, Some(Shape::Sphere(sphere))) => {
+            Some(EmitterShape::Sphere { center: v(*center), radius: *radius, frame: sphere.texture_frame() })
         }
-        ShapeDesc::Quad { corner, u, v: ev } => {
+        (ShapeDesc::Quad { corner, u, v: ev }, _) => {
             Some(EmitterShape::Quad { corner: v(*corner), u: v(*u), v: v(*ev) })
         }
-        ShapeDesc::Disk { center, normal, radius, inner_radius } => Some(EmitterShape::Disk {
-            center: v(*center),
-            normal: try_unit(v(*normal))?,
-            radius: *radius,
-            inner_radius: *inner_radius,
-        }),
+        (ShapeDesc::Disk { center, normal, radius, inner_radius }, Some(Shape::Disk(disk))) => {
+            Some(EmitterShape::Disk {
+                center: v(*center),
+                normal: try_unit(v(*normal))?,
+                radius: *radius,
+                inner_radius: *inner_radius,
+                frame: disk.texture_frame(),
+            })
+        }
         _ => None,
+    }
+}
+
+/// Whether a shape is round (a sphere, cylinder or disk, or a body made of them): placed by
+/// its defining numbers under a similarity, intersected in object space under any other map.
+fn is_round(s: &ShapeDesc) -> bool {
+    !matches!(s, ShapeDesc::Quad { .. } | ShapeDesc::Polygon { .. } | ShapeDesc::Mesh { .. })
+}
+
+/// Turns the texture frame of every placed surface to its unplaced twin's frame turned by
+/// `rotation` (`unplaced` holds the same surfaces, in order, before a similarity placed them).
+fn turn_texture_frames(placed: &mut [BodySurface], unplaced: &[BodySurface], rotation: glam::Mat3) {
+    debug_assert_eq!(placed.len(), unplaced.len(), "a similarity keeps a body's surfaces");
+    for ((shape, _), (twin, _)) in placed.iter_mut().zip(unplaced) {
+        shape.turn_texture_frame(twin, rotation);
     }
 }
 

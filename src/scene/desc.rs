@@ -629,10 +629,16 @@ pub struct ObjectDesc {
 }
 
 /// `transform = { scale = s | [sx, sy, sz], rotate = { axis = [x, y, z], angle = DEG }, translate
-/// = [x, y, z] }`: applied in the order scale, rotate, translate; every part optional.
+/// = [x, y, z] }`: applied in the order scale, rotate, translate; every part optional. Or
+/// `transform = { matrix = [16 numbers] }`: a 4×4 affine matrix written row by row (last row
+/// `[0, 0, 0, 1]`, positive determinant), alone.
 #[derive(Clone, Debug, Default, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct TransformDesc {
+    /// A 4×4 affine matrix, row-major: `p ↦ M·p + t` with `M` the upper-left 3×3 block and `t`
+    /// the last column (instead of `scale`, `rotate` and `translate`).
+    #[serde(default)]
+    pub matrix: Option<[f32; 16]>,
     /// Scale factor, one for all axes or one per axis (all > 0), applied first.
     #[serde(default)]
     pub scale: Option<ScaleDesc>,

@@ -169,7 +169,7 @@ pub fn material(m: &Material) -> Description {
 /// The geometry of an emitting object.
 fn emitter_shape(s: &EmitterShape) -> (String, Value) {
     match s {
-        EmitterShape::Sphere { center, radius } => (
+        EmitterShape::Sphere { center, radius, .. } => (
             format!("sphere, centre {}, radius {radius}", vec3(*center)),
             json!({"shape": "sphere", "center": arr(center), "radius": num(radius)}),
         ),
@@ -177,7 +177,7 @@ fn emitter_shape(s: &EmitterShape) -> (String, Value) {
             format!("quad, corner {}, u {}, v {}", vec3(*corner), vec3(*u), vec3(*v)),
             json!({"shape": "quad", "corner": arr(corner), "u": arr(u), "v": arr(v)}),
         ),
-        EmitterShape::Disk { center, normal, radius, inner_radius } => (
+        EmitterShape::Disk { center, normal, radius, inner_radius, .. } => (
             format!(
                 "disk, centre {}, normal {}, radius {radius}, inner radius {inner_radius}",
                 vec3(*center),

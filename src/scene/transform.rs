@@ -1,29 +1,42 @@
 //! Object transforms: `transform = { scale, rotate = { axis, angle }, translate }`, applied in
-//! the order scale, rotate, translate.
+//! the order scale, rotate, translate, or `transform = { matrix = [16 numbers, row-major] }`.
 //!
-//! The shapes are analytic, so a transform is applied once, at compile time, to the numbers that
-//! define them (points transformed, directions rotated, lengths scaled) and to every vertex and
-//! normal of a mesh; nothing is transformed while rendering.
+//! A similarity (one scale factor, a rotation, a translation) is applied once, at compile time,
+//! to the numbers that define an analytic shape (points transformed, directions rotated, lengths
+//! scaled; the texture frame turned with it). Quads, polygons and meshes take any transform on
+//! their points and normals the same way. A sphere, disk or cylinder (or a body built of them)
+//! under a general affine map (a per-axis scale, a matrix) keeps its own numbers and is
+//! intersected in its object space ([`crate::geometry::AffineShape`]).
 
 use glam::{DMat3, DVec3, Mat3, Vec3};
 
 use crate::geometry::try_unit;
 
-/// A compiled transform `p ↦ R·(S·p) + t`: a positive scale per axis, a rotation and a translation.
+/// A compiled transform `p ↦ R·(S·p) + t` (a positive scale per axis, a rotation and a
+/// translation) or `p ↦ M·p + t` (a general invertible matrix, from `matrix`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Transform {
-    /// Scale per axis (all > 0), applied first.
+    /// Scale per axis (all > 0), applied first (1 with a `matrix`).
     pub scale: Vec3,
     /// Rotation matrix, applied second; `None` for no rotation (so that a transform without one
     /// does exactly the arithmetic of a scale and a translation).
     pub rotation: Option<Mat3>,
+    /// The general linear part written as `matrix` (positive determinant), in place of `scale`
+    /// and `rotation`.
+    pub matrix: Option<Mat3>,
     /// Translation, applied last.
     pub translate: Vec3,
 }
 
 impl Transform {
     /// The transform that changes nothing.
-    pub const IDENTITY: Transform = Transform { scale: Vec3::ONE, rotation: None, translate: Vec3::ZERO };
+    pub const IDENTITY: Transform =
+        Transform { scale: Vec3::ONE, rotation: None, matrix: None, translate: Vec3::ZERO };
+
+    /// The transform `p ↦ matrix·p + translate`.
+    pub fn affine(matrix: Mat3, translate: Vec3) -> Transform {
+        Transform { matrix: Some(matrix), ..Transform { translate, ..Transform::IDENTITY } }
+    }
 
     /// The point `p` transformed: scaled, rotated, translated.
     #[inline]
@@ -34,10 +47,14 @@ impl Transform {
     /// The vector `v` (an edge, a difference of points) scaled and rotated.
     #[inline]
     pub fn vector(&self, v: Vec3) -> Vec3 {
-        self.rotate(v * self.scale)
+        match self.matrix {
+            Some(m) => m * v,
+            None => self.rotate(v * self.scale),
+        }
     }
 
-    /// `v` rotated only.
+    /// `v` rotated only (a similarity's directions; a `matrix` is not a rotation, see
+    /// [`Transform::similarity`]).
     #[inline]
     pub fn rotate(&self, v: Vec3) -> Vec3 {
         match self.rotation {
@@ -47,16 +64,30 @@ impl Transform {
     }
 
     /// The unit normal `n` of a surface carried along: the inverse transpose of the linear part,
-    /// `R·(S⁻¹·n)`, normalised (a positive scale never flips a normal); `None` for a zero `n`.
+    /// `R·(S⁻¹·n)` or `M⁻ᵀ·n`, normalised (a positive scale or determinant never flips a
+    /// normal); `None` for a zero `n`.
     #[inline]
     pub fn normal(&self, n: Vec3) -> Option<Vec3> {
-        try_unit(self.rotate(n / self.scale))
+        match self.matrix {
+            Some(m) => try_unit(m.inverse().transpose() * n),
+            None => try_unit(self.rotate(n / self.scale)),
+        }
     }
 
-    /// The scale when it is the same on every axis.
+    /// The linear part as one matrix: `R·S` or `M`.
+    pub fn linear(&self) -> Mat3 {
+        match self.matrix {
+            Some(m) => m,
+            None => self.rotation.unwrap_or(Mat3::IDENTITY) * Mat3::from_diagonal(self.scale),
+        }
+    }
+
+    /// The scale when the transform is a similarity written as `scale`, `rotate` and
+    /// `translate` with the same factor on every axis (a `matrix` never is one: it takes the
+    /// general path even when it happens to be a rotation).
     pub fn uniform_scale(&self) -> Option<f32> {
         let s = self.scale;
-        (s.x == s.y && s.y == s.z).then_some(s.x)
+        (self.matrix.is_none() && s.x == s.y && s.y == s.z).then_some(s.x)
     }
 }
 
@@ -113,6 +144,7 @@ mod tests {
         let t = Transform {
             scale: Vec3::new(2.0, 1.0, 1.0),
             rotation: Some(rotation(Vec3::Z, 90.0)),
+            matrix: None,
             translate: Vec3::new(0.0, 0.0, 5.0),
         };
         assert_eq!(t.point(Vec3::X), Vec3::new(0.0, 2.0, 5.0));
@@ -124,5 +156,11 @@ mod tests {
         assert_eq!(Transform::IDENTITY.point(Vec3::new(1.5, -2.0, 0.25)), Vec3::new(1.5, -2.0, 0.25));
         assert_eq!(t.uniform_scale(), None);
         assert_eq!(Transform { scale: Vec3::splat(3.0), ..t }.uniform_scale(), Some(3.0));
+        // The same map as a matrix: points and normals agree, but it is not a similarity.
+        let m = Transform::affine(t.linear(), t.translate);
+        assert_eq!(m.point(Vec3::X), Vec3::new(0.0, 2.0, 5.0));
+        assert!(m.normal(Vec3::new(1.0, 1.0, 0.0).normalize()).unwrap().abs_diff_eq(n, 1e-6));
+        assert_eq!(m.uniform_scale(), None);
+        assert_eq!(Transform::affine(Mat3::IDENTITY, Vec3::ZERO).uniform_scale(), None);
     }
 }

@@ -10,7 +10,7 @@ pub mod toml_writer;
 pub mod translate;
 pub mod xml;
 
-use super::compile::load_str;
+use super::compile::load_str as load_str_toml;
 use super::source::SceneError;
 use super::Scene;
 use std::collections::HashMap;
@@ -71,11 +71,27 @@ pub fn import(path: &Path, lenient: bool, toml_dir: Option<&Path>) -> Result<Imp
     })
 }
 
+/// Compiles Mitsuba scene text named `name` (files it names are looked for in `dir`; it may
+/// include nothing), as [`load`] does a file.
+pub fn load_str(text: &str, name: &str, dir: Option<&Path>, lenient: bool) -> Result<Scene, SceneError> {
+    let doc = xml::read_str(text, name, None, &HashMap::new()).map_err(invalid)?;
+    let translation = translate::translate(&doc, lenient, &|f: &str| f.to_string()).map_err(invalid)?;
+    let imported = Imported {
+        toml: translation.toml.text().to_string(),
+        warnings: translation.warnings,
+        writer: translation.toml,
+    };
+    let mut scene = load_str_toml(&imported.toml, name, dir).map_err(|e| imported.at_element(e))?;
+    scene.warnings.splice(0..0, imported.warnings.iter().cloned());
+    Ok(scene)
+}
+
 /// Loads the Mitsuba scene `path` as a compiled scene, its import warnings among the scene's.
 pub fn load(path: &Path, lenient: bool) -> Result<Scene, SceneError> {
     let imported = import(path, lenient, None)?;
     let name = path.display().to_string();
-    let mut scene = load_str(&imported.toml, &name, path.parent()).map_err(|e| imported.at_element(e))?;
+    let mut scene =
+        load_str_toml(&imported.toml, &name, path.parent()).map_err(|e| imported.at_element(e))?;
     scene.warnings.splice(0..0, imported.warnings.iter().cloned());
     Ok(scene)
 }

@@ -179,11 +179,23 @@ const OBJECT_TAGS: [&str; 12] = [
 /// Reads the scene file `path` with the `defaults` given from outside (`name → value`, which
 /// take precedence over the file's `<default>`s).
 pub fn read(path: &Path, defaults: &HashMap<String, String>) -> Result<Document, XmlError> {
-    let mut reader =
-        Reader { defaults: defaults.clone(), ids: HashMap::new(), objects: 0, includes: Vec::new() };
     let file: Rc<str> = path.display().to_string().into();
     let text = read_text(path, &file, None)?;
-    let doc = parse_xml(&text, &file)?;
+    read_str(&text, &path.display().to_string(), Some(path), defaults)
+}
+
+/// Reads scene text named `name` in messages; `path` is its file, if any: `<include>`s are
+/// resolved beside it (text without a file may include nothing).
+pub fn read_str(
+    text: &str,
+    name: &str,
+    path: Option<&Path>,
+    defaults: &HashMap<String, String>,
+) -> Result<Document, XmlError> {
+    let mut reader =
+        Reader { defaults: defaults.clone(), ids: HashMap::new(), objects: 0, includes: Vec::new() };
+    let file: Rc<str> = name.into();
+    let doc = parse_xml(text, &file)?;
     let root = doc.root_element();
     let at = |node: roxmltree::Node| position(&doc, &file, node);
     if root.tag_name().name() != "scene" {
@@ -203,7 +215,9 @@ pub fn read(path: &Path, defaults: &HashMap<String, String>) -> Result<Document,
     let version = parse_version(version_text).ok_or_else(|| {
         error(at(root), "<scene>", &format!("version `{version_text}` is not MAJOR.MINOR.PATCH"))
     })?;
-    reader.includes.push(canonical(path));
+    if let Some(path) = path {
+        reader.includes.push(canonical(path));
+    }
     let mut scene = Object {
         tag: "scene".into(),
         plugin: String::new(),
@@ -213,7 +227,8 @@ pub fn read(path: &Path, defaults: &HashMap<String, String>) -> Result<Document,
         children: Vec::new(),
         position: at(root),
     };
-    let context = Context { file: &file, dir: path.parent().unwrap_or(Path::new(".")), version, doc: &doc };
+    let dir = path.map(|p| p.parent().unwrap_or(Path::new(".")));
+    let context = Context { file: &file, dir, version, doc: &doc };
     reader.fill(&context, root, &mut scene, 1)?;
     Ok(Document { version, scene })
 }
@@ -221,7 +236,8 @@ pub fn read(path: &Path, defaults: &HashMap<String, String>) -> Result<Document,
 /// Where a file is read from and how.
 struct Context<'a, 'input> {
     file: &'a Rc<str>,
-    dir: &'a Path,
+    /// The folder includes are read from; `None` for text without a file.
+    dir: Option<&'a Path>,
     version: (u32, u32, u32),
     doc: &'a roxmltree::Document<'input>,
 }
@@ -324,7 +340,10 @@ impl Reader {
         let at = position(cx.doc, cx.file, node);
         let describe = describe_element(node);
         let name = self.attribute(cx, node, "filename")?;
-        let path = cx.dir.join(&name);
+        let Some(dir) = cx.dir else {
+            return Err(error(at, &describe, "scene text without a file includes nothing"));
+        };
+        let path = dir.join(&name);
         let key = canonical(&path);
         if self.includes.contains(&key) {
             return Err(error(at, &describe, &format!("`{name}` includes itself (a cycle of includes)")));
@@ -345,7 +364,8 @@ impl Reader {
             ));
         }
         let version = root.attribute("version").and_then(parse_version).unwrap_or(cx.version);
-        let inner = Context { file: &file, dir: path.parent().unwrap_or(Path::new(".")), version, doc: &doc };
+        let inner =
+            Context { file: &file, dir: Some(path.parent().unwrap_or(Path::new("."))), version, doc: &doc };
         self.includes.push(key);
         let result = self.fill(&inner, root, object, depth + 1);
         self.includes.pop();
