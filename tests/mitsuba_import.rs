@@ -332,3 +332,39 @@ fn the_shared_standard_scenes_load_leniently_and_render_finite() {
         assert!(pixels.iter().any(|p| p.max_element() > 0.0), "{name} is black");
     }
 }
+
+#[test]
+fn ellipsoids_and_sphere_lights_are_what_mitsuba_makes_of_them() {
+    // A sphere stretched along x is an ellipsoid under the whole map; an emitting sphere (a
+    // similarity) is a sphere light; an emitting ellipsoid is refused at its element.
+    let shapes = r#"<shape type="sphere"><transform name="to_world"><scale x="2" y="1" z="1"/><translate y="1"/></transform><ref id="white"/></shape>
+    <shape type="sphere"><point name="center" x="0" y="2" z="0"/><float name="radius" value="0.1"/><emitter type="area"><rgb name="radiance" value="50"/></emitter></shape>
+</scene>"#;
+    let scene = SMALL.replace("</scene>", shapes);
+    let dir = folder(&[("e.xml", &scene)]);
+    let imported = mitsuba::import(&dir.path().join("e.xml"), false, None).unwrap();
+    assert!(
+        imported.toml.contains("transform = { matrix = [2.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 1.0,"),
+        "{}",
+        imported.toml
+    );
+    assert!(
+        imported.toml.contains("type = \"sphere\"\ncenter = [0.0, 2.0, 0.0]\nradius = 0.1"),
+        "{}",
+        imported.toml
+    );
+    let pixels = render(dir.path(), "e.xml", &[]);
+    assert!(pixels.iter().all(|p| p.is_finite()));
+    let glowing = scene.replace(
+        "<scale x=\"2\" y=\"1\" z=\"1\"/><translate y=\"1\"/></transform><ref id=\"white\"/>",
+        "<scale x=\"2\" y=\"1\" z=\"1\"/><translate y=\"1\"/></transform><emitter type=\"area\"><rgb name=\"radiance\" value=\"1\"/></emitter>",
+    );
+    let dir = folder(&[("g.xml", &glowing)]);
+    let out = vitrum(dir.path(), &["info", "g.xml"]);
+    assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
+    assert!(
+        stderr(&out).contains("g.xml:25:") && stderr(&out).contains("an emitting sphere"),
+        "{}",
+        stderr(&out)
+    );
+}

@@ -59,7 +59,7 @@ pub const SUPPORTED: [(&str, &str); 8] = [
     ("rfilter", "box"),
     ("sampler", "independent, stratified, multijitter, ldsampler, orthogonal (their sample_count and seed)"),
     ("integrator", "path, volpath (as path), bdpt (as bpt), ptracer (as light)"),
-    ("shape", "rectangle, cube, sphere, disk, cylinder, obj"),
+    ("shape", "rectangle, cube, sphere, disk, cylinder (any affine to_world), obj"),
     ("bsdf", "diffuse, twosided, dielectric, roughdielectric (ggx)"),
     ("emitter", "area (on rectangles and spheres; elsewhere as emission), point, constant, envmap"),
 ];
@@ -556,6 +556,7 @@ impl Translator<'_> {
         let fail = |m: &str| error(at.0, &at.1, m);
         let mut geometry: Vec<(String, Vec<(&str, String)>)> = Vec::new();
         let mut quad_light = None;
+        let mut sphere_light: Option<(DVec3, f64)> = None;
         match shape.plugin.as_str() {
             "rectangle" => {
                 let (corner, u, v) =
@@ -575,53 +576,51 @@ impl Translator<'_> {
             "sphere" => {
                 let center = p.point("center")?.unwrap_or(DVec3::ZERO);
                 let radius = p.float("radius")?.unwrap_or(1.0);
-                let (scale, _) = similarity(&m).ok_or_else(|| fail("to_world is not a similarity (uniform scale, rotation, translation): an ellipsoid is not supported yet"))?;
-                let c = m.transform_point3(center);
-                let r = radius * scale;
-                if radiance.is_some() && !flip {
-                    quad_light = None;
-                    geometry.push((
-                        name.clone(),
-                        vec![
-                            ("shape", "\"sphere\"".into()),
-                            ("center", vector(c.to_array())),
-                            ("radius", number(r)),
-                        ],
-                    ));
-                } else {
-                    if flip {
-                        self.warn(
-                            &shape.position,
-                            "flip_normals on a sphere ignored (vitrum's spheres face outwards)",
-                        );
+                if flip {
+                    self.warn(
+                        &shape.position,
+                        "flip_normals on a sphere ignored (vitrum's spheres face outwards)",
+                    );
+                }
+                match similarity(&m) {
+                    Some((scale, _)) => {
+                        let (c, r) = (m.transform_point3(center), radius * scale);
+                        if radiance.is_some() {
+                            sphere_light = Some((c, r));
+                        } else {
+                            geometry.push((name.clone(), sphere(c, r)));
+                        }
                     }
-                    geometry.push((
-                        name.clone(),
-                        vec![
-                            ("shape", "\"sphere\"".into()),
-                            ("center", vector(c.to_array())),
-                            ("radius", number(r)),
-                        ],
-                    ));
+                    None => {
+                        // An ellipsoid: the sphere as written under the whole map.
+                        let mut fields = sphere(center, radius);
+                        fields.push(("transform", matrix(&m)));
+                        geometry.push((name.clone(), fields));
+                    }
                 }
             }
             "disk" => {
-                let scale = round_in_plane(&m).ok_or_else(|| {
-                    fail(
-                        "to_world stretches the disk's plane unevenly: an elliptic disk is not supported yet",
-                    )
-                })?;
-                let c = m.transform_point3(DVec3::ZERO);
-                let n = normal_of(&m, flip);
-                geometry.push((
-                    name.clone(),
+                let disk = |c: DVec3, n: DVec3, r: f64| {
                     vec![
                         ("shape", "\"disk\"".into()),
                         ("center", vector(c.to_array())),
                         ("normal", vector(n.to_array())),
-                        ("radius", number(scale)),
-                    ],
-                ));
+                        ("radius", number(r)),
+                    ]
+                };
+                match round_in_plane(&m) {
+                    Some(scale) => {
+                        let c = m.transform_point3(DVec3::ZERO);
+                        geometry.push((name.clone(), disk(c, normal_of(&m, flip), scale)));
+                    }
+                    None => {
+                        // An elliptic disk: the unit disk under the whole map.
+                        let n = if flip { -DVec3::Z } else { DVec3::Z };
+                        let mut fields = disk(DVec3::ZERO, n, 1.0);
+                        fields.push(("transform", matrix(&m)));
+                        geometry.push((name.clone(), fields));
+                    }
+                }
             }
             "cylinder" => {
                 let p0 = p.point("p0")?.unwrap_or(DVec3::ZERO);
@@ -641,26 +640,31 @@ impl Translator<'_> {
                 } else {
                     similarity(&m).map(|(s, _)| s)
                 };
-                let scale = scale.ok_or_else(|| {
-                    fail("to_world makes the cylinder elliptic or oblique, which is not supported yet")
-                })?;
                 if flip {
                     self.warn(
                         &shape.position,
                         "flip_normals on a cylinder ignored (vitrum's cylinders face outwards)",
                     );
                 }
-                geometry.push((
-                    name.clone(),
+                let cylinder = |base: DVec3, axis: DVec3, r: f64| {
                     vec![
                         ("shape", "\"cylinder\"".into()),
-                        ("base", vector(a.to_array())),
+                        ("base", vector(base.to_array())),
                         ("axis", vector(axis.normalize_or_zero().to_array())),
-                        ("radius", number(radius * scale)),
+                        ("radius", number(r)),
                         ("height", number(axis.length())),
                         ("caps", "false".into()),
-                    ],
-                ));
+                    ]
+                };
+                match scale {
+                    Some(scale) => geometry.push((name.clone(), cylinder(a, axis, radius * scale))),
+                    None => {
+                        // An elliptic or oblique cylinder: the cylinder as written under the map.
+                        let mut fields = cylinder(p0, p1 - p0, radius);
+                        fields.push(("transform", matrix(&m)));
+                        geometry.push((name.clone(), fields));
+                    }
+                }
             }
             "obj" => {
                 let file = p.string("filename")?.ok_or_else(|| fail("has no `filename`"))?;
@@ -701,8 +705,21 @@ impl Translator<'_> {
             }
             return Ok(());
         }
+        if let (Some((c, r)), Some(radiance)) = (sphere_light, radiance) {
+            lights.from(&shape.position, &shape.describe());
+            lights.array_table("lights");
+            lights.comment(&format!("{name}: a sphere with an area emitter (outwards)"));
+            lights.string("type", "sphere");
+            lights.vector("center", c.to_array());
+            lights.number("radius", r);
+            lights.vector("radiance", radiance);
+            if let Some(b) = bsdf {
+                self.warn(&b.position, &format!("{name}: the bsdf of an emitting sphere is dropped (vitrum's sphere lights reflect nothing)"));
+            }
+            return Ok(());
+        }
         let material = self.material(bsdf.map(Rc::as_ref), radiance, &shape.position, materials)?;
-        if radiance.is_some() && shape.plugin != "sphere" {
+        if radiance.is_some() {
             self.warn(&shape.position, &format!("{name}: the area emitter is written as the material's emission, which vitrum emits on both sides"));
         }
         for (object, fields) in geometry {
@@ -959,6 +976,18 @@ impl Translator<'_> {
         }
         p.finish(self)
     }
+}
+
+/// The `key = value` fields of a sphere.
+fn sphere(center: DVec3, radius: f64) -> Vec<(&'static str, String)> {
+    vec![("shape", "\"sphere\"".into()), ("center", vector(center.to_array())), ("radius", number(radius))]
+}
+
+/// `{ matrix = [16 numbers, row by row] }`: a general affine `transform` (the last row 0 0 0 1).
+fn matrix(m: &DMat4) -> String {
+    let rows = m.transpose().to_cols_array();
+    let numbers: Vec<String> = rows.iter().map(|&v| number(v)).collect();
+    format!("{{ matrix = [{}] }}", numbers.join(", "))
 }
 
 /// The `key = value` fields of a quad.
