@@ -1268,7 +1268,7 @@ impl Compiler<'_> {
                 let placement =
                     MeshPlacement { scale, translate: v(*translate), transform: transform.copied() };
                 let mesh =
-                    super::mesh::load_obj(&full, &placement).map_err(|e| self.err(&path.key("file"), e))?;
+                    super::mesh::load_mesh(&full, &placement).map_err(|e| self.err(&path.key("file"), e))?;
                 let (triangles, degenerate) = (mesh.triangles, mesh.degenerate);
                 if mesh.has_uv || mesh.has_normals {
                     *attributes = mesh.attributes;

@@ -1,4 +1,4 @@
-//! Triangle meshes from Wavefront OBJ files.
+//! Triangle meshes from Wavefront OBJ and PLY (ASCII or binary) files.
 
 use super::transform::Transform;
 use crate::geometry::{Triangle, VertexAttributes};
@@ -60,6 +60,15 @@ pub struct ObjMesh {
     pub hash: String,
 }
 
+/// The triangles of a mesh file by its extension: `.ply` ([`load_ply`]), else OBJ ([`load_obj`]).
+pub fn load_mesh(path: &Path, placement: &MeshPlacement) -> Result<ObjMesh, String> {
+    if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("ply")) {
+        load_ply(path, placement)
+    } else {
+        load_obj(path, placement)
+    }
+}
+
 /// The triangles of an OBJ file, placed by `placement`, with their `vt` and `vn` when the file
 /// has them (materials are not read).
 pub fn load_obj(path: &Path, placement: &MeshPlacement) -> Result<ObjMesh, String> {
@@ -72,9 +81,7 @@ pub fn load_obj(path: &Path, placement: &MeshPlacement) -> Result<ObjMesh, Strin
     let no_materials = |_: &Path| Err(tobj::LoadError::OpenFileFailed);
     let (models, _) = tobj::load_obj_buf(&mut std::io::Cursor::new(&bytes), &options, no_materials)
         .map_err(|e| cannot(&e))?;
-    let mut triangles = Vec::new();
-    let mut attributes = Vec::new();
-    let mut degenerate = 0;
+    let mut builder = MeshBuilder::default();
     let missing = || {
         format!(
             "{}: a face refers to a vertex, texture coordinate or normal that does not exist",
@@ -120,9 +127,6 @@ pub fn load_obj(path: &Path, placement: &MeshPlacement) -> Result<ObjMesh, Strin
             let (Some(a), Some(b), Some(c)) = (vertex(tri[0]), vertex(tri[1]), vertex(tri[2])) else {
                 return Err(missing());
             };
-            if !(a.is_finite() && b.is_finite() && c.is_finite()) {
-                return Err(format!("{}: a vertex is not a finite number", path.display()));
-            }
             let corners = |list: &Vec<u32>| [list[3 * k], list[3 * k + 1], list[3 * k + 2]];
             let uv = match uv_indices {
                 Some(list) => {
@@ -130,12 +134,6 @@ pub fn load_obj(path: &Path, placement: &MeshPlacement) -> Result<ObjMesh, Strin
                     let (Some(u0), Some(u1), Some(u2)) = (texcoord(i), texcoord(j), texcoord(l)) else {
                         return Err(missing());
                     };
-                    if !(u0.is_finite() && u1.is_finite() && u2.is_finite()) {
-                        return Err(format!(
-                            "{}: a texture coordinate is not a finite number",
-                            path.display()
-                        ));
-                    }
                     Some([u0, u1, u2])
                 }
                 None => None,
@@ -146,24 +144,171 @@ pub fn load_obj(path: &Path, placement: &MeshPlacement) -> Result<ObjMesh, Strin
                     let (Some(n0), Some(n1), Some(n2)) = (normal(i), normal(j), normal(l)) else {
                         return Err(missing());
                     };
-                    if !(n0.is_finite() && n1.is_finite() && n2.is_finite()) {
-                        return Err(format!("{}: a normal is not a finite number", path.display()));
-                    }
                     Some([n0, n1, n2])
                 }
                 None => None,
             };
-            let t = Triangle::new(a, b, c);
-            if t.is_degenerate() {
-                degenerate += 1;
-            } else {
-                triangles.push(t);
-                attributes.push(VertexAttributes { uv, normals });
-            }
+            builder.push([a, b, c], uv, normals).map_err(|e| format!("{}: {e}", path.display()))?;
         }
     }
-    if triangles.is_empty() {
-        return Err(format!("{}: the mesh has no (non-degenerate) triangles", path.display()));
+    builder.finish(path, has_uv, has_normals, hash)
+}
+
+/// The triangles of a mesh as they are read, checked and counted.
+#[derive(Default)]
+struct MeshBuilder {
+    triangles: Vec<Triangle>,
+    attributes: Vec<VertexAttributes>,
+    degenerate: usize,
+}
+
+impl MeshBuilder {
+    /// Adds the triangle of the placed corners `p` with their uv and (placed) normals, if any;
+    /// a degenerate one is counted and skipped, a non-finite number refused.
+    fn push(&mut self, p: [Vec3; 3], uv: Option<[Vec2; 3]>, normals: Option<[Vec3; 3]>) -> Result<(), String> {
+        if !p.iter().all(|v| v.is_finite()) {
+            return Err("a vertex is not a finite number".into());
+        }
+        if uv.is_some_and(|uv| !uv.iter().all(|t| t.is_finite())) {
+            return Err("a texture coordinate is not a finite number".into());
+        }
+        if normals.is_some_and(|n| !n.iter().all(|n| n.is_finite())) {
+            return Err("a normal is not a finite number".into());
+        }
+        let t = Triangle::new(p[0], p[1], p[2]);
+        if t.is_degenerate() {
+            self.degenerate += 1;
+        } else {
+            self.triangles.push(t);
+            self.attributes.push(VertexAttributes { uv, normals });
+        }
+        Ok(())
     }
-    Ok(ObjMesh { triangles, attributes, has_uv, has_normals, degenerate, hash })
+
+    /// The mesh of the file `path`, refused when no triangle is left.
+    fn finish(self, path: &Path, has_uv: bool, has_normals: bool, hash: String) -> Result<ObjMesh, String> {
+        if self.triangles.is_empty() {
+            return Err(format!("{}: the mesh has no (non-degenerate) triangles", path.display()));
+        }
+        let MeshBuilder { triangles, attributes, degenerate } = self;
+        Ok(ObjMesh { triangles, attributes, has_uv, has_normals, degenerate, hash })
+    }
+}
+
+/// One element of a PLY file as vitrum reads it: a vertex (position, normal, uv) or a face
+/// (its vertex indices); other properties are ignored.
+#[derive(Default)]
+struct PlyRecord {
+    position: [f64; 3],
+    normal: [f64; 3],
+    uv: [f64; 2],
+    /// Which of position, normal and uv the element gave (bits 0, 1, 2).
+    given: u8,
+    indices: Vec<i64>,
+}
+
+impl ply_rs_bw::ply::PropertyAccess for PlyRecord {
+    fn new() -> Self {
+        PlyRecord::default()
+    }
+
+    fn set_property(&mut self, name: &str, property: ply_rs_bw::ply::Property) {
+        use ply_rs_bw::ply::Property as P;
+        let scalar = match &property {
+            P::Char(v) => Some(f64::from(*v)),
+            P::UChar(v) => Some(f64::from(*v)),
+            P::Short(v) => Some(f64::from(*v)),
+            P::UShort(v) => Some(f64::from(*v)),
+            P::Int(v) => Some(f64::from(*v)),
+            P::UInt(v) => Some(f64::from(*v)),
+            P::Float(v) => Some(f64::from(*v)),
+            P::Double(v) => Some(*v),
+            _ => None,
+        };
+        let list: Option<Vec<i64>> = match property {
+            P::ListChar(v) => Some(v.into_iter().map(i64::from).collect()),
+            P::ListUChar(v) => Some(v.into_iter().map(i64::from).collect()),
+            P::ListShort(v) => Some(v.into_iter().map(i64::from).collect()),
+            P::ListUShort(v) => Some(v.into_iter().map(i64::from).collect()),
+            P::ListInt(v) => Some(v.into_iter().map(i64::from).collect()),
+            P::ListUInt(v) => Some(v.into_iter().map(i64::from).collect()),
+            _ => None,
+        };
+        let slot = match name {
+            "x" => Some((0, 0)),
+            "y" => Some((0, 1)),
+            "z" => Some((0, 2)),
+            "nx" => Some((1, 0)),
+            "ny" => Some((1, 1)),
+            "nz" => Some((1, 2)),
+            "u" | "s" | "texture_u" | "texture_s" => Some((2, 0)),
+            "v" | "t" | "texture_v" | "texture_t" => Some((2, 1)),
+            _ => None,
+        };
+        match (slot, scalar) {
+            (Some((0, i)), Some(v)) => (self.position[i], self.given) = (v, self.given | 1),
+            (Some((1, i)), Some(v)) => (self.normal[i], self.given) = (v, self.given | 2),
+            (Some((_, i)), Some(v)) => (self.uv[i], self.given) = (v, self.given | 4),
+            _ => {}
+        }
+        if let (Some(list), "vertex_indices" | "vertex_index") = (list, name) {
+            self.indices = list;
+        }
+    }
+}
+
+/// Most elements (vertices and faces together) a PLY file may declare.
+pub const MAX_PLY_ELEMENTS: usize = 1 << 26;
+
+/// The triangles of a PLY file (ASCII, binary little or big endian), placed by `placement`:
+/// its `vertex` elements' `x y z`, `nx ny nz` (shading normals) and `u v` (or `s t`), its
+/// `face` elements' `vertex_indices` (polygons as triangle fans). A header declaring more than
+/// [`MAX_PLY_ELEMENTS`] elements, or more than the file's bytes could hold, is refused before
+/// anything is allocated for them.
+pub fn load_ply(path: &Path, placement: &MeshPlacement) -> Result<ObjMesh, String> {
+    let cannot = |e: &dyn std::fmt::Display| format!("cannot load PLY file {}: {e}", path.display());
+    let bytes = std::fs::read(path).map_err(|e| cannot(&e))?;
+    let hash = super::compile::content_hash_bytes(&bytes);
+    let parser = ply_rs_bw::parser::Parser::<PlyRecord>::new();
+    let mut reader = std::io::BufReader::new(std::io::Cursor::new(&bytes));
+    let header = parser.read_header(&mut reader).map_err(|e| cannot(&e))?;
+    let declared: usize = header.elements.values().map(|e| e.count).fold(0, usize::saturating_add);
+    if declared > MAX_PLY_ELEMENTS || declared > bytes.len() {
+        return Err(cannot(&format!(
+            "the header declares {declared} elements, more than the file's {} bytes can hold or vitrum's \
+             limit of {MAX_PLY_ELEMENTS}",
+            bytes.len()
+        )));
+    }
+    let payload = parser.read_payload(&mut reader, &header).map_err(|e| cannot(&e))?;
+    let empty = Vec::new();
+    let vertices = payload.get("vertex").unwrap_or(&empty);
+    let faces = payload.get("face").unwrap_or(&empty);
+    let every = |bit: u8| !vertices.is_empty() && vertices.iter().all(|v| v.given & bit != 0);
+    if !every(1) {
+        return Err(cannot(&"every vertex needs x, y and z"));
+    }
+    let (has_normals, has_uv) = (every(2), every(4));
+    let vertex = |i: i64| -> Result<&PlyRecord, String> {
+        usize::try_from(i).ok().and_then(|i| vertices.get(i)).ok_or_else(|| {
+            format!("{}: a face refers to vertex {i}, which does not exist", path.display())
+        })
+    };
+    let mut builder = MeshBuilder::default();
+    for face in faces {
+        for k in 1..face.indices.len().saturating_sub(1) {
+            let corners = [vertex(face.indices[0])?, vertex(face.indices[k])?, vertex(face.indices[k + 1])?];
+            let point = |r: &PlyRecord| placement.point(glam::DVec3::from_array(r.position).as_vec3());
+            let normal = |r: &PlyRecord| placement.normal(glam::DVec3::from_array(r.normal).as_vec3()).unwrap_or(Vec3::ZERO);
+            let uv = |r: &PlyRecord| glam::DVec2::from_array(r.uv).as_vec2();
+            builder
+                .push(
+                    corners.map(point),
+                    has_uv.then(|| corners.map(uv)),
+                    has_normals.then(|| corners.map(normal)),
+                )
+                .map_err(|e| format!("{}: {e}", path.display()))?;
+        }
+    }
+    builder.finish(path, has_uv, has_normals, hash)
 }

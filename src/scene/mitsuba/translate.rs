@@ -59,7 +59,7 @@ pub const SUPPORTED: [(&str, &str); 8] = [
     ("rfilter", "box"),
     ("sampler", "independent, stratified, multijitter, ldsampler, orthogonal (their sample_count and seed)"),
     ("integrator", "path, volpath (as path), bdpt (as bpt), ptracer (as light)"),
-    ("shape", "rectangle, cube, sphere, disk, cylinder (any affine to_world), obj"),
+    ("shape", "rectangle, cube, sphere, disk, cylinder (any affine to_world), obj, ply"),
     ("bsdf", "diffuse, twosided, dielectric, roughdielectric (ggx)"),
     ("emitter", "area (on rectangles and spheres; elsewhere as emission), point, constant, envmap"),
 ];
@@ -666,12 +666,12 @@ impl Translator<'_> {
                     }
                 }
             }
-            "obj" => {
+            "obj" | "ply" => {
                 let file = p.string("filename")?.ok_or_else(|| fail("has no `filename`"))?;
                 if p.boolean("face_normals")?.unwrap_or(false) {
                     self.warn(
                         &shape.position,
-                        "face_normals ignored: vitrum shades with the normals the OBJ file holds",
+                        "face_normals ignored: vitrum shades with the normals the mesh file holds",
                     );
                 }
                 if flip {
