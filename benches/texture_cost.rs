@@ -22,7 +22,7 @@ fn with_mean_colours(scene: &mut Scene) {
     for m in &mut scene.materials {
         let t = match &mut m.bsdf {
             Bsdf::Diffuse(t) | Bsdf::Mirror { color: t, .. } => t,
-            Bsdf::Dielectric { .. } => continue,
+            Bsdf::Conductor(_) | Bsdf::Dielectric { .. } => continue,
         };
         if let Texture::Image(_) = t {
             *t = Texture::Constant(t.mean());

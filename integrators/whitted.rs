@@ -13,9 +13,8 @@
 
 use super::{ends_secondaries, Integrator, PathContext, RenderParams};
 use crate::bsdf::microfacet::TrowbridgeReitz;
-use crate::bsdf::rough_conductor::RoughConductor;
 use crate::bsdf::rough_dielectric::{RoughDielectric, TransportMode};
-use crate::bsdf::{Frame, ShadingFrame};
+use crate::bsdf::{Frame, Scattering, ShadingFrame};
 use crate::geometry::{spawn_origin, Ray, SurfaceHit};
 use crate::lighting::{crossing, dielectric_reflectance, emitted, phong_local, ShadowMode, ShadowRays};
 use crate::material::{Bsdf, Material, Phong};
@@ -141,7 +140,7 @@ pub(super) fn trace(
         channels,
         time: ray.time,
     };
-    let glossy = sampling == Sampling::Distributed && material.bsdf.roughness() > 0.0;
+    let glossy = sampling == Sampling::Distributed && material.bsdf.is_rough();
 
     let mut l = if seg.count_emission {
         channels.colour(emitted(scene, isect.primitive, hit, wo))
@@ -179,14 +178,13 @@ pub(super) fn trace(
     };
     match &material.bsdf {
         Bsdf::Diffuse(_) => {}
-        Bsdf::Mirror { color, roughness } if glossy => {
+        Bsdf::Mirror { .. } | Bsdf::Conductor(_) if glossy => {
             let frame = Frame::from_normal(n);
-            let lobe = RoughConductor {
-                reflectance: channels.colour(color.eval(hit.p, hit.uv)),
-                distribution: TrowbridgeReitz::from_roughness(*roughness),
-            };
+            let lobe = Scattering::at(material, hit.p, hit.uv, &channels);
             let u = ctx.sampler.get_2d(Dim::Bsdf);
-            if let Some(s) = lobe.sample(frame.to_local(wo), u).filter(|s| s.pdf > 0.0) {
+            if let Some(s) =
+                lobe.sample(frame.to_local(wo), 0.0, u, TransportMode::Radiance).filter(|s| s.pdf > 0.0)
+            {
                 let wi = frame.to_world(s.wi);
                 l += follow(wi, false, s.f * (s.wi.z.abs() / s.pdf), seg.absorption, !s.is_evaluable(), ctx);
             }
@@ -200,6 +198,10 @@ pub(super) fn trace(
                 true,
                 ctx,
             );
+        }
+        Bsdf::Conductor(c) => {
+            let reflectance = c.fresnel(&channels).at(wo.dot(n));
+            l += follow(reflect(wo, n), false, reflectance, seg.absorption, true, ctx);
         }
         Bsdf::Dielectric { roughness, .. } => {
             let c = crossing(&material.bsdf, ray.dir, hit.n, channels.hero())
@@ -301,11 +303,13 @@ fn glossy_direct(
         }
         let wi_local = frame.to_local(wi);
         let f = match &material.bsdf {
-            Bsdf::Mirror { color, roughness } => RoughConductor {
-                reflectance: shadow.channels.colour(color.eval(hit.p, hit.uv)),
-                distribution: TrowbridgeReitz::from_roughness(*roughness),
+            Bsdf::Mirror { .. } | Bsdf::Conductor(_) => {
+                Scattering::at(material, hit.p, hit.uv, &shadow.channels).eval(
+                    wo_local,
+                    wi_local,
+                    TransportMode::Radiance,
+                )
             }
-            .eval(wo_local, wi_local),
             Bsdf::Dielectric { inside, outside, roughness } => RoughDielectric {
                 eta: inside.ior_at(shadow.channels.hero()) / outside.ior_at(shadow.channels.hero()),
                 distribution: TrowbridgeReitz::from_roughness(*roughness),

@@ -8,6 +8,7 @@ pub mod bsdf;
 pub mod camera;
 pub mod cli;
 pub mod commands;
+pub mod conductor;
 pub mod dispersion;
 pub mod export;
 pub mod figure;

@@ -1,5 +1,6 @@
 //! Materials: the physical description and the empirical Phong terms of ray casting and Whitted.
 
+pub use crate::conductor::Conductor;
 use crate::dispersion::Ior;
 use crate::spectrum::Channels;
 use glam::{Vec2, Vec3};
@@ -70,6 +71,9 @@ pub enum Bsdf {
         /// GGX roughness (α = roughness²); 0 is a perfect mirror.
         roughness: f32,
     },
+    /// Conductor with a complex index (Mitsuba's `conductor`/`roughconductor`), smooth or rough
+    /// (GGX or Beckmann).
+    Conductor(Conductor),
     /// Dielectric interface between two media, smooth or (GGX) rough.
     Dielectric {
         /// Medium on the side opposite the normal.
@@ -88,19 +92,25 @@ impl Bsdf {
             if inside.ior.is_dispersive() || outside.ior.is_dispersive())
     }
 
-    /// The surface's roughness (0 for diffuse and smooth surfaces).
-    pub fn roughness(&self) -> f32 {
+    /// Whether the surface is a rough mirror, conductor or dielectric (roughness or α above 0).
+    pub fn is_rough(&self) -> bool {
         match self {
-            Bsdf::Diffuse(_) => 0.0,
-            Bsdf::Mirror { roughness, .. } | Bsdf::Dielectric { roughness, .. } => *roughness,
+            Bsdf::Diffuse(_) => false,
+            Bsdf::Mirror { roughness, .. } | Bsdf::Dielectric { roughness, .. } => *roughness > 0.0,
+            Bsdf::Conductor(c) => c.is_rough(),
         }
     }
 
-    /// Whether the surface scatters only into delta directions (a mirror or dielectric whose
-    /// roughness the BSDFs treat as smooth): no light can be connected to it.
+    /// Whether the surface scatters only into delta directions (a mirror, conductor or
+    /// dielectric whose roughness the BSDFs treat as smooth): no light can be connected to it.
     pub fn is_specular(&self) -> bool {
-        !matches!(self, Bsdf::Diffuse(_))
-            && crate::bsdf::TrowbridgeReitz::from_roughness(self.roughness()).effectively_smooth()
+        match self {
+            Bsdf::Diffuse(_) => false,
+            Bsdf::Mirror { roughness, .. } | Bsdf::Dielectric { roughness, .. } => {
+                crate::bsdf::TrowbridgeReitz::from_roughness(*roughness).effectively_smooth()
+            }
+            Bsdf::Conductor(c) => c.microfacets().effectively_smooth(),
+        }
     }
 }
 
@@ -117,7 +127,7 @@ pub struct Material {
 
 impl Material {
     /// The Phong defaults derived from a physical material: a diffuse surface is pure Lambert
-    /// (k_a = k_d = 1, no highlight); a mirror or a dielectric has no diffuse or ambient part and
+    /// (k_a = k_d = 1, no highlight); a mirror, a conductor or a dielectric has no diffuse or ambient part and
     /// a sharp highlight (h = 200) weighted by its normal-incidence reflectance, the Phong stand-in
     /// for the reflection of a point light that a perfectly specular surface cannot otherwise show.
     pub fn default_phong(bsdf: &Bsdf) -> Phong {
@@ -125,6 +135,7 @@ impl Material {
         match bsdf {
             Bsdf::Diffuse(_) => Phong { ambient: 1.0, diffuse: 1.0, specular: 0.0, shininess: 1.0 },
             Bsdf::Mirror { color, .. } => highlight(color.max_value()),
+            Bsdf::Conductor(c) => highlight(c.normal_reflectance().max_element()),
             Bsdf::Dielectric { inside, outside, .. } => {
                 let (n1, n2) = (inside.ior.nominal(), outside.ior.nominal());
                 highlight(((n1 - n2) / (n1 + n2)).powi(2))
@@ -137,6 +148,7 @@ impl Material {
         match &self.bsdf {
             Bsdf::Diffuse(t) => t.eval(p, uv),
             Bsdf::Mirror { color, .. } => color.eval(p, uv),
+            Bsdf::Conductor(c) => c.normal_reflectance(),
             Bsdf::Dielectric { .. } => Vec3::ONE,
         }
     }

@@ -49,6 +49,40 @@ pub fn fresnel_dielectric(cos_i: f32, eta: f32) -> f32 {
     }
 }
 
+/// Unpolarised Fresnel reflectance of a conductor per channel, for incidence cosine `cos_i`
+/// (its absolute value is used, clamped to 1) and the complex index η + ik relative to the
+/// outside medium (η and k divided by the outside's index). The exact formula for an absorbing
+/// medium (pbrt-v3 `FrConductor`, Mitsuba's `fresnel_conductor`); at normal incidence it is
+/// ((η−1)² + k²)/((η+1)² + k²), with k = 0 it is [`fresnel_dielectric`], and η = 0, k = 1
+/// (Mitsuba's `material = "none"`) reflects everything at every angle.
+pub fn fresnel_conductor(cos_i: f32, eta: Vec3, k: Vec3) -> Vec3 {
+    let cos2 = cos_i.abs().min(1.0).powi(2);
+    let cos = cos2.sqrt();
+    let sin2 = 1.0 - cos2;
+    let (eta2, k2) = (eta * eta, k * k);
+    let t0 = eta2 - k2 - Vec3::splat(sin2);
+    let a2b2 = sqrt3(t0 * t0 + 4.0 * eta2 * k2);
+    let t1 = a2b2 + Vec3::splat(cos2);
+    let a = sqrt3(0.5 * (a2b2 + t0));
+    let t2 = 2.0 * cos * a;
+    let t3 = cos2 * a2b2 + Vec3::splat(sin2 * sin2);
+    let t4 = t2 * sin2;
+    // The denominators vanish only at grazing incidence on an index-matched surface (η = 1,
+    // k = 0), whose limit is total reflection.
+    let ratio = |num: Vec3, den: Vec3| {
+        Vec3::select(den.cmpgt(Vec3::ZERO), num / den.max(Vec3::splat(f32::MIN_POSITIVE)), Vec3::ONE)
+    };
+    let rs = ratio(t1 - t2, t1 + t2);
+    let rp = rs * ratio(t3 - t4, t3 + t4);
+    (0.5 * (rs + rp)).clamp(Vec3::ZERO, Vec3::ONE)
+}
+
+/// The square root of each channel, negative ones (round-off) read as 0.
+fn sqrt3(v: Vec3) -> Vec3 {
+    let v = v.max(Vec3::ZERO);
+    Vec3::new(v.x.sqrt(), v.y.sqrt(), v.z.sqrt())
+}
+
 /// Critical angle (radians) for light going from index `n_i` into the lower index `n_t`;
 /// `None` when `n_t >= n_i` (no total internal reflection).
 pub fn critical_angle(n_i: f32, n_t: f32) -> Option<f32> {
@@ -161,6 +195,38 @@ mod tests {
                 assert!((r + t - 1.0).abs() < 1e-5, "{n_i}->{n_t} at {k}°: R {r} + T {t}");
             }
         }
+    }
+
+    #[test]
+    fn conductor_fresnel_matches_closed_forms() {
+        // Normal incidence: ((η−1)² + k²)/((η+1)² + k²).
+        for (eta, k) in [(0.2f32, 3.9f32), (1.5, 0.0), (0.05, 4.2), (1.2, 2.6), (2.9, 3.1)] {
+            let expected = ((eta - 1.0).powi(2) + k * k) / ((eta + 1.0).powi(2) + k * k);
+            let r = fresnel_conductor(1.0, Vec3::splat(eta), Vec3::splat(k)).x;
+            assert!((r - expected).abs() < 1e-6, "η {eta} k {k}: {r} vs {expected}");
+        }
+        // k = 0 is the dielectric, above and below the critical angle (η < 1).
+        for eta in [1.5f32, 1.33, 2.4, 1.0 / 1.5] {
+            for deg in 0..=90 {
+                let cos = (deg as f32).to_radians().cos();
+                let r = fresnel_conductor(cos, Vec3::splat(eta), Vec3::ZERO).x;
+                let d = fresnel_dielectric(cos, eta);
+                assert!((r - d).abs() < 2e-5, "η {eta} at {deg}°: {r} vs {d}");
+            }
+        }
+        // η = 0, k = 1 is a perfect mirror; gold (Mitsuba's RGB) is reddish and reflects more
+        // towards grazing; every value is finite and in [0, 1], from either side.
+        let gold = (Vec3::new(0.143, 0.375, 1.442), Vec3::new(3.983, 2.386, 1.603));
+        for deg in 0..=90 {
+            let cos = (deg as f32).to_radians().cos();
+            let mirror = fresnel_conductor(cos, Vec3::ZERO, Vec3::ONE);
+            assert!(mirror.abs_diff_eq(Vec3::ONE, 1e-6), "{deg}°: {mirror}");
+            let r = fresnel_conductor(cos, gold.0, gold.1);
+            assert_eq!(r, fresnel_conductor(-cos, gold.0, gold.1));
+            assert!(r.cmpge(Vec3::ZERO).all() && r.cmple(Vec3::ONE).all() && r.x > r.z, "{deg}°: {r}");
+        }
+        assert!(fresnel_conductor(0.0, gold.0, gold.1).abs_diff_eq(Vec3::ONE, 1e-6));
+        assert!(fresnel_conductor(0.0, Vec3::ONE, Vec3::ZERO).is_finite());
     }
 
     #[test]

@@ -22,6 +22,7 @@ const EXPECTED: &[(&str, &str)] = &[
     ("glass-in-sky.toml", "environment"),
     ("glass-of-water.toml", "dispersion,soft-shadows,textures"),
     ("hollow-spheres.toml", "textures"),
+    ("metals.toml", "soft-shadows,glossy"),
     ("motion-blur.toml", "motion-blur,textures"),
     ("shapes-gallery.toml", "soft-shadows,textures,meshes"),
     ("smooth-glass.toml", "textures,meshes"),

@@ -515,6 +515,34 @@ fn clipped_spheres_annuli_polygons_and_meshes_become_ply_files() {
 }
 
 #[test]
+fn conductors_export_as_mitsubas_conductors() {
+    // metals.toml: rough Beckmann gold by name, GGX aluminium by name, smooth copper by η and k.
+    let e = export("metals.toml");
+    let mut bsdfs = Vec::new();
+    e.root.all("bsdf", &mut bsdfs);
+    let inner = |id: &str| {
+        let outer = bsdfs.iter().find(|b| b.attr("id").is_some_and(|i| i.contains(id))).unwrap();
+        assert_eq!(outer.attr("type"), Some("twosided"), "{id}: vitrum's conductors have two sides");
+        outer.kids("bsdf").next().unwrap()
+    };
+    let gold = inner("rough-gold");
+    assert_eq!(gold.attr("type"), Some("roughconductor"));
+    // The index as vitrum's RGB values, which an RGB variant of Mitsuba then uses exactly.
+    let (eta, k) = vitrum::conductor::Metal::named("Au").unwrap().rgb();
+    assert_eq!(floats(gold.param("rgb", "eta").unwrap()), eta.to_array());
+    assert_eq!(floats(gold.param("rgb", "k").unwrap()), k.to_array());
+    assert_eq!(gold.param("string", "distribution"), Some("beckmann"));
+    assert_eq!(gold.param("float", "alpha").map(|a| a.parse::<f32>().unwrap()), Some(0.2));
+    let aluminium = inner("aluminium");
+    assert_eq!(aluminium.param("string", "distribution"), Some("ggx"));
+    assert_eq!(floats(aluminium.param("rgb", "specular_reflectance").unwrap()), [0.8, 0.8, 0.8]);
+    let copper = inner("copper");
+    assert_eq!(copper.attr("type"), Some("conductor"));
+    assert_eq!(floats(copper.param("rgb", "eta").unwrap()), [0.203, 0.923, 1.102]);
+    assert_eq!(floats(copper.param("rgb", "k").unwrap()), [3.881, 2.467, 2.14]);
+}
+
+#[test]
 fn polygon_vertices_are_recovered_from_the_edges() {
     use glam::Vec3;
     use vitrum::geometry::Polygon;

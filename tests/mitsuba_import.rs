@@ -405,3 +405,32 @@ fn mutated_scenes_never_panic_and_every_error_names_its_position() {
         }
     }
 }
+
+#[test]
+fn conductors_keep_their_index_roughness_and_distribution() {
+    let metal = r#"<bsdf type="twosided" id="gold"><bsdf type="roughconductor">
+        <string name="distribution" value="beckmann"/><float name="alpha" value="0.05"/>
+        <rgb name="eta" value="0.2, 0.92, 1.1"/><rgb name="k" value="3.9, 2.45, 2.14"/>
+        <rgb name="specular_reflectance" value="0.3"/><float name="ext_eta" value="1.0"/></bsdf></bsdf>
+    <shape type="sphere"><float name="radius" value="0.3"/><ref id="gold"/></shape>
+</scene>"#;
+    let dir = folder(&[("m.xml", &SMALL.replace("</scene>", metal))]);
+    let imported = mitsuba::import(&dir.path().join("m.xml"), false, None).unwrap();
+    for line in [
+        "type = \"conductor\"",
+        "eta = [0.2, 0.92, 1.1]",
+        "k = [3.9, 2.45, 2.14]",
+        "specular_reflectance = [0.3, 0.3, 0.3]",
+        "alpha = 0.05",
+        "distribution = \"beckmann\"",
+    ] {
+        assert!(imported.toml.contains(line), "{line} not in {}", imported.toml);
+    }
+    assert!(
+        imported.warnings.iter().all(|w| !w.contains("gold")),
+        "inside twosided it is exact: {:?}",
+        imported.warnings
+    );
+    let pixels = render(dir.path(), "m.xml", &[]);
+    assert!(pixels.iter().all(|p| p.is_finite()));
+}

@@ -399,6 +399,7 @@ impl LaneStages {
                 }
                 Bsdf::Diffuse(_) => return Err(format!("material `{}` reads an image texture", m.name)),
                 Bsdf::Mirror { .. } => return Err(format!("material `{}` is a mirror", m.name)),
+                Bsdf::Conductor(_) => return Err(format!("material `{}` is a conductor", m.name)),
                 Bsdf::Dielectric { .. } => return Err(format!("material `{}` is dispersive glass", m.name)),
             }
             if let Some(l) = prim.light {

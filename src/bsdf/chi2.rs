@@ -22,6 +22,7 @@ use std::f64::consts::PI;
 pub(crate) const FAMILY_ALPHA: f64 = 0.01;
 /// Number of chi-square cases in the suite, the N of the Šidák correction.
 pub(crate) const TOTAL_CASES: usize = super::lambert::tests::CHI2_CASES
+    + super::beckmann::tests::CHI2_CASES
     + super::microfacet::tests::CHI2_CASES
     + super::rough_conductor::tests::CHI2_CASES
     + super::rough_dielectric::tests::CHI2_CASES

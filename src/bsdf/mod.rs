@@ -12,6 +12,8 @@
 //!   density of `sample`. Both are 0 for delta (perfectly smooth) lobes, which only `sample`
 //!   produces.
 
+pub mod beckmann;
+pub mod distribution;
 pub mod lambert;
 pub mod microfacet;
 pub mod microsurface;
@@ -22,10 +24,12 @@ pub mod rough_dielectric;
 #[cfg(test)]
 pub(crate) mod chi2;
 
+pub use beckmann::Beckmann;
+pub use distribution::MicrofacetDistribution;
 pub use lambert::Lambert;
 pub use microfacet::TrowbridgeReitz;
 pub use model::Scattering;
-pub use rough_conductor::RoughConductor;
+pub use rough_conductor::{ConductorFresnel, RoughConductor};
 pub use rough_dielectric::{RoughDielectric, TransportMode};
 
 use glam::Vec3;

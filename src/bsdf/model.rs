@@ -1,5 +1,6 @@
 //! The scattering model of a material at a hit point, for the physically based methods (`path`,
-//! `light`): Lambert, smooth or rough mirror, smooth or rough dielectric, behind one interface.
+//! `light`): Lambert, smooth or rough mirror or conductor, smooth or rough dielectric, behind one
+//! interface.
 
 use super::{BsdfEval, BsdfSample, Lambert, RoughConductor, RoughDielectric, TransportMode, TrowbridgeReitz};
 use crate::material::{Bsdf, Material};
@@ -13,7 +14,7 @@ use rand::Rng;
 pub enum Scattering {
     /// Ideal diffuse reflection.
     Diffuse(Lambert),
-    /// Mirror (a delta lobe when smooth).
+    /// Mirror or conductor (a delta lobe when smooth).
     Conductor(RoughConductor),
     /// Dielectric interface (a pair of delta lobes when smooth).
     Dielectric(RoughDielectric),
@@ -32,6 +33,7 @@ impl Scattering {
                 channels.colour(color.eval(p, uv)),
                 TrowbridgeReitz::from_roughness(*roughness),
             )),
+            Bsdf::Conductor(c) => Scattering::Conductor(c.scattering(channels)),
             Bsdf::Dielectric { inside, outside, roughness } => Scattering::Dielectric(RoughDielectric::new(
                 inside.ior_at(lambda) / outside.ior_at(lambda),
                 TrowbridgeReitz::from_roughness(*roughness),
@@ -122,6 +124,14 @@ mod tests {
         let models = [
             Scattering::Diffuse(Lambert { albedo: Vec3::new(0.2, 0.5, 0.8) }),
             Scattering::Conductor(RoughConductor::new(Vec3::splat(0.9), rough)),
+            Scattering::Conductor(RoughConductor::with_fresnel(
+                crate::bsdf::ConductorFresnel::Complex {
+                    eta: Vec3::new(0.2, 0.9, 1.1),
+                    k: Vec3::new(3.9, 2.5, 2.1),
+                    scale: Vec3::ONE,
+                },
+                crate::bsdf::Beckmann::new(0.2),
+            )),
             Scattering::Dielectric(RoughDielectric::new(1.5, rough)),
             Scattering::Dielectric(RoughDielectric::new(1.0 / 1.33, rough)),
         ];

@@ -953,6 +953,32 @@ impl<'a> Exporter<'a> {
                 x.close("bsdf");
                 x.close("bsdf");
             }
+            Bsdf::Conductor(c) => {
+                // vitrum's conductors reflect on both sides, Mitsuba's on the front only.
+                open(x, with_id("twosided"));
+                if c.is_rough() {
+                    x.open("bsdf", &[("type", "roughconductor")]);
+                    x.string("distribution", c.distribution.name());
+                    x.float("alpha", c.alpha);
+                } else {
+                    x.open("bsdf", &[("type", "conductor")]);
+                }
+                // vitrum's own RGB values, so that an RGB variant renders exactly vitrum's index.
+                if let Some(metal) = c.index.metal {
+                    x.comment(&format!(
+                        "metal {0}: vitrum's RGB of the spectrum Mitsuba's material=\"{0}\" reads",
+                        metal.name
+                    ));
+                }
+                if c.ior_outside != 1.0 {
+                    x.comment("eta and k relative to the outside medium (vitrum's ior_outside)");
+                }
+                x.rgb("eta", c.index.eta / c.ior_outside);
+                x.rgb("k", c.index.k / c.ior_outside);
+                x.rgb("specular_reflectance", c.specular_reflectance);
+                x.close("bsdf");
+                x.close("bsdf");
+            }
             Bsdf::Dielectric { inside, outside, roughness } => {
                 let (n_in, n_out) = (inside.ior.nominal(), outside.ior.nominal());
                 if n_in == n_out {

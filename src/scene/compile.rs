@@ -2,9 +2,9 @@
 
 use super::bodies::{self, BodySurface, Interface, Liquid};
 use super::desc::{
-    ColorSpaceDesc, FilterDesc, IorDesc, LightDesc, LiquidDesc, MaterialDesc, PhongDesc, Rgb, SceneDesc,
-    ShapeDesc, TextureDesc, TransformDesc, Vec3Desc, WrapDesc, IOR_TABLE_ERROR, LIQUIDS, MERGING_METHODS,
-    METHOD_TABLES, MOVED_MAX_DEPTH,
+    ColorSpaceDesc, DistributionDesc, FilterDesc, IorDesc, LightDesc, LiquidDesc, MaterialDesc, PhongDesc,
+    Rgb, SceneDesc, ShapeDesc, TextureDesc, TransformDesc, Vec3Desc, WrapDesc, IOR_TABLE_ERROR, LIQUIDS,
+    MERGING_METHODS, METHOD_TABLES, MOVED_MAX_DEPTH,
 };
 use super::effects::{Effect, Effects};
 use super::mesh::MeshPlacement;
@@ -15,6 +15,7 @@ use super::{
     NO_ATTRIBUTES,
 };
 use crate::camera::Camera;
+use crate::conductor::{ComplexIor, Conductor, Distribution, METAL_NAMES};
 use crate::dispersion::Ior;
 use crate::geometry::{
     parallelogram_normal, try_unit, AffineShape, Bounds, Disk, Polygon, Quad, Shape, Sphere, VertexAttributes,
@@ -1036,6 +1037,31 @@ impl Compiler<'_> {
                     phong,
                 )
             }
+            MaterialDesc::Conductor {
+                metal,
+                eta,
+                k,
+                ior_outside,
+                specular_reflectance,
+                alpha,
+                distribution,
+                phong,
+            } => {
+                let conductor = Conductor {
+                    index: self.complex_ior(path, metal.as_deref(), *eta, *k)?,
+                    ior_outside: self.positive(&path.key("ior_outside"), *ior_outside)?,
+                    specular_reflectance: self.reflectance(
+                        &path.key("specular_reflectance"),
+                        specular_reflectance.unwrap_or(Rgb::Grey(1.0)),
+                    )?,
+                    alpha: self.roughness(&path.key("alpha"), *alpha)?,
+                    distribution: match distribution {
+                        DistributionDesc::Beckmann => Distribution::Beckmann,
+                        DistributionDesc::Ggx => Distribution::Ggx,
+                    },
+                };
+                (Bsdf::Conductor(conductor), phong)
+            }
             MaterialDesc::Dielectric {
                 ior,
                 ior_outside,
@@ -1058,6 +1084,50 @@ impl Compiler<'_> {
         };
         let phong = self.phong(path, phong, &bsdf)?;
         Ok(Material { name: name.to_string(), bsdf, phong })
+    }
+
+    /// A conductor's complex index: a named metal, or `eta` and `k` together (η, k ≥ 0, not both
+    /// 0 in a channel), or by default `none`.
+    fn complex_ior(
+        &self,
+        path: &FieldPath,
+        metal: Option<&str>,
+        eta: Option<Rgb>,
+        k: Option<Rgb>,
+    ) -> Result<ComplexIor, SceneError> {
+        match (metal, eta, k) {
+            (Some(name), None, None) => ComplexIor::named(name).ok_or_else(|| {
+                self.err(
+                    &path.key("metal"),
+                    format!("unknown metal `{name}`; the built-in ones are {}", METAL_NAMES.join(", ")),
+                )
+            }),
+            (None, None, None) => Ok(ComplexIor::named("none").expect("`none` is built in")),
+            (None, Some(eta), Some(k)) => {
+                let eta = self.color(&path.key("eta"), eta)?;
+                let k = self.color(&path.key("k"), k)?;
+                if (eta + k).min_element() <= 0.0 {
+                    return Err(self.err(&path.key("eta"), "η and k cannot both be 0 in a channel"));
+                }
+                Ok(ComplexIor::rgb(eta, k))
+            }
+            (Some(_), _, _) => {
+                Err(self.err(&path.key("metal"), "give either `metal` or `eta` and `k`, not both"))
+            }
+            (None, _, _) => Err(self.err(
+                &path.key(if eta.is_none() { "eta" } else { "k" }),
+                "give `eta` and `k` together (or a `metal`)",
+            )),
+        }
+    }
+
+    /// A reflectance: every channel in [0, 1].
+    fn reflectance(&self, path: &FieldPath, c: Rgb) -> Result<Vec3, SceneError> {
+        let v = self.color(path, c)?;
+        if v.max_element() > 1.0 {
+            return Err(self.err(path, format!("must be in [0, 1] per channel (got {v})")));
+        }
+        Ok(v)
     }
 
     /// The `transform` table of an object, checked.
@@ -1533,7 +1603,7 @@ fn material_effects(effects: &mut Effects, m: &Material, object: usize) {
     let who = format!("objects[{object}] uses material `{}`", m.name);
     let texture = match &m.bsdf {
         Bsdf::Diffuse(t) | Bsdf::Mirror { color: t, .. } => Some(t),
-        Bsdf::Dielectric { .. } => None,
+        Bsdf::Conductor(_) | Bsdf::Dielectric { .. } => None,
     };
     match texture {
         Some(Texture::Checker { .. }) => effects.add(Effect::Textures, format!("{who}, a checker texture")),
@@ -1547,6 +1617,12 @@ fn material_effects(effects: &mut Effects, m: &Material, object: usize) {
         Bsdf::Mirror { roughness, .. } => {
             if *roughness > 0.0 {
                 effects.add(Effect::Glossy, format!("{who}, a rough mirror (roughness {roughness})"));
+            }
+        }
+        Bsdf::Conductor(c) => {
+            if c.is_rough() {
+                let (alpha, d) = (c.alpha, c.distribution.name());
+                effects.add(Effect::Glossy, format!("{who}, a rough conductor ({d}, alpha {alpha})"));
             }
         }
         Bsdf::Dielectric { inside, outside, roughness } => {

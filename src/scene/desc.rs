@@ -476,6 +476,33 @@ pub enum MaterialDesc {
         #[serde(default)]
         phong: PhongDesc,
     },
+    /// Conductor (Mitsuba's `conductor` and `roughconductor`): Fresnel reflection of a complex
+    /// index η + ik, smooth or rough.
+    Conductor {
+        /// A built-in metal by Mitsuba's name (`Au`, `Ag`, `Cu`, `Al`, `Cr`, or `none` for a
+        /// perfect conductor, η = 0 and k = 1); the default when neither this nor `eta`/`k` is
+        /// given is `none`.
+        metal: Option<String>,
+        /// Real part η of the complex index per channel (with `k`, instead of `metal`).
+        eta: Option<Rgb>,
+        /// Imaginary part k (extinction coefficient) per channel (with `eta`).
+        k: Option<Rgb>,
+        /// Real index of the medium outside (Mitsuba's `ext_eta`, default 1).
+        #[serde(default = "default_one")]
+        ior_outside: f32,
+        /// Factor on the Fresnel reflectance per channel, in [0, 1] (default 1).
+        specular_reflectance: Option<Rgb>,
+        /// Width α of the microfacet distribution as Mitsuba defines it, in [0, 1]; 0 (default)
+        /// is smooth. For GGX it is vitrum's `roughness`².
+        #[serde(default)]
+        alpha: f32,
+        /// Microfacet distribution: `beckmann` (default, as Mitsuba's) or `ggx`.
+        #[serde(default)]
+        distribution: DistributionDesc,
+        /// Empirical Phong terms.
+        #[serde(default)]
+        phong: PhongDesc,
+    },
     /// Dielectric interface: the media on the inside and the outside, smooth or rough.
     Dielectric {
         /// Index on the side opposite the surface normal (inside a closed body).
@@ -496,6 +523,21 @@ pub enum MaterialDesc {
         #[serde(default)]
         phong: PhongDesc,
     },
+}
+
+fn default_one() -> f32 {
+    1.0
+}
+
+/// `distribution` of a conductor: `beckmann` (default) or `ggx`.
+#[derive(Clone, Copy, Debug, Default, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum DistributionDesc {
+    /// Beckmann, Mitsuba's default.
+    #[default]
+    Beckmann,
+    /// Trowbridge–Reitz (GGX).
+    Ggx,
 }
 
 fn default_ior_outside() -> IorDesc {

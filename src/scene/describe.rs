@@ -152,6 +152,36 @@ pub fn material(m: &Material) -> Description {
                 json!({"texture": t.json(), "roughness": num(roughness)}),
             )
         }
+        Bsdf::Conductor(c) => {
+            let source = c.index.metal.map_or("eta/k".to_string(), |m| format!("metal {}", m.name));
+            let surface = if c.is_rough() {
+                format!("{} alpha {}", c.distribution.name(), c.alpha)
+            } else {
+                "smooth".into()
+            };
+            Description::new(
+                "conductor",
+                format!(
+                    "conductor, {source}, eta {}, k {}, outside ior {}, specular reflectance {}, {surface}; \
+                     reflectance at normal incidence {}",
+                    vec3(c.index.eta),
+                    vec3(c.index.k),
+                    c.ior_outside,
+                    vec3(c.specular_reflectance),
+                    vec3(c.normal_reflectance())
+                ),
+                json!({
+                    "metal": c.index.metal.map(|m| m.name),
+                    "eta": arr(c.index.eta),
+                    "k": arr(c.index.k),
+                    "ior_outside": num(c.ior_outside),
+                    "specular_reflectance": arr(c.specular_reflectance),
+                    "alpha": num(c.alpha),
+                    "distribution": c.distribution.name(),
+                    "normal_reflectance": arr(c.normal_reflectance()),
+                }),
+            )
+        }
         Bsdf::Dielectric { inside, outside, roughness } => {
             let ((i, ij), (o, oj)) = (medium(inside), medium(outside));
             Description::new(

@@ -20,7 +20,7 @@ pub enum Effect {
     SoftShadows,
     /// An environment light (constant or a map): light from every direction that leaves the scene.
     Environment,
-    /// Rough (GGX) mirrors or dielectrics: glossy reflection and refraction.
+    /// Rough mirrors, conductors (GGX or Beckmann) or dielectrics: glossy reflection and refraction.
     Glossy,
     /// Spatially varying colour.
     Textures,

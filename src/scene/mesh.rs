@@ -165,7 +165,12 @@ struct MeshBuilder {
 impl MeshBuilder {
     /// Adds the triangle of the placed corners `p` with their uv and (placed) normals, if any;
     /// a degenerate one is counted and skipped, a non-finite number refused.
-    fn push(&mut self, p: [Vec3; 3], uv: Option<[Vec2; 3]>, normals: Option<[Vec3; 3]>) -> Result<(), String> {
+    fn push(
+        &mut self,
+        p: [Vec3; 3],
+        uv: Option<[Vec2; 3]>,
+        normals: Option<[Vec3; 3]>,
+    ) -> Result<(), String> {
         if !p.iter().all(|v| v.is_finite()) {
             return Err("a vertex is not a finite number".into());
         }
@@ -290,16 +295,19 @@ pub fn load_ply(path: &Path, placement: &MeshPlacement) -> Result<ObjMesh, Strin
     }
     let (has_normals, has_uv) = (every(2), every(4));
     let vertex = |i: i64| -> Result<&PlyRecord, String> {
-        usize::try_from(i).ok().and_then(|i| vertices.get(i)).ok_or_else(|| {
-            format!("{}: a face refers to vertex {i}, which does not exist", path.display())
-        })
+        usize::try_from(i)
+            .ok()
+            .and_then(|i| vertices.get(i))
+            .ok_or_else(|| format!("{}: a face refers to vertex {i}, which does not exist", path.display()))
     };
     let mut builder = MeshBuilder::default();
     for face in faces {
         for k in 1..face.indices.len().saturating_sub(1) {
             let corners = [vertex(face.indices[0])?, vertex(face.indices[k])?, vertex(face.indices[k + 1])?];
             let point = |r: &PlyRecord| placement.point(glam::DVec3::from_array(r.position).as_vec3());
-            let normal = |r: &PlyRecord| placement.normal(glam::DVec3::from_array(r.normal).as_vec3()).unwrap_or(Vec3::ZERO);
+            let normal = |r: &PlyRecord| {
+                placement.normal(glam::DVec3::from_array(r.normal).as_vec3()).unwrap_or(Vec3::ZERO)
+            };
             let uv = |r: &PlyRecord| glam::DVec2::from_array(r.uv).as_vec2();
             builder
                 .push(

@@ -16,13 +16,12 @@ use std::rc::Rc;
 
 /// Parameters of Mitsuba 0.5/0.6 that Mitsuba 3 refuses and vitrum accepts with a warning
 /// naming each: (plugin tag, parameter, why it is ignored).
-pub const LEGACY_PARAMETERS: [(&str, &str, &str); 6] = [
+pub const LEGACY_PARAMETERS: [(&str, &str, &str); 5] = [
     ("integrator", "strict_normals", "vitrum always uses the geometric normal for the side of a surface"),
     ("film", "gamma", "vitrum's films are linear (the PNG preview applies the sRGB curve)"),
     ("film", "banner", "vitrum writes no banner"),
     ("film", "file_format", "vitrum writes OpenEXR (and a PNG preview with --png)"),
     ("film", "pixel_format", "vitrum renders RGB"),
-    ("bsdf", "ext_eta", "the conductor's outside index is taken as 1"),
 ];
 
 /// Mitsuba's named refractive indices (its `dielectric` plugin's table).
@@ -60,7 +59,10 @@ pub const SUPPORTED: [(&str, &str); 8] = [
     ("sampler", "independent, stratified, multijitter, ldsampler, orthogonal (their sample_count and seed)"),
     ("integrator", "path, volpath (as path), bdpt (as bpt), ptracer (as light)"),
     ("shape", "rectangle, cube, sphere, disk, cylinder (any affine to_world), obj, ply"),
-    ("bsdf", "diffuse, twosided, dielectric, roughdielectric (ggx)"),
+    (
+        "bsdf",
+        "diffuse, twosided, dielectric, roughdielectric (ggx), conductor, roughconductor (beckmann, ggx)",
+    ),
     ("emitter", "area (on rectangles and spheres; elsewhere as emission), point, constant, envmap"),
 ];
 
@@ -872,6 +874,69 @@ impl Translator<'_> {
                             return self.lacks(b, &format!("`{name}` other than 1"));
                         }
                     }
+                }
+            }
+            "conductor" | "roughconductor" => {
+                out.string("type", "conductor");
+                let eta = p.color("eta")?;
+                let k = p.color("k")?;
+                match (p.string("material")?, eta, k) {
+                    (_, Some(eta), Some(k)) => {
+                        out.vector("eta", eta);
+                        out.vector("k", k);
+                    }
+                    (Some(metal), None, None) => {
+                        const METALS: [&str; 6] = ["Au", "Ag", "Cu", "Al", "Cr", "none"];
+                        if !METALS.contains(&metal.as_str()) {
+                            return self.lacks(
+                                b,
+                                &format!(
+                                    "the conductor material `{metal}` (vitrum has {})",
+                                    METALS.join(", ")
+                                ),
+                            );
+                        }
+                        out.string("metal", &metal);
+                    }
+                    (None, None, None) => out.string("metal", "none"),
+                    _ => {
+                        return Err(error(
+                            &b.position,
+                            &b.describe(),
+                            "give both `eta` and `k`, or a `material`",
+                        ))
+                    }
+                }
+                if let Some(outside) = p.float("ext_eta")? {
+                    out.number("ior_outside", outside);
+                }
+                if let Some(c) = p.color("specular_reflectance")? {
+                    out.vector("specular_reflectance", c);
+                }
+                if b.plugin == "roughconductor" {
+                    if p.get("alpha_u").is_some() || p.get("alpha_v").is_some() {
+                        return self.lacks(b, "an anisotropic roughness");
+                    }
+                    out.number("alpha", p.float("alpha")?.unwrap_or(0.1));
+                    match p.string("distribution")?.as_deref() {
+                        None | Some("beckmann") => out.string("distribution", "beckmann"),
+                        Some("ggx") => out.string("distribution", "ggx"),
+                        Some(other) => {
+                            return Err(error(
+                                &b.position,
+                                &b.describe(),
+                                &format!("distribution `{other}`: beckmann or ggx"),
+                            ))
+                        }
+                    }
+                    p.get("sample_visible");
+                }
+                if !two_sided {
+                    out.comment("Mitsuba's conductor reflects on its front only; vitrum's on both sides");
+                    self.warn(
+                        &b.position,
+                        &format!("{}: one-sided in Mitsuba, two-sided in vitrum", b.describe()),
+                    );
                 }
             }
             other => {
