@@ -135,3 +135,28 @@ fn lying_headers_and_missing_vertices_exit_2() {
         assert!(err.contains(needle) && err.contains("s.toml:"), "{mesh}: {err}");
     }
 }
+
+#[test]
+fn face_normals_shade_with_the_triangles_own_normals() {
+    // The same square with wrong vertex normals (tilted 45°): with `face_normals = true` it
+    // renders as the file without normals.
+    let dir = tempfile::tempdir().unwrap();
+    let tilted = obj().replace("vn 0 1 0", "vn 1 1 0");
+    let vertices: String = obj()
+        .lines()
+        .filter(|l| l.starts_with("v ") || l.starts_with("vt"))
+        .map(|l| format!("{l}\n"))
+        .collect();
+    let bare = vertices + "f 1/1 2/2 3/3\nf 1/1 3/3 4/4\n";
+    fs::write(dir.path().join("tilted.obj"), tilted).unwrap();
+    fs::write(dir.path().join("bare.obj"), bare).unwrap();
+    let flat_scene =
+        scene("tilted.obj").replace("material = \"checks\"", "material = \"checks\"\nface_normals = true");
+    fs::write(dir.path().join("flat.toml"), flat_scene).unwrap();
+    let out =
+        vitrum(dir.path(), &["render", "flat.toml", "-i", "path", "--spp", "2", "-o", "flat.exr", "--quiet"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let flat = vitrum::output::exr::read_exr(&dir.path().join("flat.exr")).unwrap().0.pixels;
+    assert_eq!(flat, render(dir.path(), "bare.obj"));
+    assert_ne!(flat, render(dir.path(), "tilted.obj"), "the tilted normals do shade differently");
+}

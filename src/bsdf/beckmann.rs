@@ -10,10 +10,7 @@ use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
 use std::f64::consts::PI as PI64;
 
-/// Smallest slope spread kept by the constructors (as for GGX).
-const MIN_ALPHA: f32 = 1e-4;
-/// Below this slope spread a surface is treated as perfectly smooth (as for GGX).
-const SMOOTH_ALPHA: f32 = 1e-3;
+use super::microfacet::{MIN_ALPHA, SMOOTH_ALPHA};
 
 /// The Beckmann distribution of microfacet normals.
 #[derive(Clone, Copy, Debug, PartialEq)]

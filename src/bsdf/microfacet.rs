@@ -13,10 +13,11 @@
 use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
 
-/// Smallest slope spread kept by the constructors, so that D stays finite.
-const MIN_ALPHA: f32 = 1e-4;
-/// Below this slope spread a surface is treated as a perfect specular interface.
-const SMOOTH_ALPHA: f32 = 1e-3;
+/// Smallest slope spread kept by the constructors, so that D stays finite (every distribution).
+pub(crate) const MIN_ALPHA: f32 = 1e-4;
+/// Below this slope spread a surface is treated as a perfect specular interface (every
+/// distribution).
+pub(crate) const SMOOTH_ALPHA: f32 = 1e-3;
 
 /// The Trowbridge–Reitz (GGX) distribution of microfacet normals.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -1331,7 +1331,7 @@ impl Compiler<'_> {
                 let polygon = Polygon::new(verts).map_err(|e| self.err(&path.key("vertices"), e))?;
                 vec![(Shape::Polygon(Box::new(polygon)), Interface::Material)]
             }
-            ShapeDesc::Mesh { file, scale, translate } => {
+            ShapeDesc::Mesh { file, scale, translate, face_normals } => {
                 let scale = self.positive(&path.key("scale"), *scale)?;
                 let full = self.resolve(file);
                 self.regular_file(&path.key("file"), &full, "an OBJ file", "OBJ file ")?;
@@ -1339,6 +1339,12 @@ impl Compiler<'_> {
                     MeshPlacement { scale, translate: v(*translate), transform: transform.copied() };
                 let mesh =
                     super::mesh::load_mesh(&full, &placement).map_err(|e| self.err(&path.key("file"), e))?;
+                let mut mesh = mesh;
+                if *face_normals {
+                    // Flat shading: the file's vertex normals are dropped, uv kept.
+                    mesh.attributes.iter_mut().for_each(|a| a.normals = None);
+                    mesh.has_normals = false;
+                }
                 let (triangles, degenerate) = (mesh.triangles, mesh.degenerate);
                 if mesh.has_uv || mesh.has_normals {
                     *attributes = mesh.attributes;

@@ -815,6 +815,10 @@ pub enum ShapeDesc {
         /// Translation applied after scaling.
         #[serde(default)]
         translate: Vec3Desc,
+        /// Shade with the triangles' own (flat) normals and ignore the file's vertex normals
+        /// (Mitsuba's `faceNormals`).
+        #[serde(default)]
+        face_normals: bool,
     },
     /// A hollow sphere: a shell between `inner_radius` and `radius`.
     HollowSphere {

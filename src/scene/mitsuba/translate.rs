@@ -670,12 +670,7 @@ impl Translator<'_> {
             }
             "obj" | "ply" => {
                 let file = p.string("filename")?.ok_or_else(|| fail("has no `filename`"))?;
-                if p.boolean("face_normals")?.unwrap_or(false) {
-                    self.warn(
-                        &shape.position,
-                        "face_normals ignored: vitrum shades with the normals the mesh file holds",
-                    );
-                }
+                let face_normals = p.boolean("face_normals")?.unwrap_or(false);
                 if flip {
                     self.warn(&shape.position, "flip_normals on a mesh ignored");
                 }
@@ -683,6 +678,10 @@ impl Translator<'_> {
                     ("shape", "\"mesh\"".into()),
                     ("file", toml::Value::String((self.file)(&file)).to_string()),
                 ];
+                if face_normals {
+                    // Mitsuba shades with the face normals: the file's vertex normals are ignored.
+                    fields.push(("face_normals", "true".into()));
+                }
                 fields.extend(placement(&m).ok_or_else(|| {
                     fail("to_world has a shear or a mirror, which a mesh's transform cannot hold yet")
                 })?);
