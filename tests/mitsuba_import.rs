@@ -155,6 +155,8 @@ fn bad_and_hostile_xml_exits_2_at_its_position() {
         (SMALL.replace("<shape type=\"cube\">", "<shape type=\"obj\"><string name=\"filename\" value=\"gone.obj\"/></shape><shape type=\"cube\">"), "gone.obj"),
         (SMALL.replace("<float name=\"fov\" value=\"45\"/>", "<float name=\"fov\" value=\"45\"/><float name=\"fov\" value=\"40\"/>"), "given twice"),
         (SMALL.replace("<scene version=\"3.0.0\">", "<scene version=\"3.0.0\"><include filename=\"s.xml\"/>"), "includes itself"),
+        // A lens setting of the pinhole `perspective` is an unknown parameter, not silently dropped.
+        (SMALL.replace("<float name=\"fov\" value=\"45\"/>", "<float name=\"fov\" value=\"45\"/><float name=\"aperture_radius\" value=\"0.1\"/>"), "aperture_radius"),
     ];
     for (text, needle) in &cases {
         let (code, err) = info(&[("s.xml", text)], "s.xml");

@@ -95,7 +95,7 @@ pub fn translate(
         .ok_or_else(|| error(&scene.position, "<scene>", "has no <sensor>: vitrum needs a camera"))?;
     render.from(&scene.position, "<scene>");
     render.table("render");
-    let size = t.sensor(sensor, &mut camera, &mut render)?;
+    t.sensor(sensor, &mut camera, &mut render)?;
     let integrator = scene.children_tagged("integrator").next();
     t.integrator(integrator.map(Rc::as_ref), &mut render)?;
     for (i, shape) in scene.children_tagged("shape").enumerate() {
@@ -109,7 +109,6 @@ pub fn translate(
             t.lacks(child, &format!("<{}> objects", child.tag))?;
         }
     }
-    let _ = size;
     head.comment(&format!(
         "Imported by vitrum {} from {} (Mitsuba scene version {}.{}.{}).",
         crate::VERSION,
@@ -285,13 +284,13 @@ impl Translator<'_> {
         }
     }
 
-    /// The camera and film; returns the image size.
+    /// The camera and film (and the sampler inside the sensor).
     fn sensor(
         &mut self,
         sensor: &Object,
         camera: &mut TomlWriter,
         render: &mut TomlWriter,
-    ) -> Result<(u32, u32), XmlError> {
+    ) -> Result<(), XmlError> {
         camera.from(&sensor.position, &sensor.describe());
         let p = Props::of(sensor);
         let thin = match sensor.plugin.as_str() {
@@ -350,8 +349,6 @@ impl Translator<'_> {
             );
         }
         let _ = p.float("far_clip")?;
-        p.get("focus_distance");
-        p.get("aperture_radius");
         camera.table("camera");
         camera.comment(&format!("Mitsuba's fov {fov}° along `{axis}` at {w}x{h}: vitrum's fov is vertical"));
         // A lone lookat keeps its own numbers: vitrum's camera orthonormalises them as Mitsuba does.
@@ -381,7 +378,7 @@ impl Translator<'_> {
                 self.lacks(child, &format!("<{}> inside a sensor", child.tag))?;
             }
         }
-        Ok((w, h))
+        Ok(())
     }
 
     /// The film's size (its filter and crop checked).
