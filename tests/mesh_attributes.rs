@@ -203,3 +203,32 @@ fn info_says_which_meshes_carry_texture_coordinates_and_normals() {
         (Some(true), Some(true))
     );
 }
+
+#[test]
+fn smooth_normals_are_recomputed_from_the_faces_and_replace_placeholders() {
+    let dir = tempfile::tempdir().unwrap();
+    // A roof: two faces meeting at the ridge x = 0.5, rising to z = 0.5 (slopes of 45°), each
+    // split in two triangles, every file normal a placeholder `0 1 0`. Recomputed, the ridge's
+    // vertices get the faces' (equal-area) average +z, the eaves' the faces' own normals, and a
+    // hit in between their interpolation.
+    let roof = "v 0 0 0\nv 0.5 0 0.5\nv 0.5 1 0.5\nv 0 1 0\nv 1 0 0\nv 1 1 0\nvn 0 1 0\n\
+                f 1//1 2//1 3//1\nf 1//1 3//1 4//1\nf 2//1 5//1 6//1\nf 2//1 6//1 3//1\n";
+    std::fs::write(dir.path().join("roof.obj"), roof).unwrap();
+    let placeholder = hit_at(&scene(dir.path(), "roof.obj", ""), 0.25, 0.5);
+    assert!(placeholder.shading_n.abs_diff_eq(Vec3::Y, 1e-6), "read as given: {}", placeholder.shading_n);
+    let s = scene(dir.path(), "roof.obj", "smooth_normals = true");
+    let (left, right) = (Vec3::new(-1.0, 0.0, 1.0).normalize(), Vec3::new(1.0, 0.0, 1.0).normalize());
+    for (x, face) in [(0.1f32, left), (0.25, left), (0.4, left), (0.6, right), (0.9, right)] {
+        let hit = hit_at(&s, x, 0.37);
+        // The ridge (weight 2·distance from the eave) has +z, the eave the face's normal.
+        let ridge_weight = 1.0 - (x - 0.5).abs() * 2.0;
+        let expected = ((1.0 - ridge_weight) * face + ridge_weight * Vec3::Z).normalize();
+        assert!(hit.n.abs_diff_eq(face, 1e-5), "the geometric normal stays the face's");
+        assert!(hit.shading_n.abs_diff_eq(expected, 1e-5), "at x = {x}: {} vs {expected}", hit.shading_n);
+    }
+    // With face_normals too, the scene is refused at the field.
+    let text = "[camera]\nposition = [0.0, 0.0, 10.0]\nlook_at = [0.0, 0.0, 0.0]\n[materials.m]\ntype = \"diffuse\"\n\
+         [[objects]]\nmaterial = \"m\"\nshape = \"mesh\"\nfile = \"roof.obj\"\nface_normals = true\nsmooth_normals = true\n";
+    let err = load_str(text, "both", Some(dir.path())).err().expect("refused").to_string();
+    assert!(err.contains("smooth_normals") && err.contains("exclude"), "{err}");
+}

@@ -1331,7 +1331,13 @@ impl Compiler<'_> {
                 let polygon = Polygon::new(verts).map_err(|e| self.err(&path.key("vertices"), e))?;
                 vec![(Shape::Polygon(Box::new(polygon)), Interface::Material)]
             }
-            ShapeDesc::Mesh { file, scale, translate, face_normals } => {
+            ShapeDesc::Mesh { file, scale, translate, face_normals, smooth_normals } => {
+                if *face_normals && *smooth_normals {
+                    return Err(self.err(
+                        &path.key("smooth_normals"),
+                        "face_normals and smooth_normals exclude each other: give at most one",
+                    ));
+                }
                 let scale = self.positive(&path.key("scale"), *scale)?;
                 let full = self.resolve(file);
                 self.regular_file(&path.key("file"), &full, "an OBJ file", "OBJ file ")?;
@@ -1344,6 +1350,9 @@ impl Compiler<'_> {
                     // Flat shading: the file's vertex normals are dropped, uv kept.
                     mesh.attributes.iter_mut().for_each(|a| a.normals = None);
                     mesh.has_normals = false;
+                }
+                if *smooth_normals {
+                    mesh.recompute_smooth_normals();
                 }
                 let (triangles, degenerate) = (mesh.triangles, mesh.degenerate);
                 if mesh.has_uv || mesh.has_normals {

@@ -819,6 +819,11 @@ pub enum ShapeDesc {
         /// (Mitsuba's `faceNormals`).
         #[serde(default)]
         face_normals: bool,
+        /// Shade with smooth vertex normals recomputed from the triangles (each vertex position's
+        /// area-weighted average of its faces' normals), ignoring the file's (Tungsten's
+        /// `recompute_normals`; for files whose vertex normals are placeholders).
+        #[serde(default)]
+        smooth_normals: bool,
     },
     /// A hollow sphere: a shell between `inner_radius` and `radius`.
     HollowSphere {

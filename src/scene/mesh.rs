@@ -60,6 +60,34 @@ pub struct ObjMesh {
     pub hash: String,
 }
 
+impl ObjMesh {
+    /// Replaces the vertex normals by smooth ones recomputed from the triangles: at every vertex
+    /// position (corners at bit-identical placed positions are one vertex), the sum of its
+    /// triangles' unit normals weighted by their angles at that corner (Thürmer and Wüthrich's
+    /// weights, which do not depend on how a surface is split into triangles), normalised.
+    /// Used for files whose vertex normals are missing or placeholders.
+    pub fn recompute_smooth_normals(&mut self) {
+        let key = |p: Vec3| [p.x.to_bits(), p.y.to_bits(), p.z.to_bits()];
+        let mut sums: std::collections::HashMap<[u32; 3], Vec3> =
+            std::collections::HashMap::with_capacity(self.triangles.len());
+        for t in &self.triangles {
+            let corners = t.vertices();
+            let face = t.normal();
+            for k in 0..3 {
+                let p = corners[k];
+                let angle = (corners[(k + 1) % 3] - p).angle_between(corners[(k + 2) % 3] - p);
+                *sums.entry(key(p)).or_insert(Vec3::ZERO) += angle * face;
+            }
+        }
+        for (t, attributes) in self.triangles.iter().zip(&mut self.attributes) {
+            let face = t.normal();
+            let normals = t.vertices().map(|p| crate::geometry::try_unit(sums[&key(p)]).unwrap_or(face));
+            attributes.normals = Some(normals);
+        }
+        self.has_normals = true;
+    }
+}
+
 /// The triangles of a mesh file by its extension: `.ply` ([`load_ply`]), else OBJ ([`load_obj`]).
 pub fn load_mesh(path: &Path, placement: &MeshPlacement) -> Result<ObjMesh, String> {
     if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("ply")) {
