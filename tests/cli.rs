@@ -858,7 +858,7 @@ fn emission_on_a_cylinder() {
         &text,
         line,
         "objects[7].material",
-        &["emission is supported on spheres, quads and disks"],
+        &["emission is supported on spheres, quads, disks and meshes"],
     );
 }
 

@@ -8,8 +8,10 @@
 //! the scene starts on the disk. Its densities are `1/(4π)` per solid angle times `1/(π R²)` per
 //! unit disk area.
 
+mod emitter_mesh;
 pub(crate) mod environment_map;
 
+pub use emitter_mesh::EmitterMesh;
 pub use environment_map::EnvironmentMap;
 
 use crate::bsdf::lambert::cosine_hemisphere;
@@ -95,7 +97,7 @@ impl SceneSphere {
 }
 
 /// The geometry of an emissive object, sampled uniformly by area.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub enum EmitterShape {
     /// A sphere.
     Sphere {
@@ -129,6 +131,8 @@ pub enum EmitterShape {
         /// The in-plane texture frame of the object's disk (turned with a rotated object).
         frame: (Vec3, Vec3),
     },
+    /// A triangle mesh (no texture coordinates: its emission is not textured).
+    Mesh(Arc<EmitterMesh>),
 }
 
 impl EmitterShape {
@@ -150,6 +154,7 @@ impl EmitterShape {
             EmitterShape::Disk { radius, inner_radius, .. } => {
                 PI * (radius * radius - inner_radius * inner_radius)
             }
+            EmitterShape::Mesh(ref mesh) => mesh.area(),
         }
     }
 
@@ -170,6 +175,7 @@ impl EmitterShape {
                 let (t, b) = normal.any_orthonormal_pair();
                 (center + r * (phi.cos() * t + phi.sin() * b), normal)
             }
+            EmitterShape::Mesh(ref mesh) => mesh.sample(u),
         }
     }
 
@@ -178,6 +184,7 @@ impl EmitterShape {
     pub fn uv_at(&self, u: Vec2, p: Vec3, n: Vec3) -> Vec2 {
         match *self {
             EmitterShape::Quad { .. } => u,
+            EmitterShape::Mesh(_) => Vec2::ZERO,
             EmitterShape::Sphere { frame: (pole, tangents), .. } => sphere_uv(pole, tangents, n),
             EmitterShape::Disk { center, radius, inner_radius, frame, .. } => {
                 disk_uv(frame, p - center, radius, inner_radius)
@@ -190,6 +197,7 @@ impl EmitterShape {
         match *self {
             EmitterShape::Sphere { center, .. } | EmitterShape::Disk { center, .. } => center,
             EmitterShape::Quad { corner, u, v } => corner + 0.5 * (u + v),
+            EmitterShape::Mesh(ref mesh) => mesh.centre(),
         }
     }
 }
@@ -457,11 +465,12 @@ impl Light {
                 let direct = 1.0 / (2.0 * PI * radius * radius);
                 area_emission(hit, 4.0 * PI * radius * radius, direct, radiance, None, u_dir, p_light)
             }
-            Light::Surface { shape, ref texture, .. } => {
+            Light::Surface { ref shape, ref texture, .. } => {
                 let (p, n) = shape.sample(u_point);
-                let local = match shape {
+                let local = match *shape {
                     EmitterShape::Sphere { radius, .. } | EmitterShape::Disk { radius, .. } => radius,
                     EmitterShape::Quad { u, v, .. } => (u.abs() + v.abs()).max_element(),
+                    EmitterShape::Mesh(ref mesh) => mesh.extent(),
                 };
                 let uv = if texture.is_some() { shape.uv_at(u_point, p, n) } else { Vec2::ZERO };
                 let hit = emitter_point(p, n, uv, point_error(p, local, 8));
@@ -624,12 +633,14 @@ impl Light {
                 let (y, n) = shape.sample(Vec2::splat(0.5));
                 let uv = if texture.is_some() { shape.uv_at(Vec2::splat(0.5), y, n) } else { Vec2::ZERO };
                 let radiance = self.emitted(&emitter_point(centre, n, uv, 0.0), n);
-                let cos = match shape {
+                let to_p = (p - centre).normalize_or_zero();
+                let intensity = match shape {
                     // a sphere shows the same projected area πr² from everywhere
-                    EmitterShape::Sphere { .. } => 0.25,
-                    _ => (p - centre).normalize_or_zero().dot(n).abs(),
+                    EmitterShape::Sphere { .. } => radiance * shape.area() * 0.25,
+                    EmitterShape::Mesh(mesh) => radiance * mesh.projected_area(to_p),
+                    _ => radiance * shape.area() * to_p.dot(n).abs(),
                 };
-                PointIllumination { position: centre, intensity: radiance * shape.area() * cos }
+                PointIllumination { position: centre, intensity }
             }
             // The deterministic methods see the environment only where rays leave the scene.
             Light::Environment { .. } => PointIllumination { position: p + Vec3::Y, intensity: Vec3::ZERO },
@@ -684,7 +695,7 @@ pub(crate) mod tests {
     use crate::bsdf::chi2::{self, ChiSquare};
 
     /// Number of chi-square cases run here (counted in the Šidák correction).
-    pub(crate) const CHI2_CASES: usize = 7;
+    pub(crate) const CHI2_CASES: usize = 8;
 
     #[test]
     fn only_the_inside_of_a_sphere_is_enclosed() {
@@ -773,6 +784,15 @@ pub(crate) mod tests {
                 .map(|y| (y, normal))
                 .into_iter()
                 .collect(),
+            Light::Surface { shape: EmitterShape::Mesh(ref mesh), .. } => mesh
+                .corners()
+                .iter()
+                .filter_map(|&[a, b, c]| {
+                    let t = crate::geometry::Triangle::new(a, b, c);
+                    let hit = t.intersect(&Ray::new(p, w), 0.0, f32::INFINITY)?;
+                    Some((p + w * hit, t.normal()))
+                })
+                .collect(),
         };
         points
             .into_iter()
@@ -860,6 +880,32 @@ pub(crate) mod tests {
             },
             Light::Surface {
                 shape: EmitterShape::disk(Vec3::new(0.5, 0.1, 0.0), Vec3::X, 2.0, 0.0),
+                radiance: Vec3::ONE,
+                texture: None,
+            },
+            // A mesh of three triangles of different sizes and tilts above p, one seen edge-on
+            // from behind: each is picked by its share of the area.
+            Light::Surface {
+                shape: EmitterShape::Mesh(Arc::new(
+                    EmitterMesh::new(&[
+                        crate::geometry::Triangle::new(
+                            Vec3::new(-1.0, 0.6, -1.0),
+                            Vec3::new(1.0, 0.8, -1.0),
+                            Vec3::new(-1.0, 0.7, 1.0),
+                        ),
+                        crate::geometry::Triangle::new(
+                            Vec3::new(1.0, 0.8, -1.0),
+                            Vec3::new(1.2, 1.5, 1.0),
+                            Vec3::new(-1.0, 0.7, 1.0),
+                        ),
+                        crate::geometry::Triangle::new(
+                            Vec3::new(0.5, -0.5, 0.5),
+                            Vec3::new(0.9, -0.4, 0.5),
+                            Vec3::new(0.5, -0.5, 0.9),
+                        ),
+                    ])
+                    .unwrap(),
+                )),
                 radiance: Vec3::ONE,
                 texture: None,
             },

@@ -20,7 +20,7 @@ use crate::dispersion::Ior;
 use crate::geometry::{
     parallelogram_normal, try_unit, AffineShape, Bounds, Disk, Polygon, Quad, Shape, Sphere, VertexAttributes,
 };
-use crate::light::{EmitterShape, EnvironmentMap, Light, Strength};
+use crate::light::{EmitterMesh, EmitterShape, EnvironmentMap, Light, Strength};
 use crate::material::{Bsdf, Material, Medium, Phong, Texture};
 use crate::params::{MergeParams, SsaaParams};
 use crate::sampler::SamplerKind;
@@ -569,15 +569,21 @@ impl Compiler<'_> {
                             ),
                         ));
                     }
-                    let shape =
-                        emitter_shape(&placed, surfaces.first().map(|(s, _)| s)).ok_or_else(|| {
-                            self.err(
-                                &path.key("material"),
-                                "emission is supported on spheres, quads and disks",
-                            )
-                        })?;
+                    let shape = emitter_shape(&placed, &surfaces).ok_or_else(|| {
+                        self.err(
+                            &path.key("material"),
+                            "emission is supported on spheres, quads, disks and meshes",
+                        )
+                    })?;
+                    if matches!(shape, EmitterShape::Mesh(_)) && emission_texture.is_some() {
+                        return Err(self.err(
+                            &material_path.key("emission_texture"),
+                            "an emitting mesh's emission cannot be textured (spheres, quads and disks can)",
+                        ));
+                    }
                     let size = match object.shape {
                         ShapeDesc::Quad { .. } => "u",
+                        ShapeDesc::Mesh { .. } => "file",
                         _ => "radius",
                     };
                     self.emitter_area(&path.key(size), shape.area())?;
@@ -1659,12 +1665,22 @@ fn within_extent(b: Bounds) -> bool {
     b.min.cmpge(Vec3::splat(-MAX_EXTENT)).all() && b.max.cmple(Vec3::splat(MAX_EXTENT)).all()
 }
 
-/// The geometry of an emissive object, for the shapes that can emit: `s` placed, and `surface`
-/// the primitive compiled from it (whose texture frame, turned with a rotated object, the
-/// emitter's uv follows).
-fn emitter_shape(s: &ShapeDesc, surface: Option<&Shape>) -> Option<EmitterShape> {
+/// The geometry of an emissive object, for the shapes that can emit: `s` placed, and `surfaces`
+/// the primitives compiled from it: a mesh's triangles, or the one surface of the other shapes,
+/// whose texture frame (turned with a rotated object) the emitter's uv follows.
+fn emitter_shape(s: &ShapeDesc, surfaces: &[BodySurface]) -> Option<EmitterShape> {
     let v = Vec3::from_array;
-    match (s, surface) {
+    if let ShapeDesc::Mesh { .. } = s {
+        let triangles: Vec<_> = surfaces
+            .iter()
+            .filter_map(|(s, _)| match s {
+                Shape::Triangle(t) => Some(*t),
+                _ => None,
+            })
+            .collect();
+        return EmitterMesh::new(&triangles).map(|m| EmitterShape::Mesh(Arc::new(m)));
+    }
+    match (s, surfaces.first().map(|(s, _)| s)) {
         (ShapeDesc::Sphere { center, radius }, Some(Shape::Sphere(sphere))) => {
             Some(EmitterShape::Sphere { center: v(*center), radius: *radius, frame: sphere.texture_frame() })
         }

@@ -216,6 +216,10 @@ fn emitter_shape(s: &EmitterShape) -> (String, Value) {
             json!({"shape": "disk", "center": arr(center), "normal": arr(normal),
                    "radius": num(radius), "inner_radius": num(inner_radius)}),
         ),
+        EmitterShape::Mesh(mesh) => (
+            format!("mesh of {} triangles, area {}", mesh.len(), mesh.area()),
+            json!({"shape": "mesh", "triangles": mesh.len(), "area": num(mesh.area())}),
+        ),
     }
 }
 

@@ -63,7 +63,7 @@ pub const SUPPORTED: [(&str, &str); 8] = [
         "bsdf",
         "diffuse, twosided, dielectric, roughdielectric (ggx), conductor, roughconductor (beckmann, ggx)",
     ),
-    ("emitter", "area (on rectangles and spheres; elsewhere as emission), point, constant, envmap"),
+    ("emitter", "area (on rectangles and spheres; on disks, cubes and meshes as two-sided emission), point, constant, envmap"),
 ];
 
 /// An imported scene: its TOML (with the element of every line) and the warnings.

@@ -1,0 +1,176 @@
+//! Emitting triangle meshes: a mesh whose diffuse material emits is one light, sampled uniformly
+//! by area over its triangles. The analytic closed box (emission ½, albedo ½: radiance 1
+//! everywhere inside) holds for every unbiased method, and a mesh of two triangles renders what
+//! the quad of the same corners renders. Tolerances are in standard errors of the mean over
+//! independent renders (`common::mean_and_error`).
+
+mod common;
+
+use common::{largest_block_z, mean_and_error};
+use glam::Vec3;
+use std::path::Path;
+use vitrum::scene::{load_str, Scene};
+
+/// The box [−1, 1]³ as 12 triangles wound outwards.
+const BOX_OBJ: &str = "v -1 -1 -1\nv 1 -1 -1\nv 1 1 -1\nv -1 1 -1\nv -1 -1 1\nv 1 -1 1\nv 1 1 1\nv -1 1 1\n\
+f 1 4 3\nf 1 3 2\nf 5 6 7\nf 5 7 8\nf 1 2 6\nf 1 6 5\nf 4 8 7\nf 4 7 3\nf 1 5 8\nf 1 8 4\nf 2 3 7\nf 2 7 6\n";
+
+fn load(dir: &Path, text: &str) -> Scene {
+    load_str(text, "emitting meshes", Some(dir)).unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// The camera inside the closed box mesh, every wall emitting ½ with albedo ½.
+fn closed_box(dir: &Path) -> Scene {
+    std::fs::write(dir.join("box.obj"), BOX_OBJ).unwrap();
+    load(
+        dir,
+        r#"
+[camera]
+position = [0.1, 0.2, 0.3]
+look_at = [1.0, 0.0, 0.0]
+fov = 120.0
+resolution = [12, 12]
+[render.vcm]
+radius = 0.1
+[materials.wall]
+type = "diffuse"
+color = 0.5
+emission = 0.5
+[[objects]]
+shape = "mesh"
+file = "box.obj"
+material = "wall"
+"#,
+    )
+}
+
+#[test]
+fn a_closed_emitting_mesh_is_uniformly_one_inside_for_every_unbiased_method() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = closed_box(dir.path());
+    for method in ["path", "light", "bpt", "vcm"] {
+        let (mean, error) = mean_and_error(&scene, method, 64, 6);
+        let n = mean.len() as f32;
+        let overall = mean.iter().map(|m| m.element_sum()).sum::<f32>() / (3.0 * n);
+        let overall_error = error.iter().map(|e| e.length_squared()).sum::<f32>().sqrt() / (3.0 * n);
+        eprintln!("{method}: mean {overall} ± {overall_error}");
+        assert!(
+            (overall - 1.0).abs() <= 4.0 * overall_error.max(1e-6),
+            "{method}: mean {overall} ± {overall_error}, expected 1"
+        );
+        let ones = vec![Vec3::ONE; mean.len()];
+        let zeros = vec![Vec3::ZERO; mean.len()];
+        let z = largest_block_z(&mean, &error, &ones, &zeros, 12, 3);
+        eprintln!("{method}: worst 3×3 block {z:.2} standard errors from 1");
+        assert!(z <= 4.5, "{method}: a block is {z} standard errors from 1");
+    }
+}
+
+/// A floor lit by a tilted two-sided emitter, given as a `quad` or as a mesh of its two
+/// triangles.
+fn lit_floor(dir: &Path, as_mesh: bool) -> Scene {
+    let (c, u, v) = (Vec3::new(-0.3, 0.8, -0.2), Vec3::new(0.6, 0.1, 0.0), Vec3::new(0.0, 0.2, 0.5));
+    let emitter = if as_mesh {
+        let [a, b, d, e] = [c, c + u, c + u + v, c + v];
+        let obj = format!(
+            "v {} {} {}\nv {} {} {}\nv {} {} {}\nv {} {} {}\nf 1 2 3\nf 1 3 4\n",
+            a.x, a.y, a.z, b.x, b.y, b.z, d.x, d.y, d.z, e.x, e.y, e.z
+        );
+        std::fs::write(dir.join("lamp.obj"), obj).unwrap();
+        "shape = \"mesh\"\nfile = \"lamp.obj\"".to_string()
+    } else {
+        format!(
+            "shape = \"quad\"\ncorner = {:?}\nu = {:?}\nv = {:?}",
+            c.to_array(),
+            u.to_array(),
+            v.to_array()
+        )
+    };
+    load(
+        dir,
+        &format!(
+            r#"
+[camera]
+position = [0.0, 1.5, 2.5]
+look_at = [0.0, 0.3, 0.0]
+fov = 50.0
+resolution = [12, 12]
+[materials.floor]
+type = "diffuse"
+color = 0.8
+[materials.lamp]
+type = "diffuse"
+color = 0.0
+emission = [4.0, 3.0, 2.0]
+[[objects]]
+shape = "quad"
+corner = [-2.0, 0.0, 2.0]
+u = [4.0, 0.0, 0.0]
+v = [0.0, 0.0, -4.0]
+material = "floor"
+[[objects]]
+material = "lamp"
+{emitter}
+"#
+        ),
+    )
+}
+
+#[test]
+fn a_mesh_emitter_renders_what_the_quad_of_the_same_corners_renders() {
+    let dir = tempfile::tempdir().unwrap();
+    let quad = lit_floor(dir.path(), false);
+    let mesh = lit_floor(dir.path(), true);
+    assert_eq!(mesh.lights.len(), 1, "the mesh is one light");
+    for method in ["path", "bpt"] {
+        let (a, sa) = mean_and_error(&quad, method, 32, 6);
+        let (b, sb) = mean_and_error(&mesh, method, 32, 6);
+        assert!(a.iter().any(|p| p.max_element() > 0.1), "{method}: the floor is lit");
+        let z = largest_block_z(&a, &sa, &b, &sb, 12, 3);
+        eprintln!("{method}: worst 3×3 block differs by {z:.2} standard errors");
+        assert!(z <= 4.5, "{method}: mesh and quad emitters differ by {z} standard errors");
+    }
+}
+
+#[test]
+fn an_emitting_mesh_is_described_and_its_texture_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = closed_box(dir.path());
+    let text = vitrum::scene::describe::light(&scene.lights[0]).text;
+    assert!(text.contains("mesh of 12 triangles, area 24"), "{text}");
+    let err = load_str(
+        "[camera]\nposition = [0.0, 0.0, 0.0]\nlook_at = [1.0, 0.0, 0.0]\n\
+         [materials.wall]\ntype = \"diffuse\"\nemission = 1.0\nemission_texture = { type = \"checker\", color1 = 0.2, color2 = 1.0, size = 0.5 }\n\
+         [[objects]]\nshape = \"mesh\"\nfile = \"box.obj\"\nmaterial = \"wall\"\n",
+        "textured",
+        Some(dir.path()),
+    )
+    .err()
+    .expect("refused")
+    .to_string();
+    assert!(err.contains("emission_texture") && err.contains("cannot be textured"), "{err}");
+}
+
+#[test]
+fn a_mitsuba_area_emitter_on_an_obj_is_one_mesh_light() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("box.obj"), BOX_OBJ).unwrap();
+    let xml = r#"<scene version="3.0.0">
+    <sensor type="perspective">
+        <float name="fov" value="60"/>
+        <transform name="to_world"><lookat origin="0, 0, 6" target="0, 0, 0" up="0, 1, 0"/></transform>
+        <film type="hdrfilm"><integer name="width" value="8"/><integer name="height" value="8"/></film>
+    </sensor>
+    <shape type="obj">
+        <string name="filename" value="box.obj"/>
+        <transform name="to_world"><scale value="0.5"/></transform>
+        <bsdf type="twosided"><bsdf type="diffuse"><rgb name="reflectance" value="0, 0, 0"/></bsdf></bsdf>
+        <emitter type="area"><rgb name="radiance" value="2, 1, 0.5"/></emitter>
+    </shape>
+</scene>"#;
+    let scene = vitrum::scene::mitsuba::load_str(xml, "obj light", Some(dir.path()), false)
+        .unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(scene.lights.len(), 1);
+    let text = vitrum::scene::describe::light(&scene.lights[0]).text;
+    assert!(text.contains("mesh of 12 triangles, area 6"), "{text}");
+}
