@@ -436,3 +436,36 @@ fn conductors_keep_their_index_roughness_and_distribution() {
     let pixels = render(dir.path(), "m.xml", &[]);
     assert!(pixels.iter().all(|p| p.is_finite()));
 }
+
+#[test]
+fn spectra_become_the_colours_mitsuba_3_renders() {
+    // A reflectance as wavelength:value pairs, and a constant radiance spectrum, which Mitsuba 3's
+    // RGB variants read as the equal-energy illuminant's colour (5 × (1.2048, 0.9483, 0.9089)).
+    let xml = r#"<scene version="3.0.0">
+    <sensor type="perspective"><float name="fov" value="40"/>
+        <film type="hdrfilm"><integer name="width" value="4"/><integer name="height" value="4"/></film>
+    </sensor>
+    <shape type="sphere">
+        <bsdf type="twosided"><bsdf type="diffuse">
+            <spectrum name="reflectance" value="400:0.2, 500:0.5, 600:0.8, 700:0.3"/>
+        </bsdf></bsdf>
+    </shape>
+    <emitter type="constant"><spectrum name="radiance" value="5"/></emitter>
+</scene>"#;
+    let dir = folder(&[("spectra.xml", xml)]);
+    let out = vitrum(dir.path(), &["import", "spectra.xml", "-o", "spectra.toml"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let toml = fs::read_to_string(dir.path().join("spectra.toml")).unwrap();
+    let numbers = |key: &str| -> Vec<f64> {
+        let line = toml.lines().find(|l| l.starts_with(key)).unwrap_or_else(|| panic!("no {key} in {toml}"));
+        let inside = &line[line.find('[').unwrap() + 1..line.find(']').unwrap()];
+        inside.split(',').map(|x| x.trim().parse().unwrap()).collect()
+    };
+    let (color, radiance) = (numbers("color = ["), numbers("radiance = ["));
+    for (got, mitsuba) in color.iter().zip([0.75503, 0.641415, 0.323239]) {
+        assert!((got - mitsuba).abs() < 0.01 * mitsuba, "reflectance {color:?}");
+    }
+    for (got, mitsuba) in radiance.iter().zip([6.02397, 4.74146, 4.54458]) {
+        assert!((got - mitsuba).abs() < 0.01 * mitsuba, "radiance {radiance:?}");
+    }
+}

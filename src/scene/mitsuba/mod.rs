@@ -6,6 +6,7 @@
 //! and the TOML `vitrum import` writes of it are the same scene by construction. An error of
 //! that compile step is reported at the XML element the faulty TOML line was written for.
 
+pub mod spectra;
 pub mod toml_writer;
 pub mod translate;
 pub mod xml;

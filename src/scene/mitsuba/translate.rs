@@ -204,17 +204,20 @@ impl<'a> Props<'a> {
         }
     }
 
-    /// A colour: `<rgb>`, a constant `<spectrum>` or a `<float>`.
+    /// A colour: `<rgb>`, a `<spectrum>` (constant or `wavelength:value` pairs, read as Mitsuba
+    /// 3's RGB variants read it inside an emitter or elsewhere: [`super::spectra`]) or a `<float>`.
     fn color(&self, name: &str) -> Result<Option<[f64; 3]>, XmlError> {
+        let emitter = self.object.tag == "emitter";
         match self.get(name) {
             None => Ok(None),
             Some(Property { value: Value::Rgb(c), .. }) => Ok(Some(*c)),
-            Some(Property { value: Value::Constant(v) | Value::Float(v), .. }) => Ok(Some([*v; 3])),
-            Some(p @ Property { value: Value::Sampled(_), .. }) => Err(error(
-                &p.position,
-                &self.object.describe(),
-                &format!("`{}`: a sampled spectrum is not supported yet; give an <rgb>", p.name),
-            )),
+            Some(Property { value: Value::Constant(v), .. }) => {
+                Ok(Some(super::spectra::constant(*v, emitter)))
+            }
+            Some(Property { value: Value::Float(v), .. }) => Ok(Some([*v; 3])),
+            Some(Property { value: Value::Sampled(pairs), .. }) => {
+                Ok(Some(super::spectra::sampled(pairs, emitter).0))
+            }
             Some(p) => Err(self.wrong(p, "an <rgb>, <spectrum> or <float>")),
         }
     }
