@@ -2,7 +2,9 @@
 //! the full hit record, and occlusion) next to raw obvhs traversal of the same CwBvh layout with
 //! obvhs's own triangle test, on the same rays, for meshes of 10³…10⁶ triangles and for the
 //! analytic shipped scenes; and the build: vitrum's whole scene load (OBJ parse, compile, BVH)
-//! next to obvhs's CwBvh build alone.
+//! next to obvhs's CwBvh build alone, and the load of a standard Mitsuba scene (Bitterli's
+//! `water-caustic`, 103k triangles: XML read, translated, compiled; skipped without
+//! `../shared/scenes/bitterli`).
 //!
 //! Run with `cargo bench --bench bvh`; `python3 scripts/perf/bench_table.py` turns criterion's
 //! estimates into tables. One thread: the queries are what a render thread does. Because this
@@ -259,5 +261,21 @@ fn print_brute_force_ratio(name: &str, scene: &Scene, rays: &[Ray]) {
     );
 }
 
-criterion_group!(benches, meshes, analytic);
+/// The whole load of Bitterli's `water-caustic` from its Mitsuba 0.5 XML (read, upgraded,
+/// translated to TOML, compiled, BVH built), when the shared scenes are there.
+fn mitsuba_import(c: &mut Criterion) {
+    let file = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/scenes/bitterli/water-caustic/scene.xml");
+    if !file.exists() {
+        eprintln!("mitsuba import: skipped, {} is missing", file.display());
+        return;
+    }
+    let mut group = c.benchmark_group("mitsuba import");
+    group.sample_size(10);
+    group.bench_function("water-caustic", |b| {
+        b.iter(|| vitrum::scene::mitsuba::load(black_box(&file), true).unwrap())
+    });
+    group.finish();
+}
+
+criterion_group!(benches, meshes, analytic, mitsuba_import);
 criterion_main!(benches);
