@@ -2,9 +2,10 @@
 //!
 //! At every non-specular vertex one light is chosen uniformly and sampled (next-event
 //! estimation); area lights and the environment are also reached by BSDF sampling, and the two
-//! strategies are combined by multiple importance sampling with the power heuristic. Point lights
-//! are reached only by next-event estimation, so light from a point light that passes through
-//! glass before reaching a diffuse surface (a caustic) is not found: use an area light.
+//! strategies are combined by multiple importance sampling with the power heuristic. Delta lights
+//! (point, spot, directional) are reached only by next-event estimation, so light from them that
+//! passes through glass before reaching a diffuse surface (a caustic) is not found: use an area
+//! light, or a bidirectional method.
 //! Specular chains through glass follow the sampled delta lobes; light that rough glass scatters
 //! between several microfacets (which `eval` does not cover) is, like a delta lobe, reached only by
 //! BSDF sampling and never weighted by MIS. Russian roulette starts after

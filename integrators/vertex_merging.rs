@@ -835,19 +835,20 @@ impl<'a> Engine<'a> {
             return Vec3::ZERO;
         }
         let cos_to_light = wi_local.z.abs();
-        let (direct_w, emit_w, cos_at_light) = if ls.delta {
-            (ls.distance * ls.distance, 1.0 / (4.0 * PI), 1.0)
-        } else if !ls.distance.is_finite() {
-            let (emit, direct) = light.environment_pdfs(&self.sphere, ls.wi);
-            (direct, emit, 1.0)
-        } else {
-            let cos_at_light = ls.normal.dot(-ls.wi).abs();
-            if cos_at_light <= 0.0 {
-                // A grazing sample (a point of an emitter's own plane): its geometry term is 0.
-                return Vec3::ZERO;
-            }
-            (ls.pdf, light.emission_pdfs(at.hit.p, ls.position, ls.normal, -ls.wi).0, cos_at_light)
-        };
+        let (direct_w, emit_w, cos_at_light) =
+            if let Some((direct, emit)) = light.delta_pdfs(&self.sphere, ls.distance) {
+                (direct, emit, 1.0)
+            } else if !ls.distance.is_finite() {
+                let (emit, direct) = light.environment_pdfs(&self.sphere, ls.wi);
+                (direct, emit, 1.0)
+            } else {
+                let cos_at_light = ls.normal.dot(-ls.wi).abs();
+                if cos_at_light <= 0.0 {
+                    // A grazing sample (a point of an emitter's own plane): its geometry term is 0.
+                    return Vec3::ZERO;
+                }
+                (ls.pdf, light.emission_pdfs(at.hit.p, ls.position, ls.normal, -ls.wi).0, cos_at_light)
+            };
         // A delta light cannot be hit by BSDF sampling.
         let dir_pdf = if ls.delta { 0.0 } else { e.pdf };
         let emit_ratio = emit_w * cos_to_light / (direct_w * cos_at_light);

@@ -171,24 +171,32 @@ pub struct ReferenceChoice {
     pub why: String,
 }
 
-/// The reference method of `scene`: `vcm` where a point (delta) light meets a specular surface
-/// (a smooth mirror or dielectric), since `path` misses the caustics a point light casts through
-/// or off such a surface; `path` (unbiased, and the cheapest per sample) otherwise.
+/// The reference method of `scene`: `vcm` where a delta light (point, spot, directional) meets a
+/// specular surface (a smooth mirror or dielectric), since `path` misses the caustics a delta
+/// light casts through or off such a surface; `path` (unbiased, and the cheapest per sample)
+/// otherwise.
 pub fn choose_method(scene: &Scene) -> ReferenceChoice {
-    let point = scene.lights.iter().position(|l| matches!(l, Light::Point { .. }));
+    let point = scene.lights.iter().position(Light::is_delta);
     let specular =
         (0..scene.primitives.len() as u32).map(|i| scene.material_of(i)).find(|m| m.bsdf.is_specular());
     match (point, specular) {
-        (Some(light), Some(material)) => ReferenceChoice {
-            method: "vcm",
-            why: format!(
-                "point light {} meets the specular material `{}`: path tracing misses the caustics \
-                 (a point light is reached only by shadow rays, which cannot bend through glass or off \
-                 a mirror), vertex connection and merging finds them",
-                light + 1,
-                material.name
-            ),
-        },
+        (Some(light), Some(material)) => {
+            let kind = match scene.lights[light] {
+                Light::Spot { .. } => "spot light",
+                Light::Directional { .. } => "directional light",
+                _ => "point light",
+            };
+            ReferenceChoice {
+                method: "vcm",
+                why: format!(
+                    "{kind} {} meets the specular material `{}`: path tracing misses the caustics \
+                     (a {kind} is reached only by shadow rays, which cannot bend through glass or off \
+                     a mirror), vertex connection and merging finds them",
+                    light + 1,
+                    material.name
+                ),
+            }
+        }
         (Some(_), None) => ReferenceChoice {
             method: "path",
             why: "no specular surface: path tracing is unbiased for the point light".into(),

@@ -352,7 +352,7 @@ impl LaneStages {
                 }
                 _ => {
                     return Err(
-                        "a light is a sphere, an emissive object or the environment (quads and points have a lane form)"
+                        "a light is a sphere, a spot, a directional light, an emissive object or the environment (quads and points have a lane form)"
                             .into(),
                     )
                 }

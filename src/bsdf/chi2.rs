@@ -27,7 +27,8 @@ pub(crate) const TOTAL_CASES: usize = super::lambert::tests::CHI2_CASES
     + super::rough_conductor::tests::CHI2_CASES
     + super::rough_dielectric::tests::CHI2_CASES
     + crate::light::tests::CHI2_CASES
-    + crate::light::environment_map::tests::CHI2_CASES;
+    + crate::light::environment_map::tests::CHI2_CASES
+    + crate::light::spot::tests::CHI2_CASES;
 /// Cells expecting fewer samples than this are pooled into one.
 const MIN_EXPECTED: f64 = 5.0;
 /// Samples drawn per parallel chunk (each chunk has its own random stream).

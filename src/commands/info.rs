@@ -84,6 +84,7 @@ pub fn run(args: &InfoArgs) -> Result<(), CliError> {
                 match l.strength() {
                     Strength::Power(p) => d["power_watts"] = json!(p.to_array()),
                     Strength::MeanRadiance(r) => d["mean_radiance"] = json!(r.to_array()),
+                    Strength::Irradiance(e) => d["irradiance"] = json!(e.to_array()),
                 }
                 d
             }).collect::<Vec<_>>(),
@@ -147,7 +148,8 @@ pub fn run(args: &InfoArgs) -> Result<(), CliError> {
         // The environment's description gives its (mean) radiance already: it has no finite power.
         match l.strength() {
             Strength::Power(p) => println!("  {}, power {} W", describe::light(l).text, describe::vec3(p)),
-            Strength::MeanRadiance(_) => println!("  {}", describe::light(l).text),
+            // A directional light's gives its irradiance: it has no finite power either.
+            Strength::MeanRadiance(_) | Strength::Irradiance(_) => println!("  {}", describe::light(l).text),
         }
     }
     println!(

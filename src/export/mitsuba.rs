@@ -205,6 +205,10 @@ impl Xml {
         self.leaf("point", &[("name", name), ("x", &num(p.x)), ("y", &num(p.y)), ("z", &num(p.z))]);
     }
 
+    fn vector(&mut self, name: &str, v: Vec3) {
+        self.leaf("vector", &[("name", name), ("x", &num(v.x)), ("y", &num(v.y)), ("z", &num(v.z))]);
+    }
+
     /// `<transform name=...><matrix/></transform>` for the affine map with the given images of
     /// the local x, y, z axes and origin.
     fn affine(&mut self, name: &str, x: DVec3, y: DVec3, z: DVec3, origin: DVec3) {
@@ -1485,6 +1489,24 @@ impl<'a> Exporter<'a> {
                     x.open("emitter", &[("type", "point")]);
                     x.point("position", *position);
                     x.rgb("intensity", *intensity);
+                    x.close("emitter");
+                }
+                Light::Spot { position, direction, intensity, beam } => {
+                    x.comment("spot light: intensity in W/sr on the axis (local +z), angles in degrees");
+                    x.open("emitter", &[("type", "spot")]);
+                    x.rgb("intensity", *intensity);
+                    x.float("cutoff_angle", beam.cutoff_degrees());
+                    x.float("beam_width", beam.beam_width_degrees());
+                    let frame = crate::bsdf::Frame::from_normal(*direction);
+                    let d = |v: Vec3| v.as_dvec3();
+                    x.affine("to_world", d(frame.s), d(frame.t), d(frame.n), d(*position));
+                    x.close("emitter");
+                }
+                Light::Directional { direction, irradiance } => {
+                    x.comment("directional light: irradiance in W/m² on a surface facing it");
+                    x.open("emitter", &[("type", "directional")]);
+                    x.vector("direction", *direction);
+                    x.rgb("irradiance", *irradiance);
                     x.close("emitter");
                 }
                 // Written with their surface (the primitive that carries the light).

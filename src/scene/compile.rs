@@ -20,7 +20,7 @@ use crate::dispersion::Ior;
 use crate::geometry::{
     parallelogram_normal, try_unit, AffineShape, Bounds, Disk, Polygon, Quad, Shape, Sphere, VertexAttributes,
 };
-use crate::light::{EmitterMesh, EmitterShape, EnvironmentMap, Light, Strength};
+use crate::light::{EmitterMesh, EmitterShape, EnvironmentMap, Light, SpotBeam, Strength};
 use crate::material::{Bsdf, Material, Medium, Phong, Texture};
 use crate::params::{MergeParams, SsaaParams};
 use crate::sampler::SamplerKind;
@@ -649,7 +649,10 @@ impl Compiler<'_> {
             let path = FieldPath::from("lights").index(i);
             let light = self.light(&path, l)?;
             let emitter = match light {
-                Light::Point { .. } | Light::Surface { .. } => None,
+                Light::Point { .. }
+                | Light::Spot { .. }
+                | Light::Directional { .. }
+                | Light::Surface { .. } => None,
                 Light::Environment { radiance, ref map } => {
                     effects.add(Effect::Environment, format!("lights[{i}] is an environment light"));
                     let radiance = radiance * map.as_ref().map_or(Vec3::ONE, |m| m.mean());
@@ -1529,6 +1532,7 @@ impl Compiler<'_> {
                 "the environment's mean radiance ({r} W/(m²·sr)) overflows single precision: lower its \
                  `scale` or its texels"
             ),
+            Strength::Irradiance(e) => format!("the irradiance ({e} W/m²) must be finite"),
         };
         Err(self.err(path, message))
     }
@@ -1543,7 +1547,8 @@ impl Compiler<'_> {
             _ => {}
         }
         let strength = match l {
-            LightDesc::Point { .. } => "intensity",
+            LightDesc::Point { .. } | LightDesc::Spot { .. } => "intensity",
+            LightDesc::Directional { .. } => "irradiance",
             LightDesc::Environment { file: Some(_), .. } => "file",
             _ => "radiance",
         };
@@ -1557,6 +1562,49 @@ impl Compiler<'_> {
             LightDesc::Point { position, intensity } => Light::Point {
                 position: v(*position),
                 intensity: self.color(&path.key("intensity"), *intensity)?,
+            },
+            LightDesc::Spot { position, direction, look_at, intensity, cutoff_angle, beam_width } => {
+                let position = v(*position);
+                let direction = match (direction, look_at) {
+                    (Some(d), None) => self.direction(&path.key("direction"), *d)?,
+                    (None, Some(target)) => try_unit(v(*target) - position).ok_or_else(|| {
+                        self.err(&path.key("look_at"), "must differ from `position` (the beam needs an axis)")
+                    })?,
+                    (Some(_), Some(_)) => {
+                        return Err(
+                            self.err(&path.key("look_at"), "give either `direction` or `look_at`, not both")
+                        )
+                    }
+                    (None, None) => {
+                        return Err(self.err(path, "a spot light needs a `direction` or a `look_at` point"))
+                    }
+                };
+                let cutoff = *cutoff_angle;
+                if !(cutoff > 0.0 && cutoff <= 180.0) {
+                    return Err(self.err(
+                        &path.key("cutoff_angle"),
+                        format!("must be an angle in degrees in (0, 180] (got {cutoff})"),
+                    ));
+                }
+                let beam_width = beam_width.unwrap_or(SpotBeam::default_beam_width(cutoff));
+                let beam = SpotBeam::from_degrees(cutoff, beam_width).ok_or_else(|| {
+                    self.err(
+                        &path.key("beam_width"),
+                        format!(
+                            "must be an angle in degrees in [0, cutoff_angle = {cutoff}] (got {beam_width})"
+                        ),
+                    )
+                })?;
+                Light::Spot {
+                    position,
+                    direction,
+                    intensity: self.color(&path.key("intensity"), *intensity)?,
+                    beam,
+                }
+            }
+            LightDesc::Directional { direction, irradiance } => Light::Directional {
+                direction: self.direction(&path.key("direction"), *direction)?,
+                irradiance: self.color(&path.key("irradiance"), *irradiance)?,
             },
             LightDesc::Quad { corner, u, v: ev, radiance } => {
                 let (u, ev) = (v(*u), v(*ev));

@@ -882,6 +882,10 @@ fn default_scale() -> f32 {
     1.0
 }
 
+fn default_cutoff_angle() -> f32 {
+    crate::light::SpotBeam::DEFAULT_CUTOFF_DEGREES
+}
+
 /// A light source, chosen by `type = "..."`.
 #[derive(Clone, Debug, Deserialize)]
 #[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
@@ -892,6 +896,32 @@ pub enum LightDesc {
         position: Vec3Desc,
         /// Radiant intensity in W/sr.
         intensity: Rgb,
+    },
+    /// A spot light (Mitsuba 3's `spot`): a point light shining into a cone about `direction`
+    /// (or towards `look_at`), full intensity within `beam_width` of the axis, falling off
+    /// linearly in the angle to 0 at `cutoff_angle`.
+    Spot {
+        /// Position.
+        position: Vec3Desc,
+        /// Direction of the beam's axis (give this or `look_at`).
+        direction: Option<Vec3Desc>,
+        /// A point on the beam's axis (give this or `direction`).
+        look_at: Option<Vec3Desc>,
+        /// Radiant intensity on the axis in W/sr.
+        intensity: Rgb,
+        /// Half-angle of the cone in degrees, in (0, 180]; default 20.
+        #[serde(default = "default_cutoff_angle")]
+        cutoff_angle: f32,
+        /// Half-angle of the full-intensity core in degrees, in [0, `cutoff_angle`]; default
+        /// three quarters of `cutoff_angle`.
+        beam_width: Option<f32>,
+    },
+    /// Parallel light from infinitely far away (Mitsuba 3's `directional`), e.g. the sun.
+    Directional {
+        /// The direction the light travels in.
+        direction: Vec3Desc,
+        /// Irradiance on a surface facing the light in W/m².
+        irradiance: Rgb,
     },
     /// A one-sided parallelogram emitter `corner + a·u + b·v`, emitting along `u × v`.
     Quad {

@@ -231,6 +231,28 @@ pub fn light(l: &Light) -> Description {
             format!("point at {}, intensity {} W/sr", vec3(*position), vec3(*intensity)),
             json!({"position": arr(position), "intensity": arr(intensity)}),
         ),
+        Light::Spot { position, direction, intensity, beam } => Description::new(
+            "spot",
+            format!(
+                "spot at {}, towards {}, intensity {} W/sr on the axis, cutoff {}°, beam width {}°",
+                vec3(*position),
+                vec3(*direction),
+                vec3(*intensity),
+                num(beam.cutoff_degrees()),
+                num(beam.beam_width_degrees())
+            ),
+            json!({"position": arr(position), "direction": arr(direction), "intensity": arr(intensity),
+                   "cutoff_angle": num(beam.cutoff_degrees()), "beam_width": num(beam.beam_width_degrees())}),
+        ),
+        Light::Directional { direction, irradiance } => Description::new(
+            "directional",
+            format!(
+                "directional, travelling along {}, irradiance {} W/m²",
+                vec3(*direction),
+                vec3(*irradiance)
+            ),
+            json!({"direction": arr(direction), "irradiance": arr(irradiance)}),
+        ),
         Light::Quad { corner, u, v, normal, radiance } => Description::new(
             "quad",
             format!(

@@ -63,7 +63,10 @@ pub const SUPPORTED: [(&str, &str); 8] = [
         "bsdf",
         "diffuse, twosided, dielectric, roughdielectric (ggx), conductor, roughconductor (beckmann, ggx)",
     ),
-    ("emitter", "area (on rectangles and spheres; on disks, cubes and meshes as two-sided emission), point, constant, envmap"),
+    (
+        "emitter",
+        "area (on rectangles and spheres; on disks, cubes and meshes as two-sided emission), point, spot, directional, constant, envmap",
+    ),
 ];
 
 /// An imported scene: its TOML (with the element of every line) and the warnings.
@@ -1008,6 +1011,61 @@ impl Translator<'_> {
                 lights.string("type", "point");
                 lights.vector("position", position.to_array());
                 lights.vector("intensity", p.color("intensity")?.unwrap_or([1.0; 3]));
+            }
+            "spot" => {
+                // A projected texture (a nested <texture>) has no vitrum counterpart.
+                if let Some(child) = e.children.first() {
+                    self.lacks(child, &format!("a spot light's projected <{}>", child.tag))?;
+                }
+                // Mitsuba's spot sits at the origin of its to_world and shines along its +z.
+                let m = p.transform("to_world")?.unwrap_or(DMat4::IDENTITY);
+                let axes = DMat3::from_mat4(m);
+                let gram = axes.transpose() * axes;
+                let scale2 = gram.x_axis.x;
+                let similar = (gram - DMat3::from_diagonal(DVec3::splat(scale2)))
+                    .to_cols_array()
+                    .iter()
+                    .all(|v| v.abs() <= 1e-6 * scale2);
+                if !(scale2 > 0.0 && similar) {
+                    return Err(error(
+                        &e.position,
+                        &e.describe(),
+                        "to_world must be a rotation, translation and uniform scale (a sheared or stretched \
+                         spot has an elliptic beam, which vitrum lacks)",
+                    ));
+                }
+                lights.array_table("lights");
+                lights.string("type", "spot");
+                lights.vector("position", m.transform_point3(DVec3::ZERO).to_array());
+                lights.vector("direction", m.transform_vector3(DVec3::Z).normalize().to_array());
+                lights.vector("intensity", p.color("intensity")?.unwrap_or([1.0; 3]));
+                // The defaults (20°, three quarters of the cutoff) are Mitsuba's and vitrum's.
+                for angle in ["cutoff_angle", "beam_width"] {
+                    if let Some(degrees) = p.float(angle)? {
+                        lights.number(angle, degrees);
+                    }
+                }
+            }
+            "directional" => {
+                // The light travels along `direction`, or along the +z of its to_world.
+                let direction = match (p.point("direction")?, p.transform("to_world")?) {
+                    (Some(_), Some(_)) => {
+                        return Err(error(
+                            &e.position,
+                            &e.describe(),
+                            "give `direction` or `to_world`, not both",
+                        ))
+                    }
+                    (Some(d), None) => d,
+                    (None, m) => m.unwrap_or(DMat4::IDENTITY).transform_vector3(DVec3::Z),
+                };
+                if !(direction.length().is_finite() && direction.length() > 0.0) {
+                    return Err(error(&e.position, &e.describe(), "the direction must be a non-zero vector"));
+                }
+                lights.array_table("lights");
+                lights.string("type", "directional");
+                lights.vector("direction", direction.normalize().to_array());
+                lights.vector("irradiance", p.color("irradiance")?.unwrap_or([1.0; 3]));
             }
             "constant" => {
                 lights.array_table("lights");
