@@ -264,7 +264,8 @@ fn print_brute_force_ratio(name: &str, scene: &Scene, rays: &[Ray]) {
 /// The whole load of Bitterli's `water-caustic` from its Mitsuba 0.5 XML (read, upgraded,
 /// translated to TOML, compiled, BVH built), when the shared scenes are there.
 fn mitsuba_import(c: &mut Criterion) {
-    let file = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/scenes/bitterli/water-caustic/scene.xml");
+    let file =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/scenes/bitterli/water-caustic/scene.xml");
     if !file.exists() {
         eprintln!("mitsuba import: skipped, {} is missing", file.display());
         return;
