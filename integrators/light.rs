@@ -182,7 +182,7 @@ impl Accumulate for LightTracer {
     /// A film whose pixel estimate is the splat sum over `spp · A` (see the module documentation).
     fn film(&self, scene: &Scene, opts: &RenderOptions) -> Film {
         let tracer = Tracer::new(scene, self, opts);
-        let (w, h) = (tracer.camera.width as usize, tracer.camera.height as usize);
+        let (w, h) = (tracer.camera.crop.width as usize, tracer.camera.crop.height as usize);
         Film::new(w, h, tracer.camera.film_area() as f64, tracer.dims.wavelength, opts.replicas)
     }
 
@@ -275,7 +275,7 @@ impl Tracer<'_> {
         let total = chunks.len() as u64;
         let done = AtomicU64::new(0);
         let batch_size = CHUNKS_PER_THREAD * rayon::current_num_threads().max(1);
-        let mut batch = SampleSplats::new(pixels as usize, first);
+        let mut batch = SampleSplats::new(self.camera.crop.pixels(), first);
         let mut pending: Option<Vec<ChunkSplats>> = None;
         for group in chunks.chunks(batch_size) {
             // Trace this batch while the previous one is merged (in chunk order).

@@ -91,9 +91,12 @@ impl CameraTarget<'_> {
     /// Connect the light-path point `hit` to the camera and splat `value(ctx, connection)` into
     /// `out`: the point's weight towards the camera in the path's channels (zero: nothing to
     /// splat), which the pinhole's importance `1/(d²·cos³θ)` then multiplies (see `light`'s
-    /// module documentation), when the straight, opaque ray to the camera is clear. With a thin
-    /// lens the connection goes to a uniform point of the lens, which the camera samples with
-    /// the same density, so the lens area cancels and the contribution has the pinhole's form.
+    /// module documentation), when the straight, opaque ray to the camera is clear (from the
+    /// near clip plane on, where the camera's rays start). With a thin lens the connection goes
+    /// to a uniform point of the lens, which the camera samples with the same density, so the
+    /// lens area cancels and the contribution has the pinhole's form. The contribution goes to
+    /// every pixel of the crop window whose filter footprint covers the film point, times that
+    /// pixel's normalised filter weight ([`crate::pixel_filter::PixelFilter::splat_weights`]).
     pub fn splat(
         &self,
         hit: &SurfaceHit,
@@ -109,11 +112,17 @@ impl CameraTarget<'_> {
         if v == Vec3::ZERO {
             return;
         }
-        let visible = transmittance(self.scene, hit, lens, None, shadow, &mut ctx.rays);
+        let visible = transmittance(self.scene, hit, c.start, None, shadow, &mut ctx.rays);
         if visible == Vec3::ZERO {
             return;
         }
         // dω = |cos_v| dA / d² and dA_film = dω / cos³θ.
-        out.push(c.pixel, ctx.channels.to_rgb(v * visible) / (c.dist2 * c.cos * c.cos * c.cos));
+        let splat = ctx.channels.to_rgb(v * visible) / (c.dist2 * c.cos * c.cos * c.cos);
+        let crop = camera.crop;
+        camera.filter.splat_weights(c.film, camera.width, camera.height, |x, y, weight| {
+            if let Some(pixel) = crop.index(x, y) {
+                out.push(pixel, if weight == 1.0 { splat } else { splat * weight });
+            }
+        });
     }
 }

@@ -1,5 +1,10 @@
 //! Supersampled antialiasing over Whitted radiance, on a regular grid or adaptively.
 //!
+//! The regular grid's points (the centres of n×n equal cells of [0, 1)²) go through the pixel
+//! filter's inverse distribution like any camera sample ([`crate::camera::Camera::film_point`]):
+//! a midpoint quadrature of the filter-weighted pixel (the box: the pixel's square). The adaptive
+//! mode subdivides the pixel's square and so always estimates the box, whatever the filter.
+//!
 //! Adaptive mode follows the thesis (§ antialiasing): trace the four corners of a pixel; where
 //! their colours differ by more than a contrast threshold, split the square into 3×3 sub-squares
 //! (a 4×4 lattice of corner points, 12 of them new) and repeat on every sub-square, up to a
@@ -63,7 +68,9 @@ impl Integrator for Ssaa {
         let start = Instant::now();
         let camera = camera_for(scene, opts.resolution);
         let tracer = Tracer { scene, params: &opts.params, camera: &camera };
-        let (w, h) = (camera.width as usize, camera.height as usize);
+        // The crop window's pixels, at their places on the whole film.
+        let (w, h) = (camera.crop.width as usize, camera.crop.height as usize);
+        let (x0, y0) = (camera.crop.x as usize, camera.crop.y as usize);
         let done = std::sync::atomic::AtomicU64::new(0);
         let tick = || progress(done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1, h as u64);
         let ssaa = opts.params.ssaa;
@@ -74,7 +81,9 @@ impl Integrator for Ssaa {
                 .into_par_iter()
                 .map(|y| {
                     let mut rays = RayCounts::default();
-                    let row = (0..=w).map(|x| tracer.at(Vec2::new(x as f32, y as f32), &mut rays)).collect();
+                    let row = (0..=w)
+                        .map(|x| tracer.at(Vec2::new((x0 + x) as f32, (y0 + y) as f32), &mut rays))
+                        .collect();
                     (row, rays)
                 })
                 .collect();
@@ -95,7 +104,7 @@ impl Integrator for Ssaa {
                                 corners[y + 1].0[x + 1],
                             ];
                             let mut traced = 0;
-                            let origin = Vec2::new(x as f32, y as f32);
+                            let origin = Vec2::new((x0 + x) as f32, (y0 + y) as f32);
                             let v = tracer.adaptive(
                                 origin,
                                 1.0,
@@ -127,7 +136,8 @@ impl Integrator for Ssaa {
                                 for i in 0..n {
                                     let offset =
                                         Vec2::new((i as f32 + 0.5) / n as f32, (j as f32 + 0.5) / n as f32);
-                                    sum += tracer.at(Vec2::new(x as f32, y as f32) + offset, &mut rays);
+                                    let film = camera.film_point((x0 + x) as u32, (y0 + y) as u32, offset);
+                                    sum += tracer.at(film, &mut rays);
                                 }
                             }
                             sum / (n * n) as f32
@@ -180,7 +190,7 @@ impl Tracer<'_> {
     fn at(&self, film: Vec2, rays: &mut RayCounts) -> Vec3 {
         // Whitted draws no random numbers; the stream exists only to satisfy the interface.
         let mut ctx = PathContext::new(Sampler::independent(0, 0, 0));
-        let ray = self.camera.generate_ray(film);
+        let ray = self.camera.clip(self.camera.generate_ray(film));
         ctx.rays.primary += 1;
         let l = trace(self.scene, self.params, &ray, Segment::camera(), Sampling::Fixed, &mut ctx);
         *rays += ctx.rays;

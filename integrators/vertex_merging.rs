@@ -215,7 +215,7 @@ impl Integrator for VertexMerging {
 impl Accumulate for VertexMerging {
     fn film(&self, scene: &Scene, opts: &RenderOptions) -> Film {
         let engine = Engine::new(scene, self, opts);
-        let (w, h) = (engine.camera.width as usize, engine.camera.height as usize);
+        let (w, h) = (engine.camera.crop.width as usize, engine.camera.crop.height as usize);
         Film::new(w, h, 1.0, engine.dims.wavelength, opts.replicas)
     }
 
@@ -393,6 +393,10 @@ struct SubPath {
     mis: Mis,
     segments: u32,
     specular_path: bool,
+    /// The distance from the sub-path's true start to its first ray's origin: a camera ray
+    /// clipped by the near plane starts that far from the lens point, which the first
+    /// segment's density conversion must count (0 otherwise).
+    start_offset: f32,
 }
 
 impl SubPath {
@@ -407,6 +411,7 @@ impl SubPath {
             mis,
             segments: 1,
             specular_path: true,
+            start_offset: 0.0,
         }
     }
 
@@ -543,7 +548,8 @@ impl<'a> Engine<'a> {
             .collect();
         let mut vertices = Vec::with_capacity(chunks.iter().map(|c| c.vertices.len()).sum());
         let mut ends = Vec::with_capacity(self.paths);
-        let mut splats = SampleSplats::new(self.paths, s);
+        let crop = self.camera.crop;
+        let mut splats = SampleSplats::new(crop.pixels(), s);
         for chunk in chunks {
             let base = vertices.len() as u32;
             ends.extend(chunk.ends.iter().map(|e| e + base));
@@ -556,13 +562,14 @@ impl<'a> Engine<'a> {
             .merges()
             .then(|| PhotonGrid::build(&vertices, k.radius, self.scene.bvh_stats.bounds.0));
         let light = LightPaths { vertices: &vertices, ends: &ends, grid: grid.as_ref() };
-        let w = self.camera.width as usize;
-        let rows: Vec<(Vec<Vec3>, RayCounts, u64)> = (0..self.camera.height as usize)
+        // The camera paths of the crop window's pixels, each on its whole-film pixel's stream.
+        let (w, x0, y0) = (self.camera.width as usize, crop.x as usize, crop.y as usize);
+        let rows: Vec<(Vec<Vec3>, RayCounts, u64)> = (y0..y0 + crop.height as usize)
             .into_par_iter()
             .map(|y| {
                 let mut rays = RayCounts::default();
                 let mut non_finite = 0;
-                let row = (0..w)
+                let row = (x0..x0 + crop.width as usize)
                     .map(|x| {
                         let l = self.camera_path(y * w + x, s, &k, &light, &mut rays);
                         if !l.is_finite() {
@@ -574,7 +581,7 @@ impl<'a> Engine<'a> {
                 (row, rays, non_finite)
             })
             .collect();
-        let mut camera = Vec::with_capacity(self.paths);
+        let mut camera = Vec::with_capacity(crop.pixels());
         for (row, rays, non_finite) in rows {
             film.rays += rays;
             film.non_finite += non_finite;
@@ -652,6 +659,8 @@ impl<'a> Engine<'a> {
             let cos_in = hit.n.dot(ray.dir).abs();
             if from_infinity && path.segments == 1 {
                 path.mis.arrive_from_infinity(cos_in);
+            } else if path.segments == 1 && path.start_offset > 0.0 {
+                path.mis.arrive(hit.t + path.start_offset, cos_in);
             } else {
                 path.mis.arrive(hit.t, cos_in);
             }
@@ -789,15 +798,16 @@ impl<'a> Engine<'a> {
         let stream = self.replicas.stream(self.seed, s, 0);
         let mut ctx = PathContext::new(Sampler::of_stream(self.sampler, stream, j as u64));
         ctx.channels = channels;
-        let (x, y) = ((j % cam.width as usize) as f32, (j / cam.width as usize) as f32);
-        let offset = ctx.sampler.get_2d(Dim::Pixel);
+        let (x, y) = ((j % cam.width as usize) as u32, (j / cam.width as usize) as u32);
+        let film = cam.film_point(x, y, ctx.sampler.get_2d(Dim::Pixel));
         let lens = if self.dims.lens { ctx.sampler.get_2d(Dim::Lens) } else { Vec2::ZERO };
-        let ray = cam.generate_ray_lens(Vec2::new(x, y) + offset, lens, time);
+        let ray = cam.generate_ray_lens(film, lens, time);
         ctx.rays.primary += 1;
         let cos = ray.dir.dot(cam.forward);
         let camera_pdf_w = 1.0 / (self.pixel_area * cos * cos * cos);
         let mis = Mis::camera(self.paths as f32, camera_pdf_w);
         let mut path = SubPath::new(ctx, TransportMode::Radiance, Vec3::ONE, mis);
+        path.start_offset = cam.near_clip / cos;
         let mut visitor = CameraVisitor {
             engine: self,
             j,

@@ -138,8 +138,9 @@ impl Wavefront {
     }
 
     /// Where every stage runs across lanes, the estimates of `batch`'s samples with their camera
-    /// rays made across lanes too ([`LaneStages::camera_samples`]); `None` elsewhere (the camera
-    /// pass then makes the rays and calls [`radiance`](Self::radiance)).
+    /// rays made across lanes too ([`LaneStages::camera_samples`]); `None` elsewhere and for a
+    /// camera with a near clip plane (the camera pass then makes the rays with
+    /// [`crate::camera::Camera::generate_ray_lens`] and calls [`radiance`](Self::radiance)).
     pub fn camera_samples(
         &self,
         params: &RenderParams,
@@ -150,6 +151,9 @@ impl Wavefront {
         occupancy: &mut StageOccupancy,
     ) -> Option<Vec<Vec3>> {
         let stages = self.stages.as_ref().ok()?;
+        if camera.near_clip > 0.0 {
+            return None;
+        }
         Some(stages.camera_samples(params, camera, seed, batch, counters, occupancy))
     }
 

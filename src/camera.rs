@@ -1,6 +1,8 @@
-//! The pinhole camera.
+//! The pinhole and thin-lens camera: placement, the pixel reconstruction filter that places its
+//! samples on the film, the near clip plane and the crop window of the film it renders.
 
 use crate::geometry::{try_unit, Ray};
+use crate::pixel_filter::PixelFilter;
 use glam::{Vec2, Vec3};
 
 /// A pinhole camera with a vertical field of view; pixel (0,0) is the top-left one.
@@ -31,6 +33,49 @@ pub struct Camera {
     /// The point looked at and the up vector as given (before they were made an orthonormal
     /// frame), which `vitrum export` writes back so that a round trip keeps the same frame.
     pub placement: (Vec3, Vec3),
+    /// The pixel reconstruction filter: where a pixel's camera samples fall on the film and
+    /// how a light path's film point is shared among pixels.
+    pub filter: PixelFilter,
+    /// Distance of the near clip plane along the view axis (Mitsuba's `near_clip`): camera rays
+    /// start on it, and nothing closer to the camera is seen; 0 clips nothing.
+    pub near_clip: f32,
+    /// The part of the film that is rendered and written (the whole film by default).
+    pub crop: CropWindow,
+}
+
+/// A rectangle of the film's pixels (Mitsuba's `crop_offset_x/y`, `crop_width/height`): the
+/// camera sees the whole film; a render computes and writes only these pixels, each as the
+/// whole film's render would (the same sample streams, which are keyed by the whole film's
+/// pixel index).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct CropWindow {
+    /// Column of the window's left pixels.
+    pub x: u32,
+    /// Row of the window's top pixels.
+    pub y: u32,
+    /// Width in pixels.
+    pub width: u32,
+    /// Height in pixels.
+    pub height: u32,
+}
+
+impl CropWindow {
+    /// The whole film of `width`×`height` pixels.
+    pub fn full(width: u32, height: u32) -> CropWindow {
+        CropWindow { x: 0, y: 0, width, height }
+    }
+
+    /// Row-major index within the window of the film's pixel (`x`, `y`), if the window holds it.
+    #[inline]
+    pub fn index(&self, x: u32, y: u32) -> Option<u32> {
+        let (cx, cy) = (x.wrapping_sub(self.x), y.wrapping_sub(self.y));
+        (cx < self.width && cy < self.height).then_some(cy * self.width + cx)
+    }
+
+    /// The number of pixels in the window.
+    pub fn pixels(&self) -> usize {
+        self.width as usize * self.height as usize
+    }
 }
 
 impl Camera {
@@ -65,6 +110,9 @@ impl Camera {
             shutter: (0.0, 0.0),
             tan_half_fov: (0.5 * fov_degrees.to_radians()).tan(),
             placement,
+            filter: PixelFilter::BOX,
+            near_clip: 0.0,
+            crop: CropWindow::full(width, height),
         })
     }
 
@@ -81,11 +129,60 @@ impl Camera {
         self
     }
 
-    /// The same camera at another resolution.
+    /// The same camera with the pixel filter `filter`.
+    pub fn with_filter(mut self, filter: PixelFilter) -> Camera {
+        self.filter = filter;
+        self
+    }
+
+    /// The same camera with its near clip plane at `near_clip` along the view axis.
+    pub fn with_near_clip(mut self, near_clip: f32) -> Camera {
+        self.near_clip = near_clip;
+        self
+    }
+
+    /// The same camera rendering only the window `crop` of its film (which must lie on it).
+    pub fn with_crop(mut self, crop: CropWindow) -> Camera {
+        self.crop = crop;
+        self
+    }
+
+    /// The same camera at another resolution; a crop window keeps its place on the film in
+    /// proportion (its edges rounded outwards to whole pixels).
     pub fn with_resolution(mut self, width: u32, height: u32) -> Camera {
+        let c = self.crop;
+        self.crop = if c == CropWindow::full(self.width, self.height) {
+            CropWindow::full(width, height)
+        } else {
+            let scale = |v: u32, from: u32, to: u32, up: bool| {
+                let exact = v as f64 * to as f64 / from as f64;
+                (if up { exact.ceil() } else { exact.floor() } as u32).min(to)
+            };
+            let (x0, y0) = (scale(c.x, self.width, width, false), scale(c.y, self.height, height, false));
+            let x1 = scale(c.x + c.width, self.width, width, true).max(x0 + 1).min(width);
+            let y1 = scale(c.y + c.height, self.height, height, true).max(y0 + 1).min(height);
+            let (x0, y0) = (x0.min(x1 - 1), y0.min(y1 - 1));
+            CropWindow { x: x0, y: y0, width: x1 - x0, height: y1 - y0 }
+        };
         self.width = width;
         self.height = height;
         self
+    }
+
+    /// The film position (pixel units) of camera sample `u` in [0, 1)² of the film's pixel
+    /// (`x`, `y`), placed by the pixel filter ([`PixelFilter::film_point`]).
+    #[inline]
+    pub fn film_point(&self, x: u32, y: u32, u: Vec2) -> Vec2 {
+        self.filter.film_point(x, y, u, self.width, self.height)
+    }
+
+    /// `ray` from the camera moved forward to the near clip plane (unchanged without one).
+    #[inline]
+    pub fn clip(&self, mut ray: Ray) -> Ray {
+        if self.near_clip > 0.0 {
+            ray.origin += ray.dir * (self.near_clip / ray.dir.dot(self.forward));
+        }
+        ray
     }
 
     /// Whether the camera has a lens with an aperture (depth of field).
@@ -106,6 +203,7 @@ impl Camera {
     /// The ray through film position `film` (pixel units) from lens sample `lens` in [0,1)²
     /// (ignored for a pinhole) at time `time`. Thin lens: the ray leaves a point of the lens disk
     /// (concentric mapping) towards the point of the focal plane the pinhole ray would reach.
+    /// With a near clip plane the ray starts where it crosses that plane ([`Camera::clip`]).
     pub fn generate_ray_lens(&self, film: Vec2, lens: Vec2, time: f32) -> Ray {
         let pinhole = self.generate_ray(film);
         let mut ray = if self.has_lens() {
@@ -117,7 +215,7 @@ impl Camera {
             pinhole
         };
         ray.time = time;
-        ray
+        self.clip(ray)
     }
 
     /// The ray through film position `film` in pixel units (x right, y down; (0.5, 0.5) is the
@@ -139,9 +237,9 @@ impl Camera {
     }
 
     /// The connection of the scene point `p` to the point `lens` of the lens (the camera's
-    /// position for a pinhole): the pixel it lands in, where the camera pass's ray from that lens
-    /// point through the focal plane comes from; `None` when `p` is behind the camera, off the
-    /// film or at the lens point itself.
+    /// position for a pinhole): the film point it lands on, where the camera pass's ray from that
+    /// lens point through the focal plane comes from; `None` when `p` is behind the camera or
+    /// before its near clip plane, off the film or at the lens point itself.
     pub fn connection(&self, p: Vec3, lens: Vec3) -> Option<CameraConnection> {
         let to_vertex = p - lens;
         let dist2 = to_vertex.length_squared();
@@ -151,6 +249,9 @@ impl Camera {
         let dir = to_vertex / dist2.sqrt();
         let cos = dir.dot(self.forward);
         if cos <= 0.0 {
+            return None;
+        }
+        if self.near_clip > 0.0 && (p - self.position).dot(self.forward) < self.near_clip {
             return None;
         }
         let film = if self.has_lens() {
@@ -165,7 +266,10 @@ impl Camera {
         if x >= self.width || y >= self.height {
             return None;
         }
-        Some(CameraConnection { pixel: y * self.width + x, dir, dist2, cos })
+        // The camera's ray toward p begins at the lens point or, with a near clip plane, where
+        // it crosses that plane.
+        let start = if self.near_clip > 0.0 { lens + dir * (self.near_clip / cos) } else { lens };
+        Some(CameraConnection { film, start, dir, dist2, cos })
     }
 
     /// The film position (pixel units) where the point `p` projects, if it is in front of the
@@ -186,8 +290,11 @@ impl Camera {
 /// A scene point connected to the camera ([`Camera::connection`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CameraConnection {
-    /// Row-major index of the pixel the point lands in.
-    pub pixel: u32,
+    /// The film position (pixel units, on the film) the point lands on.
+    pub film: Vec2,
+    /// Where the camera's ray toward the point starts: the lens point, or its crossing of the
+    /// near clip plane.
+    pub start: Vec3,
     /// Unit direction from the lens point to the scene point.
     pub dir: Vec3,
     /// Squared distance between them.

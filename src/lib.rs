@@ -25,6 +25,7 @@ pub mod optics;
 pub mod output;
 pub mod params;
 pub mod parts;
+pub mod pixel_filter;
 pub mod reference;
 pub mod render;
 pub mod report;

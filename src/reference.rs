@@ -103,8 +103,9 @@ impl ReferenceKey {
             merging,
             scene_hash: scene.origin.hash.clone(),
             scene: Some(scene.origin.name.clone()),
-            width: camera.width,
-            height: camera.height,
+            // The image's size: the crop window's.
+            width: camera.crop.width,
+            height: camera.crop.height,
             spp,
             seed: opts.seed,
             max_depth: opts.params.max_depth,

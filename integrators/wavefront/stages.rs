@@ -455,7 +455,19 @@ impl LaneStages {
                 } else {
                     (F32x::splat(0.5), F32x::splat(0.5))
                 };
-                c.dir = pinhole(isa, camera, &(c.origin.x + ox), &(c.origin.y + oy));
+                let (fx, fy) = if offset && !camera.filter.is_box() {
+                    // The pixel filter's film point, lane by lane (the scalar camera's function).
+                    let (mut fx, mut fy) = (F32x::splat(0.0), F32x::splat(0.0));
+                    for k in 0..WIDTH {
+                        let (x, y) = (c.origin.x.0[k] as u32, c.origin.y.0[k] as u32);
+                        let p = camera.film_point(x, y, glam::Vec2::new(ox.0[k], oy.0[k]));
+                        (fx.0[k], fy.0[k]) = (p.x, p.y);
+                    }
+                    (fx, fy)
+                } else {
+                    (c.origin.x + ox, c.origin.y + oy)
+                };
+                c.dir = pinhole(isa, camera, &fx, &fy);
                 c.origin = Vec3x::splat(camera.position);
             }
         };

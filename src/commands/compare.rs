@@ -297,7 +297,7 @@ impl Plan {
             None => "cornell-glass (embedded default)".into(),
         };
         let camera = render::camera_for(&scene, args.render.resolution);
-        let mut size = (camera.width as usize, camera.height as usize);
+        let mut size = (camera.crop.width as usize, camera.crop.height as usize);
         let renders = if args.renders.is_empty() {
             None
         } else {

@@ -205,7 +205,7 @@ fn plan(args: &ConvergeArgs) -> Result<Plan, CliError> {
         (n, None) => Budget::Samples(n.unwrap_or(DEFAULT_SPP_MAX)),
     };
     let camera = render::camera_for(&scene, args.render.resolution);
-    let (mut width, mut height) = (camera.width as usize, camera.height as usize);
+    let (mut width, mut height) = (camera.crop.width as usize, camera.crop.height as usize);
     let renders = if args.renders.is_empty() {
         None
     } else {

@@ -73,6 +73,14 @@ pub fn run(args: &InfoArgs) -> Result<(), CliError> {
                        "spectral": settings.spectral.name(), "sampler": settings.sampler.name(), "methods": depths},
             "hash": scene.origin.hash,
             "resolution": [scene.camera.width, scene.camera.height],
+            "camera": {
+                "filter": scene.camera.filter.name(),
+                "filter_radius": scene.camera.filter.radius(),
+                "filter_parameters": scene.camera.filter.describe(),
+                "filter_meaning": crate::pixel_filter::METHOD_MEANING,
+                "near_clip": scene.camera.near_clip,
+                "crop": [scene.camera.crop.x, scene.camera.crop.y, scene.camera.crop.width, scene.camera.crop.height],
+            },
             "objects": scene.objects.iter().map(|o| json!({"name": o.name, "kind": o.kind, "material": o.material, "primitives": o.primitives, "texture_coordinates": o.mesh_attributes.0, "vertex_normals": o.mesh_attributes.1})).collect::<Vec<_>>(),
             "materials": scene.materials.iter().map(|m| {
                 let mut d = describe::material(m).json();
@@ -98,7 +106,16 @@ pub fn run(args: &InfoArgs) -> Result<(), CliError> {
         return Ok(());
     }
     println!("scene      {} (hash {})", scene.origin.name, scene.origin.hash);
-    println!("camera     {}x{}, fov {}°", scene.camera.width, scene.camera.height, scene.camera.fov_degrees);
+    let camera = &scene.camera;
+    println!("camera     {}x{}, fov {}°", camera.width, camera.height, camera.fov_degrees);
+    println!("filter     {}: {}", camera.filter.describe(), crate::pixel_filter::METHOD_MEANING);
+    if camera.near_clip > 0.0 {
+        println!("near clip  {} along the view axis", camera.near_clip);
+    }
+    let c = camera.crop;
+    if (c.width, c.height) != (camera.width, camera.height) {
+        println!("crop       {}x{} at ({}, {}): only these pixels are rendered", c.width, c.height, c.x, c.y);
+    }
     let settings = &scene.settings;
     println!(
         "render     {}, {} spp, seed {}, spectral {}, sampler {}",

@@ -18,7 +18,7 @@
 //! | point / quad / sphere light | `point` / `rectangle` + `area` / `sphere` + `area` |
 //! | emissive surface (two-sided) | its shape + one-sided `area` emitter |
 //! | environment light / background | `constant` emitter; with a map `envmap` (the map resampled) |
-//! | camera | `perspective` (`thinlens` with an aperture), `fov_axis="y"`, `hdrfilm`, `box` filter |
+//! | camera | `perspective` (`thinlens` with an aperture), `fov_axis="y"`, `near_clip`, `hdrfilm` with the crop window, `rfilter` `box`/`tent`/`gaussian` |
 //! | `max_depth` d (bounces) | `max_depth` d + 1 (path segments) |
 //!
 //! Numbers are written in the shortest form that reads back as the same `f32` (Mitsuba stores
@@ -30,6 +30,7 @@ use crate::image::Image;
 use crate::light::EnvironmentMap;
 use crate::light::Light;
 use crate::material::{Bsdf, Material, Texture};
+use crate::pixel_filter::FilterKind;
 use crate::scene::{Primitive, Scene};
 use crate::texture::{Filter, ImageMap, ImageTexture, Wrap};
 use glam::{DAffine3, DVec3, Vec3};
@@ -874,9 +875,17 @@ impl<'a> Exporter<'a> {
             x.float("aperture_radius", cam.aperture);
             x.float("focus_distance", cam.focus_distance);
         }
-        x.comment("clipping planes scaled to the scene: nothing in it is closer or farther");
-        x.float("near_clip", 1e-4 * reach);
-        x.float("far_clip", 1e2 * reach);
+        if cam.near_clip > 0.0 {
+            x.comment(
+                "vitrum's near clip plane (along the view axis, as Mitsuba's); far clip beyond the scene",
+            );
+            x.float("near_clip", cam.near_clip);
+            x.float("far_clip", (1e2 * reach).max(2.0 * cam.near_clip));
+        } else {
+            x.comment("clipping planes scaled to the scene: nothing in it is closer or farther");
+            x.float("near_clip", 1e-4 * reach);
+            x.float("far_clip", 1e2 * reach);
+        }
         x.open("transform", &[("name", "to_world")]);
         // The point and up vector the scene gave: both renderers make the same frame of them.
         let (target, up) = cam.placement;
@@ -895,8 +904,34 @@ impl<'a> Exporter<'a> {
         x.integer("height", hv);
         x.string("pixel_format", "rgb");
         x.string("component_format", "float32");
-        x.comment("a one-pixel box filter: uniform sampling over each pixel's area, as vitrum");
-        x.leaf("rfilter", &[("type", "box")]);
+        let crop = cam.crop;
+        if (crop.width, crop.height) != (cam.width, cam.height) {
+            x.comment("the crop window: only these pixels are rendered");
+            x.integer("crop_offset_x", &crop.x.to_string());
+            x.integer("crop_offset_y", &crop.y.to_string());
+            x.integer("crop_width", &crop.width.to_string());
+            x.integer("crop_height", &crop.height.to_string());
+        }
+        match cam.filter.kind {
+            FilterKind::Box => {
+                x.comment("a one-pixel box filter: uniform sampling over each pixel's area, as vitrum");
+                x.leaf("rfilter", &[("type", "box")]);
+            }
+            FilterKind::Tent { radius } => {
+                x.comment("vitrum's tent filter (footprints cut at the film's edge: sample_border false)");
+                x.open("rfilter", &[("type", "tent")]);
+                x.float("radius", radius);
+                x.close("rfilter");
+            }
+            FilterKind::Gaussian { stddev } => {
+                x.comment(
+                    "vitrum's Gaussian filter (footprints cut at the film's edge: sample_border false)",
+                );
+                x.open("rfilter", &[("type", "gaussian")]);
+                x.float("stddev", stddev);
+                x.close("rfilter");
+            }
+        }
         x.close("film");
         x.close("sensor");
     }

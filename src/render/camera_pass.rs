@@ -92,19 +92,25 @@ impl<'a> Pass<'a> {
         }
     }
 
-    /// An empty film of the camera's size.
+    /// An empty film of the size of the camera's crop window.
     pub(super) fn film(&self) -> Film {
-        let (w, h) = (self.camera.width as usize, self.camera.height as usize);
+        let (w, h) = (self.camera.crop.width as usize, self.camera.crop.height as usize);
         Film::new(w, h, 1.0, self.dims.wavelength, self.opts.replicas)
     }
 
-    /// The camera ray of sample `index` (of `total`) of pixel (`x`, `y`), with the context of
-    /// its path: the sample's stream after the camera's dimensions, its channels and counters.
+    /// The camera ray of sample `index` (of `total`) of the film's pixel (`x`, `y`), with the
+    /// context of its path: the sample's stream after the camera's dimensions, its channels and
+    /// counters. A single sample per pixel goes through the pixel's centre; more are placed by
+    /// the pixel filter ([`Camera::film_point`]).
     pub(super) fn start(&self, x: u32, y: u32, index: u32, total: u32) -> (Ray, PathContext) {
         let pixel = y as u64 * self.camera.width as u64 + x as u64;
         let stream = self.opts.replicas.stream(self.opts.seed, index, total);
         let mut sampler = Sampler::of_stream(self.opts.sampler, stream, pixel);
-        let offset = if total == 1 { Vec2::splat(0.5) } else { sampler.get_2d(Dim::Pixel) };
+        let film = if total == 1 {
+            Vec2::new(x as f32, y as f32) + Vec2::splat(0.5)
+        } else {
+            self.camera.film_point(x, y, sampler.get_2d(Dim::Pixel))
+        };
         let lens = if self.dims.lens { sampler.get_2d(Dim::Lens) } else { Vec2::ZERO };
         let (open, close) = self.camera.shutter;
         let time = if self.dims.time { open + (close - open) * sampler.get_1d(Dim::Time) } else { open };
@@ -112,7 +118,7 @@ impl<'a> Pass<'a> {
         if self.dims.wavelength {
             ctx.channels = Channels::Spectral(Wavelengths::sample(ctx.sampler.get_1d(Dim::Wavelength)));
         }
-        let ray = self.camera.generate_ray_lens(Vec2::new(x as f32, y as f32) + offset, lens, time);
+        let ray = self.camera.generate_ray_lens(film, lens, time);
         ctx.rays.primary += 1;
         (ray, ctx)
     }
@@ -135,10 +141,10 @@ impl<'a> Pass<'a> {
         self.finish(&ctx, radiance, row)
     }
 
-    /// Continues row `y`'s sums (`sums`: per pixel, the sum and the replicas' sums) with the
-    /// samples `samples` (of `total`) by the wavefront engine: its paths go in batches of at
-    /// most [`WAVEFRONT_BATCH`] whole pixels' samples, whose estimates are added pixel by pixel
-    /// in sample order, as the one-ray loop adds them.
+    /// Continues the sums of the film's row `y` (`sums`: per pixel of the crop window, the sum
+    /// and the replicas' sums) with the samples `samples` (of `total`) by the wavefront engine:
+    /// its paths go in batches of at most [`WAVEFRONT_BATCH`] whole pixels' samples, whose
+    /// estimates are added pixel by pixel in sample order, as the one-ray loop adds them.
     fn wavefront_row(
         &self,
         engine: &Wavefront,
@@ -155,8 +161,9 @@ impl<'a> Pass<'a> {
         let pixels_per_batch = (WAVEFRONT_BATCH / per_pixel).max(1);
         let (mut rays, mut ctxs) = (Vec::new(), Vec::new());
         let mut occupancy = StageOccupancy::default();
+        let x0 = self.camera.crop.x;
         for first in (0..width).step_by(pixels_per_batch) {
-            let xs = first as u32..(first + pixels_per_batch).min(width) as u32;
+            let xs = x0 + first as u32..x0 + (first + pixels_per_batch).min(width) as u32;
             let batch = SampleBatch { y, xs: xs.clone(), samples: samples.clone(), total, replicas };
             let counters = (&mut row.rays, &mut row.requests);
             let (opts, camera) = (&self.opts, &self.camera);
@@ -184,7 +191,7 @@ impl<'a> Pass<'a> {
                     ctxs.iter().zip(radiance).map(|(ctx, l)| self.finish(ctx, l, row)).collect()
                 }
             };
-            let first = batch.xs.start as usize;
+            let first = (batch.xs.start - x0) as usize;
             let pixels = sum[first..].iter_mut().zip(replica_sums[first * r..].chunks_mut(r));
             for ((sum, replica_sums), pixel) in pixels.zip(estimates.chunks(samples.len())) {
                 for (&l, s) in pixel.iter().zip(samples.clone()) {
@@ -195,8 +202,9 @@ impl<'a> Pass<'a> {
         row.occupancy.merge(&occupancy);
     }
 
-    /// Continue the sums of row `y` (`sum` per pixel, `replica_sums` per pixel and replica) with
-    /// the samples `samples` (of `total`, 0 when unknown).
+    /// Continue the sums of the film's row `y` (`sum` per pixel of the crop window,
+    /// `replica_sums` per pixel and replica) with the samples `samples` (of `total`, 0 when
+    /// unknown).
     pub(super) fn row(
         &self,
         y: u32,
@@ -217,16 +225,18 @@ impl<'a> Pass<'a> {
         }
         let replicas = self.opts.replicas;
         let r = replicas.count() as usize;
+        let x0 = self.camera.crop.x;
         for (x, (sum, replica_sums)) in sum.iter_mut().zip(replica_sums.chunks_mut(r)).enumerate() {
             for s in samples.clone() {
-                let l = self.sample(x as u32, y, s, total, &mut row);
+                let l = self.sample(x0 + x as u32, y, s, total, &mut row);
                 row.add(l, s, replicas, sum, replica_sums);
             }
         }
         row
     }
 
-    /// Add the samples `samples` (of `total` planned, 0 when unknown) to every pixel of `film`.
+    /// Add the samples `samples` (of `total` planned, 0 when unknown) to every pixel of `film`
+    /// (the camera's crop window).
     pub(super) fn add(
         &self,
         film: &mut Film,
@@ -237,13 +247,14 @@ impl<'a> Pass<'a> {
         let (w, h) = (film.width, film.height as u64);
         let r = film.replicas.count() as usize;
         let done = AtomicU64::new(0);
+        let y0 = self.camera.crop.y;
         let rows: Vec<RowStats> = film
             .sum
             .par_chunks_mut(w)
             .zip(film.replica_sums.par_chunks_mut(w * r))
             .enumerate()
             .map(|(y, (sum, replica_sums))| {
-                let r = self.row(y as u32, samples.clone(), total, sum, replica_sums);
+                let r = self.row(y0 + y as u32, samples.clone(), total, sum, replica_sums);
                 progress(done.fetch_add(1, Ordering::Relaxed) + 1, h);
                 r
             })

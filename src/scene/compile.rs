@@ -2,9 +2,9 @@
 
 use super::bodies::{self, BodySurface, Interface, Liquid};
 use super::desc::{
-    ColorSpaceDesc, DistributionDesc, FilterDesc, IorDesc, LightDesc, LiquidDesc, MaterialDesc, PhongDesc,
-    Rgb, SceneDesc, ShapeDesc, TextureDesc, TransformDesc, Vec3Desc, WrapDesc, IOR_TABLE_ERROR, LIQUIDS,
-    MERGING_METHODS, METHOD_TABLES, MOVED_MAX_DEPTH,
+    ColorSpaceDesc, CropDesc, DistributionDesc, FilterDesc, IorDesc, LightDesc, LiquidDesc, MaterialDesc,
+    PhongDesc, PixelFilterDesc, Rgb, SceneDesc, ShapeDesc, TextureDesc, TransformDesc, Vec3Desc, WrapDesc,
+    IOR_TABLE_ERROR, LIQUIDS, MERGING_METHODS, METHOD_TABLES, MOVED_MAX_DEPTH,
 };
 use super::effects::{Effect, Effects};
 use super::mesh::MeshPlacement;
@@ -14,7 +14,7 @@ use super::{
     BvhStats, ObjectSummary, Primitive, RenderSettings, Scene, SceneOrigin, SpectralMode, DEFAULT_SCENE,
     NO_ATTRIBUTES,
 };
-use crate::camera::Camera;
+use crate::camera::{Camera, CropWindow};
 use crate::conductor::{ComplexIor, Conductor, Distribution, METAL_NAMES};
 use crate::dispersion::Ior;
 use crate::geometry::{
@@ -23,6 +23,7 @@ use crate::geometry::{
 use crate::light::{EmitterMesh, EmitterShape, EnvironmentMap, Light, SpotBeam, Strength};
 use crate::material::{Bsdf, Material, Medium, Phong, Texture};
 use crate::params::{MergeParams, SsaaParams};
+use crate::pixel_filter::{FilterKind, PixelFilter, DEFAULT_GAUSSIAN_STDDEV, DEFAULT_TENT_RADIUS};
 use crate::sampler::SamplerKind;
 use crate::texture::{ColorSpace, Filter, ImageMap, ImageTexture, Wrap};
 use glam::{Vec2, Vec3, Vec3A};
@@ -40,6 +41,32 @@ pub const MAX_PIXELS: u64 = 1 << 26;
 pub const MAX_DEPTH: u32 = 256;
 /// Largest image side in pixels.
 pub const MAX_SIDE: u32 = 65536;
+/// `camera` without its near clip plane when the plane lies before the whole scene (every
+/// corner of the scene's bounds `(min, max)` at least `near_clip` deep along the view axis): it
+/// then clips nothing, and the camera's rays start at the lens as without it, bit for bit, and
+/// keep the wavefront engine's camera across lanes. (Mitsuba's default 0.01 usually is such a
+/// plane.)
+fn drop_idle_near_clip(mut camera: Camera, (min, max): (Vec3, Vec3)) -> Camera {
+    if camera.near_clip > 0.0 {
+        let nearest = (0..8)
+            .map(|i| {
+                let corner = Vec3::new(
+                    if i & 1 == 0 { min.x } else { max.x },
+                    if i & 2 == 0 { min.y } else { max.y },
+                    if i & 4 == 0 { min.z } else { max.z },
+                );
+                (corner - camera.position).dot(camera.forward)
+            })
+            .fold(f32::INFINITY, f32::min);
+        if nearest >= camera.near_clip {
+            camera.near_clip = 0.0;
+        }
+    }
+    camera
+}
+
+/// Largest footprint radius of a pixel filter, in pixels.
+pub const MAX_FILTER_RADIUS: f32 = 16.0;
 /// Largest magnitude of a number in a scene file (`render.seed` excepted). Products of two
 /// such numbers (squared distances in the intersection tests, areas, radiance times area) stay
 /// far inside the single-precision range.
@@ -711,6 +738,7 @@ impl Compiler<'_> {
         // Image files (textures, environment maps), once each, in the order of their paths.
         inputs.extend(self.images.borrow().hashes.values().cloned());
         let (primitives, bvh, bvh_stats) = build_bvh(primitives, camera.shutter);
+        let camera = drop_idle_near_clip(camera, bvh_stats.bounds);
         if attributes.is_empty() {
             // Scenes without uv or normals never look the index up.
             attribute_index = Vec::new();
@@ -779,7 +807,96 @@ impl Compiler<'_> {
             return Err(self
                 .err(&path.key("shutter"), format!("open must not be after close (got [{open}, {close}])")));
         }
-        Ok(camera.with_lens(aperture, focus).with_shutter(open, close))
+        let near_clip = self.non_negative(&path.key("near_clip"), c.near_clip)?;
+        let filter = match &c.filter {
+            Some(f) => self.pixel_filter(&path.key("filter"), f)?,
+            None => PixelFilter::BOX,
+        };
+        let crop = match &c.crop {
+            Some(crop) => self.crop(&path.key("crop"), crop, w, h)?,
+            None => CropWindow::full(w, h),
+        };
+        Ok(camera
+            .with_lens(aperture, focus)
+            .with_shutter(open, close)
+            .with_near_clip(near_clip)
+            .with_filter(filter)
+            .with_crop(crop))
+    }
+
+    /// `[camera] filter`: a known name, with only its own parameters, each positive.
+    fn pixel_filter(&self, path: &FieldPath, f: &PixelFilterDesc) -> Result<PixelFilter, SceneError> {
+        let refuse = |param: &str, kind: &str| {
+            self.err(&path.key(param), format!("`{param}` is not a parameter of the `{kind}` filter"))
+        };
+        match f.kind.as_str() {
+            "box" => {
+                if f.radius.is_some() {
+                    return Err(refuse("radius", "box"));
+                }
+                if f.stddev.is_some() {
+                    return Err(refuse("stddev", "box"));
+                }
+                Ok(PixelFilter::BOX)
+            }
+            "tent" => {
+                if f.stddev.is_some() {
+                    return Err(refuse("stddev", "tent"));
+                }
+                let radius = match f.radius {
+                    Some(r) => self.positive(&path.key("radius"), r)?,
+                    None => DEFAULT_TENT_RADIUS,
+                };
+                let radius = self.filter_reach(&path.key("radius"), radius, radius)?;
+                Ok(PixelFilter::new(FilterKind::Tent { radius }))
+            }
+            "gaussian" => {
+                if f.radius.is_some() {
+                    return Err(self.err(
+                        &path.key("radius"),
+                        "the `gaussian` filter's radius is 4 × stddev (Mitsuba's); give `stddev`",
+                    ));
+                }
+                let stddev = match f.stddev {
+                    Some(s) => self.positive(&path.key("stddev"), s)?,
+                    None => DEFAULT_GAUSSIAN_STDDEV,
+                };
+                let stddev = self.filter_reach(&path.key("stddev"), stddev, 4.0 * stddev)?;
+                Ok(PixelFilter::new(FilterKind::Gaussian { stddev }))
+            }
+            other => Err(self.err(path, format!("unknown filter `{other}`: use box, tent or gaussian"))),
+        }
+    }
+
+    /// A filter parameter `value` whose footprint radius is `radius` pixels: at most
+    /// [`MAX_FILTER_RADIUS`], so that a splat touches a bounded number of pixels.
+    fn filter_reach(&self, path: &FieldPath, value: f32, radius: f32) -> Result<f32, SceneError> {
+        if radius > MAX_FILTER_RADIUS {
+            return Err(self.err(
+                path,
+                format!("{value} makes a footprint of radius {radius} px; at most {MAX_FILTER_RADIUS} px"),
+            ));
+        }
+        Ok(value)
+    }
+
+    /// `[camera] crop`: a window of at least one pixel inside the `w`×`h` film.
+    fn crop(&self, path: &FieldPath, c: &CropDesc, w: u32, h: u32) -> Result<CropWindow, SceneError> {
+        let ([x, y], [cw, ch]) = (c.offset, c.size);
+        if cw == 0 || ch == 0 {
+            return Err(
+                self.err(&path.key("size"), format!("width and height must be at least 1 (got {cw}×{ch})"))
+            );
+        }
+        if x as u64 + cw as u64 > w as u64 || y as u64 + ch as u64 > h as u64 {
+            return Err(self.err(
+                path,
+                format!(
+                    "the window {cw}×{ch} at [{x}, {y}] reaches past the {w}×{h} film (offset + size must be at most the resolution)"
+                ),
+            ));
+        }
+        Ok(CropWindow { x, y, width: cw, height: ch })
     }
 
     fn settings(&self, desc: &SceneDesc) -> Result<RenderSettings, SceneError> {

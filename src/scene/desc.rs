@@ -108,6 +108,69 @@ pub struct CameraDesc {
     /// Shutter interval `[open, close]` in the time unit of object velocities.
     #[serde(default = "default_shutter")]
     pub shutter: [f32; 2],
+    /// The pixel reconstruction filter: `"box"` (default), `"tent"`, `"gaussian"`, or a table
+    /// with its parameters (`{ type = "tent", radius = 1.5 }`, `{ type = "gaussian", stddev = 0.5 }`).
+    #[serde(default)]
+    pub filter: Option<PixelFilterDesc>,
+    /// Distance of the near clip plane along the view axis (scene units, default 0: none).
+    #[serde(default)]
+    pub near_clip: f32,
+    /// The window of the film that is rendered and written (default: the whole film).
+    #[serde(default)]
+    pub crop: Option<CropDesc>,
+}
+
+/// `[camera] crop`: a window of the film, `{ offset = [x, y], size = [width, height] }` in
+/// pixels from the top-left corner.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CropDesc {
+    /// The window's top-left pixel (default `[0, 0]`).
+    #[serde(default)]
+    pub offset: [u32; 2],
+    /// The window's size in pixels.
+    pub size: [u32; 2],
+}
+
+/// `[camera] filter`: a filter name, or a table `{ type = NAME, radius = …, stddev = … }`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PixelFilterDesc {
+    /// `box`, `tent` or `gaussian`.
+    pub kind: String,
+    /// The tent's radius in pixels.
+    pub radius: Option<f32>,
+    /// The Gaussian's standard deviation in pixels.
+    pub stddev: Option<f32>,
+}
+
+impl<'de> Deserialize<'de> for PixelFilterDesc {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<PixelFilterDesc, D::Error> {
+        #[derive(Deserialize)]
+        #[serde(deny_unknown_fields)]
+        struct Table {
+            #[serde(rename = "type")]
+            kind: String,
+            radius: Option<f32>,
+            stddev: Option<f32>,
+        }
+        struct Visitor;
+        impl<'de> serde::de::Visitor<'de> for Visitor {
+            type Value = PixelFilterDesc;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str(
+                    "a pixel filter: \"box\", \"tent\", \"gaussian\" or a table { type = \"tent\", radius = 1.0 } / { type = \"gaussian\", stddev = 0.5 }",
+                )
+            }
+            fn visit_str<E: serde::de::Error>(self, v: &str) -> Result<PixelFilterDesc, E> {
+                Ok(PixelFilterDesc { kind: v.to_string(), radius: None, stddev: None })
+            }
+            fn visit_map<A: serde::de::MapAccess<'de>>(self, map: A) -> Result<PixelFilterDesc, A::Error> {
+                let t = Table::deserialize(serde::de::value::MapAccessDeserializer::new(map))?;
+                Ok(PixelFilterDesc { kind: t.kind, radius: t.radius, stddev: t.stddev })
+            }
+        }
+        d.deserialize_any(Visitor)
+    }
 }
 
 fn default_shutter() -> [f32; 2] {

@@ -55,7 +55,7 @@ pub const NAMED_IORS: [(&str, f64); 23] = [
 pub const SUPPORTED: [(&str, &str); 8] = [
     ("sensor", "perspective, thinlens"),
     ("film", "hdrfilm, ldrfilm"),
-    ("rfilter", "box"),
+    ("rfilter", "box, tent (radius), gaussian (stddev)"),
     ("sampler", "independent, stratified, multijitter, ldsampler, orthogonal (their sample_count and seed)"),
     ("integrator", "path, volpath (as path), bdpt (as bpt), ptracer (as light)"),
     ("shape", "rectangle, cube, sphere, disk, cylinder (any affine to_world), obj, ply"),
@@ -68,6 +68,23 @@ pub const SUPPORTED: [(&str, &str); 8] = [
         "area (on rectangles and spheres; on disks, cubes and meshes as two-sided emission), point, spot, directional, constant, envmap",
     ),
 ];
+
+/// What the import takes from a `<film>`.
+struct Film {
+    width: u32,
+    height: u32,
+    /// vitrum's `[camera] filter` value.
+    filter: String,
+    /// The crop window `[x, y, width, height]`, if not the whole film.
+    crop: Option<[u32; 4]>,
+}
+
+impl Default for Film {
+    /// Mitsuba's film when a sensor has none: 768×576, Gaussian filter.
+    fn default() -> Film {
+        Film { width: 768, height: 576, filter: "{ type = \"gaussian\", stddev = 0.5 }".into(), crop: None }
+    }
+}
 
 /// An imported scene: its TOML (with the element of every line) and the warnings.
 pub struct Translation {
@@ -308,10 +325,11 @@ impl Translator<'_> {
             }
         };
         let film = sensor.children_tagged("film").next();
-        let (w, h) = match film {
+        let film = match film {
             Some(film) => self.film(film)?,
-            None => (768, 576),
+            None => Film::default(),
         };
+        let (w, h) = (film.width, film.height);
         let m = p.transform("to_world")?.unwrap_or(DMat4::IDENTITY);
         let origin = m.transform_point3(DVec3::ZERO);
         let dir = m.transform_vector3(DVec3::Z).normalize_or_zero();
@@ -348,13 +366,25 @@ impl Translator<'_> {
                 ))
             }
         };
-        if let Some(near) = p.float("near_clip")? {
+        // Mitsuba's near clip plane (default 0.01, along the view axis) is vitrum's; far_clip
+        // (default 10⁴) is not: nothing is clipped beyond.
+        let near_clip = p.float("near_clip")?.unwrap_or(0.01);
+        if near_clip.is_nan() || near_clip <= 0.0 {
+            return Err(error(&sensor.position, &sensor.describe(), "`near_clip` must be greater than zero"));
+        }
+        if let Some(far) = p.float("far_clip")? {
+            if far <= near_clip {
+                return Err(error(
+                    &sensor.position,
+                    &sensor.describe(),
+                    "`far_clip` must be greater than `near_clip`",
+                ));
+            }
             self.warn(
                 &sensor.position,
-                &format!("near_clip {near} ignored: vitrum's camera sees from its position on"),
+                &format!("far_clip {far} ignored: vitrum's camera sees out to any distance"),
             );
         }
-        let _ = p.float("far_clip")?;
         camera.table("camera");
         camera.comment(&format!("Mitsuba's fov {fov}° along `{axis}` at {w}x{h}: vitrum's fov is vertical"));
         // A lone lookat keeps its own numbers: vitrum's camera orthonormalises them as Mitsuba does.
@@ -368,6 +398,11 @@ impl Translator<'_> {
         camera.vector("up", up.to_array());
         camera.number("fov", 2.0 * vertical.atan().to_degrees());
         camera.raw("resolution", &format!("[{w}, {h}]"));
+        camera.number("near_clip", near_clip);
+        camera.raw("filter", &film.filter);
+        if let Some([x, y, cw, ch]) = film.crop {
+            camera.raw("crop", &format!("{{ offset = [{x}, {y}], size = [{cw}, {ch}] }}"));
+        }
         if thin {
             let aperture = p.float("aperture_radius")?.unwrap_or(0.03);
             camera.number("aperture", aperture);
@@ -387,8 +422,8 @@ impl Translator<'_> {
         Ok(())
     }
 
-    /// The film's size (its filter and crop checked).
-    fn film(&mut self, film: &Object) -> Result<(u32, u32), XmlError> {
+    /// The film's size, its reconstruction filter and its crop window.
+    fn film(&mut self, film: &Object) -> Result<Film, XmlError> {
         if !["hdrfilm", "ldrfilm"].contains(&film.plugin.as_str()) {
             self.lacks(film, &format!("the film `{}`", film.plugin))?;
         }
@@ -404,41 +439,85 @@ impl Translator<'_> {
             })
         };
         let (w, h) = (size("width", 768)?, size("height", 576)?);
-        for crop in ["crop_offset_x", "crop_offset_y", "crop_width", "crop_height"] {
-            if let Some(prop) = p.get(crop) {
-                let (at, d) = (prop.position.clone(), film.describe());
-                if !self.lenient {
-                    return Err(error(
-                        &at,
-                        &d,
-                        "a film crop window is not supported yet; --lenient renders the whole film",
-                    ));
-                }
-                self.warn(&at, &format!("`{crop}` of {d}: the whole film is rendered (--lenient)"));
-            }
-        }
+        let crop = self.crop_window(film, &p, w, h)?;
+        // Mitsuba cuts a pixel's filter footprint at the film's edge unless `sample_border` is
+        // set, as vitrum always does.
+        let border = p.boolean("sample_border")?.unwrap_or(false);
         for name in
             ["filename", "component_format", "rfilter", "high_quality_edges", "tonemap_method", "exposure"]
         {
             p.get(name);
         }
         p.finish(self)?;
+        // Mitsuba's default filter is the Gaussian of standard deviation 0.5.
+        let mut filter = "{ type = \"gaussian\", stddev = 0.5 }".to_string();
         for child in &film.children {
             if child.tag == "rfilter" {
-                if child.plugin != "box" {
-                    self.lacks(
-                        child,
-                        &format!(
-                            "the reconstruction filter `{}` (vitrum filters with a one-pixel box)",
-                            child.plugin
-                        ),
-                    )?;
-                }
+                filter = self.rfilter(child)?;
             } else {
                 self.lacks(child, &format!("<{}> inside a film", child.tag))?;
             }
         }
-        Ok((w, h))
+        if border && filter != "\"box\"" {
+            let what = "`sample_border` = true (vitrum cuts every filter footprint at the film's edge)";
+            self.lacks(film, what)?;
+        }
+        Ok(Film { width: w, height: h, filter, crop })
+    }
+
+    /// Mitsuba's crop window (`crop_offset_x/y`, default 0; `crop_width/height`, default the
+    /// film's size), which must lie on the film; `None` for the whole film.
+    fn crop_window(
+        &mut self,
+        film: &Object,
+        p: &Props,
+        w: u32,
+        h: u32,
+    ) -> Result<Option<[u32; 4]>, XmlError> {
+        let read = |name: &str, default: u32, least: u32| -> Result<u32, XmlError> {
+            let v = p.integer(name)?.unwrap_or(default as i64);
+            u32::try_from(v).ok().filter(|&v| v >= least).ok_or_else(|| {
+                error(&film.position, &film.describe(), &format!("`{name}` {v}: must be at least {least}"))
+            })
+        };
+        let (x, y) = (read("crop_offset_x", 0, 0)?, read("crop_offset_y", 0, 0)?);
+        let (cw, ch) = (read("crop_width", w, 1)?, read("crop_height", h, 1)?);
+        if x as u64 + cw as u64 > w as u64 || y as u64 + ch as u64 > h as u64 {
+            return Err(error(
+                &film.position,
+                &film.describe(),
+                &format!("the crop window {cw}×{ch} at ({x}, {y}) reaches past the {w}×{h} film"),
+            ));
+        }
+        Ok(([x, y, cw, ch] != [0, 0, w, h]).then_some([x, y, cw, ch]))
+    }
+
+    /// A reconstruction filter as vitrum's `[camera] filter` value (`box`; `tent` with its
+    /// `radius`, default 1; `gaussian` with its `stddev`, default 0.5).
+    fn rfilter(&mut self, child: &Object) -> Result<String, XmlError> {
+        let p = Props::of(child);
+        let positive = |name: &str, default: f64| -> Result<f64, XmlError> {
+            let v = p.float(name)?.unwrap_or(default);
+            if v.is_nan() || v <= 0.0 {
+                return Err(error(
+                    &child.position,
+                    &child.describe(),
+                    &format!("`{name}` {v}: must be positive"),
+                ));
+            }
+            Ok(v)
+        };
+        let filter = match child.plugin.as_str() {
+            "box" => "\"box\"".to_string(),
+            "tent" => format!("{{ type = \"tent\", radius = {} }}", number(positive("radius", 1.0)?)),
+            "gaussian" => format!("{{ type = \"gaussian\", stddev = {} }}", number(positive("stddev", 0.5)?)),
+            other => {
+                self.lacks(child, &format!("the reconstruction filter `{other}`"))?;
+                "\"box\"".to_string()
+            }
+        };
+        p.finish(self)?;
+        Ok(filter)
     }
 
     fn sampler(&mut self, sampler: &Object, render: &mut TomlWriter) -> Result<(), XmlError> {
