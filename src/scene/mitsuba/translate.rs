@@ -666,21 +666,20 @@ impl Translator<'_> {
                         "flip_normals on a sphere ignored (vitrum's spheres face outwards)",
                     );
                 }
-                match similarity(&m) {
-                    Some((scale, _)) => {
-                        let (c, r) = (m.transform_point3(center), radius * scale);
-                        if radiance.is_some() {
-                            sphere_light = Some((c, r));
-                        } else {
-                            geometry.push((name.clone(), sphere(c, r)));
-                        }
-                    }
-                    None => {
-                        // An ellipsoid: the sphere as written under the whole map.
-                        let mut fields = sphere(center, radius);
-                        fields.push(("transform", matrix(&m)));
-                        geometry.push((name.clone(), fields));
-                    }
+                // Mitsuba 3 keeps a sphere round: under a map that is not a similarity it
+                // warns and takes the radius from the polar decomposition (checked against its
+                // render: tests/data/mitsuba3/transforms.xml).
+                let (c, r) = (m.transform_point3(center), radius * sphere_scale(&m));
+                if similarity(&m).is_none() {
+                    self.warn(
+                        &shape.position,
+                        &format!("to_world of a sphere with a non-uniform scale or a shear: a sphere of radius {} as Mitsuba 3 renders it (not an ellipsoid)", number(r)),
+                    );
+                }
+                if radiance.is_some() {
+                    sphere_light = Some((c, r));
+                } else {
+                    geometry.push((name.clone(), sphere(c, r)));
                 }
             }
             "disk" => {
@@ -1252,6 +1251,21 @@ fn similarity(m: &DMat4) -> Option<(f64, DMat3)> {
     (s > 0.0 && equal && orthogonal && l.determinant() > 0.0).then(|| (s, l * (1.0 / s)))
 }
 
+/// The radius factor Mitsuba 3 gives a sphere under `m`: its `transform_decompose` writes the
+/// linear part as Q·S (Q orthogonal, S symmetric, by 25 steps of the polar iteration
+/// Q ← (Q + Q⁻ᵀ)/2) and takes S's first diagonal element. For a similarity it is the scale.
+fn sphere_scale(m: &DMat4) -> f64 {
+    let l = DMat3::from_mat4(*m);
+    if l.determinant() == 0.0 {
+        return 0.0;
+    }
+    let mut q = l;
+    for _ in 0..25 {
+        q = (q + q.inverse().transpose()) * 0.5;
+    }
+    q.x_axis.dot(l.x_axis)
+}
+
 /// The scale of `m` in its object's xy plane when it keeps circles round there (the x and y
 /// columns orthogonal and of equal length; the z column may be anything): disks and cylinders.
 fn round_in_plane(m: &DMat4) -> Option<f64> {
@@ -1343,6 +1357,37 @@ mod tests {
         ]);
         assert!(placement(&sheared).is_none());
         assert!(similarity(&DMat4::from_scale(DVec3::new(-1.0, 1.0, 1.0))).is_none());
+    }
+
+    #[test]
+    fn a_sphere_takes_mitsubas_radius_from_the_polar_decomposition() {
+        // Scale, then rotate: S = diag(scale), the radius factor its x entry.
+        let m = DMat4::from_scale_rotation_translation(
+            DVec3::new(0.6, 0.3, 0.4),
+            DQuat::from_rotation_z(0.5),
+            DVec3::ONE,
+        );
+        assert!((sphere_scale(&m) - 0.6).abs() < 1e-12);
+        let uniform = DMat4::from_scale_rotation_translation(
+            DVec3::splat(2.0),
+            DQuat::from_rotation_y(1.0),
+            DVec3::ZERO,
+        );
+        assert!((sphere_scale(&uniform) - 2.0).abs() < 1e-12);
+        // A shear: S = √(LᵀL), whose first entry is not the first column's length.
+        let sheared = DMat4::from_cols_array(&[
+            1.0, 0.0, 0.0, 0.0, 0.5, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0,
+        ]);
+        let l = DMat3::from_mat4(sheared);
+        let s00 = sphere_scale(&sheared);
+        // S² = LᵀL: check (S·S)[0][0] with S = Qᵀ L.
+        let mut q = l;
+        for _ in 0..25 {
+            q = (q + q.inverse().transpose()) * 0.5;
+        }
+        let s = q.transpose() * l;
+        assert!(((s * s).x_axis.x - (l.transpose() * l).x_axis.x).abs() < 1e-9);
+        assert!((s00 - s.x_axis.x).abs() < 1e-12 && s00 > 0.0 && s00 < 1.0, "{s00}");
     }
 
     #[test]

@@ -513,8 +513,11 @@ impl Reader {
                     if axis.length() <= 0.0 {
                         return Err(fail("the rotation axis is zero".into()));
                     }
-                    // Entries within 1e-15 of zero are zero: a turn by a multiple of 90° is exact.
-                    let turn = DMat4::from_axis_angle(axis.normalize(), angle.to_radians()).to_cols_array();
+                    // Mitsuba 3 (Dr.Jit's `rotate`) does not normalise the axis: a unit axis turns,
+                    // another also stretches along itself (checked against its render,
+                    // tests/data/mitsuba3/transforms.xml). Entries within 1e-15 of zero are zero:
+                    // a turn by a multiple of 90° is exact.
+                    let turn = rotation(axis, angle.to_radians()).to_cols_array();
                     DMat4::from_cols_array(&turn.map(|e| if e.abs() < 1e-15 { 0.0 } else { e }))
                 }
                 "matrix" => {
@@ -594,6 +597,34 @@ pub fn look_at(origin: DVec3, target: DVec3, up: DVec3) -> Option<DMat4> {
     let left = up.normalize_or_zero().cross(dir).try_normalize()?;
     let new_up = dir.cross(left);
     Some(DMat4::from_cols(left.extend(0.0), new_up.extend(0.0), dir.extend(0.0), origin.extend(1.0)))
+}
+
+/// Mitsuba 3's rotation by `angle` radians about `axis`: cos·I + (1 − cos)·a aᵀ + sin·[a]×,
+/// with `axis` as given (a unit axis gives the rotation itself, bit for bit as glam's).
+fn rotation(axis: DVec3, angle: f64) -> DMat4 {
+    if axis.length_squared() == 1.0 {
+        return DMat4::from_axis_angle(axis, angle);
+    }
+    let (s, c) = angle.sin_cos();
+    let a = axis;
+    let m = glam::DMat3::from_cols(
+        DVec3::new(
+            c + (1.0 - c) * a.x * a.x,
+            (1.0 - c) * a.x * a.y + s * a.z,
+            (1.0 - c) * a.x * a.z - s * a.y,
+        ),
+        DVec3::new(
+            (1.0 - c) * a.x * a.y - s * a.z,
+            c + (1.0 - c) * a.y * a.y,
+            (1.0 - c) * a.y * a.z + s * a.x,
+        ),
+        DVec3::new(
+            (1.0 - c) * a.x * a.z + s * a.y,
+            (1.0 - c) * a.y * a.z - s * a.x,
+            c + (1.0 - c) * a.z * a.z,
+        ),
+    );
+    DMat4::from_mat3(m)
 }
 
 /// A camelCase name of a file before version 2.0 in snake_case, as Mitsuba 3 upgrades it
