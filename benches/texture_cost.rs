@@ -21,8 +21,8 @@ const SPP: u32 = 4;
 fn with_mean_colours(scene: &mut Scene) {
     for m in &mut scene.materials {
         let t = match &mut m.bsdf {
-            Bsdf::Diffuse(t) | Bsdf::Mirror { color: t, .. } => t,
-            Bsdf::Conductor(_) | Bsdf::Dielectric { .. } => continue,
+            Bsdf::Diffuse { albedo: t, .. } | Bsdf::Mirror { color: t, .. } => t,
+            Bsdf::Conductor(_) | Bsdf::Dielectric { .. } | Bsdf::ThinDielectric { .. } => continue,
         };
         if let Texture::Image(_) = t {
             *t = Texture::Constant(t.mean());
@@ -35,7 +35,10 @@ fn bench(c: &mut Criterion) {
     let textured = load_str(SCENE, "textured-box", Some(&dir)).unwrap();
     let mut constant = load_str(SCENE, "textured-box", Some(&dir)).unwrap();
     with_mean_colours(&mut constant);
-    assert!(constant.materials.iter().all(|m| !matches!(m.bsdf, Bsdf::Diffuse(Texture::Image(_)))));
+    assert!(constant
+        .materials
+        .iter()
+        .all(|m| !matches!(m.bsdf, Bsdf::Diffuse { albedo: Texture::Image(_), .. })));
     for method in ["path", "whitted"] {
         let integrator = create(method).unwrap();
         let mut group = c.benchmark_group(format!("textured-box {method} {SIDE}x{SIDE} {SPP}spp"));

@@ -267,7 +267,12 @@ mod tests {
         use crate::material::Medium;
         use crate::spectrum::Wavelengths;
         let sf11 = Medium { ior: Ior::named("sf11").unwrap(), absorption: Vec3::ZERO };
-        let smooth = Bsdf::Dielectric { inside: sf11, outside: Medium::clear(1.0), roughness: 0.0 };
+        let smooth = Bsdf::Dielectric {
+            inside: sf11,
+            outside: Medium::clear(1.0),
+            roughness: 0.0,
+            distribution: crate::material::Distribution::Ggx,
+        };
         let w = Wavelengths::sample(0.1);
         let channels = Channels::Spectral(w);
         let scattering = Scattering::Dielectric(RoughDielectric::new(
@@ -307,7 +312,12 @@ mod tests {
             assert!(reflected.abs_diff_eq(expected, 1e-4), "wo {wo}: {reflected} vs F(λ) {expected}");
         }
         // Rough dispersive glass ends them before anything is evaluated; RGB paths never do.
-        let rough = Bsdf::Dielectric { inside: sf11, outside: Medium::clear(1.0), roughness: 0.3 };
+        let rough = Bsdf::Dielectric {
+            inside: sf11,
+            outside: Medium::clear(1.0),
+            roughness: 0.3,
+            distribution: crate::material::Distribution::Ggx,
+        };
         let rough_model =
             Scattering::Dielectric(RoughDielectric::new(1.7, TrowbridgeReitz::from_roughness(0.3)));
         let mut ctx = PathContext { channels, ..PathContext::new(sampler(0)) };
@@ -341,7 +351,7 @@ mod tests {
         use crate::bsdf::RoughConductor;
         let wo = Vec3::new(0.3, 0.1, 0.9).normalize();
         let models = [
-            Scattering::Diffuse(Lambert { albedo: Vec3::splat(0.5) }),
+            Scattering::Diffuse(Lambert::two_sided(Vec3::splat(0.5))),
             Scattering::Conductor(RoughConductor::new(
                 Vec3::splat(0.9),
                 TrowbridgeReitz::from_roughness(0.0),
@@ -369,7 +379,7 @@ mod tests {
     #[test]
     fn bsdf_samples_draw_a_lobe_choice_only_for_glass() {
         let wo = Vec3::new(0.3, 0.1, 0.9).normalize();
-        let diffuse = Scattering::Diffuse(Lambert { albedo: Vec3::splat(0.5) });
+        let diffuse = Scattering::Diffuse(Lambert::two_sided(Vec3::splat(0.5)));
         let glass = Scattering::Dielectric(RoughDielectric::new(1.5, TrowbridgeReitz::from_roughness(0.0)));
         let mut s = sampler(0);
         assert!(sample_bsdf(&diffuse, wo, TransportMode::Radiance, &mut s).is_some());

@@ -12,9 +12,8 @@
 //! positions and times are sampled instead of fixed ([`Sampling::Distributed`]).
 
 use super::{ends_secondaries, Integrator, PathContext, RenderParams};
-use crate::bsdf::microfacet::TrowbridgeReitz;
 use crate::bsdf::rough_dielectric::{RoughDielectric, TransportMode};
-use crate::bsdf::{Frame, Scattering, ShadingFrame};
+use crate::bsdf::{Frame, Scattering, ShadingFrame, ThinDielectric};
 use crate::geometry::{spawn_origin, Ray, SurfaceHit};
 use crate::lighting::{crossing, dielectric_reflectance, emitted, phong_local, ShadowMode, ShadowRays};
 use crate::material::{Bsdf, Material, Phong};
@@ -177,7 +176,7 @@ pub(super) fn trace(
         weight * trace(scene, params, &next, next_seg, sampling, ctx)
     };
     match &material.bsdf {
-        Bsdf::Diffuse(_) => {}
+        Bsdf::Diffuse { .. } => {}
         Bsdf::Mirror { .. } | Bsdf::Conductor(_) if glossy => {
             let frame = Frame::from_normal(n);
             let lobe = Scattering::at(material, hit.p, hit.uv, &channels);
@@ -203,17 +202,20 @@ pub(super) fn trace(
             let reflectance = c.fresnel(&channels).at(wo.dot(n));
             l += follow(reflect(wo, n), false, reflectance, seg.absorption, true, ctx);
         }
-        Bsdf::Dielectric { roughness, .. } => {
+        Bsdf::ThinDielectric { ior, ior_outside } => {
+            // Both branches, weighted by the slab's reflectance and transmittance.
+            let r = ThinDielectric { eta: ior / ior_outside }.reflectance(wo.dot(n));
+            l += follow(reflect(wo, n), false, Vec3::splat(r), seg.absorption, true, ctx);
+            l += follow(-wo, true, Vec3::splat(1.0 - r), seg.absorption, true, ctx);
+        }
+        Bsdf::Dielectric { roughness, distribution, .. } => {
             let c = crossing(&material.bsdf, ray.dir, hit.n, channels.hero())
                 .expect("a dielectric has two sides");
             if glossy {
                 // Local frame on the outward (shading) normal: eta = n_inside / n_outside.
                 let frame = Frame::from_normal(ns);
                 let (n_in, n_out) = if ray.dir.dot(hit.n) < 0.0 { (c.n_t, c.n_i) } else { (c.n_i, c.n_t) };
-                let lobe = RoughDielectric {
-                    eta: n_in / n_out,
-                    distribution: TrowbridgeReitz::from_roughness(*roughness),
-                };
+                let lobe = RoughDielectric::new(n_in / n_out, distribution.with_alpha(roughness * roughness));
                 let (uc, u) = (ctx.sampler.get_1d(Dim::Bsdf), ctx.sampler.get_2d(Dim::Bsdf));
                 if let Some(s) =
                     lobe.sample(frame.to_local(wo), uc, u, TransportMode::Radiance).filter(|s| s.pdf > 0.0)
@@ -310,12 +312,12 @@ fn glossy_direct(
                     TransportMode::Radiance,
                 )
             }
-            Bsdf::Dielectric { inside, outside, roughness } => RoughDielectric {
-                eta: inside.ior_at(shadow.channels.hero()) / outside.ior_at(shadow.channels.hero()),
-                distribution: TrowbridgeReitz::from_roughness(*roughness),
-            }
+            Bsdf::Dielectric { inside, outside, roughness, distribution } => RoughDielectric::new(
+                inside.ior_at(shadow.channels.hero()) / outside.ior_at(shadow.channels.hero()),
+                distribution.with_alpha(roughness * roughness),
+            )
             .eval(wo_local, wi_local, TransportMode::Radiance),
-            Bsdf::Diffuse(_) => Vec3::ZERO,
+            Bsdf::Diffuse { .. } | Bsdf::ThinDielectric { .. } => Vec3::ZERO,
         };
         if f == Vec3::ZERO || frame.factor(wo, wi, TransportMode::Radiance) == 0.0 {
             continue;

@@ -26,6 +26,10 @@ pub struct Cli {
     /// approximated with a warning instead of refused (any command that reads a scene).
     #[arg(long, global = true)]
     pub lenient: bool,
+    /// Read every one-sided Mitsuba `diffuse` (one not inside a `twosided`) as two-sided, with a
+    /// warning: the reading other renderers give such scenes (any command that reads a scene).
+    #[arg(long, global = true)]
+    pub two_sided: bool,
 }
 
 /// The subcommands.
@@ -64,6 +68,7 @@ pub fn main() -> i32 {
         }
     };
     crate::scene::mitsuba::set_lenient(cli.lenient);
+    crate::scene::mitsuba::set_two_sided(cli.two_sided);
     let result = match cli.command {
         Command::Render(args) => crate::commands::render::run(&args),
         Command::Info(args) => crate::commands::info::run(&args),

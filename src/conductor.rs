@@ -134,6 +134,14 @@ pub enum Distribution {
 }
 
 impl Distribution {
+    /// This distribution with width `alpha` (Mitsuba's α: GGX's α, Beckmann's √2 × RMS slope).
+    pub fn with_alpha(self, alpha: f32) -> MicrofacetDistribution {
+        match self {
+            Distribution::Ggx => TrowbridgeReitz::new(alpha).into(),
+            Distribution::Beckmann => Beckmann::new(alpha).into(),
+        }
+    }
+
     /// The name in scene files and Mitsuba's XML (`ggx`, `beckmann`).
     pub fn name(self) -> &'static str {
         match self {
@@ -163,10 +171,7 @@ pub struct Conductor {
 impl Conductor {
     /// The microfacet distribution (effectively smooth below α = 1e-3).
     pub fn microfacets(&self) -> MicrofacetDistribution {
-        match self.distribution {
-            Distribution::Ggx => TrowbridgeReitz::new(self.alpha).into(),
-            Distribution::Beckmann => Beckmann::new(self.alpha).into(),
-        }
+        self.distribution.with_alpha(self.alpha)
     }
 
     /// The Fresnel term in a path's `channels`.

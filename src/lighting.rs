@@ -243,6 +243,13 @@ pub fn transmittance(
             return t;
         }
         let bsdf = &scene.material_of(hit.primitive).bsdf;
+        if let Bsdf::ThinDielectric { ior, ior_outside } = bsdf {
+            // A thin slab lets the straight ray through with its transmittance, medium unchanged.
+            let slab = crate::bsdf::ThinDielectric { eta: ior / ior_outside };
+            t *= 1.0 - slab.reflectance(dir.dot(hit.hit.n));
+            origin = spawn_origin(&hit.hit, dir);
+            continue;
+        }
         let Some(c) = crossing(bsdf, dir, hit.hit.n, shadow.channels.hero()) else {
             return Vec3::ZERO;
         };
@@ -274,16 +281,18 @@ pub fn phong_local(
     mut illumination: impl FnMut(&crate::light::Light, Vec3) -> PointIllumination,
 ) -> Vec3 {
     let channels = &shadow.channels;
-    let color = channels.colour(material.phong_color(hit.p, hit.uv));
+    // Two-sided shading: the (shading) normal facing the viewer.
+    let ns = crate::bsdf::ShadingFrame::normal(hit, wo);
+    // A one-sided diffuse surface seen from behind has no colour (Mitsuba's black back).
+    let behind = material.is_one_sided() && ns.dot(wo) <= 0.0;
+    let color = if behind { Vec3::ZERO } else { channels.colour(material.phong_color(hit.p, hit.uv)) };
     let mut l = ph.ambient * color * channels.colour(scene.settings.ambient);
     // A mirror or glass already sees an area light's surface through its reflected ray: its
     // highlight stands in only for point lights, which have no surface to be seen.
-    let specular_surface = !matches!(material.bsdf, Bsdf::Diffuse(_));
+    let specular_surface = !matches!(material.bsdf, Bsdf::Diffuse { .. });
     if ph.diffuse == 0.0 && ph.specular == 0.0 {
         return l;
     }
-    // Two-sided shading: the (shading) normal facing the viewer.
-    let ns = crate::bsdf::ShadingFrame::normal(hit, wo);
     let n = if ns.dot(wo) >= 0.0 { ns } else { -ns };
     let smooth = ns != hit.n;
     for (index, light) in scene.lights.iter().enumerate() {

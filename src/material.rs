@@ -1,6 +1,6 @@
 //! Materials: the physical description and the empirical Phong terms of ray casting and Whitted.
 
-pub use crate::conductor::Conductor;
+pub use crate::conductor::{Conductor, Distribution};
 use crate::dispersion::Ior;
 use crate::spectrum::Channels;
 use glam::{Vec2, Vec3};
@@ -62,8 +62,14 @@ impl Medium {
 /// The physical behaviour of a surface.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Bsdf {
-    /// Lambertian reflector with the given albedo.
-    Diffuse(Texture),
+    /// Lambertian reflector.
+    Diffuse {
+        /// Fraction of light reflected, per channel, possibly varying over the surface.
+        albedo: Texture,
+        /// Whether only the side the surface normal points to reflects (Mitsuba's `diffuse`):
+        /// black seen from behind, and light arriving from behind is not reflected.
+        one_sided: bool,
+    },
     /// Mirror, smooth or (GGX) rough.
     Mirror {
         /// Reflectance per channel, possibly varying over the surface.
@@ -74,14 +80,24 @@ pub enum Bsdf {
     /// Conductor with a complex index (Mitsuba's `conductor`/`roughconductor`), smooth or rough
     /// (GGX or Beckmann).
     Conductor(Conductor),
-    /// Dielectric interface between two media, smooth or (GGX) rough.
+    /// Dielectric interface between two media, smooth or (GGX or Beckmann) rough.
     Dielectric {
         /// Medium on the side opposite the normal.
         inside: Medium,
         /// Medium on the side the normal points to.
         outside: Medium,
-        /// GGX roughness (α = roughness²); 0 is smooth.
+        /// Roughness: the distribution's α (Mitsuba's) is roughness²; 0 is smooth.
         roughness: f32,
+        /// Microfacet distribution of the rough interface.
+        distribution: Distribution,
+    },
+    /// An infinitely thin dielectric slab (Mitsuba's `thindielectric`): specular reflection of
+    /// the slab's reflectance, the rest straight through.
+    ThinDielectric {
+        /// The slab's refractive index.
+        ior: f32,
+        /// The index of the medium around it (on both sides).
+        ior_outside: f32,
     },
 }
 
@@ -95,7 +111,7 @@ impl Bsdf {
     /// Whether the surface is a rough mirror, conductor or dielectric (roughness or α above 0).
     pub fn is_rough(&self) -> bool {
         match self {
-            Bsdf::Diffuse(_) => false,
+            Bsdf::Diffuse { .. } | Bsdf::ThinDielectric { .. } => false,
             Bsdf::Mirror { roughness, .. } | Bsdf::Dielectric { roughness, .. } => *roughness > 0.0,
             Bsdf::Conductor(c) => c.is_rough(),
         }
@@ -105,9 +121,13 @@ impl Bsdf {
     /// dielectric whose roughness the BSDFs treat as smooth): no light can be connected to it.
     pub fn is_specular(&self) -> bool {
         match self {
-            Bsdf::Diffuse(_) => false,
-            Bsdf::Mirror { roughness, .. } | Bsdf::Dielectric { roughness, .. } => {
+            Bsdf::Diffuse { .. } => false,
+            Bsdf::ThinDielectric { .. } => true,
+            Bsdf::Mirror { roughness, .. } => {
                 crate::bsdf::TrowbridgeReitz::from_roughness(*roughness).effectively_smooth()
+            }
+            Bsdf::Dielectric { roughness, distribution, .. } => {
+                distribution.with_alpha(roughness * roughness).effectively_smooth()
             }
             Bsdf::Conductor(c) => c.microfacets().effectively_smooth(),
         }
@@ -133,23 +153,32 @@ impl Material {
     pub fn default_phong(bsdf: &Bsdf) -> Phong {
         let highlight = |ks: f32| Phong { ambient: 0.0, diffuse: 0.0, specular: ks, shininess: 200.0 };
         match bsdf {
-            Bsdf::Diffuse(_) => Phong { ambient: 1.0, diffuse: 1.0, specular: 0.0, shininess: 1.0 },
+            Bsdf::Diffuse { .. } => Phong { ambient: 1.0, diffuse: 1.0, specular: 0.0, shininess: 1.0 },
             Bsdf::Mirror { color, .. } => highlight(color.max_value()),
             Bsdf::Conductor(c) => highlight(c.normal_reflectance().max_element()),
             Bsdf::Dielectric { inside, outside, .. } => {
                 let (n1, n2) = (inside.ior.nominal(), outside.ior.nominal());
                 highlight(((n1 - n2) / (n1 + n2)).powi(2))
             }
+            Bsdf::ThinDielectric { ior, ior_outside } => {
+                let r = ((ior - ior_outside) / (ior + ior_outside)).powi(2);
+                highlight(2.0 * r / (1.0 + r))
+            }
         }
+    }
+
+    /// Whether the surface reflects only on the side its normal points to (a one-sided diffuse).
+    pub fn is_one_sided(&self) -> bool {
+        matches!(self.bsdf, Bsdf::Diffuse { one_sided: true, .. })
     }
 
     /// The surface colour `C` of the Phong model at point `p` with texture coordinates `uv`.
     pub fn phong_color(&self, p: Vec3, uv: Vec2) -> Vec3 {
         match &self.bsdf {
-            Bsdf::Diffuse(t) => t.eval(p, uv),
+            Bsdf::Diffuse { albedo, .. } => albedo.eval(p, uv),
             Bsdf::Mirror { color, .. } => color.eval(p, uv),
             Bsdf::Conductor(c) => c.normal_reflectance(),
-            Bsdf::Dielectric { .. } => Vec3::ONE,
+            Bsdf::Dielectric { .. } | Bsdf::ThinDielectric { .. } => Vec3::ONE,
         }
     }
 
@@ -157,8 +186,8 @@ impl Material {
     /// for the inner surfaces of hollow bodies.
     pub fn swapped_interface(&self) -> Material {
         let bsdf = match self.bsdf {
-            Bsdf::Dielectric { inside, outside, roughness } => {
-                Bsdf::Dielectric { inside: outside, outside: inside, roughness }
+            Bsdf::Dielectric { inside, outside, roughness, distribution } => {
+                Bsdf::Dielectric { inside: outside, outside: inside, roughness, distribution }
             }
             ref other => other.clone(),
         };
@@ -176,10 +205,11 @@ mod tests {
             inside: Medium { ior: Ior::Constant(1.5), absorption: Vec3::new(0.1, 0.2, 0.3) },
             outside: Medium::clear(1.0),
             roughness: 0.2,
+            distribution: Distribution::Beckmann,
         };
         let glass = Material { name: "glass".into(), phong: Material::default_phong(&bsdf), bsdf };
         let inner = glass.swapped_interface();
-        let Bsdf::Dielectric { inside, outside, roughness } = inner.bsdf else { panic!() };
+        let Bsdf::Dielectric { inside, outside, roughness, .. } = inner.bsdf else { panic!() };
         assert_eq!((inside, outside.ior, roughness), (Medium::clear(1.0), Ior::Constant(1.5), 0.2));
         assert_eq!(outside.absorption, Vec3::new(0.1, 0.2, 0.3));
         assert_eq!(inner.swapped_interface().bsdf, glass.bsdf);

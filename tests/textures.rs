@@ -219,7 +219,8 @@ fn a_file_is_decoded_once_and_its_bytes_are_in_the_scene_hash() {
     let map = |name: &str| {
         let m = scene.materials.iter().find(|m| m.name == name).unwrap();
         match &m.bsdf {
-            Bsdf::Diffuse(Texture::Image(t)) | Bsdf::Mirror { color: Texture::Image(t), .. } => t.map.clone(),
+            Bsdf::Diffuse { albedo: Texture::Image(t), .. }
+            | Bsdf::Mirror { color: Texture::Image(t), .. } => t.map.clone(),
             other => panic!("{other:?}"),
         }
     };
@@ -261,7 +262,7 @@ fn bad_images_exit_2_naming_the_line_and_the_file() {
         ("{ type = \"image\", file = \"empty.png\" }", "empty.png"),
         ("{ type = \"image\", file = \"anim.gif\" }", "anim.gif"),
         ("{ type = \"image\", file = \"folder.png\" }", "folder.png"),
-        ("{ type = \"image\", file = \"good.png\", scale = [-1.0, 1.0] }", "scale"),
+        ("{ type = \"image\", file = \"good.png\", scale = [0.0, 1.0] }", "scale"),
         ("{ type = \"image\", file = \"good.png\", wrap = \"mirror\" }", "repeat"),
         ("{ type = \"image\", file = \"good.png\", filter = \"cubic\" }", "bilinear"),
     ];

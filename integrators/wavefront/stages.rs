@@ -29,7 +29,7 @@
 
 use super::super::RenderParams;
 use super::{Occupancy, SampleBatch, StageOccupancy};
-use crate::bsdf::{RoughDielectric, TrowbridgeReitz};
+use crate::bsdf::RoughDielectric;
 use crate::lanes::shading::{
     area_to_solid_angle, checker, concentric_polar, lambert_eval, lambert_pdf, lambert_sample,
     pinhole_directions, power_heuristic, shadow_toward, spawn_origin, specular_sample, FrameX, SampleX,
@@ -378,18 +378,23 @@ impl LaneStages {
         for (i, prim) in scene.primitives.iter().enumerate() {
             let m = &scene.materials[prim.material as usize];
             match &m.bsdf {
-                Bsdf::Diffuse(Texture::Constant(c)) => {
+                Bsdf::Diffuse { one_sided: true, .. } => {
+                    return Err(format!("material `{}` is a one-sided diffuse", m.name))
+                }
+                Bsdf::Diffuse { albedo: Texture::Constant(c), .. } => {
                     primitives.color1.set(i, *c);
                     primitives.color2.set(i, *c);
                 }
-                Bsdf::Diffuse(Texture::Checker { color1, color2, size }) => {
+                Bsdf::Diffuse { albedo: Texture::Checker { color1, color2, size }, .. } => {
                     primitives.color1.set(i, *color1);
                     primitives.color2.set(i, *color2);
                     primitives.cell.0[i] = *size;
                 }
-                Bsdf::Dielectric { inside, outside, roughness } if !m.bsdf.is_dispersive() => {
+                Bsdf::Dielectric { inside, outside, roughness, distribution } if !m.bsdf.is_dispersive() => {
                     let eta = inside.ior_at(None) / outside.ior_at(None);
-                    if !RoughDielectric::new(eta, TrowbridgeReitz::from_roughness(*roughness)).is_specular() {
+                    if !RoughDielectric::new(eta, distribution.with_alpha(roughness * roughness))
+                        .is_specular()
+                    {
                         return Err(format!("material `{}` is rough glass", m.name));
                     }
                     primitives.glass.0[i] = 1.0;
@@ -397,9 +402,12 @@ impl LaneStages {
                     primitives.inside.set(i, inside.absorption);
                     primitives.outside.set(i, outside.absorption);
                 }
-                Bsdf::Diffuse(_) => return Err(format!("material `{}` reads an image texture", m.name)),
+                Bsdf::Diffuse { .. } => return Err(format!("material `{}` reads an image texture", m.name)),
                 Bsdf::Mirror { .. } => return Err(format!("material `{}` is a mirror", m.name)),
                 Bsdf::Conductor(_) => return Err(format!("material `{}` is a conductor", m.name)),
+                Bsdf::ThinDielectric { .. } => {
+                    return Err(format!("material `{}` is a thin dielectric", m.name))
+                }
                 Bsdf::Dielectric { .. } => return Err(format!("material `{}` is dispersive glass", m.name)),
             }
             if let Some(l) = prim.light {

@@ -116,6 +116,35 @@ impl Beckmann {
         }
     }
 
+    /// Density of the upward-facing normals (wm.z > 0) visible from any `w`, including from below
+    /// the mean surface as inside a microsurface: max(0, w·wm) D(wm) / A(w), with the projected
+    /// visible area A(w) = cos θw (1 + Λ) for w above and |cos θw| Λ(w) below (Heitz 2016, §4).
+    /// Zero where no facet is visible (w straight down, or horizontal).
+    pub fn d_visible_any(&self, w: Vec3, wm: Vec3) -> f32 {
+        let cos_wm = w.dot(wm);
+        if cos_wm <= 0.0 || w.z == 0.0 {
+            return 0.0;
+        }
+        let area = if w.z > 0.0 { self.projected_area(w) } else { self.area_below(w) };
+        if area > 0.0 && area.is_finite() {
+            (cos_wm as f64 * self.d(wm) as f64 / area) as f32
+        } else {
+            0.0
+        }
+    }
+
+    /// |cos θ|·Λ(w) = (σ e^(−a²)/√π − |cos θ| erfc(a))/2 (σ = α(φ) sin θ, a = |cos θ|/σ): the
+    /// area of upward facets a direction below the mean surface sees; 0 straight down.
+    fn area_below(&self, w: Vec3) -> f64 {
+        let z = (w.z as f64).abs();
+        let sigma = self.stretched_sin(w);
+        if sigma == 0.0 {
+            return 0.0;
+        }
+        let a = z / sigma;
+        (0.5 * (sigma * (-a * a).exp() * FRAC_1_SQRT_PI - z * libm::erfc(a))).max(0.0)
+    }
+
     /// A normal drawn from [`d_visible`](Self::d_visible)(w, ·): stretch `w` to the unit-width
     /// distribution, draw the visible slopes there (the slope along `w`'s azimuth by inverting
     /// its CDF, the other a Gaussian), rotate back and unstretch (Heitz and d'Eon 2014).
@@ -123,6 +152,24 @@ impl Beckmann {
         let w = if w.z < 0.0 { -w } else { w };
         let stretched = Vec3::new(self.alpha_x * w.x, self.alpha_y * w.y, w.z).normalize();
         let (slope_x, slope_y) = unit_visible_slopes(stretched.z as f64, u.x as f64, u.y as f64);
+        self.normal_from_unit_slopes(stretched, slope_x, slope_y)
+    }
+
+    /// A normal drawn from [`d_visible_any`](Self::d_visible_any)(w, ·) for any `w`: above the
+    /// surface [`sample_visible`](Self::sample_visible); below it the same construction with the
+    /// slope density of a direction from below ([`unit_visible_slopes_below`]).
+    pub fn sample_visible_any(&self, w: Vec3, u: Vec2) -> Vec3 {
+        if w.z >= 0.0 {
+            return self.sample_visible(w, u);
+        }
+        let stretched = Vec3::new(self.alpha_x * w.x, self.alpha_y * w.y, w.z).normalize();
+        let (slope_x, slope_y) = unit_visible_slopes_below(stretched.z as f64, u.x as f64, u.y as f64);
+        self.normal_from_unit_slopes(stretched, slope_x, slope_y)
+    }
+
+    /// The normal of the unit-width slopes (`slope_x` along the azimuth of `stretched`, the
+    /// stretched direction), rotated to that azimuth and unstretched.
+    fn normal_from_unit_slopes(&self, stretched: Vec3, slope_x: f64, slope_y: f64) -> Vec3 {
         let tangent = (stretched.x as f64).hypot(stretched.y as f64);
         let (cos_phi, sin_phi) = if tangent > 0.0 {
             (stretched.x as f64 / tangent, stretched.y as f64 / tangent)
@@ -166,6 +213,34 @@ fn unit_visible_slopes(cos_theta: f64, u1: f64, u2: f64) -> (f64, f64) {
     (slope_x, slope_y)
 }
 
+/// The slopes of a normal visible from a direction **below** the mean surface (`cos_theta` < 0,
+/// azimuth 0) on the unit-width surface, as [`unit_visible_slopes`]: the facets it sees have
+/// x̃ < cot θ (< 0) with the density ∝ (cot θ − x̃) e^(−x̃²), whose CDF ∝ cot θ erfc(−x̃) + e^(−x̃²)/√π
+/// is inverted by the same safeguarded Newton steps. Straight down, where no facet is visible,
+/// the steepest slope of the range is returned (the caller finds it invisible).
+fn unit_visible_slopes_below(cos_theta: f64, u1: f64, u2: f64) -> (f64, f64) {
+    let gaussian_cdf = |y: f64| 0.5 * libm::erfc(-y);
+    let gaussian_pdf = |y: f64| FRAC_1_SQRT_PI * (-y * y).exp();
+    let slope_y =
+        invert_cdf(gaussian_cdf, gaussian_pdf, u2.clamp(1e-12, 1.0 - 1e-12), -SLOPE_RANGE, SLOPE_RANGE);
+    let cos = cos_theta.clamp(-1.0, 0.0);
+    let sin = (1.0 - cos * cos).max(0.0).sqrt();
+    if sin < 1e-7 {
+        return (-SLOPE_RANGE, slope_y);
+    }
+    let cot = cos / sin;
+    let cdf = |x: f64| cot * libm::erfc(-x) + FRAC_1_SQRT_PI * (-x * x).exp();
+    let pdf = |x: f64| 2.0 * FRAC_1_SQRT_PI * (-x * x).exp() * (cot - x).max(0.0);
+    let total = cdf(cot);
+    if total.is_nan() || total <= 0.0 {
+        return (cot, slope_y);
+    }
+    // The density falls like e^(−x̃²) below cot θ: one unit of slope further holds nothing.
+    let lo = (cot - 1.0).min(-SLOPE_RANGE);
+    let slope_x = invert_cdf(cdf, pdf, u1.clamp(1e-12, 1.0 - 1e-12) * total, lo, cot);
+    (slope_x, slope_y)
+}
+
 /// Slopes beyond ±this (in units of the width) carry less than erfc(8) ≈ 1e-29 of the mass.
 const SLOPE_RANGE: f64 = 8.0;
 
@@ -204,7 +279,20 @@ pub(crate) mod tests {
     /// Polar angles of `w` in degrees; 135° is below the surface (the flipped case).
     const VNDF_THETAS: [f32; 5] = [0.0, 45.0, 80.0, 89.0, 135.0];
     /// Number of chi-square cases run here (counted in the Šidák correction).
-    pub(crate) const CHI2_CASES: usize = VNDF_ALPHAS.len() * VNDF_THETAS.len();
+    /// Directions below the surface, seen by [`Beckmann::sample_visible_any`] as a ray inside a
+    /// microsurface sees the upward facets, by k = −cot θ / α(φ), the slope at which the facets it
+    /// sees begin in units of the width: beyond k ≈ 3 hardly any are visible (at k = 20 a
+    /// fraction e^(−400): D underflows in f32 and neither the density nor a ray can meet them).
+    const BELOW_SLOPES: [f32; 3] = [0.3, 1.0, 2.0];
+
+    /// The direction at azimuth `phi` below the surface with k = −cot θ / α(φ) = `k`.
+    fn below(dist: &Beckmann, k: f32, phi: f32) -> (f32, Vec3) {
+        let alpha = (dist.alpha_x() * phi.cos()).hypot(dist.alpha_y() * phi.sin());
+        let theta = 90.0 + (k * alpha).atan().to_degrees();
+        (theta, direction(theta, phi))
+    }
+    /// Number of chi-square cases run here (counted in the Šidák correction).
+    pub(crate) const CHI2_CASES: usize = VNDF_ALPHAS.len() * (VNDF_THETAS.len() + BELOW_SLOPES.len());
 
     /// Distributions wide enough for the quadrature of [`chi2::integrate_sphere`] to resolve.
     fn distributions() -> Vec<Beckmann> {
@@ -283,7 +371,39 @@ pub(crate) mod tests {
                 results.push((format!("beckmann vndf α=({ax},{ay}) θ={theta}°"), outcome));
             }
         }
+        for (k, (ax, ay)) in VNDF_ALPHAS.into_iter().enumerate() {
+            let dist = Beckmann::new_anisotropic(ax, ay);
+            for (l, slope) in BELOW_SLOPES.into_iter().enumerate() {
+                let (theta, w) = below(&dist, slope, 0.6);
+                let outcome = chi2::ChiSquare::default()
+                    .seed(2100 + (k * BELOW_SLOPES.len() + l) as u64)
+                    .run(|_, u| Some(dist.sample_visible_any(w, u)), |wm| dist.d_visible_any(w, wm));
+                results.push((format!("beckmann vndf from below α=({ax},{ay}) θ={theta}°"), outcome));
+            }
+        }
         assert_eq!(results.len(), CHI2_CASES);
         chi2::assert_all_pass(&results);
+    }
+
+    #[test]
+    fn visible_normals_from_below_are_normalised_and_match_the_flipped_view_above() {
+        for dist in distributions() {
+            for slope in BELOW_SLOPES {
+                let (theta, w) = below(&dist, slope, 0.7);
+                // ∫ D_w(wm) dωm = 1 over the upward facets w sees (the area |cos θ| Λ).
+                let total = chi2::integrate_sphere(|wm| dist.d_visible_any(w, wm));
+                assert!((total - 1.0).abs() < 2e-3, "{dist:?} θ {theta}: {total}");
+                for k in 0..64 {
+                    let u = Vec2::new((k % 8) as f32 / 8.0 + 0.06, (k / 8) as f32 / 8.0 + 0.06);
+                    let wm = dist.sample_visible_any(w, u);
+                    assert!(wm.is_finite() && wm.z > 0.0 && w.dot(wm) > 0.0, "{dist:?} θ {theta}: {wm}");
+                }
+            }
+            // Above the surface the "any" forms are the ordinary ones, bit for bit.
+            let w = direction(40.0, 0.3);
+            let wm = dist.sample_visible(w, Vec2::new(0.3, 0.7));
+            assert_eq!(dist.sample_visible_any(w, Vec2::new(0.3, 0.7)), wm);
+            assert_eq!(dist.d_visible_any(w, wm).to_bits(), dist.d_visible(w, wm).to_bits());
+        }
     }
 }

@@ -1,5 +1,6 @@
-//! The microfacet distributions a rough conductor can use, behind one type: GGX
-//! ([`TrowbridgeReitz`]) or [`Beckmann`], each with its own Smith Λ and visible-normal sampler.
+//! The microfacet distributions a rough conductor or dielectric can use, behind one type: GGX
+//! ([`TrowbridgeReitz`]) or [`Beckmann`], each with its own Smith Λ and visible-normal sampler
+//! (from above the surface, and for rough glass's random walk from below it too).
 
 use super::{Beckmann, TrowbridgeReitz};
 use glam::{Vec2, Vec3};
@@ -42,6 +43,14 @@ impl MicrofacetDistribution {
         }
     }
 
+    /// Smith's Λ(w) (infinite at the horizon).
+    pub fn lambda(&self, w: Vec3) -> f32 {
+        match self {
+            MicrofacetDistribution::Ggx(d) => d.lambda(w),
+            MicrofacetDistribution::Beckmann(d) => d.lambda(w),
+        }
+    }
+
     /// Height-correlated Smith masking-shadowing G(wo, wi).
     pub fn g(&self, wo: Vec3, wi: Vec3) -> f32 {
         match self {
@@ -55,6 +64,23 @@ impl MicrofacetDistribution {
         match self {
             MicrofacetDistribution::Ggx(d) => d.d_visible(w, wm),
             MicrofacetDistribution::Beckmann(d) => d.d_visible(w, wm),
+        }
+    }
+
+    /// Density of the upward-facing normals visible from any `w`, also from below the mean
+    /// surface (inside a microsurface).
+    pub fn d_visible_any(&self, w: Vec3, wm: Vec3) -> f32 {
+        match self {
+            MicrofacetDistribution::Ggx(d) => d.d_visible_any(w, wm),
+            MicrofacetDistribution::Beckmann(d) => d.d_visible_any(w, wm),
+        }
+    }
+
+    /// A normal drawn from [`d_visible_any`](Self::d_visible_any)(w, ·).
+    pub fn sample_visible_any(&self, w: Vec3, u: Vec2) -> Vec3 {
+        match self {
+            MicrofacetDistribution::Ggx(d) => d.sample_visible_any(w, u),
+            MicrofacetDistribution::Beckmann(d) => d.sample_visible_any(w, u),
         }
     }
 

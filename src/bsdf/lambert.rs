@@ -1,5 +1,6 @@
-//! Lambertian (ideal diffuse) reflection, two-sided: light arriving on either side is scattered
-//! back to that side with the same albedo.
+//! Lambertian (ideal diffuse) reflection, two-sided (light arriving on either side is scattered
+//! back to that side with the same albedo) or one-sided as Mitsuba 3's `diffuse` (only the +Z
+//! side, the one the surface normal points to, reflects: f = 0 unless cos θo > 0 and cos θi > 0).
 
 use super::BsdfSample;
 use glam::{Vec2, Vec3};
@@ -10,6 +11,8 @@ use std::f32::consts::{FRAC_1_PI, PI};
 pub struct Lambert {
     /// Fraction of light reflected, per channel.
     pub albedo: Vec3,
+    /// Whether only the +Z side reflects (black from behind, blind to light from behind).
+    pub one_sided: bool,
 }
 
 /// A cosine-distributed direction in the +Z hemisphere (Malley's method on a concentric disk).
@@ -24,27 +27,39 @@ pub fn hemisphere_above(d: Vec2) -> Vec3 {
 }
 
 impl Lambert {
-    /// `albedo / π` when `wo` and `wi` are on the same side, 0 otherwise.
+    /// A surface that reflects on both sides with albedo `albedo`.
+    pub fn two_sided(albedo: Vec3) -> Lambert {
+        Lambert { albedo, one_sided: false }
+    }
+
+    /// Whether `wo` and `wi` lie on a side that reflects: the same side, and the +Z one when
+    /// one-sided.
+    #[inline(always)]
+    fn reflects(&self, wo: Vec3, wi: Vec3) -> bool {
+        wo.z * wi.z > 0.0 && (wo.z > 0.0 || !self.one_sided)
+    }
+
+    /// `albedo / π` when `wo` and `wi` are on the same (reflecting) side, 0 otherwise.
     #[inline(always)]
     pub fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
-        if wo.z * wi.z > 0.0 {
+        if self.reflects(wo, wi) {
             self.albedo * FRAC_1_PI
         } else {
             Vec3::ZERO
         }
     }
 
-    /// Cosine density `|cos θi| / π` on the side of `wo`.
+    /// Cosine density `|cos θi| / π` on the side of `wo` (0 seen from behind when one-sided).
     #[inline(always)]
     pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
-        if wo.z * wi.z > 0.0 {
+        if self.reflects(wo, wi) {
             wi.z.abs() * FRAC_1_PI
         } else {
             0.0
         }
     }
 
-    /// A cosine-distributed direction on the side of `wo`.
+    /// A cosine-distributed direction on the side of `wo` (none seen from behind when one-sided).
     pub fn sample(&self, wo: Vec3, u: Vec2) -> Option<BsdfSample> {
         self.sample_above(wo, crate::camera::concentric_disk(u))
     }
@@ -58,7 +73,8 @@ impl Lambert {
     }
 
     /// [`sample_above`](Self::sample_above) without a branch: whether there is a sample (neither
-    /// direction in the surface) and the sample. The wavefront engine runs it across lanes.
+    /// direction in the surface, and `wo` in front when one-sided) and the sample. The wavefront
+    /// engine runs it across lanes.
     #[inline(always)]
     pub fn disk_sample(&self, wo: Vec3, d: Vec2) -> (bool, BsdfSample) {
         let above = hemisphere_above(d);
@@ -72,7 +88,7 @@ impl Lambert {
             is_transmission: false,
             eta: 1.0,
         };
-        (!(wi.z == 0.0 || wo.z == 0.0), sample)
+        (!(wi.z == 0.0 || wo.z == 0.0 || (self.one_sided && wo.z < 0.0)), sample)
     }
 }
 
@@ -87,7 +103,7 @@ pub(crate) mod tests {
 
     #[test]
     fn chi2_cosine_sampling_matches_pdf() {
-        let m = Lambert { albedo: Vec3::splat(0.7) };
+        let m = Lambert::two_sided(Vec3::splat(0.7));
         let mut results = Vec::new();
         for (k, theta) in THETAS.into_iter().enumerate() {
             let wo = direction(theta, 0.3);
@@ -101,7 +117,7 @@ pub(crate) mod tests {
 
     #[test]
     fn sample_eval_and_pdf_agree_and_albedo_is_exact() {
-        let m = Lambert { albedo: Vec3::new(0.2, 0.5, 0.9) };
+        let m = Lambert::two_sided(Vec3::new(0.2, 0.5, 0.9));
         let wo = direction(40.0, 1.0);
         let n = 64;
         for i in 0..n {
@@ -119,5 +135,29 @@ pub(crate) mod tests {
         let wi = direction(70.0, 2.0);
         assert_eq!(m.eval(wo, wi), m.eval(wi, wo));
         assert!(m.sample(-wo, Vec2::new(0.3, 0.6)).unwrap().wi.z < 0.0);
+    }
+
+    #[test]
+    fn one_sided_reflects_only_in_front_and_stays_reciprocal() {
+        let albedo = Vec3::new(0.2, 0.5, 0.9);
+        let (one, two) = (Lambert { albedo, one_sided: true }, Lambert::two_sided(albedo));
+        let (front_o, front_i) = (direction(40.0, 1.0), direction(70.0, 2.0));
+        let (back_o, back_i) = (-front_o, -front_i);
+        // In front: the two-sided values to the bit, sample included.
+        assert_eq!(one.eval(front_o, front_i), two.eval(front_o, front_i));
+        assert_eq!(one.pdf(front_o, front_i).to_bits(), two.pdf(front_o, front_i).to_bits());
+        let u = Vec2::new(0.3, 0.6);
+        assert_eq!(one.sample(front_o, u), two.sample(front_o, u));
+        // Behind: black, no density, no sample; the two-sided one reflects there.
+        assert_eq!(one.eval(back_o, back_i), Vec3::ZERO);
+        assert_eq!(one.pdf(back_o, back_i), 0.0);
+        assert!(one.sample(back_o, u).is_none());
+        assert_ne!(two.eval(back_o, back_i), Vec3::ZERO);
+        assert!(two.sample(back_o, u).is_some());
+        // Across the surface: nothing either way. Reciprocity for every pair of sides.
+        for (a, b) in [(front_o, front_i), (back_o, back_i), (front_o, back_i), (back_o, front_i)] {
+            assert_eq!(one.eval(a, b), one.eval(b, a));
+            assert_eq!(one.pdf(a, b) > 0.0, one.pdf(b, a) > 0.0);
+        }
     }
 }

@@ -19,7 +19,7 @@
 //! Directions follow the flow of light (the importance convention): the walk starts from `wo`,
 //! the direction light arrives from, and returns where it leaves.
 
-use super::TrowbridgeReitz;
+use super::MicrofacetDistribution;
 use crate::optics::{fresnel_dielectric, reflect, refract};
 use glam::{Vec2, Vec3};
 use rand::{Rng, RngExt};
@@ -44,7 +44,7 @@ pub struct Exit {
 #[derive(Clone, Copy, Debug)]
 pub struct Microsurface {
     /// Distribution of facet normals.
-    pub distribution: TrowbridgeReitz,
+    pub distribution: MicrofacetDistribution,
     /// n_below / n_above.
     pub eta: f32,
 }

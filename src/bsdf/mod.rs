@@ -20,6 +20,7 @@ pub mod microsurface;
 pub mod model;
 pub mod rough_conductor;
 pub mod rough_dielectric;
+pub mod thin_dielectric;
 
 #[cfg(test)]
 pub(crate) mod chi2;
@@ -31,6 +32,7 @@ pub use microfacet::TrowbridgeReitz;
 pub use model::Scattering;
 pub use rough_conductor::{ConductorFresnel, RoughConductor};
 pub use rough_dielectric::{RoughDielectric, TransportMode};
+pub use thin_dielectric::ThinDielectric;
 
 use glam::Vec3;
 

@@ -2,7 +2,10 @@
 //! `light`): Lambert, smooth or rough mirror or conductor, smooth or rough dielectric, behind one
 //! interface.
 
-use super::{BsdfEval, BsdfSample, Lambert, RoughConductor, RoughDielectric, TransportMode, TrowbridgeReitz};
+use super::{
+    BsdfEval, BsdfSample, Lambert, RoughConductor, RoughDielectric, ThinDielectric, TransportMode,
+    TrowbridgeReitz,
+};
 use crate::material::{Bsdf, Material};
 use crate::spectrum::Channels;
 use glam::{Vec2, Vec3};
@@ -18,6 +21,8 @@ pub enum Scattering {
     Conductor(RoughConductor),
     /// Dielectric interface (a pair of delta lobes when smooth).
     Dielectric(RoughDielectric),
+    /// Thin dielectric slab: mirror reflection and straight transmission (two delta lobes).
+    ThinDielectric(ThinDielectric),
 }
 
 impl Scattering {
@@ -28,16 +33,24 @@ impl Scattering {
     pub fn at(material: &Material, p: Vec3, uv: Vec2, channels: &Channels) -> Scattering {
         let lambda = channels.hero();
         match &material.bsdf {
-            Bsdf::Diffuse(t) => Scattering::Diffuse(Lambert { albedo: channels.colour(t.eval(p, uv)) }),
+            Bsdf::Diffuse { albedo, one_sided } => Scattering::Diffuse(Lambert {
+                albedo: channels.colour(albedo.eval(p, uv)),
+                one_sided: *one_sided,
+            }),
             Bsdf::Mirror { color, roughness } => Scattering::Conductor(RoughConductor::new(
                 channels.colour(color.eval(p, uv)),
                 TrowbridgeReitz::from_roughness(*roughness),
             )),
             Bsdf::Conductor(c) => Scattering::Conductor(c.scattering(channels)),
-            Bsdf::Dielectric { inside, outside, roughness } => Scattering::Dielectric(RoughDielectric::new(
-                inside.ior_at(lambda) / outside.ior_at(lambda),
-                TrowbridgeReitz::from_roughness(*roughness),
-            )),
+            Bsdf::ThinDielectric { ior, ior_outside } => {
+                Scattering::ThinDielectric(ThinDielectric { eta: ior / ior_outside })
+            }
+            Bsdf::Dielectric { inside, outside, roughness, distribution } => {
+                Scattering::Dielectric(RoughDielectric::new(
+                    inside.ior_at(lambda) / outside.ior_at(lambda),
+                    distribution.with_alpha(roughness * roughness),
+                ))
+            }
         }
     }
 
@@ -47,6 +60,7 @@ impl Scattering {
             Scattering::Diffuse(_) => false,
             Scattering::Conductor(c) => c.distribution.effectively_smooth(),
             Scattering::Dielectric(d) => d.is_specular(),
+            Scattering::ThinDielectric(_) => true,
         }
     }
 
@@ -56,6 +70,7 @@ impl Scattering {
             Scattering::Diffuse(m) => m.eval(wo, wi),
             Scattering::Conductor(m) => m.eval(wo, wi),
             Scattering::Dielectric(m) => m.eval(wo, wi, mode),
+            Scattering::ThinDielectric(_) => Vec3::ZERO,
         }
     }
 
@@ -80,6 +95,7 @@ impl Scattering {
             Scattering::Diffuse(m) => m.pdf(wo, wi),
             Scattering::Conductor(m) => m.pdf(wo, wi),
             Scattering::Dielectric(m) => m.pdf(wo, wi),
+            Scattering::ThinDielectric(_) => 0.0,
         }
     }
 
@@ -98,7 +114,7 @@ impl Scattering {
         // Every variant named: a new model must say whether it uses `uc`.
         match self {
             Scattering::Diffuse(_) | Scattering::Conductor(_) => false,
-            Scattering::Dielectric(_) => true,
+            Scattering::Dielectric(_) | Scattering::ThinDielectric(_) => true,
         }
     }
 
@@ -108,6 +124,7 @@ impl Scattering {
             Scattering::Diffuse(m) => m.sample(wo, u),
             Scattering::Conductor(m) => m.sample(wo, u),
             Scattering::Dielectric(m) => m.sample(wo, uc, u, mode),
+            Scattering::ThinDielectric(m) => m.sample(wo, uc),
         }
     }
 }
@@ -122,7 +139,8 @@ mod tests {
     fn evaluate_gives_the_value_and_both_densities_of_every_model() {
         let rough = TrowbridgeReitz::from_roughness(0.3);
         let models = [
-            Scattering::Diffuse(Lambert { albedo: Vec3::new(0.2, 0.5, 0.8) }),
+            Scattering::Diffuse(Lambert::two_sided(Vec3::new(0.2, 0.5, 0.8))),
+            Scattering::Diffuse(Lambert { albedo: Vec3::new(0.2, 0.5, 0.8), one_sided: true }),
             Scattering::Conductor(RoughConductor::new(Vec3::splat(0.9), rough)),
             Scattering::Conductor(RoughConductor::with_fresnel(
                 crate::bsdf::ConductorFresnel::Complex {
@@ -134,6 +152,7 @@ mod tests {
             )),
             Scattering::Dielectric(RoughDielectric::new(1.5, rough)),
             Scattering::Dielectric(RoughDielectric::new(1.0 / 1.33, rough)),
+            Scattering::ThinDielectric(ThinDielectric { eta: 1.5 }),
         ];
         let mut rng = rand_pcg::Pcg64::seed_from_u64(11);
         let mut u = || Vec2::new(rng.random(), rng.random());
@@ -146,10 +165,12 @@ mod tests {
                     assert_eq!(e.pdf.to_bits(), model.pdf(wo, wi).to_bits());
                     assert_eq!(e.pdf_rev.to_bits(), model.pdf(wi, wo).to_bits());
                 }
-                if let Scattering::Diffuse(_) = model {
-                    // Cosine sampling from wi picks wo with |cos θo|/π on wi's side.
+                if let Scattering::Diffuse(lambert) = model {
+                    // Cosine sampling from wi picks wo with |cos θo|/π on wi's side (the front
+                    // only when one-sided).
                     let e = model.evaluate(wo, wi, TransportMode::Radiance);
-                    let expected = if wo.z * wi.z > 0.0 { wo.z.abs() / std::f32::consts::PI } else { 0.0 };
+                    let side = wo.z * wi.z > 0.0 && (wo.z > 0.0 || !lambert.one_sided);
+                    let expected = if side { wo.z.abs() / std::f32::consts::PI } else { 0.0 };
                     assert!((e.pdf_rev - expected).abs() < 1e-6, "{} vs {expected}", e.pdf_rev);
                 }
             }

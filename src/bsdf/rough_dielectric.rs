@@ -1,6 +1,6 @@
 //! A rough dielectric interface (frosted glass): microfacet reflection and refraction after
-//! Walter et al. 2007, "Microfacet models for refraction through rough surfaces", with GGX
-//! normals, the height-correlated Smith term, the exact dielectric Fresnel term and sampling of
+//! Walter et al. 2007, "Microfacet models for refraction through rough surfaces", with GGX or
+//! Beckmann normals ([`MicrofacetDistribution`]), the height-correlated Smith term, the exact dielectric Fresnel term and sampling of
 //! visible normals (Heitz 2018), plus the light that scatters between facets, followed by the
 //! random walk of Heitz et al. 2016 ([`super::microsurface`]).
 //!
@@ -36,7 +36,7 @@
 //! straight through as a specular event.
 
 use super::microsurface::Microsurface;
-use super::{BsdfSample, TrowbridgeReitz};
+use super::{BsdfSample, MicrofacetDistribution};
 use crate::optics::{fresnel_dielectric, refraction};
 use glam::{Vec2, Vec3};
 use rand::{Rng, SeedableRng};
@@ -64,7 +64,7 @@ pub struct RoughDielectric {
     /// n_inside / n_outside, "inside" being the −Z side.
     pub eta: f32,
     /// Distribution of microfacet normals; effectively smooth means a perfect specular interface.
-    pub distribution: TrowbridgeReitz,
+    pub distribution: MicrofacetDistribution,
 }
 
 /// Fresnel reflectance for the signed cosine between a direction and a normal facing +Z: a
@@ -89,8 +89,8 @@ struct Pair {
 
 impl RoughDielectric {
     /// A rough dielectric with the given relative index and distribution.
-    pub fn new(eta: f32, distribution: TrowbridgeReitz) -> Self {
-        RoughDielectric { eta, distribution }
+    pub fn new(eta: f32, distribution: impl Into<MicrofacetDistribution>) -> Self {
+        RoughDielectric { eta, distribution: distribution.into() }
     }
 
     /// True when the interface scatters only into delta lobes (smooth, or index-matched).
@@ -260,7 +260,7 @@ impl RoughDielectric {
 /// Height-correlated Smith masking–shadowing for a refracting pair: B(1 + Λo, 1 + Λi), the
 /// probability that a ray meeting a facet at a uniformly distributed height and one leaving it on
 /// the other side are both unblocked (Heitz 2014, eq. 99 for uniform heights).
-fn smith_refraction(dist: &TrowbridgeReitz, wo: Vec3, wi: Vec3) -> f32 {
+fn smith_refraction(dist: &MicrofacetDistribution, wo: Vec3, wi: Vec3) -> f32 {
     let (a, b) = (1.0 + dist.lambda(wo) as f64, 1.0 + dist.lambda(wi) as f64);
     if !(a.is_finite() && b.is_finite()) {
         return 0.0;
@@ -300,6 +300,7 @@ pub(crate) mod tests {
     use super::*;
     use crate::bsdf::chi2::{self, direction};
     use crate::bsdf::rough_conductor::tests::albedo;
+    use crate::bsdf::{Beckmann, TrowbridgeReitz};
     use rand::{RngExt, SeedableRng};
     use rand_pcg::Pcg32;
 
@@ -308,22 +309,27 @@ pub(crate) mod tests {
     /// Polar angles of `wo` in degrees, each used from above (θ) and from below (180° − θ).
     const THETAS: [f32; 3] = [0.0, 45.0, 89.0];
     /// Number of chi-square cases run here (counted in the Šidák correction).
-    pub(crate) const CHI2_CASES: usize = ETAS.len() * ALPHAS.len() * THETAS.len() * 2;
+    /// GGX and Beckmann each run the whole grid.
+    pub(crate) const CHI2_CASES: usize = 2 * ETAS.len() * ALPHAS.len() * THETAS.len() * 2;
 
-    /// Every (eta, alpha, wo) combination of the chi-square grid, with a label.
+    /// Every (eta, alpha, wo) combination of the chi-square grid for GGX, with a label.
     fn grid() -> Vec<(String, RoughDielectric, Vec3)> {
+        grid_of("dielectric", |alpha| TrowbridgeReitz::new(alpha).into())
+    }
+
+    /// The grid for the distribution `of` each alpha, labelled `name`.
+    fn grid_of(
+        name: &str,
+        of: impl Fn(f32) -> MicrofacetDistribution,
+    ) -> Vec<(String, RoughDielectric, Vec3)> {
         let mut cases = Vec::new();
         for eta in ETAS {
             for alpha in ALPHAS {
                 for theta in THETAS {
                     for below in [false, true] {
                         let theta_o = if below { 180.0 - theta } else { theta };
-                        let label = format!("dielectric η={eta:.3} α={alpha} θo={theta_o}°");
-                        cases.push((
-                            label,
-                            RoughDielectric::new(eta, TrowbridgeReitz::new(alpha)),
-                            direction(theta_o, 2.2),
-                        ));
+                        let label = format!("{name} η={eta:.3} α={alpha} θo={theta_o}°");
+                        cases.push((label, RoughDielectric::new(eta, of(alpha)), direction(theta_o, 2.2)));
                     }
                 }
             }
@@ -351,7 +357,22 @@ pub(crate) mod tests {
             let outcome = test.run(|uc, u| single_scattering_sample(&d, wo, uc, u), |wi| d.pdf(wo, wi));
             results.push((label, outcome));
         }
-        assert_eq!(results.len(), CHI2_CASES / ETAS.len());
+        assert_eq!(results.len(), CHI2_CASES / ETAS.len() / 2);
+        chi2::assert_all_pass(&results);
+    }
+
+    #[test]
+    fn chi2_beckmann_sampling_matches_pdf() {
+        // Mitsuba's default distribution for `roughdielectric`: the same grid, both sides.
+        let mut results = Vec::new();
+        for (k, (label, d, wo)) in
+            grid_of("beckmann dielectric", |a| Beckmann::new(a).into()).into_iter().enumerate()
+        {
+            let test = chi2::ChiSquare::default().seed(3000 + k as u64);
+            let outcome = test.run(|uc, u| single_scattering_sample(&d, wo, uc, u), |wi| d.pdf(wo, wi));
+            results.push((label, outcome));
+        }
+        assert_eq!(results.len(), CHI2_CASES / 2);
         chi2::assert_all_pass(&results);
     }
 
@@ -435,9 +456,13 @@ pub(crate) mod tests {
         // after one facet, whose density `sampled_albedo_matches_quadrature_of_eval` ties to
         // `eval`) is what a single-scattering model would keep; the lowest is printed.
         let mut lowest_single = 1.0f64;
+        let distributions = [0.01f32, 0.1, 0.3, 0.7, 1.0].into_iter().flat_map(|alpha| {
+            [MicrofacetDistribution::from(TrowbridgeReitz::new(alpha)), Beckmann::new(alpha).into()]
+        });
         for eta in ETAS {
-            for alpha in [0.01f32, 0.1, 0.3, 0.7, 1.0] {
-                let d = RoughDielectric::new(eta, TrowbridgeReitz::new(alpha));
+            for distribution in distributions.clone() {
+                let d = RoughDielectric::new(eta, distribution);
+                let alpha = format!("{distribution:?}");
                 for theta in [0.0, 30.0, 60.0, 75.0, 85.0, 89.0, 91.0, 95.0, 105.0, 120.0, 150.0, 180.0] {
                     let wo = direction(theta, 0.9);
                     let mut rng = Pcg32::seed_from_u64(29);
@@ -503,8 +528,15 @@ pub(crate) mod tests {
         // the multiply scattered light, which nothing else can evaluate, to physics, for all
         // orders together and for the second facet onwards alone.
         let n = 1 << 20;
-        for (eta, alpha) in [(1.5f32, 0.5f32), (1.5, 1.0), (1.0 / 1.33, 0.7)] {
-            let d = RoughDielectric::new(eta, TrowbridgeReitz::new(alpha));
+        let beckmann = |alpha| MicrofacetDistribution::from(Beckmann::new(alpha));
+        let ggx = |alpha| MicrofacetDistribution::from(TrowbridgeReitz::new(alpha));
+        for (eta, alpha, d) in [
+            (1.5f32, 0.5f32, ggx(0.5)),
+            (1.5, 1.0, ggx(1.0)),
+            (1.0 / 1.33, 0.7, ggx(0.7)),
+            (1.5, 0.7, beckmann(0.7)),
+        ] {
+            let d = RoughDielectric::new(eta, d);
             for multiple_only in [false, true] {
                 let above = exit_histogram(&d, true, n, multiple_only);
                 let below = exit_histogram(&d, false, n, multiple_only);
@@ -512,7 +544,8 @@ pub(crate) mod tests {
                     let b = (m.len() as f64).sqrt() as usize;
                     (0..m.len()).map(|k| m[(k % b) * b + k / b]).collect::<Vec<_>>()
                 };
-                let label = format!("η {eta:.3} α {alpha} multiple only {multiple_only}");
+                let label =
+                    format!("η {eta:.3} α {alpha} {:?} multiple only {multiple_only}", d.distribution);
                 for (name, (a, b, k)) in [
                     ("reflection above", (&above[0], transpose(&above[0]), 1.0)),
                     ("reflection below", (&below[0], transpose(&below[0]), 1.0)),
@@ -532,10 +565,17 @@ pub(crate) mod tests {
         // leave there after two facets or more: the estimator and the sampler are independent
         // code paths over the same microsurface.
         let mut rng = Pcg32::seed_from_u64(83);
-        for (eta, alpha, theta) in
-            [(1.5f32, 0.7f32, 30.0f32), (1.5, 0.3, 80.0), (1.5, 1.0, 150.0), (1.0 / 1.5, 0.5, 20.0)]
-        {
-            let d = RoughDielectric::new(eta, TrowbridgeReitz::new(alpha));
+        let ggx = |alpha| MicrofacetDistribution::from(TrowbridgeReitz::new(alpha));
+        let beckmann = |alpha| MicrofacetDistribution::from(Beckmann::new(alpha));
+        for (eta, alpha, theta, distribution) in [
+            (1.5f32, 0.7f32, 30.0f32, ggx(0.7)),
+            (1.5, 0.3, 80.0, ggx(0.3)),
+            (1.5, 1.0, 150.0, ggx(1.0)),
+            (1.0 / 1.5, 0.5, 20.0, ggx(0.5)),
+            (1.5, 0.7, 30.0, beckmann(0.7)),
+            (1.0 / 1.5, 0.5, 150.0, beckmann(0.5)),
+        ] {
+            let d = RoughDielectric::new(eta, distribution);
             let wo = direction(theta, 0.4);
             let n = 400_000;
             let mut walked = [0.0f64; 2];

@@ -10,10 +10,11 @@
 //! | disk / annulus | `disk` with `to_world` / flat `ply` ring |
 //! | quad | `rectangle` with `to_world` |
 //! | polygon, mesh triangles | flat `ply` mesh (`face_normals`); a mesh with OBJ `vn`: smooth vertex normals |
-//! | diffuse | `twosided` + `diffuse` (a checker on an axis-aligned quad: `checkerboard`) |
+//! | diffuse | `twosided` + `diffuse` (a checker on an axis-aligned quad: `checkerboard`); a `one_sided` one a bare `diffuse` |
 //! | image texture (diffuse colour, mirror tint) | `bitmap` of the linear texels as EXR, `raw`, `to_uv` per shape kind |
 //! | mirror | `twosided` + `conductor` / `roughconductor` (`material="none"`, GGX, α = roughness²) |
 //! | dielectric | `dielectric` / `roughdielectric`, `int_ior` = inside (opposite the normal), `ext_ior` = outside |
+//! | thin_dielectric | `thindielectric`, `int_ior` = the slab's index, `ext_ior` = the index around it |
 //! | absorption | `homogeneous` interior/exterior media (pure absorbers) with `volpath` |
 //! | point / quad / sphere light | `point` / `rectangle` + `area` / `sphere` + `area` |
 //! | emissive surface (two-sided) | its shape + one-sided `area` emitter |
@@ -660,7 +661,7 @@ struct TextureSite {
 /// mirror tint).
 fn varying_texture(m: &Material) -> Option<&Texture> {
     match &m.bsdf {
-        Bsdf::Diffuse(t) | Bsdf::Mirror { color: t, .. } if t.varies() => Some(t),
+        Bsdf::Diffuse { albedo: t, .. } | Bsdf::Mirror { color: t, .. } if t.varies() => Some(t),
         _ => None,
     }
 }
@@ -971,10 +972,16 @@ impl<'a> Exporter<'a> {
             x.open("bsdf", &refs);
         };
         match &m.bsdf {
-            Bsdf::Diffuse(texture) => {
+            Bsdf::Diffuse { albedo, one_sided: true } => {
+                // Mitsuba's diffuse is one-sided itself.
+                open(x, with_id("diffuse"));
+                self.texture(x, "reflectance", m, albedo, site);
+                x.close("bsdf");
+            }
+            Bsdf::Diffuse { albedo, one_sided: false } => {
                 open(x, with_id("twosided"));
                 x.open("bsdf", &[("type", "diffuse")]);
-                self.texture(x, "reflectance", m, texture, site);
+                self.texture(x, "reflectance", m, albedo, site);
                 x.close("bsdf");
                 x.close("bsdf");
             }
@@ -1018,14 +1025,14 @@ impl<'a> Exporter<'a> {
                 x.close("bsdf");
                 x.close("bsdf");
             }
-            Bsdf::Dielectric { inside, outside, roughness } => {
+            Bsdf::Dielectric { inside, outside, roughness, distribution } => {
                 let (n_in, n_out) = (inside.ior.nominal(), outside.ior.nominal());
                 if n_in == n_out {
                     x.comment("an index-matched interface (the same index on both sides) lets light pass");
                     open(x, with_id("null"));
                 } else if *roughness > 0.0 {
                     open(x, with_id("roughdielectric"));
-                    x.string("distribution", "ggx");
+                    x.string("distribution", distribution.name());
                     x.float("alpha", roughness * roughness);
                 } else {
                     open(x, with_id("dielectric"));
@@ -1037,6 +1044,12 @@ impl<'a> Exporter<'a> {
                     x.float("int_ior", n_in);
                     x.float("ext_ior", n_out);
                 }
+                x.close("bsdf");
+            }
+            Bsdf::ThinDielectric { ior, ior_outside } => {
+                open(x, with_id("thindielectric"));
+                x.float("int_ior", *ior);
+                x.float("ext_ior", *ior_outside);
                 x.close("bsdf");
             }
             #[allow(unreachable_patterns)]

@@ -337,7 +337,7 @@ mod tests {
                 let (c, r, t) = crate::camera::concentric_polar(Vec2::new(u.0[k], input[k][5] * 0.5 + 0.5));
                 assert_eq!(centre.0[k], c);
                 assert!(c || (radius.0[k].to_bits(), theta.0[k].to_bits()) == (r.to_bits(), t.to_bits()));
-                let l = Lambert { albedo: vraw };
+                let l = Lambert::two_sided(vraw);
                 assert!(same(eval.lane(k), l.eval(va, vb)));
                 assert_eq!(pdf.0[k].to_bits(), l.pdf(va, vb).to_bits());
                 let (ok, d) = l.disk_sample(va, Vec2::new(vb.x * 0.7, vb.y * 0.7));

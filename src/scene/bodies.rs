@@ -46,7 +46,9 @@ impl Interface {
     /// interface of a material that is not a dielectric, or without a liquid, is the material
     /// itself (the compiler refuses both before it gets here).
     pub fn material(self, body: &Material, liquid: Option<&Liquid>) -> Material {
-        let (Bsdf::Dielectric { inside, outside, roughness }, Some(liquid)) = (&body.bsdf, liquid) else {
+        let (Bsdf::Dielectric { inside, outside, roughness, distribution }, Some(liquid)) =
+            (&body.bsdf, liquid)
+        else {
             return match self {
                 Interface::Swapped => body.swapped_interface(),
                 _ => body.clone(),
@@ -60,7 +62,7 @@ impl Interface {
             // A liquid's free surface is smooth, whatever the glass.
             Interface::LiquidSurface => (liquid.medium, *outside, 0.0, format!("{} surface", liquid.name)),
         };
-        let bsdf = Bsdf::Dielectric { inside, outside, roughness };
+        let bsdf = Bsdf::Dielectric { inside, outside, roughness, distribution: *distribution };
         Material { name: format!("{} ({suffix})", body.name), phong: Material::default_phong(&bsdf), bsdf }
     }
 }
@@ -162,13 +164,17 @@ mod tests {
     use crate::dispersion::Ior;
 
     fn glass() -> Material {
-        let bsdf =
-            Bsdf::Dielectric { inside: Medium::clear(1.52), outside: Medium::clear(1.0), roughness: 0.1 };
+        let bsdf = Bsdf::Dielectric {
+            inside: Medium::clear(1.52),
+            outside: Medium::clear(1.0),
+            roughness: 0.1,
+            distribution: crate::conductor::Distribution::Ggx,
+        };
         Material { name: "glass".into(), phong: Material::default_phong(&bsdf), bsdf }
     }
 
     fn media(m: &Material) -> (f32, f32, f32) {
-        let Bsdf::Dielectric { inside, outside, roughness } = m.bsdf else { panic!("{m:?}") };
+        let Bsdf::Dielectric { inside, outside, roughness, .. } = m.bsdf else { panic!("{m:?}") };
         (inside.ior.nominal(), outside.ior.nominal(), roughness)
     }
 

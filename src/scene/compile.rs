@@ -383,6 +383,14 @@ impl Compiler<'_> {
         }
     }
 
+    fn non_zero(&self, path: &FieldPath, x: f32) -> Result<f32, SceneError> {
+        if x != 0.0 && x.is_finite() {
+            Ok(x)
+        } else {
+            Err(self.err(path, format!("must be a finite number other than 0 (got {x})")))
+        }
+    }
+
     fn finite(&self, path: &FieldPath, x: f32) -> Result<f32, SceneError> {
         if x.is_finite() {
             Ok(x)
@@ -510,9 +518,8 @@ impl Compiler<'_> {
             };
             if let ShapeDesc::Mesh { file, .. } = &object.shape {
                 let image = match &materials[material as usize].bsdf {
-                    Bsdf::Diffuse(Texture::Image(t)) | Bsdf::Mirror { color: Texture::Image(t), .. } => {
-                        Some(t)
-                    }
+                    Bsdf::Diffuse { albedo: Texture::Image(t), .. }
+                    | Bsdf::Mirror { color: Texture::Image(t), .. } => Some(t),
                     _ => None,
                 };
                 if let Some(t) = image.filter(|_| mesh_attributes.iter().all(|a| a.uv.is_none())) {
@@ -702,7 +709,7 @@ impl Compiler<'_> {
             if let Some((shape, kind)) = emitter {
                 effects.add(Effect::SoftShadows, format!("lights[{i}] is an area light ({kind})"));
                 let emitter_material = materials.len() as u32;
-                let bsdf = Bsdf::Diffuse(Texture::Constant(Vec3::ZERO));
+                let bsdf = Bsdf::Diffuse { albedo: Texture::Constant(Vec3::ZERO), one_sided: false };
                 let phong = Phong { ambient: 0.0, diffuse: 0.0, specular: 0.0, shininess: 1.0 };
                 materials.push(Material { name: format!("light #{i}"), bsdf, phong });
                 attribute_index.push(NO_ATTRIBUTES);
@@ -1074,8 +1081,8 @@ impl Compiler<'_> {
             },
             TextureDesc::Image { file, scale, offset, wrap, filter, colorspace } => {
                 let scale = Vec2::new(
-                    self.positive(&t.key("scale").index(0), scale[0])?,
-                    self.positive(&t.key("scale").index(1), scale[1])?,
+                    self.non_zero(&t.key("scale").index(0), scale[0])?,
+                    self.non_zero(&t.key("scale").index(1), scale[1])?,
                 );
                 let offset = Vec2::new(
                     self.finite(&t.key("offset").index(0), offset[0])?,
@@ -1153,8 +1160,9 @@ impl Compiler<'_> {
 
     fn material(&self, path: &FieldPath, name: &str, m: &MaterialDesc) -> Result<Material, SceneError> {
         let (bsdf, phong) = match m {
-            MaterialDesc::Diffuse { color, texture, phong, .. } => {
-                (Bsdf::Diffuse(self.texture(path, *color, texture.as_ref(), Rgb::Grey(0.8))?), phong)
+            MaterialDesc::Diffuse { color, texture, one_sided, phong, .. } => {
+                let albedo = self.texture(path, *color, texture.as_ref(), Rgb::Grey(0.8))?;
+                (Bsdf::Diffuse { albedo, one_sided: *one_sided }, phong)
             }
             MaterialDesc::Mirror { color, texture, roughness, phong } => {
                 let color = self.texture(path, *color, texture.as_ref(), Rgb::Grey(1.0))?;
@@ -1194,6 +1202,8 @@ impl Compiler<'_> {
                 absorption,
                 absorption_outside,
                 roughness,
+                alpha,
+                distribution,
                 phong,
             } => {
                 let inside = Medium {
@@ -1204,8 +1214,25 @@ impl Compiler<'_> {
                     ior: self.ior(&path.key("ior_outside"), ior_outside)?,
                     absorption: self.color(&path.key("absorption_outside"), *absorption_outside)?,
                 };
-                let roughness = self.roughness(&path.key("roughness"), *roughness)?;
-                (Bsdf::Dielectric { inside, outside, roughness }, phong)
+                let roughness = match (roughness, alpha) {
+                    (Some(_), Some(_)) => {
+                        return Err(self.err(&path.key("alpha"), "give `roughness` or `alpha`, not both"))
+                    }
+                    (Some(r), None) => self.roughness(&path.key("roughness"), *r)?,
+                    // α = roughness²: the distribution's width as Mitsuba gives it.
+                    (None, Some(a)) => self.roughness(&path.key("alpha"), *a)?.sqrt(),
+                    (None, None) => 0.0,
+                };
+                let distribution = match distribution {
+                    None | Some(DistributionDesc::Ggx) => Distribution::Ggx,
+                    Some(DistributionDesc::Beckmann) => Distribution::Beckmann,
+                };
+                (Bsdf::Dielectric { inside, outside, roughness, distribution }, phong)
+            }
+            MaterialDesc::ThinDielectric { ior, ior_outside, phong } => {
+                let ior = self.positive(&path.key("ior"), *ior)?;
+                let ior_outside = self.positive(&path.key("ior_outside"), *ior_outside)?;
+                (Bsdf::ThinDielectric { ior, ior_outside }, phong)
             }
         };
         let phong = self.phong(path, phong, &bsdf)?;
@@ -1779,7 +1806,10 @@ impl Compiler<'_> {
 /// albedo, mirror tint) or on an emitter. Checkers read the position, constants nothing.
 fn reads_surface_uv(materials: &[Material], lights: &[Light]) -> bool {
     let material = materials.iter().any(|m| {
-        matches!(&m.bsdf, Bsdf::Diffuse(Texture::Image(_)) | Bsdf::Mirror { color: Texture::Image(_), .. })
+        matches!(
+            &m.bsdf,
+            Bsdf::Diffuse { albedo: Texture::Image(_), .. } | Bsdf::Mirror { color: Texture::Image(_), .. }
+        )
     });
     let light = lights.iter().any(|l| matches!(l, Light::Surface { texture: Some(Texture::Image(_)), .. }));
     material || light
@@ -1788,8 +1818,8 @@ fn reads_surface_uv(materials: &[Material], lights: &[Light]) -> bool {
 fn material_effects(effects: &mut Effects, m: &Material, object: usize) {
     let who = format!("objects[{object}] uses material `{}`", m.name);
     let texture = match &m.bsdf {
-        Bsdf::Diffuse(t) | Bsdf::Mirror { color: t, .. } => Some(t),
-        Bsdf::Conductor(_) | Bsdf::Dielectric { .. } => None,
+        Bsdf::Diffuse { albedo: t, .. } | Bsdf::Mirror { color: t, .. } => Some(t),
+        Bsdf::Conductor(_) | Bsdf::Dielectric { .. } | Bsdf::ThinDielectric { .. } => None,
     };
     match texture {
         Some(Texture::Checker { .. }) => effects.add(Effect::Textures, format!("{who}, a checker texture")),
@@ -1799,7 +1829,7 @@ fn material_effects(effects: &mut Effects, m: &Material, object: usize) {
         _ => {}
     }
     match &m.bsdf {
-        Bsdf::Diffuse(_) => {}
+        Bsdf::Diffuse { .. } | Bsdf::ThinDielectric { .. } => {}
         Bsdf::Mirror { roughness, .. } => {
             if *roughness > 0.0 {
                 effects.add(Effect::Glossy, format!("{who}, a rough mirror (roughness {roughness})"));
@@ -1811,9 +1841,13 @@ fn material_effects(effects: &mut Effects, m: &Material, object: usize) {
                 effects.add(Effect::Glossy, format!("{who}, a rough conductor ({d}, alpha {alpha})"));
             }
         }
-        Bsdf::Dielectric { inside, outside, roughness } => {
+        Bsdf::Dielectric { inside, outside, roughness, distribution } => {
             if *roughness > 0.0 {
-                effects.add(Effect::Glossy, format!("{who}, rough glass (roughness {roughness})"));
+                let text = match distribution {
+                    Distribution::Ggx => format!("roughness {roughness}"),
+                    Distribution::Beckmann => format!("beckmann, alpha {}", roughness * roughness),
+                };
+                effects.add(Effect::Glossy, format!("{who}, rough glass ({text})"));
             }
             if inside.ior.is_dispersive() || outside.ior.is_dispersive() {
                 effects.add(Effect::Dispersion, format!("{who}, whose index varies with wavelength"));

@@ -522,6 +522,10 @@ pub enum MaterialDesc {
         emission: Option<Rgb>,
         /// A texture for the emitted radiance (an image or a checker).
         emission_texture: Option<TextureDesc>,
+        /// Whether only the side the surface normal points to reflects, as Mitsuba's `diffuse`
+        /// (black from behind, blind to light from behind); default false: both sides reflect.
+        #[serde(default)]
+        one_sided: bool,
         /// Empirical Phong terms.
         #[serde(default)]
         phong: PhongDesc,
@@ -579,9 +583,26 @@ pub enum MaterialDesc {
         /// Absorption coefficient of the outside medium, per scene unit.
         #[serde(default = "default_zero_rgb")]
         absorption_outside: Rgb,
-        /// GGX roughness in [0, 1] (α = roughness²); 0 is smooth glass, more is frosted.
+        /// Roughness in [0, 1] (the distribution's α = roughness²); 0 (default) is smooth glass,
+        /// more is frosted. Give this or `alpha`.
+        roughness: Option<f32>,
+        /// Width α of the microfacet distribution as Mitsuba defines it, in [0, 1] (instead of
+        /// `roughness`).
+        alpha: Option<f32>,
+        /// Microfacet distribution: `ggx` (default) or `beckmann` (Mitsuba's default for
+        /// `roughdielectric`).
+        distribution: Option<DistributionDesc>,
+        /// Empirical Phong terms.
         #[serde(default)]
-        roughness: f32,
+        phong: PhongDesc,
+    },
+    /// An infinitely thin dielectric slab (Mitsuba's `thindielectric`), such as a window pane.
+    ThinDielectric {
+        /// The slab's refractive index.
+        ior: f32,
+        /// The index of the medium around it (default 1).
+        #[serde(default = "default_one")]
+        ior_outside: f32,
         /// Empirical Phong terms.
         #[serde(default)]
         phong: PhongDesc,

@@ -140,9 +140,14 @@ fn phong(p: &Phong) -> (String, Value) {
 pub fn material(m: &Material) -> Description {
     let (phong_text, phong_json) = phong(&m.phong);
     let mut d = match &m.bsdf {
-        Bsdf::Diffuse(t) => {
-            let t = texture(t);
-            Description::new("diffuse", format!("diffuse, {}", t.text), json!({"texture": t.json()}))
+        Bsdf::Diffuse { albedo, one_sided } => {
+            let t = texture(albedo);
+            let sides = if *one_sided { ", one-sided" } else { "" };
+            Description::new(
+                "diffuse",
+                format!("diffuse, {}{sides}", t.text),
+                json!({"texture": t.json(), "one_sided": one_sided}),
+            )
         }
         Bsdf::Mirror { color, roughness } => {
             let t = texture(color);
@@ -182,14 +187,24 @@ pub fn material(m: &Material) -> Description {
                 }),
             )
         }
-        Bsdf::Dielectric { inside, outside, roughness } => {
+        Bsdf::Dielectric { inside, outside, roughness, distribution } => {
             let ((i, ij), (o, oj)) = (medium(inside), medium(outside));
-            Description::new(
+            let mut d = Description::new(
                 "dielectric",
                 format!("dielectric, inside {i}, outside {o}, roughness {roughness}"),
                 json!({"inside": ij, "outside": oj, "roughness": num(roughness)}),
-            )
+            );
+            if *distribution == crate::conductor::Distribution::Beckmann && *roughness > 0.0 {
+                d.text = format!("{}, beckmann (alpha {})", d.text, roughness * roughness);
+                d.fields.insert("distribution".into(), json!("beckmann"));
+            }
+            d
         }
+        Bsdf::ThinDielectric { ior, ior_outside } => Description::new(
+            "thin_dielectric",
+            format!("thin dielectric slab, ior {ior}, outside ior {ior_outside}"),
+            json!({"ior": num(ior), "ior_outside": num(ior_outside)}),
+        ),
     };
     d.text = format!("{}; {phong_text}", d.text);
     d.fields.insert("phong".into(), phong_json);
@@ -330,7 +345,7 @@ mod tests {
     #[test]
     fn descriptions_read_as_text_and_carry_the_same_numbers_as_data() {
         let floor = Texture::Checker { color1: Vec3::splat(0.8), color2: Vec3::splat(0.1), size: 0.25 };
-        let bsdf = Bsdf::Diffuse(floor);
+        let bsdf = Bsdf::Diffuse { albedo: floor, one_sided: false };
         let m = Material { name: "floor".into(), phong: Material::default_phong(&bsdf), bsdf };
         let d = material(&m);
         assert_eq!(d.kind, "diffuse");
@@ -345,6 +360,7 @@ mod tests {
             inside: Medium { ior: Ior::named("bk7").unwrap(), absorption: Vec3::new(0.5, 0.0, 0.0) },
             outside: Medium::clear(1.0),
             roughness: 0.0,
+            distribution: crate::conductor::Distribution::Ggx,
         };
         let m = Material { name: "glass".into(), phong: Material::default_phong(&glass), bsdf: glass };
         let d = material(&m);

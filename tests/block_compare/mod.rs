@@ -87,6 +87,29 @@ impl Noisy {
         variance.iter_mut().for_each(|v| *v /= n * n);
         Noisy { width: w, height: h, pixels, variance }
     }
+
+    /// [`downsample`](Self::downsample) of an image without a noise estimate (a published
+    /// reference): each averaged pixel's variance is the spread of its `f`×`f` pixels around
+    /// their mean over `f²` (the sample variance of a mean). The spread includes the image's own
+    /// variation inside the block, so this bounds the noise from above: comparisons against it
+    /// are no stricter than the reference's noise allows.
+    pub fn downsample_with_spread(&self, f: usize) -> Noisy {
+        let mut averaged = self.downsample(f);
+        let w = averaged.width;
+        let mut spread = vec![DVec3::ZERO; averaged.pixels.len()];
+        for y in 0..self.height {
+            for x in 0..self.width {
+                let o = (y / f) * w + x / f;
+                let d = self.pixels[y * self.width + x] - averaged.pixels[o];
+                spread[o] += d * d;
+            }
+        }
+        let n = (f * f) as f64;
+        for (v, s) in averaged.variance.iter_mut().zip(spread) {
+            *v += s / (n - 1.0) / n;
+        }
+        averaged
+    }
 }
 
 /// What [`compare`] measured.

@@ -32,6 +32,38 @@ pub fn lenient() -> bool {
     LENIENT.load(Ordering::Relaxed)
 }
 
+/// Whether one-sided diffuse BSDFs are read as two-sided (the command line's `--two-sided`).
+static TWO_SIDED: AtomicBool = AtomicBool::new(false);
+
+/// Read every one-sided Mitsuba `diffuse` (one not inside a `twosided`) of this process as
+/// two-sided, with a warning (`--two-sided`): the reading other renderers such as Tungsten give
+/// scenes converted from Mitsuba.
+pub fn set_two_sided(two_sided: bool) {
+    TWO_SIDED.store(two_sided, Ordering::Relaxed);
+}
+
+/// Whether [`set_two_sided`] asked for two-sided diffuse.
+pub fn two_sided() -> bool {
+    TWO_SIDED.load(Ordering::Relaxed)
+}
+
+/// How a Mitsuba scene is read.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ImportOptions {
+    /// Drop or approximate what vitrum lacks, with warnings, instead of refusing it.
+    pub lenient: bool,
+    /// Read every one-sided `diffuse` as two-sided, with a warning.
+    pub two_sided: bool,
+}
+
+impl From<bool> for ImportOptions {
+    /// `lenient` as given, two-sided as the process asked ([`set_two_sided`], the command
+    /// line's `--two-sided`; one-sided otherwise).
+    fn from(lenient: bool) -> ImportOptions {
+        ImportOptions { lenient, two_sided: two_sided() }
+    }
+}
+
 /// Whether `path` names a Mitsuba scene (its extension is `.xml`, any case).
 pub fn is_mitsuba(path: &Path) -> bool {
     path.extension().is_some_and(|e| e.eq_ignore_ascii_case("xml"))
@@ -51,7 +83,11 @@ pub struct Imported {
 /// lacks, with warnings) for a TOML file in the folder `toml_dir` (`None`: the XML's own): the
 /// files the scene names are written relative to the XML's folder when the TOML sits there,
 /// else as the XML's folder joined with them.
-pub fn import(path: &Path, lenient: bool, toml_dir: Option<&Path>) -> Result<Imported, SceneError> {
+pub fn import(
+    path: &Path,
+    options: impl Into<ImportOptions>,
+    toml_dir: Option<&Path>,
+) -> Result<Imported, SceneError> {
     let doc = xml::read(path, &HashMap::new()).map_err(invalid)?;
     let xml_dir = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
     let same = |d: &Path| match (d.canonicalize(), xml_dir.canonicalize()) {
@@ -64,7 +100,7 @@ pub fn import(path: &Path, lenient: bool, toml_dir: Option<&Path>) -> Result<Imp
         Some(dir) => dir.join(name).display().to_string(),
         None => name.to_string(),
     };
-    let translation = translate::translate(&doc, lenient, &file).map_err(invalid)?;
+    let translation = translate::translate(&doc, options.into(), &file).map_err(invalid)?;
     Ok(Imported {
         toml: translation.toml.text().to_string(),
         warnings: translation.warnings,
@@ -74,9 +110,15 @@ pub fn import(path: &Path, lenient: bool, toml_dir: Option<&Path>) -> Result<Imp
 
 /// Compiles Mitsuba scene text named `name` (files it names are looked for in `dir`; it may
 /// include nothing), as [`load`] does a file.
-pub fn load_str(text: &str, name: &str, dir: Option<&Path>, lenient: bool) -> Result<Scene, SceneError> {
+pub fn load_str(
+    text: &str,
+    name: &str,
+    dir: Option<&Path>,
+    options: impl Into<ImportOptions>,
+) -> Result<Scene, SceneError> {
     let doc = xml::read_str(text, name, None, &HashMap::new()).map_err(invalid)?;
-    let translation = translate::translate(&doc, lenient, &|f: &str| f.to_string()).map_err(invalid)?;
+    let translation =
+        translate::translate(&doc, options.into(), &|f: &str| f.to_string()).map_err(invalid)?;
     let imported = Imported {
         toml: translation.toml.text().to_string(),
         warnings: translation.warnings,
@@ -88,8 +130,8 @@ pub fn load_str(text: &str, name: &str, dir: Option<&Path>, lenient: bool) -> Re
 }
 
 /// Loads the Mitsuba scene `path` as a compiled scene, its import warnings among the scene's.
-pub fn load(path: &Path, lenient: bool) -> Result<Scene, SceneError> {
-    let imported = import(path, lenient, None)?;
+pub fn load(path: &Path, options: impl Into<ImportOptions>) -> Result<Scene, SceneError> {
+    let imported = import(path, options, None)?;
     let name = path.display().to_string();
     let mut scene =
         load_str_toml(&imported.toml, &name, path.parent()).map_err(|e| imported.at_element(e))?;

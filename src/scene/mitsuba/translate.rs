@@ -61,7 +61,7 @@ pub const SUPPORTED: [(&str, &str); 8] = [
     ("shape", "rectangle, cube, sphere, disk, cylinder (any affine to_world), obj, ply"),
     (
         "bsdf",
-        "diffuse, twosided, dielectric, roughdielectric (ggx), conductor, roughconductor (beckmann, ggx)",
+        "diffuse, twosided, dielectric, roughdielectric (beckmann, ggx), thindielectric, conductor, roughconductor (beckmann, ggx)",
     ),
     (
         "emitter",
@@ -94,16 +94,23 @@ pub struct Translation {
     pub warnings: Vec<String>,
 }
 
-/// Translates `doc`; with `lenient` what vitrum lacks is dropped or approximated with a warning
-/// instead of refused. `file` writes a file name of the XML (relative to its folder) as the TOML
-/// must name it.
+/// Translates `doc`; with `options.lenient` what vitrum lacks is dropped or approximated with a
+/// warning instead of refused, with `options.two_sided` a one-sided diffuse is read two-sided.
+/// `file` writes a file name of the XML (relative to its folder) as the TOML must name it.
 pub fn translate(
     doc: &Document,
-    lenient: bool,
+    options: super::ImportOptions,
     file: &dyn Fn(&str) -> String,
 ) -> Result<Translation, XmlError> {
-    let mut t =
-        Translator { lenient, warnings: Vec::new(), materials: HashMap::new(), names: HashSet::new(), file };
+    let mut t = Translator {
+        lenient: options.lenient,
+        two_sided: options.two_sided,
+        warnings: Vec::new(),
+        materials: HashMap::new(),
+        mirror_texture_v: false,
+        names: HashSet::new(),
+        file,
+    };
     let scene = &doc.scene;
     let mut head = TomlWriter::default();
     let (mut camera, mut render) = (TomlWriter::default(), TomlWriter::default());
@@ -152,9 +159,14 @@ struct Translator<'f> {
     /// How a file name of the XML is written in the TOML.
     file: &'f dyn Fn(&str) -> String,
     lenient: bool,
+    /// Whether one-sided diffuse BSDFs are read as two-sided (`--two-sided`).
+    two_sided: bool,
     warnings: Vec<String>,
     /// The material key of every BSDF object already written (by address).
-    materials: HashMap<*const Object, String>,
+    materials: HashMap<(*const Object, bool), String>,
+    /// Whether the material being written is for a `rectangle`, whose uv Mitsuba reads with v
+    /// down the image (a bitmap is mirrored in v against vitrum's quad: `scale = [1, -1]`).
+    mirror_texture_v: bool,
     /// Material keys taken.
     names: HashSet<String>,
 }
@@ -800,7 +812,10 @@ impl Translator<'_> {
             }
             return Ok(());
         }
-        let material = self.material(bsdf.map(Rc::as_ref), radiance, &shape.position, materials)?;
+        self.mirror_texture_v = shape.plugin == "rectangle";
+        let material = self.material(bsdf.map(Rc::as_ref), radiance, &shape.position, materials);
+        self.mirror_texture_v = false;
+        let material = material?;
         if radiance.is_some() {
             self.warn(&shape.position, &format!("{name}: the area emitter is written as the material's emission, which vitrum emits on both sides"));
         }
@@ -824,7 +839,7 @@ impl Translator<'_> {
         at: &Position,
         out: &mut TomlWriter,
     ) -> Result<String, XmlError> {
-        let key_of = bsdf.map(|b| b as *const Object);
+        let key_of = bsdf.map(|b| (b as *const Object, self.mirror_texture_v));
         if radiance.is_none() {
             if let Some(key) = key_of.and_then(|k| self.materials.get(&k)) {
                 return Ok(key.clone());
@@ -849,10 +864,10 @@ impl Translator<'_> {
         out.table(&format!("materials.{key}"));
         match bsdf {
             None => {
-                out.comment("Mitsuba's default: a diffuse BSDF of reflectance 0.5");
+                out.comment("Mitsuba's default: a (one-sided) diffuse BSDF of reflectance 0.5");
                 out.string("type", "diffuse");
                 out.vector("color", [0.5; 3]);
-                self.warn(at, "a shape without a bsdf: Mitsuba's one-sided diffuse 0.5, written as vitrum's two-sided diffuse");
+                self.diffuse_sides(at, "a shape without a bsdf", out);
             }
             Some(b) => self.bsdf(b, out, false)?,
         }
@@ -893,14 +908,7 @@ impl Translator<'_> {
                     None => out.vector("color", p.color("reflectance")?.unwrap_or([0.5; 3])),
                 }
                 if !two_sided {
-                    out.comment("Mitsuba's diffuse is one-sided (black from behind); vitrum's is two-sided");
-                    self.warn(
-                        &b.position,
-                        &format!(
-                            "{}: one-sided in Mitsuba, two-sided in vitrum (lit from behind too)",
-                            b.describe()
-                        ),
-                    );
+                    self.diffuse_sides(&b.position, &b.describe(), out);
                 }
             }
             "dielectric" | "roughdielectric" => {
@@ -928,25 +936,49 @@ impl Translator<'_> {
                 out.number("ior", ior("int_ior", "bk7")?);
                 out.number("ior_outside", ior("ext_ior", "air")?);
                 if b.plugin == "roughdielectric" {
-                    let distribution = p.string("distribution")?.unwrap_or_else(|| "beckmann".into());
-                    let alpha = p.float("alpha")?.unwrap_or(0.1);
                     if p.get("alpha_u").is_some() || p.get("alpha_v").is_some() {
                         return self.lacks(b, "an anisotropic roughness");
                     }
-                    if distribution != "ggx" {
-                        if !self.lenient {
-                            return Err(error(&b.position, &b.describe(), &format!("the `{distribution}` distribution is not supported yet (ggx is); --lenient renders it as ggx of the same alpha")));
+                    out.number("alpha", p.float("alpha")?.unwrap_or(0.1));
+                    match p.string("distribution")?.as_deref() {
+                        None | Some("beckmann") => out.string("distribution", "beckmann"),
+                        Some("ggx") => out.string("distribution", "ggx"),
+                        Some(other) => {
+                            return Err(error(
+                                &b.position,
+                                &b.describe(),
+                                &format!("distribution `{other}`: beckmann or ggx"),
+                            ))
                         }
-                        self.warn(
-                            &b.position,
-                            &format!(
-                                "{}: {distribution} rendered as ggx of the same alpha (--lenient)",
-                                b.describe()
-                            ),
-                        );
                     }
-                    out.comment(&format!("GGX of Mitsuba's alpha {alpha}: vitrum's roughness is √alpha"));
-                    out.number("roughness", alpha.max(0.0).sqrt());
+                    p.get("sample_visible");
+                }
+                for name in ["specular_reflectance", "specular_transmittance"] {
+                    if let Some(c) = p.color(name)? {
+                        if c != [1.0; 3] {
+                            return self.lacks(b, &format!("`{name}` other than 1"));
+                        }
+                    }
+                }
+            }
+            "thindielectric" => {
+                out.string("type", "thin_dielectric");
+                for (name, key, default) in [("int_ior", "ior", "bk7"), ("ext_ior", "ior_outside", "air")] {
+                    let value = match p.get(name) {
+                        None => named_ior(default).expect("a default in the table"),
+                        Some(Property { value: Value::Float(v), .. }) => *v,
+                        Some(prop @ Property { value: Value::String(s), .. }) => {
+                            named_ior(s).ok_or_else(|| {
+                                error(
+                                    &prop.position,
+                                    &b.describe(),
+                                    &format!("`{name}` `{s}` is not one of Mitsuba's named indices"),
+                                )
+                            })?
+                        }
+                        Some(prop) => return Err(p.wrong(prop, "a <float> or a <string> naming a material")),
+                    };
+                    out.number(key, value);
                 }
                 for name in ["specular_reflectance", "specular_transmittance"] {
                     if let Some(c) = p.color(name)? {
@@ -1032,6 +1064,20 @@ impl Translator<'_> {
         p.finish(self)
     }
 
+    /// The sides of a Mitsuba `diffuse` outside a `twosided` (`what` at `at`): one-sided, or
+    /// two-sided with a warning when `--two-sided` asks for that reading.
+    fn diffuse_sides(&mut self, at: &Position, what: &str, out: &mut TomlWriter) {
+        if self.two_sided {
+            out.comment(
+                "Mitsuba's diffuse is one-sided (black from behind); read as two-sided (--two-sided)",
+            );
+            self.warn(at, &format!("{what}: one-sided in Mitsuba, read as two-sided (--two-sided)"));
+        } else {
+            out.comment("Mitsuba's diffuse is one-sided: black from behind");
+            out.raw("one_sided", "true");
+        }
+    }
+
     /// An image texture (`bitmap`) for a diffuse colour.
     fn texture(&mut self, t: &Object, out: &mut TomlWriter) -> Result<(), XmlError> {
         if t.plugin != "bitmap" {
@@ -1069,6 +1115,13 @@ impl Translator<'_> {
         }
         if p.get("to_uv").is_some() {
             return self.lacks(t, "a texture's to_uv");
+        }
+        if self.mirror_texture_v {
+            // Mitsuba's rectangle has uv (0, 0) at its corner (−1, −1) and reads a bitmap's top
+            // row at v = 0; vitrum's quad reads the bottom row there.
+            out.comment("on a rectangle Mitsuba reads the image with v from its top row: mirrored in v");
+            fields.push("scale = [1.0, -1.0]".into());
+            fields.push("offset = [0.0, 1.0]".into());
         }
         out.raw("texture", &format!("{{ {} }}", fields.join(", ")));
         p.finish(self)
