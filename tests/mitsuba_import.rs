@@ -302,7 +302,7 @@ fn a_vitrum_scene_exported_and_imported_is_the_same_scene() {
 }
 
 #[test]
-fn the_shared_standard_scenes_load_leniently_and_render_finite() {
+fn the_shared_standard_scenes_render_finite_with_every_method() {
     let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared/scenes/bitterli");
     if !root.exists() {
         eprintln!("not run: the_shared_standard_scenes_load: needs {}", root.display());
@@ -311,37 +311,29 @@ fn the_shared_standard_scenes_load_leniently_and_render_finite() {
     // Read as Mitsuba reads them (one-sided diffuse) and as Tungsten does (`--two-sided`). One-sided,
     // water-caustic's walls face out of the box and are black, as in Mitsuba 3, and what is left
     // is a caustic that 2 samples of `path` do not find: only the two-sided reading must show light.
+    // Every method renders each reading, finite; `path` must show light as said above.
+    let methods = ["raycast", "whitted", "ssaa", "distributed", "path", "light", "bpt", "ppm", "bpm", "vcm"];
     for (name, reading) in ["cornell-box", "veach-mis", "water-caustic"]
         .into_iter()
         .flat_map(|name| [(name, None), (name, Some("--two-sided"))])
     {
         let file = root.join(name).join("scene.xml");
-        let dir = tempfile::tempdir().unwrap();
-        let out = vitrum(
-            dir.path(),
-            &[
-                "render",
-                "--lenient",
-                file.to_str().unwrap(),
-                "-i",
-                "path",
-                "--resolution",
-                "32x24",
-                "--spp",
-                "2",
-                "-o",
-                "x.exr",
-                "--quiet",
-            ]
-            .into_iter()
-            .chain(reading)
-            .collect::<Vec<_>>(),
-        );
-        assert!(out.status.success(), "{name}: {}", stderr(&out));
-        let pixels = vitrum::output::exr::read_exr(&dir.path().join("x.exr")).unwrap().0.pixels;
-        assert!(pixels.iter().all(|p| p.is_finite()), "{name} {reading:?}");
-        if reading.is_some() || name != "water-caustic" {
-            assert!(pixels.iter().any(|p| p.max_element() > 0.0), "{name} {reading:?} is black");
+        for method in methods {
+            let dir = tempfile::tempdir().unwrap();
+            let out = vitrum(
+                dir.path(),
+                &["render", "--lenient", file.to_str().unwrap(), "-i", method, "--resolution", "32x24"]
+                    .into_iter()
+                    .chain(["--spp", "2", "-o", "x.exr", "--quiet"])
+                    .chain(reading)
+                    .collect::<Vec<_>>(),
+            );
+            assert!(out.status.success(), "{name} {method}: {}", stderr(&out));
+            let pixels = vitrum::output::exr::read_exr(&dir.path().join("x.exr")).unwrap().0.pixels;
+            assert!(pixels.iter().all(|p| p.is_finite()), "{name} {method} {reading:?}");
+            if method == "path" && (reading.is_some() || name != "water-caustic") {
+                assert!(pixels.iter().any(|p| p.max_element() > 0.0), "{name} {reading:?} is black");
+            }
         }
     }
 }
