@@ -22,7 +22,10 @@ fn with_mean_colours(scene: &mut Scene) {
     for m in &mut scene.materials {
         let t = match &mut m.bsdf {
             Bsdf::Diffuse { albedo: t, .. } | Bsdf::Mirror { color: t, .. } => t,
-            Bsdf::Conductor(_) | Bsdf::Dielectric { .. } | Bsdf::ThinDielectric { .. } => continue,
+            Bsdf::Conductor(_)
+            | Bsdf::Dielectric { .. }
+            | Bsdf::ThinDielectric { .. }
+            | Bsdf::Plastic { .. } => continue,
         };
         if let Texture::Image(_) = t {
             *t = Texture::Constant(t.mean());

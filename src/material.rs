@@ -99,6 +99,23 @@ pub enum Bsdf {
         /// The index of the medium around it (on both sides).
         ior_outside: f32,
     },
+    /// A diffuse base under a smooth dielectric coating (Mitsuba's `plastic`): the coating's
+    /// mirror reflection plus the base's light through it; black from behind unless two-sided.
+    Plastic {
+        /// The base's diffuse reflectance (Mitsuba's `diffuse_reflectance`).
+        diffuse: Vec3,
+        /// Scale of the coating's specular reflection (Mitsuba's `specular_reflectance`).
+        specular: Vec3,
+        /// The coating's refractive index.
+        ior: f32,
+        /// The index of the medium outside.
+        ior_outside: f32,
+        /// Whether the light bouncing inside the coating shifts the colour (Mitsuba's
+        /// `nonlinear`).
+        nonlinear: bool,
+        /// Whether the back is the same plastic (Mitsuba's `twosided` wrapper) instead of black.
+        two_sided: bool,
+    },
 }
 
 impl Bsdf {
@@ -111,7 +128,7 @@ impl Bsdf {
     /// Whether the surface is a rough mirror, conductor or dielectric (roughness or α above 0).
     pub fn is_rough(&self) -> bool {
         match self {
-            Bsdf::Diffuse { .. } | Bsdf::ThinDielectric { .. } => false,
+            Bsdf::Diffuse { .. } | Bsdf::ThinDielectric { .. } | Bsdf::Plastic { .. } => false,
             Bsdf::Mirror { roughness, .. } | Bsdf::Dielectric { roughness, .. } => *roughness > 0.0,
             Bsdf::Conductor(c) => c.is_rough(),
         }
@@ -121,7 +138,7 @@ impl Bsdf {
     /// dielectric whose roughness the BSDFs treat as smooth): no light can be connected to it.
     pub fn is_specular(&self) -> bool {
         match self {
-            Bsdf::Diffuse { .. } => false,
+            Bsdf::Diffuse { .. } | Bsdf::Plastic { .. } => false,
             Bsdf::ThinDielectric { .. } => true,
             Bsdf::Mirror { roughness, .. } => {
                 crate::bsdf::TrowbridgeReitz::from_roughness(*roughness).effectively_smooth()
@@ -164,12 +181,18 @@ impl Material {
                 let r = ((ior - ior_outside) / (ior + ior_outside)).powi(2);
                 highlight(2.0 * r / (1.0 + r))
             }
+            // Lambert for the base, the coating's normal-incidence reflection as the highlight.
+            Bsdf::Plastic { specular, ior, ior_outside, .. } => {
+                let r = ((ior - ior_outside) / (ior + ior_outside)).powi(2);
+                Phong { ambient: 1.0, diffuse: 1.0, specular: r * specular.max_element(), shininess: 200.0 }
+            }
         }
     }
 
-    /// Whether the surface reflects only on the side its normal points to (a one-sided diffuse).
+    /// Whether the surface reflects only on the side its normal points to (a one-sided diffuse
+    /// or plastic).
     pub fn is_one_sided(&self) -> bool {
-        matches!(self.bsdf, Bsdf::Diffuse { one_sided: true, .. })
+        matches!(self.bsdf, Bsdf::Diffuse { one_sided: true, .. } | Bsdf::Plastic { two_sided: false, .. })
     }
 
     /// The surface colour `C` of the Phong model at point `p` with texture coordinates `uv`.
@@ -178,6 +201,7 @@ impl Material {
             Bsdf::Diffuse { albedo, .. } => albedo.eval(p, uv),
             Bsdf::Mirror { color, .. } => color.eval(p, uv),
             Bsdf::Conductor(c) => c.normal_reflectance(),
+            Bsdf::Plastic { diffuse, .. } => *diffuse,
             Bsdf::Dielectric { .. } | Bsdf::ThinDielectric { .. } => Vec3::ONE,
         }
     }

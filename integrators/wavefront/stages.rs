@@ -408,6 +408,7 @@ impl LaneStages {
                 Bsdf::ThinDielectric { .. } => {
                     return Err(format!("material `{}` is a thin dielectric", m.name))
                 }
+                Bsdf::Plastic { .. } => return Err(format!("material `{}` is a plastic", m.name)),
                 Bsdf::Dielectric { .. } => return Err(format!("material `{}` is dispersive glass", m.name)),
             }
             if let Some(l) = prim.light {

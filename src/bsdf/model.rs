@@ -1,9 +1,9 @@
 //! The scattering model of a material at a hit point, for the physically based methods (`path`,
 //! `light`): Lambert, smooth or rough mirror or conductor, smooth or rough dielectric, behind one
-//! interface.
+//! interface, thin dielectric, plastic.
 
 use super::{
-    BsdfEval, BsdfSample, Lambert, RoughConductor, RoughDielectric, ThinDielectric, TransportMode,
+    BsdfEval, BsdfSample, Lambert, Plastic, RoughConductor, RoughDielectric, ThinDielectric, TransportMode,
     TrowbridgeReitz,
 };
 use crate::material::{Bsdf, Material};
@@ -23,6 +23,8 @@ pub enum Scattering {
     Dielectric(RoughDielectric),
     /// Thin dielectric slab: mirror reflection and straight transmission (two delta lobes).
     ThinDielectric(ThinDielectric),
+    /// Diffuse base under a smooth coating: a delta mirror lobe plus a smooth base lobe.
+    Plastic(Plastic),
 }
 
 impl Scattering {
@@ -45,6 +47,17 @@ impl Scattering {
             Bsdf::ThinDielectric { ior, ior_outside } => {
                 Scattering::ThinDielectric(ThinDielectric { eta: ior / ior_outside })
             }
+            Bsdf::Plastic { diffuse, specular, ior, ior_outside, nonlinear, two_sided } => {
+                Scattering::Plastic(Plastic {
+                    diffuse: channels.colour(*diffuse),
+                    specular: channels.colour(*specular),
+                    eta: ior / ior_outside,
+                    nonlinear: *nonlinear,
+                    // From the RGB reflectances in every mode, as Mitsuba weighs them once per BSDF.
+                    specular_weight: Plastic::sampling_weight(*diffuse, *specular),
+                    two_sided: *two_sided,
+                })
+            }
             Bsdf::Dielectric { inside, outside, roughness, distribution } => {
                 Scattering::Dielectric(RoughDielectric::new(
                     inside.ior_at(lambda) / outside.ior_at(lambda),
@@ -57,7 +70,7 @@ impl Scattering {
     /// Whether the model only scatters into delta directions (eval and pdf are always 0).
     pub fn is_delta(&self) -> bool {
         match self {
-            Scattering::Diffuse(_) => false,
+            Scattering::Diffuse(_) | Scattering::Plastic(_) => false,
             Scattering::Conductor(c) => c.distribution.effectively_smooth(),
             Scattering::Dielectric(d) => d.is_specular(),
             Scattering::ThinDielectric(_) => true,
@@ -71,6 +84,7 @@ impl Scattering {
             Scattering::Conductor(m) => m.eval(wo, wi),
             Scattering::Dielectric(m) => m.eval(wo, wi, mode),
             Scattering::ThinDielectric(_) => Vec3::ZERO,
+            Scattering::Plastic(m) => m.eval(wo, wi),
         }
     }
 
@@ -96,6 +110,7 @@ impl Scattering {
             Scattering::Conductor(m) => m.pdf(wo, wi),
             Scattering::Dielectric(m) => m.pdf(wo, wi),
             Scattering::ThinDielectric(_) => 0.0,
+            Scattering::Plastic(m) => m.pdf(wo, wi),
         }
     }
 
@@ -114,7 +129,7 @@ impl Scattering {
         // Every variant named: a new model must say whether it uses `uc`.
         match self {
             Scattering::Diffuse(_) | Scattering::Conductor(_) => false,
-            Scattering::Dielectric(_) | Scattering::ThinDielectric(_) => true,
+            Scattering::Dielectric(_) | Scattering::ThinDielectric(_) | Scattering::Plastic(_) => true,
         }
     }
 
@@ -125,6 +140,7 @@ impl Scattering {
             Scattering::Conductor(m) => m.sample(wo, u),
             Scattering::Dielectric(m) => m.sample(wo, uc, u, mode),
             Scattering::ThinDielectric(m) => m.sample(wo, uc),
+            Scattering::Plastic(m) => m.sample(wo, uc, u),
         }
     }
 }
@@ -153,6 +169,22 @@ mod tests {
             Scattering::Dielectric(RoughDielectric::new(1.5, rough)),
             Scattering::Dielectric(RoughDielectric::new(1.0 / 1.33, rough)),
             Scattering::ThinDielectric(ThinDielectric { eta: 1.5 }),
+            Scattering::Plastic(Plastic {
+                diffuse: Vec3::new(0.2, 0.4, 0.8),
+                specular: Vec3::ONE,
+                eta: 1.49,
+                nonlinear: false,
+                specular_weight: 0.6,
+                two_sided: false,
+            }),
+            Scattering::Plastic(Plastic {
+                diffuse: Vec3::new(0.7, 0.4, 0.1),
+                specular: Vec3::splat(0.8),
+                eta: 1.33,
+                nonlinear: true,
+                specular_weight: 0.4,
+                two_sided: true,
+            }),
         ];
         let mut rng = rand_pcg::Pcg64::seed_from_u64(11);
         let mut u = || Vec2::new(rng.random(), rng.random());

@@ -15,6 +15,7 @@
 //! | mirror | `twosided` + `conductor` / `roughconductor` (`material="none"`, GGX, α = roughness²) |
 //! | dielectric | `dielectric` / `roughdielectric`, `int_ior` = inside (opposite the normal), `ext_ior` = outside |
 //! | thin_dielectric | `thindielectric`, `int_ior` = the slab's index, `ext_ior` = the index around it |
+//! | plastic | `plastic` (one-sided both; a `two_sided` one in `twosided`), `diffuse_reflectance`, `specular_reflectance`, `int_ior`, `ext_ior`, `nonlinear` |
 //! | absorption | `homogeneous` interior/exterior media (pure absorbers) with `volpath` |
 //! | point / quad / sphere light | `point` / `rectangle` + `area` / `sphere` + `area` |
 //! | emissive surface (two-sided) | its shape + one-sided `area` emitter |
@@ -1051,6 +1052,26 @@ impl<'a> Exporter<'a> {
                 x.float("int_ior", *ior);
                 x.float("ext_ior", *ior_outside);
                 x.close("bsdf");
+            }
+            Bsdf::Plastic { diffuse, specular, ior, ior_outside, nonlinear, two_sided } => {
+                // Mitsuba's plastic is one-sided: a two-sided one is wrapped in `twosided`.
+                if *two_sided {
+                    open(x, with_id("twosided"));
+                    x.open("bsdf", &[("type", "plastic")]);
+                } else {
+                    open(x, with_id("plastic"));
+                }
+                x.rgb("diffuse_reflectance", *diffuse);
+                x.rgb("specular_reflectance", *specular);
+                x.float("int_ior", *ior);
+                x.float("ext_ior", *ior_outside);
+                if *nonlinear {
+                    x.boolean("nonlinear", true);
+                }
+                x.close("bsdf");
+                if *two_sided {
+                    x.close("bsdf");
+                }
             }
             #[allow(unreachable_patterns)]
             other => {

@@ -1234,6 +1234,37 @@ impl Compiler<'_> {
                 let ior_outside = self.positive(&path.key("ior_outside"), *ior_outside)?;
                 (Bsdf::ThinDielectric { ior, ior_outside }, phong)
             }
+            MaterialDesc::Plastic {
+                diffuse_reflectance,
+                specular_reflectance,
+                ior,
+                ior_outside,
+                nonlinear,
+                two_sided,
+                phong,
+            } => {
+                let diffuse = self.reflectance(
+                    &path.key("diffuse_reflectance"),
+                    diffuse_reflectance.unwrap_or(Rgb::Grey(0.5)),
+                )?;
+                let specular = self.reflectance(
+                    &path.key("specular_reflectance"),
+                    specular_reflectance.unwrap_or(Rgb::Grey(1.0)),
+                )?;
+                let ior = self.positive(&path.key("ior"), *ior)?;
+                let ior_outside = self.positive(&path.key("ior_outside"), *ior_outside)?;
+                (
+                    Bsdf::Plastic {
+                        diffuse,
+                        specular,
+                        ior,
+                        ior_outside,
+                        nonlinear: *nonlinear,
+                        two_sided: *two_sided,
+                    },
+                    phong,
+                )
+            }
         };
         let phong = self.phong(path, phong, &bsdf)?;
         Ok(Material { name: name.to_string(), bsdf, phong })
@@ -1819,7 +1850,9 @@ fn material_effects(effects: &mut Effects, m: &Material, object: usize) {
     let who = format!("objects[{object}] uses material `{}`", m.name);
     let texture = match &m.bsdf {
         Bsdf::Diffuse { albedo: t, .. } | Bsdf::Mirror { color: t, .. } => Some(t),
-        Bsdf::Conductor(_) | Bsdf::Dielectric { .. } | Bsdf::ThinDielectric { .. } => None,
+        Bsdf::Conductor(_) | Bsdf::Dielectric { .. } | Bsdf::ThinDielectric { .. } | Bsdf::Plastic { .. } => {
+            None
+        }
     };
     match texture {
         Some(Texture::Checker { .. }) => effects.add(Effect::Textures, format!("{who}, a checker texture")),
@@ -1829,7 +1862,7 @@ fn material_effects(effects: &mut Effects, m: &Material, object: usize) {
         _ => {}
     }
     match &m.bsdf {
-        Bsdf::Diffuse { .. } | Bsdf::ThinDielectric { .. } => {}
+        Bsdf::Diffuse { .. } | Bsdf::ThinDielectric { .. } | Bsdf::Plastic { .. } => {}
         Bsdf::Mirror { roughness, .. } => {
             if *roughness > 0.0 {
                 effects.add(Effect::Glossy, format!("{who}, a rough mirror (roughness {roughness})"));

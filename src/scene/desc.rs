@@ -607,6 +607,34 @@ pub enum MaterialDesc {
         #[serde(default)]
         phong: PhongDesc,
     },
+    /// A diffuse base under a smooth dielectric coating (Mitsuba's `plastic`).
+    Plastic {
+        /// The base's diffuse reflectance in [0, 1] per channel (default 0.5).
+        diffuse_reflectance: Option<Rgb>,
+        /// Factor on the coating's specular reflection in [0, 1] per channel (default 1).
+        specular_reflectance: Option<Rgb>,
+        /// The coating's refractive index (default 1.49, polypropylene).
+        #[serde(default = "default_plastic_ior")]
+        ior: f32,
+        /// The index of the medium outside (default 1).
+        #[serde(default = "default_one")]
+        ior_outside: f32,
+        /// Whether the light bouncing inside the coating shifts the colour, ρ/(1 − ρ·F_dr)
+        /// instead of ρ/(1 − F_dr) (Mitsuba's `nonlinear`, default false).
+        #[serde(default)]
+        nonlinear: bool,
+        /// Whether the back is the same plastic (Mitsuba's `twosided` wrapper); default false:
+        /// black from behind, as Mitsuba's bare `plastic`.
+        #[serde(default)]
+        two_sided: bool,
+        /// Empirical Phong terms.
+        #[serde(default)]
+        phong: PhongDesc,
+    },
+}
+
+fn default_plastic_ior() -> f32 {
+    1.49
 }
 
 fn default_one() -> f32 {

@@ -205,6 +205,25 @@ pub fn material(m: &Material) -> Description {
             format!("thin dielectric slab, ior {ior}, outside ior {ior_outside}"),
             json!({"ior": num(ior), "ior_outside": num(ior_outside)}),
         ),
+        Bsdf::Plastic { diffuse, specular, ior, ior_outside, nonlinear, two_sided } => Description::new(
+            "plastic",
+            format!(
+                "plastic ({}), diffuse reflectance {}, specular reflectance {}, ior {ior}, outside ior \
+                 {ior_outside}{}",
+                if *two_sided { "two-sided" } else { "one-sided" },
+                vec3(*diffuse),
+                vec3(*specular),
+                if *nonlinear { ", nonlinear" } else { "" }
+            ),
+            json!({
+                "diffuse_reflectance": arr(diffuse),
+                "specular_reflectance": arr(specular),
+                "ior": num(ior),
+                "ior_outside": num(ior_outside),
+                "nonlinear": nonlinear,
+                "two_sided": two_sided,
+            }),
+        ),
     };
     d.text = format!("{}; {phong_text}", d.text);
     d.fields.insert("phong".into(), phong_json);

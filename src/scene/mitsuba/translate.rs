@@ -61,7 +61,7 @@ pub const SUPPORTED: [(&str, &str); 8] = [
     ("shape", "rectangle, cube, sphere, disk, cylinder (any affine to_world), obj, ply"),
     (
         "bsdf",
-        "diffuse, twosided, dielectric, roughdielectric (beckmann, ggx), thindielectric, conductor, roughconductor (beckmann, ggx)",
+        "diffuse, twosided, dielectric, roughdielectric (beckmann, ggx), thindielectric, conductor, roughconductor (beckmann, ggx), plastic",
     ),
     (
         "emitter",
@@ -988,6 +988,29 @@ impl Translator<'_> {
                     }
                 }
             }
+            "plastic" => {
+                out.string("type", "plastic");
+                for name in ["diffuse_reflectance", "specular_reflectance"] {
+                    if b.children.iter().any(|c| c.tag == "texture" && c.name.as_deref() == Some(name)) {
+                        return self.lacks(b, &format!("a texture for `{name}`"));
+                    }
+                }
+                out.vector("diffuse_reflectance", p.color("diffuse_reflectance")?.unwrap_or([0.5; 3]));
+                if let Some(c) = p.color("specular_reflectance")? {
+                    out.vector("specular_reflectance", c);
+                }
+                out.comment("int_ior: the coating; ext_ior: the medium outside");
+                out.number("ior", plastic_ior(&p, b, "int_ior", "polypropylene")?);
+                out.number("ior_outside", plastic_ior(&p, b, "ext_ior", "air")?);
+                if p.boolean("nonlinear")? == Some(true) {
+                    out.raw("nonlinear", "true");
+                }
+                if two_sided {
+                    out.raw("two_sided", "true");
+                } else {
+                    out.comment("Mitsuba's plastic is one-sided: black from behind");
+                }
+            }
             "conductor" | "roughconductor" => {
                 out.string("type", "conductor");
                 let eta = p.color("eta")?;
@@ -1367,6 +1390,26 @@ fn y_rotation(m: &DMat4) -> Option<f64> {
     let close = (l - expected).to_cols_array().iter().all(|e| e.abs() <= 1e-6)
         && ((c * c + s * s) - 1.0).abs() <= 1e-6;
     (close && m.w_axis.truncate().length() <= 1e-9).then(|| s.atan2(c).to_degrees())
+}
+
+/// A plastic's index `name` of `b`: a `<float>` or one of Mitsuba's named materials, `default`
+/// when absent.
+fn plastic_ior(p: &Props, b: &Object, name: &str, default: &str) -> Result<f64, XmlError> {
+    match p.get(name) {
+        None => Ok(named_ior(default).expect("a default in the table")),
+        Some(Property { value: Value::Float(v), .. }) => Ok(*v),
+        Some(prop @ Property { value: Value::String(s), .. }) => named_ior(s).ok_or_else(|| {
+            error(
+                &prop.position,
+                &b.describe(),
+                &format!(
+                    "`{name}` `{s}` is not one of Mitsuba's named indices: {}",
+                    NAMED_IORS.iter().map(|(n, _)| *n).collect::<Vec<_>>().join(", ")
+                ),
+            )
+        }),
+        Some(prop) => Err(p.wrong(prop, "a <float> or a <string> naming a material")),
+    }
 }
 
 /// Mitsuba's index for a material name.
