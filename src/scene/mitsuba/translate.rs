@@ -882,6 +882,30 @@ impl Translator<'_> {
         Ok(key)
     }
 
+    /// The microfacet roughness of a `roughdielectric` or `roughconductor` `b`: Mitsuba's `alpha`
+    /// (default 0.1) and `distribution` (beckmann, the default, or ggx); `Ok(false)` when an
+    /// anisotropic roughness was dropped (lenient) and the material ends there.
+    fn roughness(&mut self, b: &Object, p: &Props<'_>, out: &mut TomlWriter) -> Result<bool, XmlError> {
+        if p.get("alpha_u").is_some() || p.get("alpha_v").is_some() {
+            self.lacks(b, "an anisotropic roughness")?;
+            return Ok(false);
+        }
+        out.number("alpha", p.float("alpha")?.unwrap_or(0.1));
+        match p.string("distribution")?.as_deref() {
+            None | Some("beckmann") => out.string("distribution", "beckmann"),
+            Some("ggx") => out.string("distribution", "ggx"),
+            Some(other) => {
+                return Err(error(
+                    &b.position,
+                    &b.describe(),
+                    &format!("distribution `{other}`: beckmann or ggx"),
+                ))
+            }
+        }
+        p.get("sample_visible");
+        Ok(true)
+    }
+
     /// The fields of a material from `bsdf` (`two_sided` when inside a `twosided`).
     fn bsdf(&mut self, b: &Object, out: &mut TomlWriter, two_sided: bool) -> Result<(), XmlError> {
         let p = Props::of(b);
@@ -935,23 +959,8 @@ impl Translator<'_> {
                 out.comment("int_ior: the side opposite the normal (inside); ext_ior: the side it points to");
                 out.number("ior", ior("int_ior", "bk7")?);
                 out.number("ior_outside", ior("ext_ior", "air")?);
-                if b.plugin == "roughdielectric" {
-                    if p.get("alpha_u").is_some() || p.get("alpha_v").is_some() {
-                        return self.lacks(b, "an anisotropic roughness");
-                    }
-                    out.number("alpha", p.float("alpha")?.unwrap_or(0.1));
-                    match p.string("distribution")?.as_deref() {
-                        None | Some("beckmann") => out.string("distribution", "beckmann"),
-                        Some("ggx") => out.string("distribution", "ggx"),
-                        Some(other) => {
-                            return Err(error(
-                                &b.position,
-                                &b.describe(),
-                                &format!("distribution `{other}`: beckmann or ggx"),
-                            ))
-                        }
-                    }
-                    p.get("sample_visible");
+                if b.plugin == "roughdielectric" && !self.roughness(b, &p, out)? {
+                    return Ok(());
                 }
                 for name in ["specular_reflectance", "specular_transmittance"] {
                     if let Some(c) = p.color(name)? {
@@ -1048,23 +1057,8 @@ impl Translator<'_> {
                 if let Some(c) = p.color("specular_reflectance")? {
                     out.vector("specular_reflectance", c);
                 }
-                if b.plugin == "roughconductor" {
-                    if p.get("alpha_u").is_some() || p.get("alpha_v").is_some() {
-                        return self.lacks(b, "an anisotropic roughness");
-                    }
-                    out.number("alpha", p.float("alpha")?.unwrap_or(0.1));
-                    match p.string("distribution")?.as_deref() {
-                        None | Some("beckmann") => out.string("distribution", "beckmann"),
-                        Some("ggx") => out.string("distribution", "ggx"),
-                        Some(other) => {
-                            return Err(error(
-                                &b.position,
-                                &b.describe(),
-                                &format!("distribution `{other}`: beckmann or ggx"),
-                            ))
-                        }
-                    }
-                    p.get("sample_visible");
+                if b.plugin == "roughconductor" && !self.roughness(b, &p, out)? {
+                    return Ok(());
                 }
                 if !two_sided {
                     out.comment("Mitsuba's conductor reflects on its front only; vitrum's on both sides");
