@@ -937,28 +937,9 @@ impl Translator<'_> {
             }
             "dielectric" | "roughdielectric" => {
                 out.string("type", "dielectric");
-                let ior = |name: &str, default: &str| -> Result<f64, XmlError> {
-                    match p.get(name) {
-                        None => Ok(named_ior(default).expect("a default in the table")),
-                        Some(Property { value: Value::Float(v), .. }) => Ok(*v),
-                        Some(prop @ Property { value: Value::String(s), .. }) => {
-                            named_ior(s).ok_or_else(|| {
-                                error(
-                                    &prop.position,
-                                    &b.describe(),
-                                    &format!(
-                                        "`{name}` `{s}` is not one of Mitsuba's named indices: {}",
-                                        NAMED_IORS.iter().map(|(n, _)| *n).collect::<Vec<_>>().join(", ")
-                                    ),
-                                )
-                            })
-                        }
-                        Some(prop) => Err(p.wrong(prop, "a <float> or a <string> naming a material")),
-                    }
-                };
                 out.comment("int_ior: the side opposite the normal (inside); ext_ior: the side it points to");
-                out.number("ior", ior("int_ior", "bk7")?);
-                out.number("ior_outside", ior("ext_ior", "air")?);
+                out.number("ior", mitsuba_ior(&p, b, "int_ior", "bk7")?);
+                out.number("ior_outside", mitsuba_ior(&p, b, "ext_ior", "air")?);
                 if b.plugin == "roughdielectric" && !self.roughness(b, &p, out)? {
                     return Ok(());
                 }
@@ -973,20 +954,7 @@ impl Translator<'_> {
             "thindielectric" => {
                 out.string("type", "thin_dielectric");
                 for (name, key, default) in [("int_ior", "ior", "bk7"), ("ext_ior", "ior_outside", "air")] {
-                    let value = match p.get(name) {
-                        None => named_ior(default).expect("a default in the table"),
-                        Some(Property { value: Value::Float(v), .. }) => *v,
-                        Some(prop @ Property { value: Value::String(s), .. }) => {
-                            named_ior(s).ok_or_else(|| {
-                                error(
-                                    &prop.position,
-                                    &b.describe(),
-                                    &format!("`{name}` `{s}` is not one of Mitsuba's named indices"),
-                                )
-                            })?
-                        }
-                        Some(prop) => return Err(p.wrong(prop, "a <float> or a <string> naming a material")),
-                    };
+                    let value = mitsuba_ior(&p, b, name, default)?;
                     out.number(key, value);
                 }
                 for name in ["specular_reflectance", "specular_transmittance"] {
@@ -1009,8 +977,8 @@ impl Translator<'_> {
                     out.vector("specular_reflectance", c);
                 }
                 out.comment("int_ior: the coating; ext_ior: the medium outside");
-                out.number("ior", plastic_ior(&p, b, "int_ior", "polypropylene")?);
-                out.number("ior_outside", plastic_ior(&p, b, "ext_ior", "air")?);
+                out.number("ior", mitsuba_ior(&p, b, "int_ior", "polypropylene")?);
+                out.number("ior_outside", mitsuba_ior(&p, b, "ext_ior", "air")?);
                 if p.boolean("nonlinear")? == Some(true) {
                     out.raw("nonlinear", "true");
                 }
@@ -1386,9 +1354,9 @@ fn y_rotation(m: &DMat4) -> Option<f64> {
     (close && m.w_axis.truncate().length() <= 1e-9).then(|| s.atan2(c).to_degrees())
 }
 
-/// A plastic's index `name` of `b`: a `<float>` or one of Mitsuba's named materials, `default`
-/// when absent.
-fn plastic_ior(p: &Props, b: &Object, name: &str, default: &str) -> Result<f64, XmlError> {
+/// The refractive index `name` of the dielectric, thin dielectric or plastic `b`: a `<float>` or
+/// one of Mitsuba's named materials ([`NAMED_IORS`]), `default` when absent.
+fn mitsuba_ior(p: &Props, b: &Object, name: &str, default: &str) -> Result<f64, XmlError> {
     match p.get(name) {
         None => Ok(named_ior(default).expect("a default in the table")),
         Some(Property { value: Value::Float(v), .. }) => Ok(*v),
