@@ -818,9 +818,11 @@ scale = 0.5
 }
 
 #[test]
-fn ellipsoids_export_as_spheres_under_their_affine_map() {
-    // A sphere of radius 0.5 at (0.25, 0, 0) under a shear: Mitsuba's unit sphere with
-    // to_world = [M·r·t₁, M·r·t₂, M·r·axis, M·centre + t] (t₁, t₂ of +Y: +X, −Z).
+fn ellipsoids_export_as_meshes_since_mitsuba_keeps_spheres_round() {
+    // A sphere of radius 0.5 at (0.25, 0, 0) under a shear and a per-axis scale. Mitsuba 3
+    // would render a `sphere` under that to_world round, so it is written as a closed mesh whose
+    // vertices lie on the ellipsoid {M·(c + 0.5·d) + t : |d| = 1} and whose normals are M⁻ᵀ of
+    // the sphere's.
     let dir = tempfile::tempdir().unwrap();
     let file = dir.path().join("ellipsoid.toml");
     std::fs::write(
@@ -846,12 +848,38 @@ radiance = 1.0
     )
     .unwrap();
     let e = export_with(&file, &[]);
-    let spheres = e.shapes("sphere");
-    assert_eq!(spheres.len(), 1);
-    // Columns M·(0.5, 0, 0) = (1, 0, 0), M·(0, 0, −0.5) = (0, 0, −0.25), M·(0, 0.5, 0) =
-    // (0.5, 0.5, 0), M·(0.25, 0, 0) + t = (1, 0.25, −1); written row by row.
-    assert_eq!(
-        matrix(spheres[0], "to_world")[..12],
-        [1.0, 0.0, 0.5, 1.0, 0.0, 0.0, 0.5, 0.25, 0.0, -0.25, 0.0, -1.0]
-    );
+    assert!(e.shapes("sphere").is_empty(), "no analytic sphere");
+    let meshes = e.shapes("ply");
+    assert_eq!(meshes.len(), 1);
+    assert_eq!(meshes[0].param("boolean", "face_normals"), Some("false"), "smooth normals");
+    let file = e.xml.parent().unwrap().join(meshes[0].param("string", "filename").unwrap());
+    let ply = vitrum::scene::mesh::load_ply(&file, &vitrum::scene::mesh::MeshPlacement::IDENTITY).unwrap();
+    assert_eq!(ply.degenerate, 0, "no degenerate triangles at the poles");
+    let m = glam::DMat3::from_cols_array(&[2.0, 0.0, 0.0, 1.0, 1.0, 0.0, 0.0, 0.0, 0.5]);
+    let t = glam::DVec3::new(0.5, 0.25, -1.0);
+    let c = glam::DVec3::new(0.25, 0.0, 0.0);
+    let inverse = m.inverse();
+    let key = |p: glam::Vec3| p.to_array().map(f32::to_bits);
+    let mut edges = std::collections::HashMap::new();
+    let mut volume = 0.0;
+    for (tri, attributes) in ply.triangles.iter().zip(&ply.attributes) {
+        let corners = tri.vertices();
+        for (p, n) in corners.iter().zip(attributes.normals.expect("vertex normals")) {
+            // Back in the sphere's space the vertex is on the sphere, its normal the radius'.
+            let d = (inverse * (p.as_dvec3() - t) - c) / 0.5;
+            assert!((d.length() - 1.0).abs() < 1e-5, "{p} is off the ellipsoid ({})", d.length());
+            let expected = (inverse.transpose() * d).normalize();
+            assert!(n.as_dvec3().dot(expected) > 1.0 - 1e-5, "normal {n} vs {expected}");
+        }
+        for k in 0..3 {
+            *edges.entry((key(corners[k]), key(corners[(k + 1) % 3]))).or_insert(0) += 1;
+        }
+        let [a, b, cc] = corners.map(|v| v.as_dvec3());
+        volume += a.dot(b.cross(cc)) / 6.0;
+    }
+    // Closed: every edge is shared by exactly two faces, in opposite directions.
+    assert!(edges.iter().all(|(&(a, b), &n)| n == 1 && edges.get(&(b, a)) == Some(&1)), "not closed");
+    // Outward: the mesh's volume is positive and the ellipsoid's, det(M)·(4/3)π·0.5³, up to chords.
+    let exact = m.determinant() * 4.0 / 3.0 * std::f64::consts::PI * 0.125;
+    assert!((volume / exact - 1.0).abs() < 1e-3 && volume > 0.0, "volume {volume} vs {exact}");
 }

@@ -232,3 +232,44 @@ fn smooth_normals_are_recomputed_from_the_faces_and_replace_placeholders() {
     let err = load_str(text, "both", Some(dir.path())).err().expect("refused").to_string();
     assert!(err.contains("smooth_normals") && err.contains("exclude"), "{err}");
 }
+
+#[test]
+fn missing_normals_are_recomputed_per_vertex_with_its_uv_as_mitsuba_does() {
+    let dir = tempfile::tempdir().unwrap();
+    // The roof of the test above without normals, its two faces given separate texture
+    // coordinates along the ridge (vt 2, 3 on the left, 5, 6 on the right): a uv seam.
+    let roof = "v 0 0 0\nv 0.5 0 0.5\nv 0.5 1 0.5\nv 0 1 0\nv 1 0 0\nv 1 1 0\n\
+                vt 0 0\nvt 0.5 0\nvt 0.5 1\nvt 0 1\nvt 0.6 0\nvt 0.6 1\nvt 1 0\nvt 1 1\n\
+                f 1/1 2/2 3/3\nf 1/1 3/3 4/4\nf 2/5 5/7 6/8\nf 2/5 6/8 3/6\n";
+    std::fs::write(dir.path().join("seam.obj"), roof).unwrap();
+    // The same roof with one texture coordinate set across the ridge: no seam.
+    let joined = roof.replace("f 2/5 5/7 6/8\nf 2/5 6/8 3/6", "f 2/2 5/7 6/8\nf 2/2 6/8 3/3");
+    std::fs::write(dir.path().join("joined.obj"), joined).unwrap();
+    let (left, right) = (Vec3::new(-1.0, 0.0, 1.0).normalize(), Vec3::new(1.0, 0.0, 1.0).normalize());
+    let seam = scene(dir.path(), "seam.obj", "smooth_normals = \"missing\"");
+    let joined = scene(dir.path(), "joined.obj", "smooth_normals = \"missing\"");
+    for (x, face) in [(0.1f32, left), (0.4, left), (0.6, right), (0.9, right)] {
+        // Across a seam each side's ridge vertices see only their own face: flat shading.
+        let split = hit_at(&seam, x, 0.37);
+        assert!(split.shading_n.abs_diff_eq(face, 1e-5), "seam at x = {x}: {}", split.shading_n);
+        // Joined, the ridge is one vertex with the faces' average (+z), as `true` gives.
+        let ridge_weight = 1.0 - (x - 0.5).abs() * 2.0;
+        let expected = ((1.0 - ridge_weight) * face + ridge_weight * Vec3::Z).normalize();
+        let hit = hit_at(&joined, x, 0.37);
+        assert!(
+            hit.shading_n.abs_diff_eq(expected, 1e-5),
+            "joined at x = {x}: {} vs {expected}",
+            hit.shading_n
+        );
+    }
+    // A file with vertex normals keeps them, placeholders included.
+    let given = "v 0 0 0\nv 0.5 0 0.5\nv 0.5 1 0.5\nv 0 1 0\nvn 0 1 0\nf 1//1 2//1 3//1\nf 1//1 3//1 4//1\n";
+    std::fs::write(dir.path().join("given.obj"), given).unwrap();
+    let kept = hit_at(&scene(dir.path(), "given.obj", "smooth_normals = \"missing\""), 0.25, 0.5);
+    assert!(kept.shading_n.abs_diff_eq(Vec3::Y, 1e-6), "the file's normal: {}", kept.shading_n);
+    // Any other value is refused at the field, naming what is allowed.
+    let text = "[camera]\nposition = [0.0, 0.0, 10.0]\nlook_at = [0.0, 0.0, 0.0]\n[materials.m]\ntype = \"diffuse\"\n\
+         [[objects]]\nmaterial = \"m\"\nshape = \"mesh\"\nfile = \"given.obj\"\nsmooth_normals = \"always\"\n";
+    let err = load_str(text, "bad", Some(dir.path())).err().expect("refused").to_string();
+    assert!(err.contains("smooth_normals") && err.contains("\"missing\""), "{err}");
+}

@@ -209,6 +209,25 @@ fn what_vitrum_lacks_is_refused_or_with_lenient_dropped_with_a_warning() {
     );
 }
 
+#[test]
+fn an_object_nested_in_a_light_without_a_counterpart_is_refused_or_with_lenient_dropped() {
+    // A constant emitter whose radiance is a texture: vitrum's environment light has none.
+    let scene = SMALL.replace(
+        "</scene>",
+        "<emitter type=\"constant\"><texture type=\"bitmap\" name=\"radiance\">\
+         <string name=\"filename\" value=\"sky.png\"/></texture></emitter>\n</scene>",
+    );
+    assert!(scene.contains("type=\"constant\""), "SMALL ends with </scene>");
+    let dir = folder(&[("c.xml", &scene)]);
+    let strict = vitrum(dir.path(), &["info", "c.xml"]);
+    assert_eq!(strict.status.code(), Some(2), "{}", stderr(&strict));
+    let message = stderr(&strict);
+    assert!(message.contains("c.xml:") && message.contains("<texture> nested in"), "{message}");
+    let lenient = vitrum(dir.path(), &["info", "--lenient", "c.xml"]);
+    assert!(lenient.status.success(), "{}", stderr(&lenient));
+    assert!(stderr(&lenient).contains("dropped"), "{}", stderr(&lenient));
+}
+
 /// A vitrum scene of what the import translates exactly: quads, a sphere, a disk, an open
 /// cylinder, diffuse (two-sided), glass, a point light and a quad light.
 const PLAIN: &str = r#"

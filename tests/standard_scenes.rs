@@ -107,9 +107,10 @@ fn render_scene(
         vitrum::scene::mitsuba::import(&file, options, None).unwrap_or_else(|e| panic!("{name}: {e}"));
     let mut toml = imported.toml.clone();
     if reading.smooth_water {
-        let line = "file = \"models/Mesh001.obj\"\n";
+        // Mitsuba's rule (`"missing"`) keeps the file's placeholders; Tungsten recomputes them.
+        let line = "file = \"models/Mesh001.obj\"\nsmooth_normals = \"missing\"\n";
         assert!(toml.contains(line), "{name}: the water surface's mesh");
-        toml = toml.replace(line, &format!("{line}smooth_normals = true\n"));
+        toml = toml.replace(line, "file = \"models/Mesh001.obj\"\nsmooth_normals = true\n");
     }
     let mut scene =
         vitrum::scene::load_str(&toml, name, file.parent()).unwrap_or_else(|e| panic!("{name}: {e}"));

@@ -15,7 +15,8 @@ What it does:
   mirrored or turned uv layout shows), `sky.exr` (32x16 latitude-longitude, a bright warm
   patch at one azimuth, different colours in each quadrant), `quad.obj` (a unit quad with
   texture coordinates), `mesh.obj` (an octahedron with smooth vertex normals) and `mesh.ply`
-  (the same octahedron, binary, flat).
+  (the same octahedron, binary, flat), `bump.obj` (a smooth bump without vertex normals, a uv
+  seam across its middle).
 - Renders each XML with the `scalar_rgb` variant, `RENDERS` times, with the sampler seeds
   `SEEDS` and `SPP` samples per pixel each (the XML's `$spp` and `$seed` defaults overridden;
   the XMLs' own `spp` default is what vitrum renders). The stored image is the mean of those
@@ -138,12 +139,42 @@ def write_mesh_ply(path):
             f.write(struct.pack("<B3i", 3, *face))
 
 
+def write_bump_obj(path):
+    """A smooth bump y = 0.35 exp(-2 (x^2 + z^2)) over [-1, 1]^2 as a 9x9 grid of vertices
+    without vertex normals (Mitsuba computes them), with texture coordinates that jump at x = 0:
+    the left half's u runs over [0, 0.5], the right half's over [0.6, 1.1], so the vertices on
+    the seam are two vertices each and the smooth normals make a crease there."""
+    n = 8
+    coords = [-1 + 2 * i / n for i in range(n + 1)]
+    with open(path, "w") as f:
+        f.write("# A bump without vertex normals, a uv seam at x = 0 (render_references.py)\n")
+        for z in coords:
+            for x in coords:
+                y = 0.35 * math.exp(-2 * (x * x + z * z))
+                f.write(f"v {x:.6f} {y:.6f} {z:.6f}\n")
+        # Texture coordinates: one set for the left half's columns, one for the right half's.
+        for half in (0, 1):
+            for z in coords:
+                for x in coords:
+                    f.write(f"vt {(x + 1) / 2 + 0.1 * half:.6f} {(z + 1) / 2:.6f}\n")
+        per_half = (n + 1) * (n + 1)
+        for j in range(n):
+            for i in range(n):
+                half = 0 if i < n // 2 else 1
+                a, b = j * (n + 1) + i + 1, j * (n + 1) + i + 2
+                c, d = b + n + 1, a + n + 1
+                t = [k + half * per_half for k in (a, b, c, d)]
+                # Counter-clockwise seen from +y.
+                f.write(f"f {a}/{t[0]} {d}/{t[3]} {c}/{t[2]}\nf {a}/{t[0]} {c}/{t[2]} {b}/{t[1]}\n")
+
+
 def write_assets():
     write_texture(os.path.join(DATA, "texture.png"))
     write_envmap(os.path.join(DATA, "sky.exr"))
     write_quad_obj(os.path.join(DATA, "quad.obj"))
     write_mesh_obj(os.path.join(DATA, "mesh.obj"))
     write_mesh_ply(os.path.join(DATA, "mesh.ply"))
+    write_bump_obj(os.path.join(DATA, "bump.obj"))
 
 
 # ---------------------------------------------------------------- renders

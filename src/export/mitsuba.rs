@@ -5,7 +5,7 @@
 //! | vitrum | Mitsuba 3 |
 //! |---|---|
 //! | sphere | `sphere` |
-//! | clipped sphere (a bowl's hemisphere) | `ply` mesh, smooth vertex normals |
+//! | clipped sphere (a bowl's hemisphere), ellipsoid (Mitsuba 3 keeps spheres round) | `ply` mesh, smooth vertex normals |
 //! | cylinder wall | `cylinder` (uncapped; caps are separate disks already) |
 //! | disk / annulus | `disk` with `to_world` / flat `ply` ring |
 //! | quad | `rectangle` with `to_world` |
@@ -381,8 +381,8 @@ fn ring_point(c: Vec3, (t1, t2): (Vec3, Vec3), axis: Vec3, rho: f32, z: f32, k: 
 }
 
 /// The kept zone of a clipped sphere, `min_height <= (p − c)·axis <= max_height`, from the pole
-/// at −axis (or the lower clipping circle) up to the upper clipping circle, with outward vertex
-/// normals; `None` when nothing is kept.
+/// at −axis (or the lower clipping circle) up to the upper clipping circle (or the pole at
+/// +axis: a whole sphere), with outward vertex normals; `None` when nothing is kept.
 fn sphere_zone(s: &Sphere, shift: Vec3) -> Option<Mesh> {
     let (c, r, axis) = (s.center() + shift, s.radius(), s.axis());
     let cos_max = (-(s.max_height() as f64) / r as f64).clamp(-1.0, 1.0);
@@ -391,22 +391,23 @@ fn sphere_zone(s: &Sphere, shift: Vec3) -> Option<Mesh> {
         return None;
     }
     let (theta_min, theta_max) = (cos_min.acos(), cos_max.acos());
-    // A zone that starts at the pole is a fan around it; one that starts at a circle is bands.
-    let pole = theta_min == 0.0;
+    // A zone that starts (ends) at a pole is a fan around it; one at a circle is bands.
+    let (pole, end_pole) = (theta_min == 0.0, cos_max == -1.0);
     let span = theta_max - theta_min;
     let rings = ((SEGMENTS as f64 / 2.0 * span / std::f64::consts::PI).ceil() as usize).max(4);
+    let last = if end_pole { rings - 1 } else { rings };
     let fr = frame(axis);
     let mut mesh = Mesh { normals: Some(Vec::new()), ..Mesh::default() };
-    let add = |mesh: &mut Mesh, p: Vec3| {
+    let add = |mesh: &mut Mesh, p: Vec3, pole_normal: Vec3| {
         mesh.positions.push(p);
-        mesh.normals.as_mut().expect("smooth mesh").push(((p - c) / r).normalize_or(-axis));
+        mesh.normals.as_mut().expect("smooth mesh").push(((p - c) / r).normalize_or(pole_normal));
     };
     if pole {
-        add(&mut mesh, c - r * axis);
+        add(&mut mesh, c - r * axis, -axis);
     }
     let circle = |cos: f64| ((1.0 - cos * cos).max(0.0).sqrt(), cos);
     let first = if pole { 1 } else { 0 };
-    for j in first..=rings {
+    for j in first..=last {
         let (sin, cos) = if j == rings {
             circle(cos_max)
         } else if j == 0 {
@@ -416,8 +417,12 @@ fn sphere_zone(s: &Sphere, shift: Vec3) -> Option<Mesh> {
         };
         let (rho, z) = ((r as f64 * sin) as f32, (-(r as f64) * cos) as f32);
         for k in 0..SEGMENTS {
-            add(&mut mesh, ring_point(c, fr, axis, rho, z, k));
+            add(&mut mesh, ring_point(c, fr, axis, rho, z, k), -axis);
         }
+    }
+    let top = mesh.positions.len() as u32;
+    if end_pole {
+        add(&mut mesh, c + r * axis, axis);
     }
     // Vertex k of ring j (after the pole vertex, when there is one).
     let ring = |j: usize, k: usize| (first + (j - first) * SEGMENTS + k % SEGMENTS) as u32;
@@ -427,11 +432,16 @@ fn sphere_zone(s: &Sphere, shift: Vec3) -> Option<Mesh> {
             let out = mesh.positions[f[1] as usize] - c;
             mesh.triangle(f, out);
         }
-        for j in first..rings {
+        for j in first..last {
             let (a, b, cc, d) = (ring(j, k), ring(j, k + 1), ring(j + 1, k + 1), ring(j + 1, k));
             let out = mesh.positions[a as usize] + mesh.positions[cc as usize] - 2.0 * c;
             mesh.triangle([a, b, cc], out);
             mesh.triangle([a, cc, d], out);
+        }
+        if end_pole {
+            let f = [top, ring(last, k), ring(last, k + 1)];
+            let out = mesh.positions[f[1] as usize] - c;
+            mesh.triangle(f, out);
         }
     }
     Some(mesh)
@@ -639,10 +649,11 @@ fn envmap_texels(map: &ImageMap, tint: Vec3) -> (Image, usize) {
 }
 
 /// Everything that belongs to one exported shape element.
-/// The round shapes carry their texture frame (pole or normal, tangents) and `map`, the general
-/// affine map an ellipsoid or elliptic disk or cylinder applies to them (identity otherwise).
+/// The round shapes carry their texture frame (pole or normal, tangents); disks and cylinders
+/// also `map`, the general affine map an elliptic one applies to them (identity otherwise; an
+/// ellipsoid is a mesh, since Mitsuba 3 keeps a sphere round under any `to_world`).
 enum Geometry {
-    Sphere { center: Vec3, radius: f32, frame: (Vec3, (Vec3, Vec3)), map: DAffine3 },
+    Sphere { center: Vec3, radius: f32, frame: (Vec3, (Vec3, Vec3)) },
     Cylinder { p0: Vec3, p1: Vec3, radius: f32, frame: (Vec3, (Vec3, Vec3)), height: f32, map: DAffine3 },
     Disk { center: Vec3, normal: Vec3, radius: f32, frame: (Vec3, Vec3), map: DAffine3 },
     Rectangle { corner: Vec3, u: Vec3, v: Vec3 },
@@ -1270,15 +1281,17 @@ impl<'a> Exporter<'a> {
                 other => (other, DAffine3::IDENTITY, shift),
             };
             let geometry = match shape {
-                Shape::Sphere(s) if s.is_clipped() => match sphere_zone(s, round_shift) {
-                    Some(mesh) => Geometry::Mesh { mesh: mapped(mesh, map), smooth: true },
-                    None => continue,
-                },
+                // Mitsuba 3 keeps a sphere round under any to_world: an ellipsoid is tessellated.
+                Shape::Sphere(s) if s.is_clipped() || map != DAffine3::IDENTITY => {
+                    match sphere_zone(s, round_shift) {
+                        Some(mesh) => Geometry::Mesh { mesh: mapped(mesh, map), smooth: true },
+                        None => continue,
+                    }
+                }
                 Shape::Sphere(s) => Geometry::Sphere {
                     center: s.center() + round_shift,
                     radius: s.radius(),
                     frame: s.texture_frame(),
-                    map,
                 },
                 Shape::Cylinder(c) => Geometry::Cylinder {
                     p0: c.base() + round_shift,
@@ -1355,19 +1368,15 @@ impl<'a> Exporter<'a> {
         let image = matches!(texture, Some(Texture::Image(_)));
         let mut checker = None;
         let uv = match &geometry {
-            Geometry::Sphere { center, radius, frame: (axis, (t1, t2)), map } => {
-                let general = *map != DAffine3::IDENTITY;
-                x.comment(&format!(
-                    "{name}: {}",
-                    if general { "ellipsoid (a sphere under to_world)" } else { "sphere" }
-                ));
+            Geometry::Sphere { center, radius, frame: (axis, (t1, t2)) } => {
+                x.comment(&format!("{name}: sphere"));
                 x.open("shape", &[("type", "sphere")]);
-                if image || general {
+                if image {
                     x.comment("to_world [r·t1, r·t2, r·axis, centre]: Mitsuba's uv (φ/2π, θ/π) is vitrum's (u, 1 − v)");
                     let r = *radius as f64;
                     placed_frame(
                         x,
-                        map,
+                        &DAffine3::IDENTITY,
                         [t1.as_dvec3() * r, t2.as_dvec3() * r, axis.as_dvec3() * r],
                         center.as_dvec3(),
                     );
@@ -1430,7 +1439,9 @@ impl<'a> Exporter<'a> {
                 let what = match prim.shape {
                     Shape::Sphere(_) => "clipped sphere, tessellated (smooth vertex normals)",
                     Shape::Disk(_) => "annulus, tessellated",
-                    Shape::Affine(_) => "clipped sphere or annulus under an affine map, tessellated",
+                    Shape::Affine(_) => {
+                        "ellipsoid, clipped sphere or annulus under an affine map, tessellated"
+                    }
                     Shape::Polygon(_) => "convex polygon as a triangle fan",
                     _ => "triangle mesh",
                 };

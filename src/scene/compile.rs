@@ -3,8 +3,8 @@
 use super::bodies::{self, BodySurface, Interface, Liquid};
 use super::desc::{
     ColorSpaceDesc, CropDesc, DistributionDesc, FilterDesc, IorDesc, LightDesc, LiquidDesc, MaterialDesc,
-    PhongDesc, PixelFilterDesc, Rgb, SceneDesc, ShapeDesc, TextureDesc, TransformDesc, Vec3Desc, WrapDesc,
-    IOR_TABLE_ERROR, LIQUIDS, MERGING_METHODS, METHOD_TABLES, MOVED_MAX_DEPTH,
+    PhongDesc, PixelFilterDesc, Rgb, SceneDesc, ShapeDesc, SmoothNormals, TextureDesc, TransformDesc,
+    Vec3Desc, WrapDesc, IOR_TABLE_ERROR, LIQUIDS, MERGING_METHODS, METHOD_TABLES, MOVED_MAX_DEPTH,
 };
 use super::effects::{Effect, Effects};
 use super::mesh::MeshPlacement;
@@ -1516,7 +1516,7 @@ impl Compiler<'_> {
                 vec![(Shape::Polygon(Box::new(polygon)), Interface::Material)]
             }
             ShapeDesc::Mesh { file, scale, translate, face_normals, smooth_normals } => {
-                if *face_normals && *smooth_normals {
+                if *face_normals && *smooth_normals != SmoothNormals::Off {
                     return Err(self.err(
                         &path.key("smooth_normals"),
                         "face_normals and smooth_normals exclude each other: give at most one",
@@ -1535,8 +1535,11 @@ impl Compiler<'_> {
                     mesh.attributes.iter_mut().for_each(|a| a.normals = None);
                     mesh.has_normals = false;
                 }
-                if *smooth_normals {
-                    mesh.recompute_smooth_normals();
+                match smooth_normals {
+                    SmoothNormals::Off => {}
+                    SmoothNormals::Replace => mesh.recompute_smooth_normals(false),
+                    SmoothNormals::WhereMissing if !mesh.has_normals => mesh.recompute_smooth_normals(true),
+                    SmoothNormals::WhereMissing => {}
                 }
                 let (triangles, degenerate) = (mesh.triangles, mesh.degenerate);
                 if mesh.has_uv || mesh.has_normals {

@@ -931,11 +931,10 @@ pub enum ShapeDesc {
         /// (Mitsuba's `faceNormals`).
         #[serde(default)]
         face_normals: bool,
-        /// Shade with smooth vertex normals recomputed from the triangles (each vertex position's
-        /// area-weighted average of its faces' normals), ignoring the file's (Tungsten's
-        /// `recompute_normals`; for files whose vertex normals are placeholders).
+        /// Whether and where smooth vertex normals are recomputed from the triangles
+        /// ([`SmoothNormals`]).
         #[serde(default)]
-        smooth_normals: bool,
+        smooth_normals: SmoothNormals,
     },
     /// A hollow sphere: a shell between `inner_radius` and `radius`.
     HollowSphere {
@@ -988,6 +987,45 @@ pub enum ShapeDesc {
         #[serde(default)]
         liquid: Option<LiquidDesc>,
     },
+}
+
+/// A mesh's `smooth_normals`: `false`, `true` or `"missing"`. Recomputed normals are each
+/// vertex's average of its faces' normals weighted by the faces' angles there (Thürmer and
+/// Wüthrich's weights, which do not depend on how a surface is split into triangles).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum SmoothNormals {
+    /// `false`: the file's vertex normals, or the faces' own where it has none.
+    #[default]
+    Off,
+    /// `true`: recomputed over corners at the same position, replacing the file's (Tungsten's
+    /// `recompute_normals`, for files whose vertex normals are placeholders).
+    Replace,
+    /// `"missing"`: Mitsuba 3's rule for OBJ and PLY files: a file with vertex normals keeps
+    /// them; one without gets them recomputed, over corners at the same position with the same
+    /// texture coordinates (Mitsuba's vertices: a uv seam stays a crease).
+    WhereMissing,
+}
+
+impl<'de> Deserialize<'de> for SmoothNormals {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<SmoothNormals, D::Error> {
+        struct Visitor;
+        impl<'de> serde::de::Visitor<'de> for Visitor {
+            type Value = SmoothNormals;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str("true, false or \"missing\"")
+            }
+            fn visit_bool<E: serde::de::Error>(self, v: bool) -> Result<SmoothNormals, E> {
+                Ok(if v { SmoothNormals::Replace } else { SmoothNormals::Off })
+            }
+            fn visit_str<E: serde::de::Error>(self, v: &str) -> Result<SmoothNormals, E> {
+                match v {
+                    "missing" => Ok(SmoothNormals::WhereMissing),
+                    _ => Err(E::invalid_value(serde::de::Unexpected::Str(v), &self)),
+                }
+            }
+        }
+        d.deserialize_any(Visitor)
+    }
 }
 
 fn default_scale() -> f32 {

@@ -62,26 +62,35 @@ pub struct ObjMesh {
 
 impl ObjMesh {
     /// Replaces the vertex normals by smooth ones recomputed from the triangles: at every vertex
-    /// position (corners at bit-identical placed positions are one vertex), the sum of its
-    /// triangles' unit normals weighted by their angles at that corner (Thürmer and Wüthrich's
-    /// weights, which do not depend on how a surface is split into triangles), normalised.
+    /// (corners at bit-identical placed positions, and with `split_at_uv_seams` also the same
+    /// texture coordinates, are one vertex), the sum of its triangles' unit normals weighted by
+    /// their angles at that corner (Thürmer and Wüthrich's weights, which do not depend on how a
+    /// surface is split into triangles; Mitsuba 3's too), normalised.
     /// Used for files whose vertex normals are missing or placeholders.
-    pub fn recompute_smooth_normals(&mut self) {
-        let key = |p: Vec3| [p.x.to_bits(), p.y.to_bits(), p.z.to_bits()];
-        let mut sums: std::collections::HashMap<[u32; 3], Vec3> =
+    pub fn recompute_smooth_normals(&mut self, split_at_uv_seams: bool) {
+        let key = |p: Vec3, uv: Option<Vec2>| {
+            let uv = uv.filter(|_| split_at_uv_seams).unwrap_or(Vec2::ZERO);
+            [p.x.to_bits(), p.y.to_bits(), p.z.to_bits(), uv.x.to_bits(), uv.y.to_bits()]
+        };
+        let corner_uv = |a: &VertexAttributes, k: usize| a.uv.map(|uv| uv[k]);
+        let mut sums: std::collections::HashMap<[u32; 5], Vec3> =
             std::collections::HashMap::with_capacity(self.triangles.len());
-        for t in &self.triangles {
+        for (t, attributes) in self.triangles.iter().zip(&self.attributes) {
             let corners = t.vertices();
             let face = t.normal();
             for k in 0..3 {
                 let p = corners[k];
                 let angle = (corners[(k + 1) % 3] - p).angle_between(corners[(k + 2) % 3] - p);
-                *sums.entry(key(p)).or_insert(Vec3::ZERO) += angle * face;
+                *sums.entry(key(p, corner_uv(attributes, k))).or_insert(Vec3::ZERO) += angle * face;
             }
         }
         for (t, attributes) in self.triangles.iter().zip(&mut self.attributes) {
             let face = t.normal();
-            let normals = t.vertices().map(|p| crate::geometry::try_unit(sums[&key(p)]).unwrap_or(face));
+            let corners = t.vertices();
+            let normals = std::array::from_fn(|k| {
+                let sum = sums[&key(corners[k], corner_uv(attributes, k))];
+                crate::geometry::try_unit(sum).unwrap_or(face)
+            });
             attributes.normals = Some(normals);
         }
         self.has_normals = true;

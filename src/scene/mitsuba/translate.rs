@@ -774,6 +774,9 @@ impl Translator<'_> {
                 if face_normals {
                     // Mitsuba shades with the face normals: the file's vertex normals are ignored.
                     fields.push(("face_normals", "true".into()));
+                } else {
+                    // Mitsuba computes smooth vertex normals for a file that has none.
+                    fields.push(("smooth_normals", "\"missing\"".into()));
                 }
                 fields.extend(placement(&m).ok_or_else(|| {
                     fail("to_world has a shear or a mirror, which a mesh's transform cannot hold yet")
@@ -1116,6 +1119,11 @@ impl Translator<'_> {
     fn emitter(&mut self, e: &Object, lights: &mut TomlWriter) -> Result<(), XmlError> {
         lights.from(&e.position, &e.describe());
         let p = Props::of(e);
+        // A nested object (a texture as the radiance, a spot's projected image) has no vitrum
+        // counterpart in these lights.
+        for child in &e.children {
+            self.lacks(child, &format!("a <{}> nested in {}", child.tag, e.describe()))?;
+        }
         match e.plugin.as_str() {
             "point" => {
                 let m = p.transform("to_world")?;
@@ -1129,10 +1137,6 @@ impl Translator<'_> {
                 lights.vector("intensity", p.color("intensity")?.unwrap_or([1.0; 3]));
             }
             "spot" => {
-                // A projected texture (a nested <texture>) has no vitrum counterpart.
-                if let Some(child) = e.children.first() {
-                    self.lacks(child, &format!("a spot light's projected <{}>", child.tag))?;
-                }
                 // Mitsuba's spot sits at the origin of its to_world and shines along its +z.
                 let m = p.transform("to_world")?.unwrap_or(DMat4::IDENTITY);
                 let axes = DMat3::from_mat4(m);
