@@ -19,6 +19,7 @@ use super::EngineChoice;
 use super::{pick_light, sample_bsdf, Integrator, PathContext, RenderParams};
 use crate::bsdf::{Scattering, ShadingFrame, TransportMode};
 use crate::geometry::{spawn_origin, Ray, SurfaceHit};
+use crate::lanes::Real;
 use crate::lighting::{crossing, ShadowRay};
 use crate::render::RenderOptions;
 use crate::sampler::Dim;
@@ -39,18 +40,14 @@ pub const DEFAULT_PATH_DEPTH: u32 = crate::scene::compile::MAX_DEPTH;
 /// Monte Carlo path tracing with next-event estimation and MIS.
 pub struct Path;
 
-/// The power heuristic (β = 2) weight of a strategy with density `a` against one with `b`.
-#[inline]
-pub(crate) fn power_heuristic(a: f32, b: f32) -> f32 {
+/// The power heuristic (β = 2) weight of a strategy with density `a` against one with `b`:
+/// `a²/(a² + b²)`, 1 where `a²` is infinite, 0 where both are 0. For one path or across lanes.
+#[inline(always)]
+pub(crate) fn power_heuristic<R: Real>(a: R, b: R) -> R {
     let (a2, b2) = (a * a, b * b);
-    if a2.is_infinite() {
-        return 1.0;
-    }
-    if a2 + b2 == 0.0 {
-        0.0
-    } else {
-        a2 / (a2 + b2)
-    }
+    let zero = R::splat(0.0);
+    let w = R::select((a2 + b2).eq(zero), zero, a2 / (a2 + b2));
+    R::select(a2.is_infinite(), R::splat(1.0), w)
 }
 
 impl Integrator for Path {

@@ -2,6 +2,7 @@
 //! samples on the film, the near clip plane and the crop window of the film it renders.
 
 use crate::geometry::{try_unit, Ray};
+use crate::lanes::{Real, Vector};
 use crate::pixel_filter::PixelFilter;
 use glam::{Vec2, Vec3};
 
@@ -221,11 +222,19 @@ impl Camera {
     /// The ray through film position `film` in pixel units (x right, y down; (0.5, 0.5) is the
     /// centre of the top-left pixel).
     pub fn generate_ray(&self, film: Vec2) -> Ray {
-        let aspect = self.width as f32 / self.height as f32;
-        let ndc_x = (2.0 * film.x / self.width as f32 - 1.0) * aspect * self.tan_half_fov;
-        let ndc_y = (1.0 - 2.0 * film.y / self.height as f32) * self.tan_half_fov;
-        let dir = (self.forward + ndc_x * self.right + ndc_y * self.up).normalize();
-        Ray::new(self.position, dir)
+        Ray::new(self.position, self.pinhole_direction(film.x, film.y))
+    }
+
+    /// The unit direction of [`generate_ray`](Self::generate_ray) through the film position
+    /// (`fx`, `fy`), for one ray or across lanes (−0 components are left for the ray to clear).
+    #[inline(always)]
+    pub fn pinhole_direction<V: Vector>(&self, fx: V::Real, fy: V::Real) -> V {
+        let (w, h) = (self.width as f32, self.height as f32);
+        let aspect = w / h;
+        let two = V::Real::splat(2.0);
+        let ndc_x = (two * fx / w - 1.0) * aspect * self.tan_half_fov;
+        let ndc_y = (V::Real::splat(1.0) - two * fy / h) * self.tan_half_fov;
+        (V::splat(self.forward) + V::splat(self.right) * ndc_x + V::splat(self.up) * ndc_y).normalize()
     }
 
     /// Area of the image plane at distance 1 from the pinhole: `(2·tan(fov/2))² · aspect`. The
@@ -306,25 +315,25 @@ pub struct CameraConnection {
 /// Shirley–Chiu concentric map from the unit square to the unit disk (area preserving).
 #[inline(always)]
 pub fn concentric_disk(u: Vec2) -> Vec2 {
-    let (centre, r, theta) = concentric_polar(u);
+    let (centre, r, theta) = concentric_polar(u.x, u.y);
     if centre {
         return Vec2::ZERO;
     }
     r * Vec2::new(theta.cos(), theta.sin())
 }
 
-/// [`concentric_disk`] up to its trigonometry: whether `u` maps to the disk's centre, else the
-/// point's signed radius `r` and angle `theta` (the point is `r·(cos θ, sin θ)`). The wavefront
-/// engine runs this across lanes and the cosines one lane at a time.
+/// [`concentric_disk`] up to its trigonometry, for one sample or across lanes: whether
+/// (`ux`, `uy`) maps to the disk's centre, else the point's signed radius `r` and angle `theta`
+/// (the point is `r·(cos θ, sin θ)`). The wavefront engine takes the cosines one lane at a time.
 #[inline(always)]
-pub fn concentric_polar(u: Vec2) -> (bool, f32, f32) {
-    let o = 2.0 * u - Vec2::ONE;
-    let (r, theta) = if o.x.abs() > o.y.abs() {
-        (o.x, std::f32::consts::FRAC_PI_4 * (o.y / o.x))
-    } else {
-        (o.y, std::f32::consts::FRAC_PI_2 - std::f32::consts::FRAC_PI_4 * (o.x / o.y))
-    };
-    (o == Vec2::ZERO, r, theta)
+pub fn concentric_polar<R: Real>(ux: R, uy: R) -> (R::Mask, R, R) {
+    use std::f32::consts::{FRAC_PI_2, FRAC_PI_4};
+    let (ox, oy) = (R::splat(2.0) * ux - 1.0, R::splat(2.0) * uy - 1.0);
+    let wide = ox.abs().gt(oy.abs());
+    let r = R::select(wide, ox, oy);
+    let theta = R::select(wide, R::splat(FRAC_PI_4) * (oy / ox), R::splat(FRAC_PI_2) - R::splat(FRAC_PI_4) * (ox / oy));
+    let zero = R::splat(0.0);
+    (ox.eq(zero) & oy.eq(zero), r, theta)
 }
 
 #[cfg(test)]

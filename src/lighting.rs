@@ -1,7 +1,8 @@
 //! Direct lighting shared by the deterministic and distributed methods: dielectric interfaces,
 //! shadow rays (optionally through glass) and the empirical Phong model.
 
-use crate::geometry::{spawn_origin, Ray, SurfaceHit};
+use crate::geometry::{offset_origin, spawn_origin, Ray, SurfaceHit};
+use crate::lanes::Vector;
 use crate::light::PointIllumination;
 use crate::material::{Bsdf, Material, Medium, Phong};
 use crate::optics::fresnel_dielectric;
@@ -132,6 +133,31 @@ pub struct ShadowRay {
     pub(crate) light: Option<u32>,
 }
 
+/// The segment of a shadow ray (one, or one per lane): where it starts and goes, and how far.
+#[derive(Clone, Copy, Debug)]
+pub struct ShadowSegment<V: Vector> {
+    /// The origin, offset from the surface ([`offset_origin`]).
+    pub origin: V,
+    /// The unit direction towards the target (no −0 components, as [`Ray::new`] makes them).
+    pub dir: V,
+    /// Hits at distances in (0, `tmax`) can block it.
+    pub tmax: V::Real,
+    /// Distance from the origin to the target.
+    pub remaining: V::Real,
+}
+
+impl<V: Vector> ShadowSegment<V> {
+    /// The segment from the surface point `p` (geometric normal `n`, error bound `p_error`) to
+    /// `target`.
+    #[inline(always)]
+    pub fn toward(p: V, n: V, p_error: V::Real, target: V) -> ShadowSegment<V> {
+        let dir = (target - p).normalize();
+        let origin = offset_origin(p, n, p_error, dir);
+        let remaining = (target - origin).dot(dir);
+        ShadowSegment { origin, dir: dir + V::splat(Vec3::ZERO), tmax: remaining * (1.0 - 1e-5), remaining }
+    }
+}
+
 impl ShadowRay {
     /// The shadow ray from `from` to `target` (on light `light`, if any) at time `time`; `None`
     /// when the target does not lie beyond the ray's origin (nothing can block it). Counts one
@@ -153,12 +179,11 @@ impl ShadowRay {
     /// anything can block it. The wavefront engine builds it across lanes.
     #[inline(always)]
     pub fn toward(from: &SurfaceHit, target: Vec3, light: Option<u32>, time: f32) -> ShadowRay {
-        let dir = (target - from.p).normalize();
-        let origin = spawn_origin(from, dir);
-        let remaining = (target - origin).dot(dir);
+        let ShadowSegment { origin, dir, tmax, remaining } =
+            ShadowSegment::toward(from.p, from.n, from.p_error, target);
         let mut ray = Ray::new(origin, dir);
         ray.time = time;
-        ShadowRay { ray, tmax: remaining * (1.0 - 1e-5), remaining, target, light }
+        ShadowRay { ray, tmax, remaining, target, light }
     }
 
     /// Whether the target lies beyond the ray's origin, where something can block it.

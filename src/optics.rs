@@ -3,6 +3,7 @@
 //! Conventions: `wi` points *away* from the surface (towards where the light or viewer is), `n` is
 //! a unit normal on the same side as `wi`, and `eta` is the ratio n_transmitted / n_incident.
 
+use crate::lanes::{Mask3, Real, Vector};
 use glam::Vec3;
 
 /// Mirror reflection of the away-pointing direction `wi` about the unit normal `n`.
@@ -19,34 +20,32 @@ pub fn refract(wi: Vec3, n: Vec3, eta: f32) -> Option<Vec3> {
     refracts.then_some(t)
 }
 
-/// [`refract`] without a branch: whether the ray refracts (no total internal reflection), and
-/// the direction (NaN where it does not). The wavefront engine runs it across lanes.
+/// [`refract`] without a branch, for one ray or across lanes: whether the ray refracts (no
+/// total internal reflection; a NaN refracts, to a NaN direction), and the direction (NaN where
+/// it does not).
 #[inline(always)]
-#[allow(clippy::neg_cmp_op_on_partial_ord)] // NaN refracts (to a NaN direction), as it always did
-pub fn refraction(wi: Vec3, n: Vec3, eta: f32) -> (bool, Vec3) {
+pub fn refraction<V: Vector>(wi: V, n: V, eta: V::Real) -> (Mask3<V>, V) {
+    let (zero, one) = (V::Real::splat(0.0), V::Real::splat(1.0));
     let cos_i = wi.dot(n).clamp(-1.0, 1.0);
-    let sin2_i = (1.0 - cos_i * cos_i).max(0.0);
+    let sin2_i = (one - cos_i * cos_i).max(zero);
     let sin2_t = sin2_i / (eta * eta);
-    let cos_t = (1.0 - sin2_t).sqrt();
-    (!(sin2_t >= 1.0), (-wi / eta + (cos_i / eta - cos_t) * n).normalize())
+    let cos_t = (one - sin2_t).sqrt();
+    (!sin2_t.ge(one), (-wi / eta + n * (cos_i / eta - cos_t)).normalize())
 }
 
 /// Unpolarised Fresnel reflectance of a dielectric interface for incidence cosine `cos_i`
 /// (measured on the incident side, clamped to [0,1]) and `eta` = n_t / n_i; 1 under total
-/// internal reflection. Without a branch, so that it runs across lanes.
+/// internal reflection. For one ray or across lanes.
 #[inline(always)]
-pub fn fresnel_dielectric(cos_i: f32, eta: f32) -> f32 {
+pub fn fresnel_dielectric<R: Real>(cos_i: R, eta: R) -> R {
+    let (zero, one) = (R::splat(0.0), R::splat(1.0));
     let cos_i = cos_i.clamp(0.0, 1.0);
-    let sin2_t = (1.0 - cos_i * cos_i).max(0.0) / (eta * eta);
-    let cos_t = (1.0 - sin2_t).sqrt();
+    let sin2_t = (one - cos_i * cos_i).max(zero) / (eta * eta);
+    let cos_t = (one - sin2_t).sqrt();
     let r_parl = (eta * cos_i - cos_t) / (eta * cos_i + cos_t);
     let r_perp = (cos_i - eta * cos_t) / (cos_i + eta * cos_t);
-    let r = 0.5 * (r_parl * r_parl + r_perp * r_perp);
-    if sin2_t >= 1.0 {
-        1.0
-    } else {
-        r
-    }
+    let r = R::splat(0.5) * (r_parl * r_parl + r_perp * r_perp);
+    R::select(sin2_t.ge(one), one, r)
 }
 
 /// Unpolarised Fresnel reflectance of a conductor per channel, for incidence cosine `cos_i`

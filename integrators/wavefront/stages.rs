@@ -19,22 +19,24 @@
 //!
 //! a path that ends writes its estimate and counters out, and after each round the paths that
 //! go on are compacted into full chunks. Each lane computes what the scalar engine's
-//! `PathState::advance` computes, operation for operation (the lane forms of its functions in
-//! [`crate::lanes::shading`], tested bit for bit against them): images are the scalar engine's,
-//! bit for bit. Per-primitive and per-light numbers are read from fixed-size tables
+//! `PathState::advance` computes, operation for operation (its functions written once over
+//! [`crate::lanes::Real`] and [`crate::lanes::Vector`], the one source for one ray and for
+//! lanes): images are the scalar engine's, bit for bit. Per-primitive and per-light numbers are read from fixed-size tables
 //! ([`Table`]), so that the reads vectorise as gathers.
 
 // Lane loops index several arrays by the lane, as the kernels they vectorise into do.
 #![allow(clippy::needless_range_loop)]
 
+use super::super::path::power_heuristic;
 use super::super::RenderParams;
 use super::{Occupancy, SampleBatch, StageOccupancy};
-use crate::bsdf::RoughDielectric;
-use crate::lanes::shading::{
-    area_to_solid_angle, checker, concentric_polar, lambert_eval, lambert_pdf, lambert_sample,
-    pinhole_directions, power_heuristic, shadow_toward, spawn_origin, specular_sample, FrameX, SampleX,
-    ShadowX,
-};
+use crate::bsdf::rough_dielectric::smooth_dielectric_sample;
+use crate::bsdf::{BsdfSample, Frame, Lambert, RoughDielectric, TransportMode};
+use crate::camera::concentric_polar;
+use crate::geometry::offset_origin;
+use crate::light::area_to_solid_angle;
+use crate::lighting::ShadowSegment;
+use crate::texture::checker;
 use crate::lanes::{
     dispatch, sobol_firsts, sobol_pairs, F32x, Isa, LaneHits, LaneScene, Lanes, Mask, RayLanes, SurfaceX,
     Vec3x, WIDTH,
@@ -286,7 +288,7 @@ struct Draws {
 struct Shaded {
     /// Radiance this vertex adds before next-event estimation (emission, or the background).
     emitted: Vec3x,
-    frame: FrameX,
+    frame: Frame<Vec3x>,
     wo_local: Vec3x,
     /// Diffuse albedo.
     albedo: Vec3x,
@@ -296,7 +298,7 @@ struct Shaded {
     theta: F32x,
     /// The glass sample, where `glass_ok`.
     glass_ok: Mask,
-    glass: SampleX,
+    glass: BsdfSample<Vec3x>,
     /// The glass's media (absorption) inside and outside.
     inside: Vec3x,
     outside: Vec3x,
@@ -305,7 +307,7 @@ struct Shaded {
     /// f·Le·w/pdf.
     pending: Mask,
     shadowed: Mask,
-    shadow: ShadowX,
+    shadow: ShadowSegment<Vec3x>,
     nee_value: Vec3x,
 }
 
@@ -745,7 +747,7 @@ fn shade_before_kernel(
     } else {
         Vec3x::ZERO
     };
-    let frame = FrameX::from_normal(n);
+    let frame = Frame::from_normal(n);
     let wo_local = frame.to_local(wo);
     let mut shaded = Shaded {
         emitted: Vec3x::select(v.hit, emission, escaped),
@@ -756,17 +758,26 @@ fn shade_before_kernel(
         radius: zero,
         theta: zero,
         glass_ok: Mask::NONE,
-        glass: SampleX { wi: Vec3x::ZERO, f: Vec3x::ZERO, pdf: zero, transmits: Mask::NONE, eta: F32x::ONE },
+        glass: BsdfSample {
+            wi: Vec3x::ZERO,
+            f: Vec3x::ZERO,
+            pdf: zero,
+            is_specular: Mask::ALL,
+            is_multiple: Mask::NONE,
+            is_transmission: Mask::NONE,
+            eta: F32x::ONE,
+        },
         inside: Vec3x::ZERO,
         outside: Vec3x::ZERO,
         pending: Mask::NONE,
         shadowed: Mask::NONE,
-        shadow: ShadowX { origin: Vec3x::ZERO, dir: Vec3x::ZERO, tmax: zero, remaining: zero },
+        shadow: ShadowSegment { origin: Vec3x::ZERO, dir: Vec3x::ZERO, tmax: zero, remaining: zero },
         nee_value: Vec3x::ZERO,
     };
     if v.glass.any() {
         // Smooth glass: RoughDielectric::sample.
-        let (glass_ok, glass) = specular_sample(prims.eta.at(primitive), wo_local, draws.first.0);
+        let (glass_ok, glass) =
+            smooth_dielectric_sample(prims.eta.at(primitive), wo_local, draws.first.0, TransportMode::Radiance);
         (shaded.glass_ok, shaded.glass) = (v.glass & glass_ok, glass);
         (shaded.inside, shaded.outside) = (prims.inside.at(primitive), prims.outside.at(primitive));
     }
@@ -796,12 +807,14 @@ fn shade_before_kernel(
     let quad_sampled = !radiance.is_zero() & pdf.gt(zero) & pdf.is_finite();
     let sampled = distance.gt(zero) & (point | quad_sampled);
     let wi_local = frame.to_local(wi);
-    let f = lambert_eval(albedo, wo_local, wi_local) * (wi_local.z.abs() * 1.0);
+    // Two-sided diffuse (the lane stages take no one-sided surface).
+    let lambert = Lambert { albedo, one_sided: Mask::NONE };
+    let f = lambert.eval(wo_local, wi_local) * (wi_local.z.abs() * 1.0);
     let pending = v.diffuse & sampled & !f.is_zero();
-    let shadow = shadow_toward(p, n, records.p_error, y);
+    let shadow = ShadowSegment::toward(p, n, records.p_error, y);
     let pdf = light_pick * pdf;
     // A point light is a delta: no MIS.
-    let w_light = F32x::select(point, F32x::ONE, power_heuristic(pdf, lambert_pdf(wo_local, wi_local)));
+    let w_light = F32x::select(point, F32x::ONE, power_heuristic(pdf, lambert.pdf(wo_local, wi_local)));
     // The diffuse BSDF sample's point on the disk, up to its trigonometry.
     let (centre, radius, theta) = concentric_polar(draws.bsdf.0, draws.bsdf.1);
     Shaded {
@@ -820,7 +833,8 @@ fn shade_before_kernel(
 /// The pinhole camera's ray directions through the film positions (`fx`, `fy`).
 #[inline(always)]
 fn pinhole_kernel(camera: &crate::camera::Camera, fx: &F32x, fy: &F32x) -> Vec3x {
-    pinhole_directions(camera, *fx, *fy)
+    // Ray::new clears −0 components.
+    camera.pinhole_direction::<Vec3x>(*fx, *fy) + Vec3x::ZERO
 }
 
 dispatch! {
@@ -852,13 +866,16 @@ fn scatter_kernel(
     let zero = F32x::splat(0.0);
     let (dx, dy) = (shaded.radius * F32x(trig[0]), shaded.radius * F32x(trig[1]));
     let (dx, dy) = (F32x::select(shaded.centre, zero, dx), F32x::select(shaded.centre, zero, dy));
-    let (diffuse_ok, diffuse) = lambert_sample(shaded.albedo, shaded.wo_local, dx, dy);
+    let lambert = Lambert { albedo: shaded.albedo, one_sided: Mask::NONE };
+    let (diffuse_ok, diffuse) = lambert.disk_sample(shaded.wo_local, dx, dy);
     let d = v.diffuse;
-    let s = SampleX {
+    let s = BsdfSample {
         wi: Vec3x::select(d, diffuse.wi, shaded.glass.wi),
         f: Vec3x::select(d, diffuse.f, shaded.glass.f),
         pdf: F32x::select(d, diffuse.pdf, shaded.glass.pdf),
-        transmits: !d & shaded.glass.transmits,
+        is_specular: !d,
+        is_multiple: Mask::NONE,
+        is_transmission: !d & shaded.glass.is_transmission,
         eta: F32x::select(d, diffuse.eta, shaded.glass.eta),
     };
     let sampled = (d & diffuse_ok) | shaded.glass_ok;
@@ -870,11 +887,11 @@ fn scatter_kernel(
     let enters = dir.dot(n).lt(zero);
     let incident = Vec3x::select(enters, shaded.outside, shaded.inside);
     let transmitted = Vec3x::select(enters, shaded.inside, shaded.outside);
-    let medium = Vec3x::select(s.transmits, transmitted, incident);
-    let eta_scale = F32x::select(s.transmits, chunk.eta_scale * (s.eta * s.eta), chunk.eta_scale);
+    let medium = Vec3x::select(s.is_transmission, transmitted, incident);
+    let eta_scale = F32x::select(s.is_transmission, chunk.eta_scale * (s.eta * s.eta), chunk.eta_scale);
     let wo = -dir;
     let reflected = (wi.dot(n) * wo.dot(n)).gt(zero);
-    let origin = spawn_origin(records.p, n, records.p_error, wi);
+    let origin = offset_origin(records.p, n, records.p_error, wi);
     let depth: [u32; WIDTH] = std::array::from_fn(|k| chunk.depth[k] + 1);
     // Russian roulette.
     let rr = (beta * eta_scale).max_element();

@@ -3,16 +3,18 @@
 //! side, the one the surface normal points to, reflects: f = 0 unless cos θo > 0 and cos θi > 0).
 
 use super::BsdfSample;
+use crate::lanes::{Mask3, Real, Vector};
 use glam::{Vec2, Vec3};
 use std::f32::consts::{FRAC_1_PI, PI};
 
-/// Ideal diffuse reflection with albedo `albedo`.
+/// Ideal diffuse reflection with albedo `albedo`: one surface (`Lambert`), or one per lane
+/// (`Lambert<Vec3x>`).
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Lambert {
+pub struct Lambert<V: Vector = Vec3> {
     /// Fraction of light reflected, per channel.
-    pub albedo: Vec3,
+    pub albedo: V,
     /// Whether only the +Z side reflects (black from behind, blind to light from behind).
-    pub one_sided: bool,
+    pub one_sided: Mask3<V>,
 }
 
 /// A cosine-distributed direction in the +Z hemisphere (Malley's method on a concentric disk).
@@ -32,63 +34,56 @@ impl Lambert {
         Lambert { albedo, one_sided: false }
     }
 
+    /// A cosine-distributed direction on the side of `wo` (none seen from behind when one-sided).
+    pub fn sample(&self, wo: Vec3, u: Vec2) -> Option<BsdfSample> {
+        let d = crate::camera::concentric_disk(u);
+        let (valid, sample) = self.disk_sample(wo, d.x, d.y);
+        valid.then_some(sample)
+    }
+}
+
+impl<V: Vector> Lambert<V> {
     /// Whether `wo` and `wi` lie on a side that reflects: the same side, and the +Z one when
     /// one-sided.
     #[inline(always)]
-    fn reflects(&self, wo: Vec3, wi: Vec3) -> bool {
-        wo.z * wi.z > 0.0 && (wo.z > 0.0 || !self.one_sided)
+    fn reflects(&self, wo: V, wi: V) -> Mask3<V> {
+        let zero = V::Real::splat(0.0);
+        (wo.z() * wi.z()).gt(zero) & (wo.z().gt(zero) | !self.one_sided)
     }
 
     /// `albedo / π` when `wo` and `wi` are on the same (reflecting) side, 0 otherwise.
     #[inline(always)]
-    pub fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
-        if self.reflects(wo, wi) {
-            self.albedo * FRAC_1_PI
-        } else {
-            Vec3::ZERO
-        }
+    pub fn eval(&self, wo: V, wi: V) -> V {
+        V::select(self.reflects(wo, wi), self.albedo * FRAC_1_PI, V::splat(Vec3::ZERO))
     }
 
     /// Cosine density `|cos θi| / π` on the side of `wo` (0 seen from behind when one-sided).
     #[inline(always)]
-    pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
-        if self.reflects(wo, wi) {
-            wi.z.abs() * FRAC_1_PI
-        } else {
-            0.0
-        }
+    pub fn pdf(&self, wo: V, wi: V) -> V::Real {
+        V::Real::select(self.reflects(wo, wi), wi.z().abs() * FRAC_1_PI, V::Real::splat(0.0))
     }
 
-    /// A cosine-distributed direction on the side of `wo` (none seen from behind when one-sided).
-    pub fn sample(&self, wo: Vec3, u: Vec2) -> Option<BsdfSample> {
-        self.sample_above(wo, crate::camera::concentric_disk(u))
-    }
-
-    /// [`sample`](Self::sample) from the point `d` of the unit disk that its uniforms map to
-    /// ([`crate::camera::concentric_disk`]): the wavefront engine maps them across lanes.
+    /// [`sample`](Lambert::sample) from the point (`dx`, `dy`) of the unit disk that its
+    /// uniforms map to ([`crate::camera::concentric_disk`]), without a branch: whether there is a
+    /// sample (neither direction in the surface, and `wo` in front when one-sided) and the sample.
     #[inline(always)]
-    pub fn sample_above(&self, wo: Vec3, d: Vec2) -> Option<BsdfSample> {
-        let (valid, sample) = self.disk_sample(wo, d);
-        valid.then_some(sample)
-    }
-
-    /// [`sample_above`](Self::sample_above) without a branch: whether there is a sample (neither
-    /// direction in the surface, and `wo` in front when one-sided) and the sample. The wavefront
-    /// engine runs it across lanes.
-    #[inline(always)]
-    pub fn disk_sample(&self, wo: Vec3, d: Vec2) -> (bool, BsdfSample) {
-        let above = hemisphere_above(d);
-        let wi = Vec3::new(above.x, above.y, if wo.z < 0.0 { -above.z } else { above.z });
+    pub fn disk_sample(&self, wo: V, dx: V::Real, dy: V::Real) -> (Mask3<V>, BsdfSample<V>) {
+        let (zero, one) = (V::Real::splat(0.0), V::Real::splat(1.0));
+        // The point of the +Z hemisphere above the disk point (Malley's method, hemisphere_above).
+        let z = (one - (dx * dx + dy * dy)).max(zero).sqrt();
+        let wi = V::new(dx, dy, V::Real::select(wo.z().lt(zero), -z, z));
+        let no = V::Real::mask(false);
         let sample = BsdfSample {
             wi,
             f: self.albedo * FRAC_1_PI,
-            pdf: wi.z.abs() / PI,
-            is_specular: false,
-            is_multiple: false,
-            is_transmission: false,
-            eta: 1.0,
+            pdf: wi.z().abs() / PI,
+            is_specular: no,
+            is_multiple: no,
+            is_transmission: no,
+            eta: one,
         };
-        (!(wi.z == 0.0 || wo.z == 0.0 || (self.one_sided && wo.z < 0.0)), sample)
+        let behind = self.one_sided & wo.z().lt(zero);
+        (!(wi.z().eq(zero) | wo.z().eq(zero) | behind), sample)
     }
 }
 

@@ -36,38 +36,48 @@ pub use rough_conductor::{ConductorFresnel, RoughConductor};
 pub use rough_dielectric::{RoughDielectric, TransportMode};
 pub use thin_dielectric::ThinDielectric;
 
+use crate::lanes::{Mask3, Real, Vector};
 use glam::Vec3;
 
 /// An orthonormal, right-handed shading frame: `s` and `t` span the tangent plane, `n` is +Z.
+/// One frame (`Frame`, of glam's `Vec3`) or one per lane (`Frame<Vec3x>`).
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Frame {
+pub struct Frame<V = Vec3> {
     /// First tangent (local +X).
-    pub s: Vec3,
+    pub s: V,
     /// Second tangent (local +Y), `n × s`.
-    pub t: Vec3,
+    pub t: V,
     /// Normal (local +Z).
-    pub n: Vec3,
+    pub n: V,
 }
 
-impl Frame {
+impl<V: Vector> Frame<V> {
     /// A frame around the unit normal `n`; the tangents are arbitrary but deterministic.
-    pub fn from_normal(n: Vec3) -> Frame {
-        // Duff et al. 2017, "Building an orthonormal basis, revisited", as glam implements it:
-        // branch-free and accurate for every n; the tangents jump where n.z changes sign.
-        let (s, t) = n.any_orthonormal_pair();
+    #[inline(always)]
+    pub fn from_normal(n: V) -> Frame<V> {
+        // Duff et al. 2017, "Building an orthonormal basis, revisited", as glam's
+        // `any_orthonormal_pair` computes it: branch-free and accurate for every n; the tangents
+        // jump where n.z changes sign.
+        let (x, y, z) = (n.x(), n.y(), n.z());
+        let sign = z.signum();
+        let one = V::Real::splat(1.0);
+        let a = V::Real::splat(-1.0) / (sign + z);
+        let b = x * y * a;
+        let s = V::new(one + sign * x * x * a, sign * b, -sign * x);
+        let t = V::new(b, sign + y * y * a, -y);
         Frame { s, t, n }
     }
 
     /// World-space `v` expressed in this frame (normal along +Z).
-    #[inline]
-    pub fn to_local(&self, v: Vec3) -> Vec3 {
-        Vec3::new(v.dot(self.s), v.dot(self.t), v.dot(self.n))
+    #[inline(always)]
+    pub fn to_local(&self, v: V) -> V {
+        V::new(v.dot(self.s), v.dot(self.t), v.dot(self.n))
     }
 
     /// Local-frame `v` expressed in world space.
-    #[inline]
-    pub fn to_world(&self, v: Vec3) -> Vec3 {
-        self.s * v.x + self.t * v.y + self.n * v.z
+    #[inline(always)]
+    pub fn to_world(&self, v: V) -> V {
+        self.s * v.x() + self.t * v.y() + self.n * v.z()
     }
 }
 
@@ -151,38 +161,38 @@ impl ShadingFrame {
     }
 }
 
-/// One sampled scattering direction.
+/// One sampled scattering direction (`BsdfSample`), or one per lane (`BsdfSample<Vec3x>`).
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct BsdfSample {
+pub struct BsdfSample<V: Vector = Vec3> {
     /// The sampled direction, away from the surface, in the local frame.
-    pub wi: Vec3,
+    pub wi: V,
     /// The BSDF value f(wo, wi) (not divided by the pdf, not multiplied by the cosine).
-    pub f: Vec3,
+    pub f: V,
     /// Solid-angle density of `wi`, or for a specular sample the discrete probability of its lobe.
-    pub pdf: f32,
+    pub pdf: V::Real,
     /// True for a delta lobe (perfect mirror or perfect refraction): `eval`/`pdf` cannot reproduce it.
-    pub is_specular: bool,
+    pub is_specular: Mask3<V>,
     /// True for light that a rough dielectric scattered between several facets: like a delta
     /// sample, `eval`/`pdf` do not include it, so only its weight f·|cos θi|/pdf is meaningful.
-    pub is_multiple: bool,
+    pub is_multiple: Mask3<V>,
     /// True when `wi` lies on the other side of the surface from `wo`.
-    pub is_transmission: bool,
+    pub is_transmission: Mask3<V>,
     /// Relative index crossed, n(side of `wi`) / n(side of `wo`); 1 for reflection.
-    pub eta: f32,
+    pub eta: V::Real,
 }
 
-impl BsdfSample {
+impl<V: Vector> BsdfSample<V> {
     /// The Monte Carlo weight f·|cos θi| / pdf that multiplies the path throughput.
     #[inline]
-    pub fn weight(&self) -> Vec3 {
-        self.f * (self.wi.z.abs() / self.pdf)
+    pub fn weight(&self) -> V {
+        self.f * (self.wi.z().abs() / self.pdf)
     }
 
     /// Whether `eval` and `pdf` reproduce this sample, so that it can take part in multiple
     /// importance sampling (false for delta and multiply scattered samples).
     #[inline]
-    pub fn is_evaluable(&self) -> bool {
-        !self.is_specular && !self.is_multiple
+    pub fn is_evaluable(&self) -> Mask3<V> {
+        !self.is_specular & !self.is_multiple
     }
 }
 

@@ -37,6 +37,7 @@
 
 use super::microsurface::Microsurface;
 use super::{BsdfSample, MicrofacetDistribution};
+use crate::lanes::{Mask3, Real, Vector};
 use crate::optics::{fresnel_dielectric, refraction};
 use glam::{Vec2, Vec3};
 use rand::{Rng, SeedableRng};
@@ -234,27 +235,42 @@ impl RoughDielectric {
     /// where there is none). The wavefront engine runs it across lanes.
     #[inline(always)]
     pub fn specular_sample(&self, wo: Vec3, uc: f32, mode: TransportMode) -> (bool, BsdfSample) {
-        let etap = if wo.z > 0.0 { self.eta } else { 1.0 / self.eta };
-        let r = fresnel_dielectric(wo.z.abs(), etap);
-        let reflects = uc < r;
-        let mirrored = Vec3::new(-wo.x, -wo.y, wo.z);
-        let (refracts, refracted) = refraction(wo, Vec3::Z * wo.z.signum(), etap);
-        let t = 1.0 - r;
-        let scale = match mode {
-            TransportMode::Radiance => 1.0 / (etap * etap),
-            TransportMode::Importance => 1.0,
-        };
-        let sample = BsdfSample {
-            wi: if reflects { mirrored } else { refracted },
-            f: Vec3::splat(if reflects { r / mirrored.z.abs() } else { t * scale / refracted.z.abs() }),
-            pdf: if reflects { r } else { t },
-            is_specular: true,
-            is_multiple: false,
-            is_transmission: !reflects,
-            eta: if reflects { 1.0 } else { etap },
-        };
-        (wo.z != 0.0 && (reflects || refracts), sample)
+        smooth_dielectric_sample(self.eta, wo, uc, mode)
     }
+}
+
+/// [`RoughDielectric::specular_sample`] of a smooth interface of relative index `eta`, for one
+/// ray or across lanes.
+#[inline(always)]
+pub fn smooth_dielectric_sample<V: Vector>(
+    eta: V::Real,
+    wo: V,
+    uc: V::Real,
+    mode: TransportMode,
+) -> (Mask3<V>, BsdfSample<V>) {
+    let (zero, one) = (V::Real::splat(0.0), V::Real::splat(1.0));
+    let cos_o = wo.z();
+    let etap = V::Real::select(cos_o.gt(zero), eta, one / eta);
+    let r = fresnel_dielectric(cos_o.abs(), etap);
+    let reflects = uc.lt(r);
+    let mirrored = V::new(-wo.x(), -wo.y(), cos_o);
+    let (refracts, refracted) = refraction(wo, V::splat(Vec3::Z) * cos_o.signum(), etap);
+    let t = one - r;
+    let scale = match mode {
+        TransportMode::Radiance => one / (etap * etap),
+        TransportMode::Importance => one,
+    };
+    let f = V::Real::select(reflects, r / mirrored.z().abs(), t * scale / refracted.z().abs());
+    let sample = BsdfSample {
+        wi: V::select(reflects, mirrored, refracted),
+        f: V::new(f, f, f),
+        pdf: V::Real::select(reflects, r, t),
+        is_specular: V::Real::mask(true),
+        is_multiple: V::Real::mask(false),
+        is_transmission: !reflects,
+        eta: V::Real::select(reflects, one, etap),
+    };
+    (cos_o.ne(zero) & (reflects | refracts), sample)
 }
 
 /// Height-correlated Smith masking–shadowing for a refracting pair: B(1 + Λo, 1 + Λi), the

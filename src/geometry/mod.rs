@@ -22,6 +22,7 @@ pub(crate) use sphere::MIN_QUADRATIC_A;
 pub use sphere::{sphere_uv, Sphere};
 pub use triangle::{ShearedRay, Triangle, VertexAttributes};
 
+use crate::lanes::{Real, Vector};
 use glam::{Vec2, Vec3};
 use std::cell::OnceCell;
 
@@ -124,15 +125,22 @@ pub fn parallelogram_normal(u: Vec3, v: Vec3) -> Option<Vec3> {
 }
 
 /// Origin for a ray leaving a surface point in direction `w`: `p` pushed along the geometric
-/// normal `n` to the side `w` points to, by the point's error bound, then rounded away from it.
-/// Without a branch, so that it runs across lanes.
+/// normal `n` to the side `w` points to, by the point's error bound, then rounded away from it
+/// ([`offset_origin`]).
 #[inline(always)]
 pub fn spawn_origin(hit: &SurfaceHit, w: Vec3) -> Vec3 {
+    offset_origin(hit.p, hit.n, hit.p_error, w)
+}
+
+/// [`spawn_origin`] of the point `p` (geometric normal `n`, error bound `p_error`), for one ray
+/// or across lanes.
+#[inline(always)]
+pub fn offset_origin<V: Vector>(p: V, n: V, p_error: V::Real, w: V) -> V {
     // pbrt-v4's dot(|n|, pError) for an error bound that is the same on every axis.
-    let offset = hit.n * (hit.p_error * hit.n.abs().element_sum() + f32::MIN_POSITIVE);
-    let offset = if w.dot(hit.n) < 0.0 { -offset } else { offset };
-    let po = hit.p + offset;
-    Vec3::new(away_from(po.x, offset.x), away_from(po.y, offset.y), away_from(po.z, offset.z))
+    let offset = n * (p_error * n.abs().element_sum() + f32::MIN_POSITIVE);
+    let offset = V::select(w.dot(n).lt(V::Real::splat(0.0)), -offset, offset);
+    let po = p + offset;
+    V::new(po.x().away(offset.x()), po.y().away(offset.y()), po.z().away(offset.z()))
 }
 
 /// `x` moved to the next float in the direction of `offset`'s sign (kept where it is 0).

@@ -12,12 +12,13 @@
 //! runtime detection, not a SIMD crate: the kernels need nothing beyond what the compiler's
 //! vectoriser does with plain loops, and the dispatch is three lines.
 
+mod real;
 mod sampler;
 mod scene;
-pub mod shading;
 mod shapes;
 mod wide;
 
+pub use real::{Mask3, Real, Vector};
 pub use sampler::{sobol_firsts, sobol_pairs};
 pub use scene::{LaneHits, LaneScene, SurfaceX};
 pub use shapes::{cylinder_hits, disk_hits, quad_hits, sphere_hits};

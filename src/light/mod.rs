@@ -26,6 +26,7 @@ pub use spot::SpotBeam;
 use crate::bsdf::lambert::cosine_hemisphere;
 use crate::bsdf::Frame;
 use crate::geometry::{disk_uv, point_error, spawn_origin, sphere_uv, texture_frame, Ray, SurfaceHit};
+use crate::lanes::{Real, Vector};
 use crate::texture::Texture;
 use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
@@ -244,16 +245,14 @@ impl EmitterShape {
 
 /// The solid-angle density seen from `p` of the point `y` (normal `n_y`) drawn with the area
 /// density `area_pdf`: `area_pdf·d² / |cos θ_y|`, 0 where the direction grazes the surface.
+/// For one point or across lanes.
 #[inline(always)]
-pub fn area_to_solid_angle(area_pdf: f32, p: Vec3, y: Vec3, n_y: Vec3) -> f32 {
+pub fn area_to_solid_angle<V: Vector>(area_pdf: V::Real, p: V, y: V, n_y: V) -> V::Real {
     let d = y - p;
-    let cos = (d.normalize_or_zero()).dot(n_y).abs();
+    let cos = d.normalize_or_zero().dot(n_y).abs();
     let pdf = area_pdf * d.length_squared() / cos;
-    if cos == 0.0 {
-        0.0
-    } else {
-        pdf
-    }
+    let zero = V::Real::splat(0.0);
+    V::Real::select(cos.eq(zero), zero, pdf)
 }
 
 /// A uniformly distributed unit vector.

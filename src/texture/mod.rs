@@ -5,6 +5,7 @@ mod image_map;
 
 pub use image_map::{srgb_to_linear, ColorSpace, Filter, ImageMap, Wrap};
 
+use crate::lanes::{Real, Vector};
 use glam::{Vec2, Vec3};
 use std::sync::Arc;
 
@@ -51,23 +52,23 @@ pub enum Texture {
     Image(ImageTexture),
 }
 
+/// A 3-D checker of cell size `size` at `p`, for one point or across lanes: `color1` where the
+/// cell's indices sum to an even number, `color2` elsewhere.
+#[inline(always)]
+pub fn checker<V: Vector>(p: V, size: V::Real, color1: V, color2: V) -> V {
+    // A tiny bias keeps points on cell boundaries (walls, floors at integer multiples of
+    // `size`) from flickering between cells.
+    let cell = (p / size + V::splat(Vec3::splat(1e-4))).floor();
+    V::select(V::Real::even_sum(cell.x(), cell.y(), cell.z()), color1, color2)
+}
+
 impl Texture {
     /// The colour at world point `p` with surface texture coordinates `uv`.
     #[inline]
     pub fn eval(&self, p: Vec3, uv: Vec2) -> Vec3 {
         match self {
             Texture::Constant(c) => *c,
-            Texture::Checker { color1, color2, size } => {
-                // A tiny bias keeps points on cell boundaries (walls, floors at integer
-                // multiples of `size`) from flickering between cells.
-                let cell = ((p / *size) + Vec3::splat(1e-4)).floor();
-                let parity = (cell.x as i64 + cell.y as i64 + cell.z as i64).rem_euclid(2);
-                if parity == 0 {
-                    *color1
-                } else {
-                    *color2
-                }
-            }
+            Texture::Checker { color1, color2, size } => checker(p, *size, *color1, *color2),
             Texture::Image(image) => image.lookup(uv),
         }
     }
