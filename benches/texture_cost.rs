@@ -25,7 +25,8 @@ fn with_mean_colours(scene: &mut Scene) {
             Bsdf::Conductor(_)
             | Bsdf::Dielectric { .. }
             | Bsdf::ThinDielectric { .. }
-            | Bsdf::Plastic { .. } => continue,
+            | Bsdf::Plastic { .. }
+            | Bsdf::RoughPlastic { .. } => continue,
         };
         if let Texture::Image(_) = t {
             *t = Texture::Constant(t.mean());

@@ -969,7 +969,7 @@ impl<'a> Engine<'a> {
 /// A sub-path vertex being shaded.
 struct Vertex<'a> {
     hit: &'a SurfaceHit,
-    bsdf: &'a Scattering,
+    bsdf: &'a Scattering<'a>,
     frame: &'a ShadingFrame,
     /// The direction back along the sub-path, in the world and in the local frame.
     wo: Vec3,

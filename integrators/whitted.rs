@@ -202,9 +202,11 @@ pub(super) fn trace(
             let reflectance = c.fresnel(&channels).at(wo.dot(n));
             l += follow(reflect(wo, n), false, reflectance, seg.absorption, true, ctx);
         }
-        Bsdf::Plastic { specular, ior, ior_outside, two_sided, .. } => {
+        Bsdf::Plastic { specular, ior, ior_outside, two_sided, .. }
+        | Bsdf::RoughPlastic { specular, ior, ior_outside, two_sided, .. } => {
             // The coating's mirror, seen from the front only unless two-sided (the Phong terms
-            // stand in for the base): the Fresnel reflectance times the specular factor.
+            // stand in for the base, and for a rough coating's blur): the Fresnel reflectance
+            // times the specular factor.
             if *two_sided || wo.dot(hit.n) > 0.0 {
                 let r = crate::optics::fresnel_dielectric(wo.dot(n), ior / ior_outside);
                 let weight = channels.colour(*specular) * r;
@@ -326,7 +328,10 @@ fn glossy_direct(
                 distribution.with_alpha(roughness * roughness),
             )
             .eval(wo_local, wi_local, TransportMode::Radiance),
-            Bsdf::Diffuse { .. } | Bsdf::ThinDielectric { .. } | Bsdf::Plastic { .. } => Vec3::ZERO,
+            Bsdf::Diffuse { .. }
+            | Bsdf::ThinDielectric { .. }
+            | Bsdf::Plastic { .. }
+            | Bsdf::RoughPlastic { .. } => Vec3::ZERO,
         };
         if f == Vec3::ZERO || frame.factor(wo, wi, TransportMode::Radiance) == 0.0 {
             continue;

@@ -331,7 +331,11 @@ pub fn concentric_polar<R: Real>(ux: R, uy: R) -> (R::Mask, R, R) {
     let (ox, oy) = (R::splat(2.0) * ux - 1.0, R::splat(2.0) * uy - 1.0);
     let wide = ox.abs().gt(oy.abs());
     let r = R::select(wide, ox, oy);
-    let theta = R::select(wide, R::splat(FRAC_PI_4) * (oy / ox), R::splat(FRAC_PI_2) - R::splat(FRAC_PI_4) * (ox / oy));
+    let theta = R::select(
+        wide,
+        R::splat(FRAC_PI_4) * (oy / ox),
+        R::splat(FRAC_PI_2) - R::splat(FRAC_PI_4) * (ox / oy),
+    );
     let zero = R::splat(0.0);
     (ox.eq(zero) & oy.eq(zero), r, theta)
 }

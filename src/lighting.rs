@@ -312,6 +312,10 @@ pub fn phong_local(
     let behind = material.is_one_sided() && ns.dot(wo) <= 0.0;
     let color = if behind { Vec3::ZERO } else { channels.colour(material.phong_color(hit.p, hit.uv)) };
     let mut l = ph.ambient * color * channels.colour(scene.settings.ambient);
+    if behind {
+        // Black, the highlight of a one-sided plastic's coating included.
+        return l;
+    }
     // A mirror or glass already sees an area light's surface through its reflected ray: its
     // highlight stands in only for point lights, which have no surface to be seen.
     let specular_surface = !matches!(material.bsdf, Bsdf::Diffuse { .. });

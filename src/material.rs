@@ -1,9 +1,11 @@
 //! Materials: the physical description and the empirical Phong terms of ray casting and Whitted.
 
+use crate::bsdf::RoughCoating;
 pub use crate::conductor::{Conductor, Distribution};
 use crate::dispersion::Ior;
 use crate::spectrum::Channels;
 use glam::{Vec2, Vec3};
+use std::sync::Arc;
 
 pub use crate::texture::Texture;
 
@@ -116,19 +118,75 @@ pub enum Bsdf {
         /// Whether the back is the same plastic (Mitsuba's `twosided` wrapper) instead of black.
         two_sided: bool,
     },
+    /// A diffuse base under a rough dielectric coating (Mitsuba's `roughplastic`): the coating's
+    /// microfacet reflection plus the base's light through it; black from behind unless
+    /// two-sided.
+    RoughPlastic {
+        /// The base's diffuse reflectance (Mitsuba's `diffuse_reflectance`).
+        diffuse: Vec3,
+        /// Scale of the coating's specular reflection (Mitsuba's `specular_reflectance`).
+        specular: Vec3,
+        /// The coating's refractive index.
+        ior: f32,
+        /// The index of the medium outside.
+        ior_outside: f32,
+        /// Whether the light bouncing inside the coating shifts the colour (Mitsuba's
+        /// `nonlinear`).
+        nonlinear: bool,
+        /// Whether the back is the same plastic (Mitsuba's `twosided` wrapper) instead of black.
+        two_sided: bool,
+        /// The width α of the coating's microfacet distribution, as Mitsuba defines it.
+        alpha: f32,
+        /// The coating's microfacet distribution.
+        distribution: Distribution,
+        /// The coating of index `ior / ior_outside` over `distribution` with width `alpha`, and
+        /// its tables, computed once ([`Bsdf::rough_plastic`]).
+        coating: Arc<RoughCoating>,
+    },
 }
 
 impl Bsdf {
+    /// A rough plastic with its coating's tables computed (the one way to build
+    /// [`Bsdf::RoughPlastic`], so that the tables match the parameters).
+    #[allow(clippy::too_many_arguments)]
+    pub fn rough_plastic(
+        diffuse: Vec3,
+        specular: Vec3,
+        ior: f32,
+        ior_outside: f32,
+        nonlinear: bool,
+        two_sided: bool,
+        alpha: f32,
+        distribution: Distribution,
+    ) -> Bsdf {
+        let coating = Arc::new(RoughCoating::new(ior / ior_outside, distribution.with_alpha(alpha)));
+        Bsdf::RoughPlastic {
+            diffuse,
+            specular,
+            ior,
+            ior_outside,
+            nonlinear,
+            two_sided,
+            alpha,
+            distribution,
+            coating,
+        }
+    }
+
     /// Whether the surface is an interface whose index varies with wavelength on either side.
     pub fn is_dispersive(&self) -> bool {
         matches!(self, Bsdf::Dielectric { inside, outside, .. }
             if inside.ior.is_dispersive() || outside.ior.is_dispersive())
     }
 
-    /// Whether the surface is a rough mirror, conductor or dielectric (roughness or α above 0).
+    /// Whether the surface is a rough mirror, conductor or dielectric (roughness or α above 0);
+    /// false for the plastics, whose base and coating the empirical methods render alike.
     pub fn is_rough(&self) -> bool {
         match self {
-            Bsdf::Diffuse { .. } | Bsdf::ThinDielectric { .. } | Bsdf::Plastic { .. } => false,
+            Bsdf::Diffuse { .. }
+            | Bsdf::ThinDielectric { .. }
+            | Bsdf::Plastic { .. }
+            | Bsdf::RoughPlastic { .. } => false,
             Bsdf::Mirror { roughness, .. } | Bsdf::Dielectric { roughness, .. } => *roughness > 0.0,
             Bsdf::Conductor(c) => c.is_rough(),
         }
@@ -138,7 +196,7 @@ impl Bsdf {
     /// dielectric whose roughness the BSDFs treat as smooth): no light can be connected to it.
     pub fn is_specular(&self) -> bool {
         match self {
-            Bsdf::Diffuse { .. } | Bsdf::Plastic { .. } => false,
+            Bsdf::Diffuse { .. } | Bsdf::Plastic { .. } | Bsdf::RoughPlastic { .. } => false,
             Bsdf::ThinDielectric { .. } => true,
             Bsdf::Mirror { roughness, .. } => {
                 crate::bsdf::TrowbridgeReitz::from_roughness(*roughness).effectively_smooth()
@@ -182,7 +240,8 @@ impl Material {
                 highlight(2.0 * r / (1.0 + r))
             }
             // Lambert for the base, the coating's normal-incidence reflection as the highlight.
-            Bsdf::Plastic { specular, ior, ior_outside, .. } => {
+            Bsdf::Plastic { specular, ior, ior_outside, .. }
+            | Bsdf::RoughPlastic { specular, ior, ior_outside, .. } => {
                 let r = ((ior - ior_outside) / (ior + ior_outside)).powi(2);
                 Phong { ambient: 1.0, diffuse: 1.0, specular: r * specular.max_element(), shininess: 200.0 }
             }
@@ -190,9 +249,14 @@ impl Material {
     }
 
     /// Whether the surface reflects only on the side its normal points to (a one-sided diffuse
-    /// or plastic).
+    /// or plastic, smooth or rough).
     pub fn is_one_sided(&self) -> bool {
-        matches!(self.bsdf, Bsdf::Diffuse { one_sided: true, .. } | Bsdf::Plastic { two_sided: false, .. })
+        matches!(
+            self.bsdf,
+            Bsdf::Diffuse { one_sided: true, .. }
+                | Bsdf::Plastic { two_sided: false, .. }
+                | Bsdf::RoughPlastic { two_sided: false, .. }
+        )
     }
 
     /// The surface colour `C` of the Phong model at point `p` with texture coordinates `uv`.
@@ -201,7 +265,7 @@ impl Material {
             Bsdf::Diffuse { albedo, .. } => albedo.eval(p, uv),
             Bsdf::Mirror { color, .. } => color.eval(p, uv),
             Bsdf::Conductor(c) => c.normal_reflectance(),
-            Bsdf::Plastic { diffuse, .. } => *diffuse,
+            Bsdf::Plastic { diffuse, .. } | Bsdf::RoughPlastic { diffuse, .. } => *diffuse,
             Bsdf::Dielectric { .. } | Bsdf::ThinDielectric { .. } => Vec3::ONE,
         }
     }

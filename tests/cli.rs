@@ -848,17 +848,17 @@ fn zero_checker_size() {
 }
 
 #[test]
-fn emission_on_a_cylinder() {
+fn emission_on_a_polygon() {
     let text = edited(&[("color = 0.73", "color = 0.73\nemission = 1.0")], "");
-    // The first object made of `white` that cannot emit: none (quads can), so add a cylinder.
+    // The first object made of `white` that cannot emit: none (quads can), so add a polygon.
     let text = text
-        + "[[objects]]\nname = \"lamp post\"\nshape = \"cylinder\"\nbase = [0.0, 0.0, 0.0]\nradius = 0.05\nheight = 0.5\nmaterial = \"white\"\n";
-    let line = line_of(&text, "name = \"lamp post\"") + 5;
+        + "[[objects]]\nname = \"lamp shade\"\nshape = \"polygon\"\nvertices = [[0.0, 0.0, 0.0], [0.5, 0.0, 0.0], [0.0, 0.5, 0.0]]\nmaterial = \"white\"\n";
+    let line = line_of(&text, "name = \"lamp shade\"") + 3;
     assert_scene_error_at(
         &text,
         line,
         "objects[7].material",
-        &["emission is supported on spheres, quads, disks and meshes"],
+        &["emission is supported on spheres, quads, disks, cylinders and meshes"],
     );
 }
 

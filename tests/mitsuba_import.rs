@@ -184,11 +184,11 @@ fn bad_and_hostile_xml_exits_2_at_its_position() {
 
 #[test]
 fn what_vitrum_lacks_is_refused_or_with_lenient_dropped_with_a_warning() {
-    let plastic = SMALL.replace(
+    let principled = SMALL.replace(
         "<bsdf type=\"dielectric\" id=\"glass\">",
-        "<bsdf type=\"roughplastic\" id=\"unused\"/><bsdf type=\"dielectric\" id=\"glass\">",
+        "<bsdf type=\"principled\" id=\"unused\"/><bsdf type=\"dielectric\" id=\"glass\">",
     );
-    let scene = plastic.replace(
+    let scene = principled.replace(
         "<ref id=\"glass\"/>\n    </shape>\n    <shape type=\"rectangle\">",
         "<ref id=\"unused\"/>\n    </shape>\n    <shape type=\"rectangle\">",
     );
@@ -196,14 +196,14 @@ fn what_vitrum_lacks_is_refused_or_with_lenient_dropped_with_a_warning() {
     let strict = vitrum(dir.path(), &["info", "p.xml"]);
     assert_eq!(strict.status.code(), Some(2));
     assert!(
-        stderr(&strict).contains("roughplastic") && stderr(&strict).contains("--lenient"),
+        stderr(&strict).contains("principled") && stderr(&strict).contains("--lenient"),
         "{}",
         stderr(&strict)
     );
     let lenient = vitrum(dir.path(), &["info", "--lenient", "p.xml"]);
     assert!(lenient.status.success(), "{}", stderr(&lenient));
     assert!(
-        stderr(&lenient).contains("roughplastic") && stderr(&lenient).contains("dropped"),
+        stderr(&lenient).contains("principled") && stderr(&lenient).contains("dropped"),
         "{}",
         stderr(&lenient)
     );

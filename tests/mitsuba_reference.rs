@@ -26,8 +26,7 @@ const BLOCK: usize = 8;
 /// Cases of features other work is adding now: vitrum refuses (or, for one-sided diffuse,
 /// misreads) them today. Each has its XML and Mitsuba's render; enable a case by moving it to
 /// a `reference_case!` line below once its feature is merged.
-pub const PENDING: [(&str, &str); 1] =
-    [("roughplastic", "the roughplastic BSDF (Beckmann alpha, diffuse_reflectance)")];
+pub const PENDING: [(&str, &str); 0] = [];
 
 /// Cases where vitrum disagrees with Mitsuba 3 for a reason outside the importer: (case, the
 /// reason with the figures measured). Each is still rendered and must still disagree (so the
@@ -168,6 +167,8 @@ reference_case! {
     thin_dielectric => "thindielectric",
     roughdielectric_beckmann => "roughdielectric-beckmann",
     plastic => "plastic",
+    roughplastic_beckmann => "roughplastic",
+    area_light_on_a_cylinder => "cylinder-light",
 }
 
 /// Files of this folder that another test compares with its Mitsuba render: (case, the test).

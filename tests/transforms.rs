@@ -911,6 +911,8 @@ fn a_rotated_textured_emitter_samples_points_with_the_uv_its_hits_get() {
     for shape in [
         "shape = \"sphere\"\ncenter = [0.0, 0.0, 0.0]\nradius = 0.5",
         "shape = \"disk\"\ncenter = [0.0, 0.0, 0.0]\nnormal = [0.0, 1.0, 0.0]\nradius = 0.5\ninner_radius = 0.1",
+        // The wall and both caps of a closed cylinder.
+        "shape = \"cylinder\"\nbase = [0.0, -0.3, 0.0]\naxis = [0.2, 1.0, 0.1]\nradius = 0.4\nheight = 0.6",
     ] {
         let text = format!(
             "{HEADER}[materials.poster]\ntype = \"diffuse\"\nemission = 1.0\n\

@@ -34,18 +34,18 @@ use crate::bsdf::rough_dielectric::smooth_dielectric_sample;
 use crate::bsdf::{BsdfSample, Frame, Lambert, RoughDielectric, TransportMode};
 use crate::camera::concentric_polar;
 use crate::geometry::offset_origin;
-use crate::light::area_to_solid_angle;
-use crate::lighting::ShadowSegment;
-use crate::texture::checker;
 use crate::lanes::{
     dispatch, sobol_firsts, sobol_pairs, F32x, Isa, LaneHits, LaneScene, Lanes, Mask, RayLanes, SurfaceX,
     Vec3x, WIDTH,
 };
+use crate::light::area_to_solid_angle;
 use crate::light::Light;
+use crate::lighting::ShadowSegment;
 use crate::material::Bsdf;
 use crate::sampler::{pixel_key, Dim, SamplerKind, DIM_PURPOSES};
 use crate::scene::{Effect, Scene};
 use crate::stats::RayCounts;
+use crate::texture::checker;
 use crate::texture::Texture;
 use glam::Vec3;
 
@@ -411,6 +411,7 @@ impl LaneStages {
                     return Err(format!("material `{}` is a thin dielectric", m.name))
                 }
                 Bsdf::Plastic { .. } => return Err(format!("material `{}` is a plastic", m.name)),
+                Bsdf::RoughPlastic { .. } => return Err(format!("material `{}` is a rough plastic", m.name)),
                 Bsdf::Dielectric { .. } => return Err(format!("material `{}` is dispersive glass", m.name)),
             }
             if let Some(l) = prim.light {
@@ -776,8 +777,12 @@ fn shade_before_kernel(
     };
     if v.glass.any() {
         // Smooth glass: RoughDielectric::sample.
-        let (glass_ok, glass) =
-            smooth_dielectric_sample(prims.eta.at(primitive), wo_local, draws.first.0, TransportMode::Radiance);
+        let (glass_ok, glass) = smooth_dielectric_sample(
+            prims.eta.at(primitive),
+            wo_local,
+            draws.first.0,
+            TransportMode::Radiance,
+        );
         (shaded.glass_ok, shaded.glass) = (v.glass & glass_ok, glass);
         (shaded.inside, shaded.outside) = (prims.inside.at(primitive), prims.outside.at(primitive));
     }

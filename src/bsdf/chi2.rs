@@ -27,6 +27,7 @@ pub(crate) const TOTAL_CASES: usize = super::lambert::tests::CHI2_CASES
     + super::rough_conductor::tests::CHI2_CASES
     + super::rough_dielectric::tests::CHI2_CASES
     + super::plastic::tests::CHI2_CASES
+    + super::rough_plastic::tests::CHI2_CASES
     + crate::light::tests::CHI2_CASES
     + crate::light::environment_map::tests::CHI2_CASES
     + crate::light::spot::tests::CHI2_CASES;

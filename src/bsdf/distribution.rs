@@ -51,6 +51,14 @@ impl MicrofacetDistribution {
         }
     }
 
+    /// Smith masking G1(w) = 1 / (1 + Λ(w)).
+    pub fn g1(&self, w: Vec3) -> f32 {
+        match self {
+            MicrofacetDistribution::Ggx(d) => d.g1(w),
+            MicrofacetDistribution::Beckmann(d) => d.g1(w),
+        }
+    }
+
     /// Height-correlated Smith masking-shadowing G(wo, wi).
     pub fn g(&self, wo: Vec3, wi: Vec3) -> f32 {
         match self {

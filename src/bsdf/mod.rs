@@ -21,6 +21,7 @@ pub mod model;
 pub mod plastic;
 pub mod rough_conductor;
 pub mod rough_dielectric;
+pub mod rough_plastic;
 pub mod thin_dielectric;
 
 #[cfg(test)]
@@ -34,6 +35,7 @@ pub use model::Scattering;
 pub use plastic::Plastic;
 pub use rough_conductor::{ConductorFresnel, RoughConductor};
 pub use rough_dielectric::{RoughDielectric, TransportMode};
+pub use rough_plastic::{RoughCoating, RoughPlastic};
 pub use thin_dielectric::ThinDielectric;
 
 use crate::lanes::{Mask3, Real, Vector};

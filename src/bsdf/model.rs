@@ -1,10 +1,10 @@
 //! The scattering model of a material at a hit point, for the physically based methods (`path`,
 //! `light`): Lambert, smooth or rough mirror or conductor, smooth or rough dielectric, behind one
-//! interface, thin dielectric, plastic.
+//! interface, thin dielectric, plastic smooth or rough.
 
 use super::{
-    BsdfEval, BsdfSample, Lambert, Plastic, RoughConductor, RoughDielectric, ThinDielectric, TransportMode,
-    TrowbridgeReitz,
+    BsdfEval, BsdfSample, Lambert, Plastic, RoughConductor, RoughDielectric, RoughPlastic, ThinDielectric,
+    TransportMode, TrowbridgeReitz,
 };
 use crate::material::{Bsdf, Material};
 use crate::spectrum::Channels;
@@ -12,9 +12,9 @@ use glam::{Vec2, Vec3};
 use rand::Rng;
 
 /// A material's BSDF at one point, in the local frame of the surface's geometric normal (the
-/// `outside` side is +Z).
+/// `outside` side is +Z); it borrows the material's tables (a rough plastic's coating).
 #[derive(Clone, Copy, Debug)]
-pub enum Scattering {
+pub enum Scattering<'a> {
     /// Ideal diffuse reflection.
     Diffuse(Lambert),
     /// Mirror or conductor (a delta lobe when smooth).
@@ -25,14 +25,16 @@ pub enum Scattering {
     ThinDielectric(ThinDielectric),
     /// Diffuse base under a smooth coating: a delta mirror lobe plus a smooth base lobe.
     Plastic(Plastic),
+    /// Diffuse base under a rough coating: a microfacet lobe plus the base's lobe.
+    RoughPlastic(RoughPlastic<'a>),
 }
 
-impl Scattering {
+impl<'a> Scattering<'a> {
     /// The scattering of `material` at world point `p` with texture coordinates `uv` in the
     /// path's `channels`: colours as RGB or as their spectra at the wavelengths, indices nominal
     /// or at the hero wavelength.
     #[inline(always)]
-    pub fn at(material: &Material, p: Vec3, uv: Vec2, channels: &Channels) -> Scattering {
+    pub fn at(material: &'a Material, p: Vec3, uv: Vec2, channels: &Channels) -> Scattering<'a> {
         let lambda = channels.hero();
         match &material.bsdf {
             Bsdf::Diffuse { albedo, one_sided } => Scattering::Diffuse(Lambert {
@@ -58,6 +60,16 @@ impl Scattering {
                     two_sided: *two_sided,
                 })
             }
+            Bsdf::RoughPlastic { diffuse, specular, nonlinear, two_sided, coating, .. } => {
+                Scattering::RoughPlastic(RoughPlastic {
+                    diffuse: channels.colour(*diffuse),
+                    specular: channels.colour(*specular),
+                    nonlinear: *nonlinear,
+                    specular_weight: Plastic::sampling_weight(*diffuse, *specular),
+                    two_sided: *two_sided,
+                    coating,
+                })
+            }
             Bsdf::Dielectric { inside, outside, roughness, distribution } => {
                 Scattering::Dielectric(RoughDielectric::new(
                     inside.ior_at(lambda) / outside.ior_at(lambda),
@@ -70,7 +82,7 @@ impl Scattering {
     /// Whether the model only scatters into delta directions (eval and pdf are always 0).
     pub fn is_delta(&self) -> bool {
         match self {
-            Scattering::Diffuse(_) | Scattering::Plastic(_) => false,
+            Scattering::Diffuse(_) | Scattering::Plastic(_) | Scattering::RoughPlastic(_) => false,
             Scattering::Conductor(c) => c.distribution.effectively_smooth(),
             Scattering::Dielectric(d) => d.is_specular(),
             Scattering::ThinDielectric(_) => true,
@@ -85,6 +97,7 @@ impl Scattering {
             Scattering::Dielectric(m) => m.eval(wo, wi, mode),
             Scattering::ThinDielectric(_) => Vec3::ZERO,
             Scattering::Plastic(m) => m.eval(wo, wi),
+            Scattering::RoughPlastic(m) => m.eval(wo, wi),
         }
     }
 
@@ -111,6 +124,7 @@ impl Scattering {
             Scattering::Dielectric(m) => m.pdf(wo, wi),
             Scattering::ThinDielectric(_) => 0.0,
             Scattering::Plastic(m) => m.pdf(wo, wi),
+            Scattering::RoughPlastic(m) => m.pdf(wo, wi),
         }
     }
 
@@ -123,13 +137,17 @@ impl Scattering {
         BsdfEval { f: self.eval(wo, wi, mode), pdf: self.pdf(wo, wi), pdf_rev: self.pdf(wi, wo) }
     }
 
-    /// Whether [`Scattering::sample`] uses its `uc`: only glass chooses between lobes
-    /// (reflection or refraction); the other models draw a direction from `u` alone.
+    /// Whether [`Scattering::sample`] uses its `uc`: glass (reflection or refraction) and the
+    /// plastics (coating or base) choose between lobes; the other models draw a direction from
+    /// `u` alone.
     pub fn chooses_lobe(&self) -> bool {
         // Every variant named: a new model must say whether it uses `uc`.
         match self {
             Scattering::Diffuse(_) | Scattering::Conductor(_) => false,
-            Scattering::Dielectric(_) | Scattering::ThinDielectric(_) | Scattering::Plastic(_) => true,
+            Scattering::Dielectric(_)
+            | Scattering::ThinDielectric(_)
+            | Scattering::Plastic(_)
+            | Scattering::RoughPlastic(_) => true,
         }
     }
 
@@ -141,6 +159,7 @@ impl Scattering {
             Scattering::Dielectric(m) => m.sample(wo, uc, u, mode),
             Scattering::ThinDielectric(m) => m.sample(wo, uc),
             Scattering::Plastic(m) => m.sample(wo, uc, u),
+            Scattering::RoughPlastic(m) => m.sample(wo, uc, u),
         }
     }
 }
@@ -154,6 +173,7 @@ mod tests {
     #[test]
     fn evaluate_gives_the_value_and_both_densities_of_every_model() {
         let rough = TrowbridgeReitz::from_roughness(0.3);
+        let coating = crate::bsdf::RoughCoating::new(1.49, crate::bsdf::Beckmann::new(0.2).into());
         let models = [
             Scattering::Diffuse(Lambert::two_sided(Vec3::new(0.2, 0.5, 0.8))),
             Scattering::Diffuse(Lambert { albedo: Vec3::new(0.2, 0.5, 0.8), one_sided: true }),
@@ -184,6 +204,14 @@ mod tests {
                 nonlinear: true,
                 specular_weight: 0.4,
                 two_sided: true,
+            }),
+            Scattering::RoughPlastic(RoughPlastic {
+                diffuse: Vec3::new(0.7, 0.4, 0.1),
+                specular: Vec3::splat(0.9),
+                nonlinear: true,
+                specular_weight: 0.4,
+                two_sided: true,
+                coating: &coating,
             }),
         ];
         let mut rng = rand_pcg::Pcg64::seed_from_u64(11);

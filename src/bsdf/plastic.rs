@@ -52,11 +52,43 @@ pub struct Plastic {
 
 /// `v` mirrored through the surface when `flip`.
 #[inline]
-fn mirrored(v: Vec3, flip: bool) -> Vec3 {
+pub(crate) fn mirrored(v: Vec3, flip: bool) -> Vec3 {
     if flip {
         Vec3::new(v.x, v.y, -v.z)
     } else {
         v
+    }
+}
+
+/// Whether a coated surface evaluates `wo` mirrored to its front: seen on the back of a
+/// two-sided one (Mitsuba's `twosided` wrapper). A one-sided one stays as it is, black behind.
+#[inline]
+pub(crate) fn flips(two_sided: bool, wo: Vec3) -> bool {
+    two_sided && wo.z < 0.0
+}
+
+/// The diffuse reflectance after the internal bounces, ρ' = ρ / (1 − F_int) or, when
+/// `nonlinear`, ρ / (1 − ρ F_int), for a coating that reflects the fraction `internal` of the
+/// base's light back into it (Mitsuba's smooth and rough plastics alike).
+#[inline]
+pub fn effective_diffuse(diffuse: Vec3, internal: f32, nonlinear: bool) -> Vec3 {
+    if nonlinear {
+        diffuse / (Vec3::ONE - diffuse * internal)
+    } else {
+        diffuse / (1.0 - internal)
+    }
+}
+
+/// The probability of choosing a coating's specular lobe when it reflects the fraction
+/// `reflected` of the light from `wo`: R·w / (R·w + (1 − R)(1 − w)) with the specular sampling
+/// weight w (Mitsuba's choice for both plastics); 0 when neither lobe carries weight.
+#[inline]
+pub fn specular_probability(reflected: f32, weight: f32) -> f32 {
+    let (ps, pd) = (reflected * weight, (1.0 - reflected) * (1.0 - weight));
+    if ps + pd > 0.0 {
+        ps / (ps + pd)
+    } else {
+        0.0
     }
 }
 
@@ -75,12 +107,7 @@ impl Plastic {
     /// The diffuse reflectance after the internal bounces, ρ'.
     #[inline]
     pub fn effective_diffuse(&self) -> Vec3 {
-        let fdr_int = fresnel_diffuse_reflectance(1.0 / self.eta);
-        if self.nonlinear {
-            self.diffuse / (Vec3::ONE - self.diffuse * fdr_int)
-        } else {
-            self.diffuse / (1.0 - fdr_int)
-        }
+        effective_diffuse(self.diffuse, fresnel_diffuse_reflectance(1.0 / self.eta), self.nonlinear)
     }
 
     /// The coating's Fresnel reflectance for the incidence cosine `cos` (from outside).
@@ -92,19 +119,13 @@ impl Plastic {
     /// The probability of choosing the mirror for `wo` (cos θo > 0).
     #[inline]
     pub fn specular_probability(&self, cos_o: f32) -> f32 {
-        let r = self.reflectance(cos_o);
-        let (ps, pd) = (r * self.specular_weight, (1.0 - r) * (1.0 - self.specular_weight));
-        if ps + pd > 0.0 {
-            ps / (ps + pd)
-        } else {
-            0.0
-        }
+        specular_probability(self.reflectance(cos_o), self.specular_weight)
     }
 
     /// Whether `wo` is seen on the back of a two-sided plastic (evaluated mirrored to the front).
     #[inline]
     fn flips(&self, wo: Vec3) -> bool {
-        self.two_sided && wo.z < 0.0
+        flips(self.two_sided, wo)
     }
 
     /// The base's BSDF value: ρ' T(θo) T(θi) / (η² π), 0 unless both directions are in front

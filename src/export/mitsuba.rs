@@ -16,6 +16,7 @@
 //! | dielectric | `dielectric` / `roughdielectric`, `int_ior` = inside (opposite the normal), `ext_ior` = outside |
 //! | thin_dielectric | `thindielectric`, `int_ior` = the slab's index, `ext_ior` = the index around it |
 //! | plastic | `plastic` (one-sided both; a `two_sided` one in `twosided`), `diffuse_reflectance`, `specular_reflectance`, `int_ior`, `ext_ior`, `nonlinear` |
+//! | rough_plastic | `roughplastic` (likewise), `distribution`, `alpha` and the plastic's parameters |
 //! | absorption | `homogeneous` interior/exterior media (pure absorbers) with `volpath` |
 //! | point / quad / sphere light | `point` / `rectangle` + `area` / `sphere` + `area` |
 //! | emissive surface (two-sided) | its shape + one-sided `area` emitter |
@@ -1064,13 +1065,19 @@ impl<'a> Exporter<'a> {
                 x.float("ext_ior", *ior_outside);
                 x.close("bsdf");
             }
-            Bsdf::Plastic { diffuse, specular, ior, ior_outside, nonlinear, two_sided } => {
-                // Mitsuba's plastic is one-sided: a two-sided one is wrapped in `twosided`.
+            Bsdf::Plastic { diffuse, specular, ior, ior_outside, nonlinear, two_sided }
+            | Bsdf::RoughPlastic { diffuse, specular, ior, ior_outside, nonlinear, two_sided, .. } => {
+                // Mitsuba's plastics are one-sided: a two-sided one is wrapped in `twosided`.
+                let plugin = if matches!(m.bsdf, Bsdf::Plastic { .. }) { "plastic" } else { "roughplastic" };
                 if *two_sided {
                     open(x, with_id("twosided"));
-                    x.open("bsdf", &[("type", "plastic")]);
+                    x.open("bsdf", &[("type", plugin)]);
                 } else {
-                    open(x, with_id("plastic"));
+                    open(x, with_id(plugin));
+                }
+                if let Bsdf::RoughPlastic { alpha, distribution, .. } = &m.bsdf {
+                    x.string("distribution", distribution.name());
+                    x.float("alpha", *alpha);
                 }
                 x.rgb("diffuse_reflectance", *diffuse);
                 x.rgb("specular_reflectance", *specular);
@@ -1455,7 +1462,7 @@ impl<'a> Exporter<'a> {
         };
         // A two-sided emissive sphere around the camera is seen from inside: emit inwards.
         let flip = match (prim.light.map(|l| &self.scene.lights[l as usize]), &prim.shape) {
-            (Some(Light::Surface { .. }), Shape::Sphere(s)) => {
+            (Some(Light::Surface { one_sided: false, .. }), Shape::Sphere(s)) => {
                 (self.scene.camera.position - s.center()).length() < s.radius()
             }
             _ => false,
@@ -1490,12 +1497,14 @@ impl<'a> Exporter<'a> {
                     x.rgb("radiance", *radiance);
                     x.close("emitter");
                 }
-                Light::Surface { radiance, texture, .. } => {
-                    self.note(format!(
-                        "{name}: vitrum's emissive surface emits on both sides, Mitsuba's area emitter on one: \
-                         written emitting {}",
-                        if flip { "inwards (the camera is inside it)" } else { "along its normal" }
-                    ));
+                Light::Surface { radiance, texture, one_sided, .. } => {
+                    if !one_sided {
+                        self.note(format!(
+                            "{name}: vitrum's emissive surface emits on both sides, Mitsuba's area emitter on \
+                             one: written emitting {}",
+                            if flip { "inwards (the camera is inside it)" } else { "along its normal" }
+                        ));
+                    }
                     let radiance = match texture {
                         Some(t) => {
                             self.note(format!("{name}: the emission texture is written as its mean colour"));

@@ -1,6 +1,7 @@
 //! Light sources: point lights, spot lights (Mitsuba 3's `spot`, [`SpotBeam`]), directional
 //! lights (Mitsuba 3's `directional`), one-sided area quads and spheres, emissive surfaces
-//! (two-sided diffuse emitters) and an environment, constant or an importance-sampled HDR map.
+//! (diffuse emitters on spheres, quads, disks, cylinders and meshes, two-sided or one-sided) and
+//! an environment, constant or an importance-sampled HDR map.
 //!
 //! Point, spot and directional lights are delta lights: no ray can hit them, only next-event
 //! estimation and light paths reach them. A spot's light paths leave its position in a direction
@@ -25,7 +26,9 @@ pub use spot::SpotBeam;
 
 use crate::bsdf::lambert::cosine_hemisphere;
 use crate::bsdf::Frame;
-use crate::geometry::{disk_uv, point_error, spawn_origin, sphere_uv, texture_frame, Ray, SurfaceHit};
+use crate::geometry::{
+    azimuth, disk_uv, point_error, spawn_origin, sphere_uv, texture_frame, Ray, SurfaceHit,
+};
 use crate::lanes::{Real, Vector};
 use crate::texture::Texture;
 use glam::{Vec2, Vec3};
@@ -83,7 +86,8 @@ pub enum Light {
         /// Emitted radiance (W/(m²·sr)).
         radiance: Vec3,
     },
-    /// An object whose diffuse material emits: Lambertian on both sides of its surface.
+    /// An object whose diffuse material emits: Lambertian on both sides of its surface, or
+    /// only on the side its normal points to (Mitsuba's `area` emitter).
     Surface {
         /// The emitting geometry.
         shape: EmitterShape,
@@ -91,6 +95,8 @@ pub enum Light {
         radiance: Vec3,
         /// How the emission varies over the surface (by its texture coordinates), if it does.
         texture: Option<Texture>,
+        /// Whether only the side the surface normal points to emits (black from behind).
+        one_sided: bool,
     },
     /// Radiance arriving from every direction that leaves the scene: constant, or an HDR map
     /// (importance-sampled) times a scale.
@@ -172,8 +178,53 @@ pub enum EmitterShape {
         /// The in-plane texture frame of the object's disk (turned with a rotated object).
         frame: (Vec3, Vec3),
     },
+    /// The wall of a cylinder (an open tube) from `base` along the unit `axis` for `height`,
+    /// with its two end disks where `caps` holds their texture frames (a closed cylinder).
+    Cylinder {
+        /// Centre of the bottom circle.
+        base: Vec3,
+        /// Unit axis from the bottom circle to the top one.
+        axis: Vec3,
+        /// Radius.
+        radius: f32,
+        /// Length along the axis.
+        height: f32,
+        /// The cross-section frame the wall's texture angle is measured in (turned with a
+        /// rotated object), so that a sampled point's uv is the one a ray's hit there gets.
+        frame: (Vec3, Vec3),
+        /// The in-plane texture frames of the bottom (normal −`axis`) and top (+`axis`) caps,
+        /// for a cylinder with caps; `None` for the open tube.
+        caps: Option<[(Vec3, Vec3); 2]>,
+    },
     /// A triangle mesh (no texture coordinates: its emission is not textured).
     Mesh(Arc<EmitterMesh>),
+}
+
+/// The point of the annulus around `center` between `inner_radius` and `radius` in the plane
+/// spanned by the orthonormal `(t, b)` that `u` picks uniformly by area.
+fn annulus_point(center: Vec3, (t, b): (Vec3, Vec3), radius: f32, inner_radius: f32, u: Vec2) -> Vec3 {
+    let r = (inner_radius * inner_radius + u.x * (radius * radius - inner_radius * inner_radius)).sqrt();
+    let phi = 2.0 * PI * u.y;
+    center + r * (phi.cos() * t + phi.sin() * b)
+}
+
+/// Which part of a cylinder emitter ([`EmitterShape::Cylinder`]) `u.x` picks, by area: the wall
+/// (`None`) or a cap (`Some(0)` bottom, `Some(1)` top), with `u.x` stretched back to [0, 1) within
+/// the part. Without caps, always the wall and `u` itself.
+fn cylinder_part(radius: f32, height: f32, caps: bool, u: Vec2) -> (Option<usize>, Vec2) {
+    if !caps {
+        return (None, u);
+    }
+    let (wall, cap) = (2.0 * PI * radius * height, PI * radius * radius);
+    let s = u.x * (wall + 2.0 * cap);
+    let (part, x) = if s < wall {
+        (None, s / wall)
+    } else if s < wall + cap {
+        (Some(0), (s - wall) / cap)
+    } else {
+        (Some(1), (s - wall - cap) / cap)
+    };
+    (part, Vec2::new(x.clamp(0.0, 1.0 - f32::EPSILON / 2.0), u.y))
 }
 
 impl EmitterShape {
@@ -195,6 +246,9 @@ impl EmitterShape {
             EmitterShape::Disk { radius, inner_radius, .. } => {
                 PI * (radius * radius - inner_radius * inner_radius)
             }
+            EmitterShape::Cylinder { radius, height, caps, .. } => {
+                2.0 * PI * radius * height + if caps.is_some() { 2.0 * PI * radius * radius } else { 0.0 }
+            }
             EmitterShape::Mesh(ref mesh) => mesh.area(),
         }
     }
@@ -210,11 +264,22 @@ impl EmitterShape {
                 (corner + u.x * eu + u.y * ev, eu.cross(ev).normalize())
             }
             EmitterShape::Disk { center, normal, radius, inner_radius, .. } => {
-                let r = (inner_radius * inner_radius + u.x * (radius * radius - inner_radius * inner_radius))
-                    .sqrt();
-                let phi = 2.0 * PI * u.y;
-                let (t, b) = normal.any_orthonormal_pair();
-                (center + r * (phi.cos() * t + phi.sin() * b), normal)
+                (annulus_point(center, normal.any_orthonormal_pair(), radius, inner_radius, u), normal)
+            }
+            EmitterShape::Cylinder { base, axis, radius, height, frame: (t, b), caps } => {
+                match cylinder_part(radius, height, caps.is_some(), u) {
+                    (None, u) => {
+                        // The wall's angle from the texture frame, its height linear in u.x.
+                        let phi = 2.0 * PI * u.y;
+                        let n = phi.cos() * t + phi.sin() * b;
+                        (base + (u.x * height) * axis + radius * n, n)
+                    }
+                    (Some(k), u) => {
+                        let frames = caps.expect("a cap only with caps");
+                        let (center, n) = if k == 0 { (base, -axis) } else { (base + height * axis, axis) };
+                        (annulus_point(center, frames[k], radius, 0.0, u), n)
+                    }
+                }
             }
             EmitterShape::Mesh(ref mesh) => mesh.sample(u),
         }
@@ -230,6 +295,18 @@ impl EmitterShape {
             EmitterShape::Disk { center, radius, inner_radius, frame, .. } => {
                 disk_uv(frame, p - center, radius, inner_radius)
             }
+            EmitterShape::Cylinder { base, axis, radius, height, frame, caps } => {
+                match cylinder_part(radius, height, caps.is_some(), u) {
+                    // As the wall's hits: the angle in its frame, the height along the axis.
+                    (None, _) => {
+                        Vec2::new(azimuth(frame, n), ((p - base).dot(axis) / height).clamp(0.0, 1.0))
+                    }
+                    (Some(k), _) => {
+                        let center = if k == 0 { base } else { base + height * axis };
+                        disk_uv(caps.expect("a cap only with caps")[k], p - center, radius, 0.0)
+                    }
+                }
+            }
         }
     }
 
@@ -238,6 +315,7 @@ impl EmitterShape {
         match *self {
             EmitterShape::Sphere { center, .. } | EmitterShape::Disk { center, .. } => center,
             EmitterShape::Quad { corner, u, v } => corner + 0.5 * (u + v),
+            EmitterShape::Cylinder { base, axis, height, .. } => base + 0.5 * height * axis,
             EmitterShape::Mesh(ref mesh) => mesh.centre(),
         }
     }
@@ -351,8 +429,11 @@ impl Light {
             Light::Sphere { radius, radiance, .. } => {
                 Strength::Power(4.0 * PI * PI * radius * radius * *radiance)
             }
-            Light::Surface { shape, radiance, texture } => Strength::Power(
-                2.0 * PI * shape.area() * *radiance * texture.as_ref().map_or(Vec3::ONE, Texture::mean),
+            Light::Surface { shape, radiance, texture, one_sided } => Strength::Power(
+                if *one_sided { PI } else { 2.0 * PI }
+                    * shape.area()
+                    * *radiance
+                    * texture.as_ref().map_or(Vec3::ONE, Texture::mean),
             ),
             Light::Environment { radiance, map } => {
                 Strength::MeanRadiance(*radiance * map.as_ref().map_or(Vec3::ONE, |m| m.mean()))
@@ -570,18 +651,20 @@ impl Light {
                 let direct = 1.0 / (2.0 * PI * radius * radius);
                 area_emission(hit, 4.0 * PI * radius * radius, direct, radiance, None, u_dir, p_light)
             }
-            Light::Surface { ref shape, ref texture, .. } => {
+            Light::Surface { ref shape, ref texture, one_sided, .. } => {
                 let (p, n) = shape.sample(u_point);
                 let local = match *shape {
                     EmitterShape::Sphere { radius, .. } | EmitterShape::Disk { radius, .. } => radius,
                     EmitterShape::Quad { u, v, .. } => (u.abs() + v.abs()).max_element(),
+                    EmitterShape::Cylinder { radius, height, .. } => radius + height,
                     EmitterShape::Mesh(ref mesh) => mesh.extent(),
                 };
                 let uv = if texture.is_some() { shape.uv_at(u_point, p, n) } else { Vec2::ZERO };
                 let hit = emitter_point(p, n, uv, point_error(p, local, 8));
                 let area = shape.area();
                 let radiance = self.emitted(&hit, n);
-                area_emission(hit, area, 1.0 / area, radiance, Some(side), u_dir, p_light)
+                let side = (!one_sided).then_some(side);
+                area_emission(hit, area, 1.0 / area, radiance, side, u_dir, p_light)
             }
         }
     }
@@ -599,7 +682,7 @@ impl Light {
             | Light::Environment { .. } => return (0.0, 0.0),
             Light::Quad { u, v, .. } => (u.cross(*v).length(), 1.0),
             Light::Sphere { radius, .. } => (4.0 * PI * radius * radius, 1.0),
-            Light::Surface { shape, .. } => (shape.area(), 2.0),
+            Light::Surface { shape, one_sided, .. } => (shape.area(), if *one_sided { 1.0 } else { 2.0 }),
         };
         let d = y - from;
         let direct = self.pdf_li(from, y, n) * cos / d.length_squared();
@@ -681,6 +764,7 @@ impl Light {
             | Light::Spot { .. }
             | Light::Directional { .. }
             | Light::Environment { .. } => Vec3::ZERO,
+            Light::Surface { one_sided: true, .. } if at.n.dot(wo) <= 0.0 => Vec3::ZERO,
             Light::Surface { radiance, texture: None, .. } => *radiance,
             Light::Surface { radiance, texture: Some(t), .. } => *radiance * t.eval(at.p, at.uv),
             Light::Quad { radiance, .. } | Light::Sphere { radiance, .. } => {
@@ -703,9 +787,10 @@ impl Light {
             | Light::Spot { .. }
             | Light::Directional { .. }
             | Light::Environment { .. } => self.as_point_from(p),
-            Light::Surface { shape, texture, .. } => {
+            Light::Surface { shape, texture, one_sided, .. } => {
                 let (y, n) = shape.sample(u);
-                let cos = (p - y).normalize_or_zero().dot(n).abs();
+                let cos = (p - y).normalize_or_zero().dot(n);
+                let cos = if *one_sided { cos.max(0.0) } else { cos.abs() };
                 let uv = if texture.is_some() { shape.uv_at(u, y, n) } else { Vec2::ZERO };
                 let radiance = self.emitted(&emitter_point(y, n, uv, 0.0), n);
                 PointIllumination { position: y, intensity: radiance * shape.area() * cos }
@@ -731,13 +816,20 @@ impl Light {
         }
     }
 
-    /// Whether `p` lies strictly inside the light's closed emitting surface (the centre of a
-    /// sphere, where [`Light::as_point_from`] puts its point stand-in): a shadow ray towards
-    /// such a point reaches the light where it meets its surface.
+    /// Whether `p` lies strictly inside the light's emitting sphere or cylinder (their centres,
+    /// where [`Light::as_point_from`] puts their point stand-ins): a shadow ray towards such a
+    /// point reaches the light where it meets its surface.
     pub fn encloses(&self, p: Vec3) -> bool {
         let (center, radius) = match *self {
             Light::Sphere { center, radius, .. }
             | Light::Surface { shape: EmitterShape::Sphere { center, radius, .. }, .. } => (center, radius),
+            Light::Surface { shape: EmitterShape::Cylinder { base, axis, radius, height, .. }, .. } => {
+                // Well inside, as for the sphere: between the end planes and within the wall.
+                let z = (p - base).dot(axis);
+                let radial = (p - base - z * axis).length();
+                let margin = 1e-3 * height;
+                return radial < radius * (1.0 - 1e-3) && z > margin && z < height - margin;
+            }
             _ => return false,
         };
         // Well inside: a point sampled on the surface (roundoff included) is not enclosed.
@@ -749,7 +841,8 @@ impl Light {
     /// as a point far beyond the scene against its direction, at distance `D = 10⁶·(1 + |p|∞)`
     /// with intensity `E·D²` (so `I/D² = E`); an area quad as a point at its centre with the intensity of a Lambertian
     /// emitter in that direction, `L·A·cos θ`; a sphere as a point at its centre with intensity
-    /// `L·πr²` (exact in the far field, no penumbra).
+    /// `L·πr²` (exact in the far field, no penumbra); a cylinder as a point on its axis halfway
+    /// with the intensity of its outline, `L·(2rh·sin θ + πr²·|cos θ|)` (the cap term with caps).
     pub fn as_point_from(&self, p: Vec3) -> PointIllumination {
         match self {
             Light::Point { position, intensity } => {
@@ -786,6 +879,13 @@ impl Light {
                     // a sphere shows the same projected area πr² from everywhere
                     EmitterShape::Sphere { .. } => radiance * shape.area() * 0.25,
                     EmitterShape::Mesh(mesh) => radiance * mesh.projected_area(to_p),
+                    // The wall's outline 2rh·sin θ from the axis, and one cap's πr²·|cos θ|.
+                    EmitterShape::Cylinder { axis, radius, height, caps, .. } => {
+                        let cos = to_p.dot(*axis).abs();
+                        let wall = 2.0 * radius * height * (1.0 - cos * cos).max(0.0).sqrt();
+                        let cap = if caps.is_some() { PI * radius * radius * cos } else { 0.0 };
+                        radiance * (wall + cap)
+                    }
                     _ => radiance * shape.area() * to_p.dot(n).abs(),
                 };
                 PointIllumination { position: centre, intensity }
@@ -848,14 +948,18 @@ pub(crate) mod tests {
     use crate::bsdf::chi2::{self, ChiSquare};
 
     /// Number of chi-square cases run here (counted in the Šidák correction).
-    pub(crate) const CHI2_CASES: usize = 8;
+    pub(crate) const CHI2_CASES: usize = 10;
 
     #[test]
     fn only_the_inside_of_a_sphere_is_enclosed() {
         let center = Vec3::new(0.5, 1.0, -2.0);
         let sphere = Light::Sphere { center, radius: 0.05, radiance: Vec3::ONE };
-        let ball =
-            Light::Surface { shape: EmitterShape::sphere(center, 0.05), radiance: Vec3::ONE, texture: None };
+        let ball = Light::Surface {
+            shape: EmitterShape::sphere(center, 0.05),
+            radiance: Vec3::ONE,
+            texture: None,
+            one_sided: false,
+        };
         for light in [&sphere, &ball] {
             assert!(light.encloses(center));
             assert!(light.encloses(center + Vec3::new(0.0, 0.049, 0.0)));
@@ -870,6 +974,19 @@ pub(crate) mod tests {
         let quad =
             Light::Quad { corner: Vec3::ZERO, u: Vec3::X, v: Vec3::Z, normal: -Vec3::Y, radiance: Vec3::ONE };
         assert!(!quad.encloses(Vec3::new(0.5, 0.0, 0.5)));
+        // A cylinder encloses its axis between its ends (its stand-in is halfway along it), not
+        // its sampled surface points nor what lies beyond its ends or its wall.
+        let shape = cylinder_emitter(center, Vec3::new(0.2, 1.0, 0.0), 0.3, 1.0, false);
+        let tube =
+            Light::Surface { shape: shape.clone(), radiance: Vec3::ONE, texture: None, one_sided: true };
+        assert!(tube.encloses(shape.centre()));
+        for k in 0..100 {
+            let (p, _) = shape.sample(Vec2::new(k as f32 / 100.0, (k as f32 * 0.618).fract()));
+            assert!(!tube.encloses(p), "{p}");
+        }
+        let axis = Vec3::new(0.2, 1.0, 0.0).normalize();
+        assert!(!tube.encloses(center - 0.1 * axis) && !tube.encloses(center + 1.1 * axis));
+        assert!(!tube.encloses(shape.centre() + 0.4 * Vec3::Z));
     }
 
     /// Distances along `p + t·w` (t > 0) at which the ray meets the sphere.
@@ -937,6 +1054,28 @@ pub(crate) mod tests {
                 .map(|y| (y, normal))
                 .into_iter()
                 .collect(),
+            Light::Surface {
+                shape: EmitterShape::Cylinder { base, axis, radius, height, caps, .. }, ..
+            } => {
+                // Every crossing of the wall and of the caps, by the geometry's own intersection.
+                let ray = Ray::new(p, w);
+                let wall = crate::geometry::Cylinder::new(base, axis, radius, height);
+                let mut points = Vec::new();
+                let mut t = 0.0;
+                while let Some(hit) = wall.intersect(&ray, t, f32::INFINITY) {
+                    points.push((p + w * hit, wall.surface(&ray, hit).n));
+                    t = hit;
+                }
+                if caps.is_some() {
+                    for (center, n) in [(base, -axis), (base + height * axis, axis)] {
+                        let cap = crate::geometry::Disk::new(center, n, radius, 0.0);
+                        if let Some(hit) = cap.intersect(&ray, 0.0, f32::INFINITY) {
+                            points.push((p + w * hit, n));
+                        }
+                    }
+                }
+                points
+            }
             Light::Surface { shape: EmitterShape::Mesh(ref mesh), .. } => mesh
                 .corners()
                 .iter()
@@ -954,6 +1093,150 @@ pub(crate) mod tests {
             })
             .map(|(y, n)| light.pdf_li(p, y, n))
             .sum()
+    }
+
+    /// A cylinder emitter from `base` along `axis` (normalised), with caps if `caps`, with the
+    /// texture frames the geometry's own wall and disks get.
+    fn cylinder_emitter(base: Vec3, axis: Vec3, radius: f32, height: f32, caps: bool) -> EmitterShape {
+        use crate::geometry::{Cylinder, Disk};
+        let wall = Cylinder::new(base, axis, radius, height);
+        let axis = wall.axis();
+        let frames = [
+            Disk::new(base, -axis, radius, 0.0).texture_frame(),
+            Disk::new(base + height * axis, axis, radius, 0.0).texture_frame(),
+        ];
+        EmitterShape::Cylinder {
+            base,
+            axis,
+            radius,
+            height,
+            frame: wall.texture_frame(),
+            caps: caps.then_some(frames),
+        }
+    }
+
+    #[test]
+    fn sampled_cylinder_points_are_uniform_by_area_and_carry_the_uv_a_ray_hit_there_gets() {
+        use crate::geometry::{Cylinder, Disk, Shape};
+        use rand::{RngExt, SeedableRng};
+        let (base, axis, radius, height) = (Vec3::new(0.2, -0.3, 0.5), Vec3::new(0.3, 1.0, -0.4), 0.7, 1.9);
+        let emitter = cylinder_emitter(base, axis, radius, height, true);
+        let axis = axis.normalize();
+        // The wall and the caps as a closed cylinder's primitives.
+        let shapes = [
+            Shape::Cylinder(Box::new(Cylinder::new(base, axis, radius, height))),
+            Shape::Disk(Box::new(Disk::new(base, -axis, radius, 0.0))),
+            Shape::Disk(Box::new(Disk::new(base + height * axis, axis, radius, 0.0))),
+        ];
+        let mut rng = rand_pcg::Pcg64::seed_from_u64(9);
+        let count = 20_000;
+        let mut on_caps = 0;
+        for _ in 0..count {
+            let u = Vec2::new(rng.random(), rng.random());
+            let (p, n) = emitter.sample(u);
+            // On the surface, with the outward normal.
+            let z = (p - base).dot(axis);
+            let radial = p - base - z * axis;
+            if n.dot(axis).abs() > 0.5 {
+                on_caps += 1;
+                assert!(z.abs() < 1e-5 || (z - height).abs() < 1e-5, "{p}");
+                assert!(radial.length() <= radius * (1.0 + 1e-6));
+                assert!((n - axis * (z - 0.5 * height).signum()).length() < 1e-6);
+            } else {
+                assert!((radial.length() - radius).abs() < 1e-5 && (-1e-5..=height + 1e-5).contains(&z));
+                assert!((n - radial / radius).length() < 1e-5);
+            }
+            // A ray from outside along the normal meets the point first, with the same uv.
+            let origin = p + n * 3.0;
+            let ray = Ray::new(origin, (p - origin).normalize());
+            let (t, shape) = shapes
+                .iter()
+                .filter_map(|s| s.intersect(&ray, 0.0, f32::INFINITY).map(|t| (t, s)))
+                .min_by(|a, b| a.0.total_cmp(&b.0))
+                .expect("the ray hits the sampled point");
+            assert!((t - 3.0).abs() < 1e-4, "{t}");
+            let hit = shape.surface(&ray, t);
+            let uv = emitter.uv_at(u, p, n);
+            let d = (hit.uv - uv).abs();
+            let d = Vec2::new(d.x.min(1.0 - d.x), d.y);
+            assert!(d.max_element() < 2e-4, "hit {} vs sampled {uv} at {p}", hit.uv);
+        }
+        // The caps' share of the area, 2πr² / (2πr² + 2πrh) = r / (r + h), within 4 standard
+        // errors of the binomial count.
+        let share = radius / (radius + height);
+        let error = (share * (1.0 - share) / count as f32).sqrt();
+        let measured = on_caps as f32 / count as f32;
+        assert!((measured - share).abs() < 4.0 * error, "{measured} vs {share} ± {error}");
+        assert!((emitter.area() - 2.0 * PI * radius * (radius + height)).abs() < 1e-4);
+    }
+
+    #[test]
+    fn an_open_tube_gives_the_irradiance_of_its_closed_form() {
+        // At the centre of a tube's bottom opening, facing along the axis, the inner wall of a
+        // tube of radiance L fills the directions beyond θ₀ = atan(r/h) from the axis:
+        // E = π L (1 − sin²θ₀) = π L h²/(r²+h²). Next-event estimation (two-sided) and its
+        // point stand-in agree; one-sided (outward), the inner wall is dark.
+        let (r, h) = (0.5f32, 1.2f32);
+        let shape = cylinder_emitter(Vec3::ZERO, Vec3::Y, r, h, false);
+        let expected = PI * h * h / (r * r + h * h);
+        let p = Vec3::new(0.0, 1e-4, 0.0);
+        let two =
+            Light::Surface { shape: shape.clone(), radiance: Vec3::ONE, texture: None, one_sided: false };
+        let e = irradiance(&two, p, Vec3::Y, 400);
+        assert!((e - expected).abs() / expected < 2e-3, "{e} vs {expected}");
+        let mut direct = 0.0;
+        for i in 0..400 {
+            for j in 0..400 {
+                let u = Vec2::new((i as f32 + 0.5) / 400.0, (j as f32 + 0.5) / 400.0);
+                if let Some(s) = two.sample_li(p, u) {
+                    direct += s.radiance.x * s.wi.y.max(0.0) / s.pdf;
+                }
+            }
+        }
+        direct /= 160_000.0;
+        assert!((direct - expected).abs() / expected < 2e-3, "{direct} vs {expected}");
+        let one = Light::Surface { shape, radiance: Vec3::ONE, texture: None, one_sided: true };
+        assert_eq!(irradiance(&one, p, Vec3::Y, 50), 0.0);
+        assert!((0..100).all(|k| one.sample_li(p, Vec2::new(k as f32 / 100.0, 0.37)).is_none()));
+        // Its power: π·A·L one-sided, twice that two-sided.
+        let area = 2.0 * PI * r * h;
+        assert!((one.strength().value().x - PI * area).abs() < 1e-4);
+        assert!((two.strength().value().x - 2.0 * PI * area).abs() < 1e-4);
+    }
+
+    #[test]
+    fn a_one_sided_emitter_emits_only_along_its_normal_with_the_densities_it_reports() {
+        // Emitted rays leave on the normal's side whatever `side` asks, with the density that
+        // `emission_pdfs` gives the same ray reached from its next vertex (one side: cos/(π A)).
+        let shape = cylinder_emitter(Vec3::new(0.1, 0.0, 0.2), Vec3::new(0.0, 1.0, 0.3), 0.4, 0.9, true);
+        let light = Light::Surface { shape, radiance: Vec3::splat(2.0), texture: None, one_sided: true };
+        let sphere = SceneSphere::around(Vec3::splat(-3.0), Vec3::splat(3.0));
+        for k in 0..200 {
+            let u_point = Vec2::new((k as f32 * 0.618).fract(), (k as f32 * 0.377).fract());
+            let u_dir = Vec2::new((k as f32 * 0.291).fract(), (k as f32 * 0.733).fract());
+            let e = light.emit(0.5, (k % 2) as f32, u_point, u_dir, &sphere).unwrap();
+            let (hit, _) = e.origin.unwrap();
+            assert!(e.ray.dir.dot(hit.n) > 0.0);
+            let from = hit.p + e.ray.dir * 2.0;
+            let (emit, direct) = light.emission_pdfs(from, hit.p, hit.n, e.ray.dir);
+            assert!((0.5 * emit - e.pdf_emit).abs() <= 1e-5 * e.pdf_emit, "{emit} vs {}", e.pdf_emit);
+            // Next-event estimation from the next vertex picks the point with area density 1/A.
+            let area = light_area(&light);
+            assert!((direct * area - 1.0).abs() < 1e-3, "{direct} vs {}", 1.0 / area);
+            assert!((0.5 * direct - e.pdf_direct).abs() <= 1e-3 * e.pdf_direct);
+            assert!((e.beta.x - 2.0 * PI * light_area(&light) / 0.5).abs() < 1e-3 * e.beta.x);
+            // Emission towards the back is zero.
+            assert_eq!(light.emitted(&hit, -e.ray.dir), Vec3::ZERO);
+            assert_eq!(light.emitted(&hit, e.ray.dir), Vec3::splat(2.0));
+        }
+    }
+
+    /// The area of a surface light.
+    fn light_area(light: &Light) -> f32 {
+        match light {
+            Light::Surface { shape, .. } => shape.area(),
+            _ => unreachable!("a surface light"),
+        }
     }
 
     #[test]
@@ -1011,6 +1294,7 @@ pub(crate) mod tests {
                 shape: EmitterShape::sphere(Vec3::new(0.3, 0.4, 0.2), 1.0),
                 radiance: Vec3::ONE,
                 texture: None,
+                one_sided: false,
             },
             Light::Surface {
                 shape: EmitterShape::Quad {
@@ -1020,6 +1304,8 @@ pub(crate) mod tests {
                 },
                 radiance: Vec3::ONE,
                 texture: None,
+                // u × v faces up, towards p: emitting on that side only, as Mitsuba's area light.
+                one_sided: true,
             },
             Light::Surface {
                 shape: EmitterShape::disk(
@@ -1030,11 +1316,13 @@ pub(crate) mod tests {
                 ),
                 radiance: Vec3::ONE,
                 texture: None,
+                one_sided: false,
             },
             Light::Surface {
                 shape: EmitterShape::disk(Vec3::new(0.5, 0.1, 0.0), Vec3::X, 2.0, 0.0),
                 radiance: Vec3::ONE,
                 texture: None,
+                one_sided: false,
             },
             // A mesh of three triangles of different sizes and tilts above p, one seen edge-on
             // from behind: each is picked by its share of the area.
@@ -1061,6 +1349,28 @@ pub(crate) mod tests {
                 )),
                 radiance: Vec3::ONE,
                 texture: None,
+                one_sided: false,
+            },
+            // A closed cylinder and an open tube, seen from inside (from outside, the silhouette's
+            // singular density defeats the quadrature, as for the ball above): the tube's wall
+            // and, by their share of the area, its caps.
+            Light::Surface {
+                shape: cylinder_emitter(Vec3::new(0.3, -0.8, -0.1), Vec3::new(0.2, 1.0, 0.1), 1.0, 1.6, true),
+                radiance: Vec3::ONE,
+                texture: None,
+                one_sided: false,
+            },
+            Light::Surface {
+                shape: cylinder_emitter(
+                    Vec3::new(0.5, -0.2, 0.0),
+                    Vec3::new(-1.0, 0.2, 0.0),
+                    0.6,
+                    1.2,
+                    false,
+                ),
+                radiance: Vec3::ONE,
+                texture: None,
+                one_sided: false,
             },
             Light::Environment { radiance: Vec3::ONE, map: None },
         ];

@@ -579,7 +579,7 @@ impl Compiler<'_> {
                 );
             }
             let emitter = match &desc.materials[&object.material] {
-                MaterialDesc::Diffuse { emission, emission_texture, .. }
+                MaterialDesc::Diffuse { emission, emission_texture, emission_one_sided, .. }
                     if emission.is_some() || emission_texture.is_some() =>
                 {
                     let material_path = FieldPath::from("materials").key(&object.material);
@@ -598,7 +598,8 @@ impl Compiler<'_> {
                             format!(
                                 "an emitting {} takes only a similarity (one scale factor, a rotation, \
                                  a translation): under a per-axis scale or a matrix it would be an \
-                                 ellipsoid or ellipse, whose light sampling is not implemented",
+                                 ellipsoid, elliptic cylinder or ellipse, whose light sampling is not \
+                                 implemented",
                                 shape_kind(&object.shape)
                             ),
                         ));
@@ -606,13 +607,13 @@ impl Compiler<'_> {
                     let shape = emitter_shape(&placed, &surfaces).ok_or_else(|| {
                         self.err(
                             &path.key("material"),
-                            "emission is supported on spheres, quads, disks and meshes",
+                            "emission is supported on spheres, quads, disks, cylinders and meshes",
                         )
                     })?;
                     if matches!(shape, EmitterShape::Mesh(_)) && emission_texture.is_some() {
                         return Err(self.err(
                             &material_path.key("emission_texture"),
-                            "an emitting mesh's emission cannot be textured (spheres, quads and disks can)",
+                            "an emitting mesh's emission cannot be textured (spheres, quads, disks and cylinders can)",
                         ));
                     }
                     let size = match object.shape {
@@ -627,7 +628,7 @@ impl Compiler<'_> {
                             format!("objects[{i}] emits through a texture (material `{}`)", object.material),
                         );
                     }
-                    let light = Light::Surface { shape, radiance, texture };
+                    let light = Light::Surface { shape, radiance, texture, one_sided: *emission_one_sided };
                     self.finite_power(&m, &light)?;
                     effects.add(
                         Effect::SoftShadows,
@@ -1265,6 +1266,54 @@ impl Compiler<'_> {
                     phong,
                 )
             }
+            MaterialDesc::RoughPlastic {
+                diffuse_reflectance,
+                specular_reflectance,
+                ior,
+                ior_outside,
+                nonlinear,
+                two_sided,
+                alpha,
+                distribution,
+                phong,
+            } => {
+                let diffuse = self.reflectance(
+                    &path.key("diffuse_reflectance"),
+                    diffuse_reflectance.unwrap_or(Rgb::Grey(0.5)),
+                )?;
+                let specular = self.reflectance(
+                    &path.key("specular_reflectance"),
+                    specular_reflectance.unwrap_or(Rgb::Grey(1.0)),
+                )?;
+                let ior = self.positive(&path.key("ior"), *ior)?;
+                let ior_outside = self.positive(&path.key("ior_outside"), *ior_outside)?;
+                if ior == ior_outside {
+                    return Err(self.err(
+                        &path.key("ior"),
+                        format!("the coating's index must differ from the outside's (both {ior})"),
+                    ));
+                }
+                let alpha = self.roughness(&path.key("alpha"), *alpha)?;
+                if alpha == 0.0 {
+                    return Err(self
+                        .err(&path.key("alpha"), "must be greater than 0 (a smooth coating is `plastic`)"));
+                }
+                let distribution = match distribution {
+                    DistributionDesc::Beckmann => Distribution::Beckmann,
+                    DistributionDesc::Ggx => Distribution::Ggx,
+                };
+                let bsdf = Bsdf::rough_plastic(
+                    diffuse,
+                    specular,
+                    ior,
+                    ior_outside,
+                    *nonlinear,
+                    *two_sided,
+                    alpha,
+                    distribution,
+                );
+                (bsdf, phong)
+            }
         };
         let phong = self.phong(path, phong, &bsdf)?;
         Ok(Material { name: name.to_string(), bsdf, phong })
@@ -1853,9 +1902,11 @@ fn material_effects(effects: &mut Effects, m: &Material, object: usize) {
     let who = format!("objects[{object}] uses material `{}`", m.name);
     let texture = match &m.bsdf {
         Bsdf::Diffuse { albedo: t, .. } | Bsdf::Mirror { color: t, .. } => Some(t),
-        Bsdf::Conductor(_) | Bsdf::Dielectric { .. } | Bsdf::ThinDielectric { .. } | Bsdf::Plastic { .. } => {
-            None
-        }
+        Bsdf::Conductor(_)
+        | Bsdf::Dielectric { .. }
+        | Bsdf::ThinDielectric { .. }
+        | Bsdf::Plastic { .. }
+        | Bsdf::RoughPlastic { .. } => None,
     };
     match texture {
         Some(Texture::Checker { .. }) => effects.add(Effect::Textures, format!("{who}, a checker texture")),
@@ -1866,6 +1917,10 @@ fn material_effects(effects: &mut Effects, m: &Material, object: usize) {
     }
     match &m.bsdf {
         Bsdf::Diffuse { .. } | Bsdf::ThinDielectric { .. } | Bsdf::Plastic { .. } => {}
+        Bsdf::RoughPlastic { alpha, distribution, .. } => {
+            let d = distribution.name();
+            effects.add(Effect::Glossy, format!("{who}, a rough plastic ({d}, alpha {alpha})"));
+        }
         Bsdf::Mirror { roughness, .. } => {
             if *roughness > 0.0 {
                 effects.add(Effect::Glossy, format!("{who}, a rough mirror (roughness {roughness})"));
@@ -1921,6 +1976,23 @@ fn emitter_shape(s: &ShapeDesc, surfaces: &[BodySurface]) -> Option<EmitterShape
         }
         (ShapeDesc::Quad { corner, u, v: ev }, _) => {
             Some(EmitterShape::Quad { corner: v(*corner), u: v(*u), v: v(*ev) })
+        }
+        (ShapeDesc::Cylinder { .. }, Some(Shape::Cylinder(wall))) => {
+            // The caps, if any, are the two disks after the wall (bottom, then top).
+            let caps = match surfaces {
+                [_, (Shape::Disk(bottom), _), (Shape::Disk(top), _)] => {
+                    Some([bottom.texture_frame(), top.texture_frame()])
+                }
+                _ => None,
+            };
+            Some(EmitterShape::Cylinder {
+                base: wall.base(),
+                axis: wall.axis(),
+                radius: wall.radius(),
+                height: wall.height(),
+                frame: wall.texture_frame(),
+                caps,
+            })
         }
         (ShapeDesc::Disk { center, normal, radius, inner_radius }, Some(Shape::Disk(disk))) => {
             Some(EmitterShape::Disk {

@@ -517,11 +517,15 @@ pub enum MaterialDesc {
         color: Option<Rgb>,
         /// Optional texture for the albedo.
         texture: Option<TextureDesc>,
-        /// Radiance emitted from both sides of the surface, W/(m²·sr) (spheres, quads, disks);
-        /// with `emission_texture`, the factor on its colours (default 1).
+        /// Radiance emitted from both sides of the surface, W/(m²·sr) (spheres, quads, disks,
+        /// cylinders, meshes); with `emission_texture`, the factor on its colours (default 1).
         emission: Option<Rgb>,
         /// A texture for the emitted radiance (an image or a checker).
         emission_texture: Option<TextureDesc>,
+        /// Whether only the side the surface normal points to emits, as Mitsuba's `area`
+        /// emitter (black from behind); default false: both sides emit.
+        #[serde(default)]
+        emission_one_sided: bool,
         /// Whether only the side the surface normal points to reflects, as Mitsuba's `diffuse`
         /// (black from behind, blind to light from behind); default false: both sides reflect.
         #[serde(default)]
@@ -631,6 +635,41 @@ pub enum MaterialDesc {
         #[serde(default)]
         phong: PhongDesc,
     },
+    /// A diffuse base under a rough dielectric coating (Mitsuba's `roughplastic`).
+    RoughPlastic {
+        /// The base's diffuse reflectance in [0, 1] per channel (default 0.5).
+        diffuse_reflectance: Option<Rgb>,
+        /// Factor on the coating's specular reflection in [0, 1] per channel (default 1).
+        specular_reflectance: Option<Rgb>,
+        /// The coating's refractive index (default 1.49, polypropylene).
+        #[serde(default = "default_plastic_ior")]
+        ior: f32,
+        /// The index of the medium outside (default 1).
+        #[serde(default = "default_one")]
+        ior_outside: f32,
+        /// Whether the light bouncing inside the coating shifts the colour (Mitsuba's
+        /// `nonlinear`, default false).
+        #[serde(default)]
+        nonlinear: bool,
+        /// Whether the back is the same plastic (Mitsuba's `twosided` wrapper); default false:
+        /// black from behind, as Mitsuba's bare `roughplastic`.
+        #[serde(default)]
+        two_sided: bool,
+        /// Width α of the coating's microfacet distribution as Mitsuba defines it, in (0, 1]
+        /// (default 0.1, Mitsuba's).
+        #[serde(default = "default_plastic_alpha")]
+        alpha: f32,
+        /// Microfacet distribution: `beckmann` (default, as Mitsuba's) or `ggx`.
+        #[serde(default)]
+        distribution: DistributionDesc,
+        /// Empirical Phong terms.
+        #[serde(default)]
+        phong: PhongDesc,
+    },
+}
+
+fn default_plastic_alpha() -> f32 {
+    0.1
 }
 
 fn default_plastic_ior() -> f32 {

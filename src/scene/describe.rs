@@ -224,10 +224,43 @@ pub fn material(m: &Material) -> Description {
                 "two_sided": two_sided,
             }),
         ),
+        Bsdf::RoughPlastic {
+            diffuse, specular, ior, ior_outside, nonlinear, two_sided, alpha, distribution, ..
+        } => Description::new(
+            "rough_plastic",
+            format!(
+                "rough plastic ({}), {} (alpha {alpha}), diffuse reflectance {}, specular reflectance {}, ior \
+                 {ior}, outside ior {ior_outside}{}",
+                if *two_sided { "two-sided" } else { "one-sided" },
+                distribution.name(),
+                vec3(*diffuse),
+                vec3(*specular),
+                if *nonlinear { ", nonlinear" } else { "" }
+            ),
+            json!({
+                "diffuse_reflectance": arr(diffuse),
+                "specular_reflectance": arr(specular),
+                "ior": num(ior),
+                "ior_outside": num(ior_outside),
+                "nonlinear": nonlinear,
+                "two_sided": two_sided,
+                "alpha": num(alpha),
+                "distribution": distribution.name(),
+            }),
+        ),
     };
     d.text = format!("{}; {phong_text}", d.text);
     d.fields.insert("phong".into(), phong_json);
     d
+}
+
+/// Which sides of an emitting surface emit, in words.
+fn sides(one_sided: bool) -> &'static str {
+    if one_sided {
+        "on the side its normal points to"
+    } else {
+        "on both sides"
+    }
 }
 
 /// The geometry of an emitting object.
@@ -249,6 +282,16 @@ fn emitter_shape(s: &EmitterShape) -> (String, Value) {
             ),
             json!({"shape": "disk", "center": arr(center), "normal": arr(normal),
                    "radius": num(radius), "inner_radius": num(inner_radius)}),
+        ),
+        EmitterShape::Cylinder { base, axis, radius, height, caps, .. } => (
+            format!(
+                "cylinder, base {}, axis {}, radius {radius}, height {height}, {}",
+                vec3(*base),
+                vec3(*axis),
+                if caps.is_some() { "with caps" } else { "open (no caps)" }
+            ),
+            json!({"shape": "cylinder", "base": arr(base), "axis": arr(axis), "radius": num(radius),
+                   "height": num(height), "caps": caps.is_some()}),
         ),
         EmitterShape::Mesh(mesh) => (
             format!("mesh of {} triangles, area {}", mesh.len(), mesh.area()),
@@ -309,24 +352,30 @@ pub fn light(l: &Light) -> Description {
             ),
             json!({"center": arr(center), "radius": num(radius), "radiance": arr(radiance)}),
         ),
-        Light::Surface { shape, radiance, texture: None } => {
+        Light::Surface { shape, radiance, texture: None, one_sided } => {
             let (s, sj) = emitter_shape(shape);
             Description::new(
                 "surface",
-                format!("emitting surface: {s}, radiance {} W/(m²·sr) on both sides", vec3(*radiance)),
-                json!({"geometry": sj, "radiance": arr(radiance)}),
+                format!(
+                    "emitting surface: {s}, radiance {} W/(m²·sr) {}",
+                    vec3(*radiance),
+                    sides(*one_sided)
+                ),
+                json!({"geometry": sj, "radiance": arr(radiance), "one_sided": one_sided}),
             )
         }
-        Light::Surface { shape, radiance, texture: Some(t) } => {
+        Light::Surface { shape, radiance, texture: Some(t), one_sided } => {
             let ((s, sj), t) = (emitter_shape(shape), texture(t));
             Description::new(
                 "surface",
                 format!(
-                    "emitting surface: {s}, radiance {} × {} W/(m²·sr) on both sides",
+                    "emitting surface: {s}, radiance {} × {} W/(m²·sr) {}",
                     vec3(*radiance),
-                    t.text
+                    t.text,
+                    sides(*one_sided)
                 ),
-                json!({"geometry": sj, "radiance": arr(radiance), "texture": t.json()}),
+                json!({"geometry": sj, "radiance": arr(radiance), "texture": t.json(),
+                       "one_sided": one_sided}),
             )
         }
         Light::Environment { radiance, map: None } => Description::new(

@@ -61,11 +61,11 @@ pub const SUPPORTED: [(&str, &str); 8] = [
     ("shape", "rectangle, cube, sphere, disk, cylinder (any affine to_world), obj, ply"),
     (
         "bsdf",
-        "diffuse, twosided, dielectric, roughdielectric (beckmann, ggx), thindielectric, conductor, roughconductor (beckmann, ggx), plastic",
+        "diffuse, twosided, dielectric, roughdielectric (beckmann, ggx), thindielectric, conductor, roughconductor (beckmann, ggx), plastic, roughplastic (beckmann, ggx)",
     ),
     (
         "emitter",
-        "area (on rectangles and spheres; on disks, cubes and meshes as two-sided emission), point, spot, directional, constant, envmap",
+        "area (on rectangles, spheres, disks and cylinders; on cubes and meshes as two-sided emission), point, spot, directional, constant, envmap",
     ),
 ];
 
@@ -631,6 +631,11 @@ impl Translator<'_> {
         let name = shape.id.clone().unwrap_or_else(|| format!("shape{index}-{}", shape.plugin));
         let emitter = shape.children_tagged("emitter").next();
         let radiance = match emitter {
+            Some(e) if e.plugin == "area" && shape.plugin == "cylinder" && flip => {
+                // Inward emission has no vitrum equivalent: its cylinders face outwards.
+                self.lacks(e, "an area emitter on a cylinder with flip_normals (emitting inwards)")?;
+                None
+            }
             Some(e) if e.plugin == "area" => {
                 let ep = Props::of(e);
                 let r = ep.color("radiance")?.unwrap_or([1.0; 3]);
@@ -816,10 +821,14 @@ impl Translator<'_> {
             return Ok(());
         }
         self.mirror_texture_v = shape.plugin == "rectangle";
-        let material = self.material(bsdf.map(Rc::as_ref), radiance, &shape.position, materials);
+        // Mitsuba's area emitter emits on the side the normal faces: so do vitrum's disks and
+        // (outward) cylinders with `emission_one_sided`; cubes and meshes emit on both sides.
+        let one_sided = matches!(shape.plugin.as_str(), "disk" | "cylinder");
+        let emission = radiance.map(|r| (r, one_sided));
+        let material = self.material(bsdf.map(Rc::as_ref), emission, &shape.position, materials);
         self.mirror_texture_v = false;
         let material = material?;
-        if radiance.is_some() {
+        if radiance.is_some() && !one_sided {
             self.warn(&shape.position, &format!("{name}: the area emitter is written as the material's emission, which vitrum emits on both sides"));
         }
         for (object, fields) in geometry {
@@ -834,16 +843,17 @@ impl Translator<'_> {
         Ok(())
     }
 
-    /// The key of the material for `bsdf` (written once per BSDF object), with `radiance`.
+    /// The key of the material for `bsdf` (written once per BSDF object), with `emission`: the
+    /// emitted radiance, and whether only the side the normal faces emits.
     fn material(
         &mut self,
         bsdf: Option<&Object>,
-        radiance: Option<[f64; 3]>,
+        emission: Option<([f64; 3], bool)>,
         at: &Position,
         out: &mut TomlWriter,
     ) -> Result<String, XmlError> {
         let key_of = bsdf.map(|b| (b as *const Object, self.mirror_texture_v));
-        if radiance.is_none() {
+        if emission.is_none() {
             if let Some(key) = key_of.and_then(|k| self.materials.get(&k)) {
                 return Ok(key.clone());
             }
@@ -874,10 +884,14 @@ impl Translator<'_> {
             }
             Some(b) => self.bsdf(b, out, false)?,
         }
-        if let Some(r) = radiance {
+        if let Some((r, one_sided)) = emission {
             out.vector("emission", r);
+            if one_sided {
+                out.comment("Mitsuba's area emitter emits on the side the normal faces");
+                out.raw("emission_one_sided", "true");
+            }
         }
-        if radiance.is_none() {
+        if emission.is_none() {
             if let Some(k) = key_of {
                 self.materials.insert(k, key.clone());
             }
@@ -885,9 +899,9 @@ impl Translator<'_> {
         Ok(key)
     }
 
-    /// The microfacet roughness of a `roughdielectric` or `roughconductor` `b`: Mitsuba's `alpha`
-    /// (default 0.1) and `distribution` (beckmann, the default, or ggx); `Ok(false)` when an
-    /// anisotropic roughness was dropped (lenient) and the material ends there.
+    /// The microfacet roughness of a `roughdielectric`, `roughconductor` or `roughplastic` `b`:
+    /// Mitsuba's `alpha` (default 0.1) and `distribution` (beckmann, the default, or ggx);
+    /// `Ok(false)` when an anisotropic roughness was dropped (lenient) and the material ends there.
     fn roughness(&mut self, b: &Object, p: &Props<'_>, out: &mut TomlWriter) -> Result<bool, XmlError> {
         if p.get("alpha_u").is_some() || p.get("alpha_v").is_some() {
             self.lacks(b, "an anisotropic roughness")?;
@@ -968,8 +982,9 @@ impl Translator<'_> {
                     }
                 }
             }
-            "plastic" => {
-                out.string("type", "plastic");
+            "plastic" | "roughplastic" => {
+                let rough = b.plugin == "roughplastic";
+                out.string("type", if rough { "rough_plastic" } else { "plastic" });
                 for name in ["diffuse_reflectance", "specular_reflectance"] {
                     if b.children.iter().any(|c| c.tag == "texture" && c.name.as_deref() == Some(name)) {
                         return self.lacks(b, &format!("a texture for `{name}`"));
@@ -985,10 +1000,13 @@ impl Translator<'_> {
                 if p.boolean("nonlinear")? == Some(true) {
                     out.raw("nonlinear", "true");
                 }
+                if rough && !self.roughness(b, &p, out)? {
+                    return Ok(());
+                }
                 if two_sided {
                     out.raw("two_sided", "true");
                 } else {
-                    out.comment("Mitsuba's plastic is one-sided: black from behind");
+                    out.comment(&format!("Mitsuba's {} is one-sided: black from behind", b.plugin));
                 }
             }
             "conductor" | "roughconductor" => {
