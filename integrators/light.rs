@@ -228,14 +228,14 @@ struct Tracer<'a> {
     sphere: SceneSphere,
 }
 
-/// Merge chunk buffers into the film in their order; `batch` collects the current sample
-/// index's splats, which become one term of the film's sums when its last chunk is merged.
+/// Merge chunk buffers into the film in their order; `batch` sends the splats to the film's
+/// sums of the current sample index, and moves on to the next when its last chunk is merged.
 fn merge(film: &mut Film, batch: &mut SampleSplats, chunks: Vec<ChunkSplats>) {
     for chunk in chunks {
         batch.add(film, chunk.splats);
         film.rays += chunk.rays;
         if chunk.ends_sample {
-            batch.finish(film, None, 1.0);
+            batch.finish();
         }
     }
 }
@@ -275,7 +275,7 @@ impl Tracer<'_> {
         let total = chunks.len() as u64;
         let done = AtomicU64::new(0);
         let batch_size = CHUNKS_PER_THREAD * rayon::current_num_threads().max(1);
-        let mut batch = SampleSplats::new(self.camera.crop.pixels(), first);
+        let mut batch = SampleSplats::new(first, 1.0);
         let mut pending: Option<Vec<ChunkSplats>> = None;
         for group in chunks.chunks(batch_size) {
             // Trace this batch while the previous one is merged (in chunk order).

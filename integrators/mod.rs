@@ -18,7 +18,10 @@ pub(crate) use path::power_heuristic;
 pub use path::{Path, DEFAULT_PATH_DEPTH};
 pub use raycast::RayCast;
 pub use ssaa::Ssaa;
-pub use vertex_merging::{initial_radius, iteration_radius, Algorithm, VertexMerging};
+pub use vertex_merging::{
+    initial_radius, iteration_radius, light_paths_per_iteration, Algorithm, VertexMerging,
+    DEFAULT_MAX_LIGHT_PATHS, DEFAULT_RADIUS_FRACTION, RADIUS_REFERENCE_PIXELS,
+};
 pub use wavefront::{Occupancy, SampleBatch, StageOccupancy, Wavefront};
 pub use whitted::Whitted;
 
@@ -200,6 +203,11 @@ pub trait Integrator: Send + Sync {
     /// variance); the default is the shared camera pass.
     fn progression(&self) -> Progression<'_> {
         Progression::CameraPass
+    }
+    /// The bytes the method allocates for a render of `scene` with `opts` beyond the film and
+    /// the outputs ([`crate::memory::MemoryEstimate`]); none by default.
+    fn working_memory(&self, _scene: &Scene, _opts: &RenderOptions) -> u64 {
+        0
     }
 }
 

@@ -1,13 +1,15 @@
 //! The splat film of the methods that trace light paths (`light` and the bidirectional engine):
 //! a light-path vertex connected to the camera adds its contribution to whatever pixel it
 //! projects to ([`CameraTarget::splat`]), chunks of light paths collect their splats in the order
-//! they made them ([`SplatBuffer`]), and the splats of one sample index are summed per pixel
-//! ([`SampleSplats`]) before they become one term of every pixel's sum and sum of squares on the
-//! [`Film`], together with the camera paths' own estimates where a method has them. So a light
-//! path's splats count as part of one sample of the pixel, the per-pixel variance is that of
-//! whole sample indices, and progressive checkpoints, render parts and `merge` work on the film
-//! exactly as for the camera methods. The splats of a sample index are added in chunk order, so
-//! the film does not depend on the thread count.
+//! they made them ([`SplatBuffer`]), and the splats of one sample index go, scaled, straight into
+//! the [`Film`]'s sums of that sample index ([`SampleSplats`]), beside the camera paths' own
+//! estimates where a method has them. The film's sums are linear in the terms, so a pixel's term
+//! of a sample index is its camera estimate plus its splats however they are added: a light
+//! path's splats count as part of one sample of the pixel, the per-pixel variance (from the
+//! replicas' means) is that of whole sample indices, and progressive checkpoints, render parts
+//! and `merge` work on the film exactly as for the camera methods. No per-pixel buffer is held
+//! besides the film. The splats of a sample index are added in chunk order, so the film does not
+//! depend on the thread count.
 
 use super::PathContext;
 use crate::camera::{Camera, CameraConnection};
@@ -16,7 +18,7 @@ use crate::lighting::{transmittance, ShadowRays};
 use crate::render::Film;
 use crate::sampler::Dim;
 use crate::scene::Scene;
-use glam::{DVec3, Vec3};
+use glam::Vec3;
 
 /// The camera splats of a chunk of light paths, in the order the paths made them.
 #[derive(Default, Debug)]
@@ -42,37 +44,33 @@ impl SplatBuffer {
     }
 }
 
-/// The splats of one sample index, summed per pixel.
+/// Where the splats of the current sample index go: straight into the film's sums of that
+/// sample index, times a common scale.
 pub(crate) struct SampleSplats {
-    values: Vec<DVec3>,
     /// The sample index the splats belong to.
     sample: u32,
+    /// The factor every splat is multiplied by before it enters the film.
+    scale: f64,
 }
 
 impl SampleSplats {
-    /// No splats yet, for a film of `pixels` pixels, starting with sample index `sample`.
-    pub fn new(pixels: usize, sample: u32) -> SampleSplats {
-        SampleSplats { values: vec![DVec3::ZERO; pixels], sample }
+    /// Splats of sample index `sample` on, each multiplied by `scale`.
+    pub fn new(sample: u32, scale: f64) -> SampleSplats {
+        SampleSplats { sample, scale }
     }
 
-    /// Add the splats of `buffer` (the next chunk of the sample index, in order), counting its
-    /// non-finite splats on `film`.
+    /// Add the splats of `buffer` (the next chunk of the sample index, in order) to `film`'s
+    /// sums, counting its non-finite splats on `film`.
     pub fn add(&mut self, film: &mut Film, buffer: SplatBuffer) {
         for (pixel, value) in buffer.splats {
-            self.values[pixel as usize] += value.as_dvec3();
+            film.add(pixel as usize, self.sample, value.as_dvec3() * self.scale);
         }
         film.non_finite += buffer.non_finite;
     }
 
-    /// End the sample index: every pixel's term, `camera[p] + scale · splats[p]` (no camera
-    /// estimate: 0), goes into the film's sums, and the splats start again from zero for the
-    /// next sample index. The caller advances the film's sample count.
-    pub fn finish(&mut self, film: &mut Film, camera: Option<&[Vec3]>, scale: f64) {
-        for (p, splat) in self.values.iter_mut().enumerate() {
-            let v = camera.map_or(DVec3::ZERO, |c| c[p].as_dvec3()) + *splat * scale;
-            film.add(p, self.sample, v);
-            *splat = DVec3::ZERO;
-        }
+    /// End the sample index: later splats go to the next one. The caller advances the film's
+    /// sample count.
+    pub fn finish(&mut self) {
         self.sample += 1;
     }
 }

@@ -6,17 +6,45 @@
 //! merges at every non-specular camera vertex and `vcm` does both.
 //!
 //! # One iteration is one sample index
-//! Iteration `s` traces `N = w·h` light sub-paths and one camera sub-path per pixel. With `(seed',
-//! k)` the seed of the iteration's replica and its index within it ([`Replicas::stream`]), light
-//! path `j` of iteration `s` uses the random stream of (light seed, `j`, `k`), camera path `j` the
-//! camera pass's stream of pixel `j`, sample `s`: the light seed is `seed'` hashed with a
-//! constant, so a light path never reuses a camera sample's stream. The merge radius of
-//! iteration `s` is `r_s = r₀ · (s + 1)^{(α − 1)/2}` (Knaus and Zwicker 2011), a pure function of
-//! `s`. An iteration's estimate of every pixel, camera contributions plus the splats of its
-//! light paths, is one term of the film's sums, so renders are progressive, time budgets,
-//! checkpoints, shards and merges work as for every method, and the image does not depend on
-//! the thread count (light paths are traced in fixed chunks whose vertices and splats are
-//! concatenated in order; the photon grid is built by a counting sort).
+//! Iteration `s` traces `N = min(w·h, cap)` light sub-paths ([`light_paths_per_iteration`], the
+//! cap [`MergeParams::max_light_paths`], [`DEFAULT_MAX_LIGHT_PATHS`] = 2²⁰ by default) and one
+//! camera sub-path per pixel. With `(seed', k)` the seed of the iteration's replica and its
+//! index within it ([`Replicas::stream`]), light path `j` of iteration `s` uses the random stream
+//! of (light seed, `j`, `k`), camera path `j` the camera pass's stream of pixel `j`, sample `s`:
+//! the light seed is `seed'` hashed with a constant, so a light path never reuses a camera
+//! sample's stream. The merge radius of iteration `s` is `r_s = r₀ · (s + 1)^{(α − 1)/2}` (Knaus
+//! and Zwicker 2011), a pure function of `s`. An iteration's estimate of every pixel, camera
+//! contributions plus the splats of its light paths, is one term of the film's sums, so renders
+//! are progressive, time budgets, checkpoints, shards and merges work as for every method, and
+//! the image does not depend on the thread count (light paths are traced in fixed chunks whose
+//! vertices and splats join the store and the film in order; the photon grid is built by a
+//! counting sort; camera paths are traced in fixed bands of rows).
+//!
+//! # Memory: a cap on the light paths, not tiles
+//! Beyond the film, an iteration holds its stored light paths (their non-specular vertices, the
+//! photon grid over them, the chunks' splats on their way to the film) and one band of camera
+//! estimates ([`CAMERA_BAND_PIXELS`]); the light paths' splats go straight into the film's sums
+//! ([`SampleSplats`]). With `N` capped, none of it grows with the resolution: at most about
+//! 300 MB at the default cap on `scenes/cornell-glass.toml`. Above the cap, camera path `j`
+//! connects to light path `j mod N` (and, for `bpt`, shares its wavelengths and time), merges
+//! with the photons of the `N` paths and the splats are normalised by `N`: every `N` in the
+//! formulas is the number of light paths actually traced (the kernel's `η = π r² N` of the
+//! weights and of the merges' normalisation, light tracing's `1/(pixel area · N)` and its
+//! weight's camera density per light path). Each camera path still pairs with one independent
+//! light path and each light path's splats and photons are averaged over the `N` traced, so
+//! the iteration's estimate stays unbiased; only the correlation between the pixels that share
+//! a light path grows. Below the cap (up to 1024² pixels by default) `N = w·h` as in Georgiev et
+//! al. Tiles were the other option: they would bound the camera side too, but a light path's
+//! splats and merges reach every tile, so each tile would need its own light paths (more work per
+//! pixel) or all of them (no saving).
+//!
+//! # The default merge radius
+//! An explicit radius (`--radius`, `[render.vcm] radius`) wins. Otherwise [`initial_radius`]:
+//! [`DEFAULT_RADIUS_FRACTION`] of the scene's bounding-sphere diameter up to
+//! [`RADIUS_REFERENCE_PIXELS`] (256²) pixels, times `sqrt(256² / pixels)` above. A radius fixed in
+//! scene units finds ever more photons per merge as `N` grows with the pixels (time per pixel ∝
+//! pixels); shrinking it with the pixel footprint keeps `N·π·r²`, the photons a merge finds, and
+//! so the time per pixel flat, and the kernel's blur a fixed fraction of a pixel.
 //!
 //! # Strategies and their weights
 //! The weights follow the recursive formulation of Georgiev et al.'s technical report: every
@@ -66,15 +94,13 @@
 //! Without an environment light the background colour is no light: rays that escape see it with
 //! weight 1.
 
-use super::splat_film::{CameraTarget, SampleSplats, SplatBuffer};
-use super::{
-    pick_light, sample_bsdf, Integrator, MergeParams, PathContext, RenderParams, Strategy, DEFAULT_PATH_DEPTH,
-};
+use super::splat_film::SampleSplats;
+use super::{sample_bsdf, Integrator, MergeParams, PathContext, RenderParams, Strategy, DEFAULT_PATH_DEPTH};
 use crate::bsdf::{Scattering, ShadingFrame, TransportMode};
-use crate::camera::{Camera, CameraConnection};
+use crate::camera::Camera;
 use crate::geometry::{spawn_origin, Ray, SurfaceHit};
-use crate::light::{Light, SceneSphere};
-use crate::lighting::{crossing, transmittance, ShadowMode, ShadowRays};
+use crate::light::SceneSphere;
+use crate::lighting::crossing;
 use crate::render::{
     camera_for, render_accumulated, Accumulate, CameraDims, Film, Progression, RenderOptions, RenderOutput,
 };
@@ -83,13 +109,18 @@ use crate::scene::effects::Support;
 use crate::scene::{Effect, Intersection, Scene};
 use crate::spectrum::{Channels, Wavelengths};
 use crate::stats::RayCounts;
-use glam::{Vec2, Vec3};
+use glam::Vec3;
 use rayon::prelude::*;
 use std::f32::consts::PI;
 use std::ops::Range;
 
+mod camera_paths;
+mod light_paths;
 mod mis;
+mod photon_grid;
+use light_paths::LightPaths;
 use mis::{mis, Mis};
+use photon_grid::PhotonGrid;
 
 /// Light paths per chunk of work (the unit of determinism).
 const CHUNK_PATHS: usize = 1 << 12;
@@ -97,8 +128,21 @@ const CHUNK_PATHS: usize = 1 << 12;
 /// Bounces after which Russian roulette may end a sub-path.
 const ROULETTE_DEPTH: u32 = 3;
 
-/// The default initial merge radius as a fraction of the diameter of the scene's bounding sphere.
+/// The default initial merge radius as a fraction of the diameter of the scene's bounding
+/// sphere, for images of at most [`RADIUS_REFERENCE_PIXELS`] pixels ([`initial_radius`]).
 pub const DEFAULT_RADIUS_FRACTION: f32 = 0.0015;
+
+/// The pixel count (256²) above which the default merge radius shrinks with the pixel
+/// footprint, as `sqrt(RADIUS_REFERENCE_PIXELS / pixels)` ([`initial_radius`]).
+pub const RADIUS_REFERENCE_PIXELS: u64 = 256 * 256;
+
+/// The most light sub-paths an iteration traces by default (2²⁰, the pixels of a 1024² image):
+/// beyond that, camera paths share light paths ([`MergeParams::max_light_paths`]).
+pub const DEFAULT_MAX_LIGHT_PATHS: u32 = 1 << 20;
+
+/// Camera paths traced between two additions to the film: their estimates wait in a buffer of
+/// this many pixels at most, whatever the resolution.
+const CAMERA_BAND_PIXELS: usize = 1 << 18;
 
 /// Hashed into the render's seed for the light sub-paths' streams.
 const LIGHT_STREAM: u64 = 0x6c69_6768_745f_7061; // "light_pa"
@@ -210,7 +254,29 @@ impl Integrator for VertexMerging {
     fn progression(&self) -> Progression<'_> {
         Progression::Own(self)
     }
+
+    /// The stored light paths of an iteration (their vertices, the photon grid, their splats)
+    /// and the band of camera estimates: bounded by [`MergeParams::max_light_paths`], not by
+    /// the pixel count.
+    fn working_memory(&self, scene: &Scene, opts: &RenderOptions) -> u64 {
+        let camera = camera_for(scene, opts.resolution);
+        let pixels = camera.width as usize * camera.height as usize;
+        let paths = light_paths_per_iteration(pixels, &opts.params.merging) as u64;
+        // A vertex, its position in the grid's order, its share of the grid's buckets (up to
+        // two) and the sort's key and permutation.
+        let vertex = std::mem::size_of::<light_paths::LightVertex>() as u64 + 4 + 8 + 4 + 4;
+        // Its end, its splats (16 bytes each), its vertices.
+        let path = 4 + SPLATS_PER_PATH * 16 + VERTICES_PER_PATH * vertex;
+        paths * path + CAMERA_BAND_PIXELS as u64 * 12
+    }
 }
+
+/// Stored vertices per light path that the memory estimate assumes (measured on
+/// `scenes/cornell-glass.toml`: about 2.6 at the default depth; deeper closed scenes store more).
+const VERTICES_PER_PATH: u64 = 4;
+
+/// Camera splats per light path that the memory estimate assumes.
+const SPLATS_PER_PATH: u64 = 2;
 
 impl Accumulate for VertexMerging {
     fn film(&self, scene: &Scene, opts: &RenderOptions) -> Film {
@@ -237,132 +303,32 @@ impl Accumulate for VertexMerging {
     }
 }
 
-/// The initial merge radius of `scene` with `params`.
-pub fn initial_radius(scene: &Scene, params: &MergeParams) -> f32 {
+/// The initial merge radius of `scene` with `params` at the render's `resolution` (`None`: the
+/// scene camera's): the explicit radius when `params` has one; else
+/// [`DEFAULT_RADIUS_FRACTION`] of the diameter of the scene's bounding sphere, times
+/// `min(1, sqrt(RADIUS_REFERENCE_PIXELS / pixels))`. Above 256² pixels the default radius so
+/// follows the pixel footprint (halving when the image doubles in width and height): the
+/// photons a merge finds, and so the time per pixel, stay flat in resolution, and the kernel's
+/// blur stays a fixed fraction of a pixel.
+pub fn initial_radius(scene: &Scene, params: &MergeParams, resolution: Option<(u32, u32)>) -> f32 {
     params.radius.unwrap_or_else(|| {
         let (lo, hi) = scene.bvh_stats.bounds;
-        DEFAULT_RADIUS_FRACTION * (hi - lo).length()
+        let camera = camera_for(scene, resolution);
+        let pixels = (camera.width as u64 * camera.height as u64).max(1);
+        let footprint = (RADIUS_REFERENCE_PIXELS as f64 / pixels as f64).sqrt().min(1.0) as f32;
+        DEFAULT_RADIUS_FRACTION * (hi - lo).length() * footprint
     })
+}
+
+/// The light sub-paths of one iteration for an image of `pixels` pixels: one per pixel, at
+/// most `max_light_paths`.
+pub fn light_paths_per_iteration(pixels: usize, params: &MergeParams) -> usize {
+    pixels.min(params.max_light_paths.max(1) as usize)
 }
 
 /// The merge radius of iteration `s` (0-based) from the initial radius `r0`.
 pub fn iteration_radius(r0: f32, alpha: f32, s: u32) -> f32 {
     (r0 * ((s as f64 + 1.0).powf(0.5 * (alpha as f64 - 1.0))) as f32).max(1e-7)
-}
-
-/// A light sub-path vertex on a non-delta surface: a photon and a connection end.
-#[derive(Clone, Copy, Debug)]
-struct LightVertex {
-    p: Vec3,
-    n: Vec3,
-    /// Texture coordinates of the surface here.
-    uv: Vec2,
-    /// The shading normal.
-    ns: Vec3,
-    p_error: f32,
-    /// Unit direction towards the previous vertex of the light path (where the light came from).
-    wo: Vec3,
-    /// Path weight from the light to this vertex (emission included).
-    beta: Vec3,
-    /// The light sub-path's MIS quantities here.
-    mis: Mis,
-    /// Segments from the light to this vertex.
-    segments: u32,
-    primitive: u32,
-    hero_only: bool,
-}
-
-impl LightVertex {
-    fn hit(&self) -> SurfaceHit {
-        SurfaceHit { t: 0.0, p: self.p, n: self.n, shading_n: self.ns, uv: self.uv, p_error: self.p_error }
-    }
-}
-
-/// What one chunk of light paths made.
-#[derive(Default)]
-struct LightChunk {
-    vertices: Vec<LightVertex>,
-    /// Per path of the chunk, the end of its vertices in `vertices`.
-    ends: Vec<u32>,
-    splats: SplatBuffer,
-    rays: RayCounts,
-}
-
-/// The photons of one iteration in a hashed uniform grid of cells twice the radius wide.
-struct PhotonGrid {
-    origin: Vec3,
-    inv_cell: f32,
-    mask: u64,
-    /// Per bucket, the start of its photons in `indices` (one more entry at the end).
-    starts: Vec<u32>,
-    indices: Vec<u32>,
-}
-
-impl PhotonGrid {
-    fn cell_of(&self, p: Vec3) -> [i64; 3] {
-        let c = ((p - self.origin) * self.inv_cell).floor();
-        [c.x as i64, c.y as i64, c.z as i64]
-    }
-
-    fn bucket(&self, c: [i64; 3]) -> usize {
-        let h = (c[0] as u64).wrapping_mul(73_856_093)
-            ^ (c[1] as u64).wrapping_mul(19_349_663)
-            ^ (c[2] as u64).wrapping_mul(83_492_791);
-        (h & self.mask) as usize
-    }
-
-    /// A grid over `vertices` for merges of radius `radius` (deterministic: a counting sort).
-    fn build(vertices: &[LightVertex], radius: f32, origin: Vec3) -> PhotonGrid {
-        let buckets = vertices.len().max(1).next_power_of_two();
-        let mut grid = PhotonGrid {
-            origin,
-            inv_cell: 1.0 / (2.0 * radius),
-            mask: buckets as u64 - 1,
-            starts: vec![0; buckets + 1],
-            indices: vec![0; vertices.len()],
-        };
-        let keys: Vec<usize> = vertices.iter().map(|v| grid.bucket(grid.cell_of(v.p))).collect();
-        for &k in &keys {
-            grid.starts[k + 1] += 1;
-        }
-        for b in 0..buckets {
-            grid.starts[b + 1] += grid.starts[b];
-        }
-        let mut fill = grid.starts.clone();
-        for (i, &k) in keys.iter().enumerate() {
-            grid.indices[fill[k] as usize] = i as u32;
-            fill[k] += 1;
-        }
-        grid
-    }
-
-    /// Call `visit` with the index of every photon within `radius` of `p`, each once.
-    fn query(&self, vertices: &[LightVertex], p: Vec3, radius: f32, mut visit: impl FnMut(usize)) {
-        let lo = self.cell_of(p - Vec3::splat(radius));
-        let hi = self.cell_of(p + Vec3::splat(radius));
-        let mut seen = [usize::MAX; 8];
-        let mut count = 0;
-        let r2 = radius * radius;
-        for x in lo[0]..=hi[0] {
-            for y in lo[1]..=hi[1] {
-                for z in lo[2]..=hi[2] {
-                    let b = self.bucket([x, y, z]);
-                    if seen[..count].contains(&b) {
-                        continue;
-                    }
-                    if count < seen.len() {
-                        seen[count] = b;
-                        count += 1;
-                    }
-                    for &i in &self.indices[self.starts[b] as usize..self.starts[b + 1] as usize] {
-                        if (vertices[i as usize].p - p).length_squared() <= r2 {
-                            visit(i as usize);
-                        }
-                    }
-                }
-            }
-        }
-    }
 }
 
 /// The MIS constants of one iteration.
@@ -466,7 +432,9 @@ struct Engine<'a> {
     max_segments: u32,
     /// Area of one pixel on the image plane at distance 1.
     pixel_area: f32,
-    paths: usize,
+    /// Light sub-paths per iteration, `N` ([`light_paths_per_iteration`]): camera path `j`
+    /// connects to light path `j mod N`.
+    light_paths: usize,
     radius0: f32,
     /// The one strategy rendered alone, unweighted (`None`: all, weighted).
     only: Option<Strategy>,
@@ -475,12 +443,12 @@ struct Engine<'a> {
 impl<'a> Engine<'a> {
     fn new(scene: &'a Scene, integrator: &VertexMerging, opts: &'a RenderOptions) -> Engine<'a> {
         let camera = camera_for(scene, opts.resolution);
-        let paths = camera.width as usize * camera.height as usize;
+        let pixels = camera.width as usize * camera.height as usize;
         Engine {
             scene,
             params: &opts.params,
             algorithm: integrator.0,
-            pixel_area: camera.film_area() / paths as f32,
+            pixel_area: camera.film_area() / pixels as f32,
             dims: CameraDims::resolve(scene, integrator, opts.spectral),
             camera,
             sampler: opts.sampler,
@@ -490,8 +458,8 @@ impl<'a> Engine<'a> {
             environment: scene.environment_light(),
             sphere: scene.bounding_sphere(),
             max_segments: opts.params.max_depth.saturating_add(1),
-            paths,
-            radius0: initial_radius(scene, &opts.params.merging),
+            light_paths: light_paths_per_iteration(pixels, &opts.params.merging),
+            radius0: initial_radius(scene, &opts.params.merging, opts.resolution),
             only: opts.params.merging.only,
         }
     }
@@ -512,7 +480,7 @@ impl<'a> Engine<'a> {
 
     fn constants(&self, s: u32) -> IterationConstants {
         let radius = iteration_radius(self.radius0, self.params.merging.alpha, s);
-        let eta = PI * radius * radius * self.paths as f32;
+        let eta = PI * radius * radius * self.light_paths as f32;
         let merges = self.algorithm.merges();
         IterationConstants {
             radius,
@@ -538,97 +506,57 @@ impl<'a> Engine<'a> {
         (channels, time)
     }
 
-    /// One iteration: light paths, photon grid, camera paths, then one term of every pixel.
+    /// One iteration: light paths (their splats go to the film), photon grid, then the camera
+    /// paths in bands of rows, each band's estimates added to the film as it is done.
     fn iteration(&self, s: u32, film: &mut Film) {
         let k = self.constants(s);
-        let starts: Vec<usize> = (0..self.paths).step_by(CHUNK_PATHS).collect();
-        let chunks: Vec<LightChunk> = starts
-            .par_iter()
-            .map(|&start| self.trace_light_chunk(start..(start + CHUNK_PATHS).min(self.paths), s, &k))
-            .collect();
-        let mut vertices = Vec::with_capacity(chunks.iter().map(|c| c.vertices.len()).sum());
-        let mut ends = Vec::with_capacity(self.paths);
-        let crop = self.camera.crop;
-        let mut splats = SampleSplats::new(crop.pixels(), s);
-        for chunk in chunks {
-            let base = vertices.len() as u32;
-            ends.extend(chunk.ends.iter().map(|e| e + base));
-            vertices.extend_from_slice(&chunk.vertices);
-            splats.add(film, chunk.splats);
-            film.rays += chunk.rays;
-        }
-        let grid = self
-            .algorithm
-            .merges()
-            .then(|| PhotonGrid::build(&vertices, k.radius, self.scene.bvh_stats.bounds.0));
-        let light = LightPaths { vertices: &vertices, ends: &ends, grid: grid.as_ref() };
+        // A splat is a light path's importance at its pixel over the N light paths:
+        // 1 / (pixel area · N), which is 1 / (film area) when N is the pixel count.
+        let scale = 1.0 / (self.pixel_area as f64 * self.light_paths as f64);
+        let mut splats = SampleSplats::new(s, scale);
+        let mut store = self.trace_light_paths(s, &k, film, &mut splats);
+        let origin = self.scene.bvh_stats.bounds.0;
+        let grid = self.algorithm.merges().then(|| PhotonGrid::build(&mut store.vertices, k.radius, origin));
+        let light = LightPaths {
+            vertices: &store.vertices,
+            ends: &store.ends,
+            position: grid.as_ref().map(|g| g.1.as_slice()),
+            grid: grid.as_ref().map(|g| &g.0),
+        };
         // The camera paths of the crop window's pixels, each on its whole-film pixel's stream.
+        let crop = self.camera.crop;
         let (w, x0, y0) = (self.camera.width as usize, crop.x as usize, crop.y as usize);
-        let rows: Vec<(Vec<Vec3>, RayCounts, u64)> = (y0..y0 + crop.height as usize)
-            .into_par_iter()
-            .map(|y| {
-                let mut rays = RayCounts::default();
-                let mut non_finite = 0;
-                let row = (x0..x0 + crop.width as usize)
-                    .map(|x| {
-                        let l = self.camera_path(y * w + x, s, &k, &light, &mut rays);
-                        if !l.is_finite() {
-                            non_finite += 1;
-                        }
-                        l
-                    })
-                    .collect();
-                (row, rays, non_finite)
-            })
-            .collect();
-        let mut camera = Vec::with_capacity(crop.pixels());
-        for (row, rays, non_finite) in rows {
-            film.rays += rays;
-            film.non_finite += non_finite;
-            camera.extend(row);
-        }
-        splats.finish(film, Some(&camera), 1.0 / self.camera.film_area() as f64);
-    }
-
-    /// The random stream of light path `j` of iteration `s`.
-    fn light_sampler(&self, j: usize, s: u32) -> Sampler {
-        let stream = self.replicas.stream(self.seed, s, 0);
-        Sampler::new(self.sampler, stream.seed ^ LIGHT_STREAM, j as u64, stream.index, 0)
-    }
-
-    fn trace_light_chunk(&self, paths: Range<usize>, s: u32, k: &IterationConstants) -> LightChunk {
-        let mut out = LightChunk::default();
-        for j in paths {
-            if self.lights > 0 {
-                self.trace_light_path(j, s, k, &mut out);
+        let (cw, ch) = (crop.width as usize, crop.height as usize);
+        let band = (CAMERA_BAND_PIXELS / cw.max(1)).max(1);
+        for first in (0..ch).step_by(band) {
+            let rows: Vec<(Vec<Vec3>, RayCounts, u64)> = (first..(first + band).min(ch))
+                .into_par_iter()
+                .map(|row| {
+                    let y = y0 + row;
+                    let mut rays = RayCounts::default();
+                    let mut non_finite = 0;
+                    let values = (x0..x0 + cw)
+                        .map(|x| {
+                            let l = self.camera_path(y * w + x, s, &k, &light, &mut rays);
+                            if !l.is_finite() {
+                                non_finite += 1;
+                            }
+                            l
+                        })
+                        .collect();
+                    (values, rays, non_finite)
+                })
+                .collect();
+            for (i, (values, rays, non_finite)) in rows.into_iter().enumerate() {
+                film.rays += rays;
+                film.non_finite += non_finite;
+                let base = (first + i) * cw;
+                for (x, l) in values.into_iter().enumerate() {
+                    film.add(base + x, s, l.as_dvec3());
+                }
             }
-            out.ends.push(out.vertices.len() as u32);
         }
-        out
-    }
-
-    /// Trace light path `j`: store its vertices and splat their connections to the camera.
-    fn trace_light_path(&self, j: usize, s: u32, k: &IterationConstants, out: &mut LightChunk) {
-        let (channels, time) = self.channels_and_time(j, s);
-        let mut ctx = PathContext::new(self.light_sampler(j, s));
-        ctx.channels = channels;
-        let n = self.lights;
-        let light = &self.scene.lights[pick_light(n, &mut ctx.sampler)];
-        let side = ctx.sampler.get_1d(Dim::Light);
-        let u_point = ctx.sampler.get_2d(Dim::Light);
-        let u_dir = ctx.sampler.get_2d(Dim::Light);
-        let Some(e) = light.emit(1.0 / n as f32, side, u_point, u_dir, &self.sphere) else { return };
-        let mis = Mis::light(k, e.pdf_emit, e.pdf_direct, e.cos_light, e.delta);
-        let mut path = SubPath::new(ctx, TransportMode::Importance, channels.colour(e.beta), mis);
-        let shadow = ShadowRays { mode: ShadowMode::Opaque, channels, time };
-        if let (Some(Strategy::CameraSplat), Some((origin, inv_pdf))) = (self.only, e.origin) {
-            self.splat_emission_point(light, &origin, inv_pdf, &mut path, shadow, out);
-        }
-        let mut ray = e.ray;
-        ray.time = time;
-        path.ctx.rays.primary += 1;
-        self.walk(ray, &mut path, k, e.infinite, &mut LightVisitor { engine: self, k, shadow, out });
-        out.rays += path.ctx.rays;
+        splats.finish();
     }
 
     /// The random walk of a sub-path from `ray`, shared by camera and light sub-paths: at every
@@ -726,244 +654,6 @@ impl<'a> Engine<'a> {
             }
         }
     }
-
-    /// Splat the emission point `origin` of an area light seen directly (`inv_pdf`: one over
-    /// its density): only when light tracing's strategy is rendered alone, which is then all of
-    /// light tracing; otherwise camera paths find an emitter they see, with weight 1.
-    fn splat_emission_point(
-        &self,
-        light: &Light,
-        origin: &SurfaceHit,
-        inv_pdf: f32,
-        path: &mut SubPath,
-        shadow: ShadowRays,
-        out: &mut LightChunk,
-    ) {
-        self.splat(origin, path, shadow, out, |ctx, c| {
-            let le = light.emitted(origin, -c.dir) * (c.dir.dot(origin.n).abs() * inv_pdf);
-            ctx.channels.colour(le)
-        });
-    }
-
-    /// Splat the connection of light vertex `at` to the camera (light tracing's strategy).
-    fn connect_to_camera(
-        &self,
-        at: &Vertex,
-        path: &mut SubPath,
-        k: &IterationConstants,
-        shadow: ShadowRays,
-        out: &mut LightChunk,
-    ) {
-        let (beta, light_mis) = (path.beta, path.mis);
-        self.splat(at.hit, path, shadow, out, |_, c| {
-            let wc_local = at.frame.to_local(-c.dir);
-            let e = at.bsdf.evaluate(at.wo_local, wc_local, TransportMode::Importance);
-            if e.f == Vec3::ZERO {
-                return Vec3::ZERO;
-            }
-            let cos_v = wc_local.z.abs();
-            // Density of this point per unit area as the camera samples it (one sample per pixel).
-            let camera_pdf_a = cos_v / (self.pixel_area * c.dist2 * c.cos * c.cos * c.cos);
-            let weight =
-                self.weighted(mis::camera_splat(&light_mis, k, camera_pdf_a / self.paths as f32, e.pdf_rev));
-            beta * e.f * (weight * cos_v * at.frame.factor(at.wo, -c.dir, TransportMode::Importance))
-        });
-    }
-
-    /// Connect the light-path point `hit` to the camera and splat `value(context, connection)`
-    /// ([`CameraTarget::splat`]).
-    fn splat(
-        &self,
-        hit: &SurfaceHit,
-        path: &mut SubPath,
-        shadow: ShadowRays,
-        out: &mut LightChunk,
-        value: impl FnOnce(&PathContext, &CameraConnection) -> Vec3,
-    ) {
-        let target = CameraTarget { scene: self.scene, camera: &self.camera, lens: self.dims.lens };
-        target.splat(hit, &mut path.ctx, shadow, &mut out.splats, value);
-    }
-
-    /// The radiance camera path `j` of iteration `s` gathers by its own strategies.
-    fn camera_path(
-        &self,
-        j: usize,
-        s: u32,
-        k: &IterationConstants,
-        light: &LightPaths,
-        rays: &mut RayCounts,
-    ) -> Vec3 {
-        let cam = &self.camera;
-        let (channels, time) = self.channels_and_time(j, s);
-        let stream = self.replicas.stream(self.seed, s, 0);
-        let mut ctx = PathContext::new(Sampler::of_stream(self.sampler, stream, j as u64));
-        ctx.channels = channels;
-        let (x, y) = ((j % cam.width as usize) as u32, (j / cam.width as usize) as u32);
-        let film = cam.film_point(x, y, ctx.sampler.get_2d(Dim::Pixel));
-        let lens = if self.dims.lens { ctx.sampler.get_2d(Dim::Lens) } else { Vec2::ZERO };
-        let ray = cam.generate_ray_lens(film, lens, time);
-        ctx.rays.primary += 1;
-        let cos = ray.dir.dot(cam.forward);
-        let camera_pdf_w = 1.0 / (self.pixel_area * cos * cos * cos);
-        let mis = Mis::camera(self.paths as f32, camera_pdf_w);
-        let mut path = SubPath::new(ctx, TransportMode::Radiance, Vec3::ONE, mis);
-        path.start_offset = cam.near_clip / cos;
-        let mut visitor = CameraVisitor {
-            engine: self,
-            j,
-            k,
-            light,
-            shadow: ShadowRays { mode: ShadowMode::Opaque, channels, time },
-            pick: 1.0 / self.lights.max(1) as f32,
-            only_merges: self.algorithm.merges() && !self.algorithm.connects(),
-            radiance: Vec3::ZERO,
-        };
-        self.walk(ray, &mut path, k, false, &mut visitor);
-        *rays += path.ctx.rays;
-        path.ctx.channels.to_rgb(visitor.radiance)
-    }
-
-    /// Next-event estimation at a camera vertex, weighted against every other strategy.
-    fn next_event(
-        &self,
-        at: &Vertex,
-        path: &mut SubPath,
-        k: &IterationConstants,
-        shadow: ShadowRays,
-        pick: f32,
-    ) -> Vec3 {
-        let index = pick_light(self.lights, &mut path.ctx.sampler);
-        let u = path.ctx.sampler.get_2d(Dim::Light);
-        let light = &self.scene.lights[index];
-        let Some(ls) = light.sample_li(at.hit.p, u) else { return Vec3::ZERO };
-        let wi_local = at.frame.to_local(ls.wi);
-        if at.frame.factor(at.wo, ls.wi, TransportMode::Radiance) == 0.0 {
-            return Vec3::ZERO;
-        }
-        let e = at.bsdf.evaluate(at.wo_local, wi_local, TransportMode::Radiance);
-        if e.f == Vec3::ZERO {
-            return Vec3::ZERO;
-        }
-        let cos_to_light = wi_local.z.abs();
-        let (direct_w, emit_w, cos_at_light) =
-            if let Some((direct, emit)) = light.delta_pdfs(&self.sphere, ls.distance) {
-                (direct, emit, 1.0)
-            } else if !ls.distance.is_finite() {
-                let (emit, direct) = light.environment_pdfs(&self.sphere, ls.wi);
-                (direct, emit, 1.0)
-            } else {
-                let cos_at_light = ls.normal.dot(-ls.wi).abs();
-                if cos_at_light <= 0.0 {
-                    // A grazing sample (a point of an emitter's own plane): its geometry term is 0.
-                    return Vec3::ZERO;
-                }
-                (ls.pdf, light.emission_pdfs(at.hit.p, ls.position, ls.normal, -ls.wi).0, cos_at_light)
-            };
-        // A delta light cannot be hit by BSDF sampling.
-        let dir_pdf = if ls.delta { 0.0 } else { e.pdf };
-        let emit_ratio = emit_w * cos_to_light / (direct_w * cos_at_light);
-        let weight =
-            self.weighted(mis::next_event(&path.mis, k, dir_pdf, e.pdf_rev, pick * direct_w, emit_ratio));
-        let target = if ls.distance.is_finite() {
-            ls.position
-        } else {
-            at.hit.p + ls.wi * self.scene.far_distance(at.hit.p)
-        };
-        let visible =
-            transmittance(self.scene, at.hit, target, Some(index as u32), shadow, &mut path.ctx.rays);
-        if visible == Vec3::ZERO {
-            return Vec3::ZERO;
-        }
-        e.f * path.ctx.channels.colour(ls.radiance) * visible * (weight * cos_to_light / (pick * ls.pdf))
-    }
-
-    /// The connection of a camera vertex to light vertex `v`, weighted.
-    fn connect(
-        &self,
-        at: &Vertex,
-        path: &mut SubPath,
-        v: &LightVertex,
-        k: &IterationConstants,
-        shadow: ShadowRays,
-    ) -> Vec3 {
-        let d = v.p - at.hit.p;
-        let dist2 = d.length_squared();
-        if !(dist2 > 0.0 && dist2.is_finite()) {
-            return Vec3::ZERO;
-        }
-        let dir = d / dist2.sqrt();
-        let wi_local = at.frame.to_local(dir);
-        if at.frame.factor(at.wo, dir, TransportMode::Radiance) == 0.0 {
-            return Vec3::ZERO;
-        }
-        let camera = at.bsdf.evaluate(at.wo_local, wi_local, TransportMode::Radiance);
-        if camera.f == Vec3::ZERO {
-            return Vec3::ZERO;
-        }
-        let material = self.scene.material_of(v.primitive);
-        let light_bsdf = Scattering::at(material, v.p, v.uv, &path.ctx.channels);
-        let light_frame = ShadingFrame::at(&v.hit(), v.wo);
-        let light_wo = light_frame.to_local(v.wo);
-        let light_wi = light_frame.to_local(-dir);
-        let light = light_bsdf.evaluate(light_wo, light_wi, TransportMode::Importance);
-        if light.f == Vec3::ZERO {
-            return Vec3::ZERO;
-        }
-        let (cos_camera, cos_light) = (wi_local.z.abs(), light_wi.z.abs());
-        let camera_dir_a = camera.pdf * cos_light / dist2;
-        let light_dir_a = light.pdf * cos_camera / dist2;
-        let weight = self.weighted(mis::connection(
-            &path.mis,
-            &v.mis,
-            k,
-            camera_dir_a,
-            light_dir_a,
-            camera.pdf_rev,
-            light.pdf_rev,
-        ));
-        let target = spawn_origin(&v.hit(), -dir);
-        let visible = transmittance(self.scene, at.hit, target, None, shadow, &mut path.ctx.rays);
-        if visible == Vec3::ZERO {
-            return Vec3::ZERO;
-        }
-        let g = cos_camera * cos_light / dist2 * light_frame.factor(v.wo, -dir, TransportMode::Importance);
-        camera.f * light.f * v.beta * visible * (weight * g * joined(path.ctx.hero_only, v.hero_only))
-    }
-
-    /// The merges of a camera vertex with the photons around it, weighted.
-    fn merge(
-        &self,
-        at: &Vertex,
-        path: &SubPath,
-        k: &IterationConstants,
-        vertices: &[LightVertex],
-        grid: &PhotonGrid,
-    ) -> Vec3 {
-        let mut sum = Vec3::ZERO;
-        let ppm = self.algorithm == Algorithm::Ppm;
-        grid.query(vertices, at.hit.p, k.radius, |i| {
-            let v = &vertices[i];
-            if v.segments + path.segments > self.max_segments {
-                return;
-            }
-            if at.frame.factor(at.wo, v.wo, TransportMode::Radiance) == 0.0 {
-                return;
-            }
-            let wi_local = at.frame.to_local(v.wo);
-            // Unweighted merges (`ppm`, a strategy alone) need the value only.
-            let (f, weight) = if ppm || self.only.is_some() {
-                (at.bsdf.eval(at.wo_local, wi_local, TransportMode::Radiance), 1.0)
-            } else {
-                let e = at.bsdf.evaluate(at.wo_local, wi_local, TransportMode::Radiance);
-                (e.f, mis::merge(&path.mis, &v.mis, k, e.pdf, e.pdf_rev))
-            };
-            if f == Vec3::ZERO {
-                return;
-            }
-            sum += f * v.beta * (weight * joined(path.ctx.hero_only, v.hero_only));
-        });
-        sum * k.vm_norm
-    }
 }
 
 /// A sub-path vertex being shaded.
@@ -1001,146 +691,4 @@ trait WalkVisitor {
 
     /// The strategies at vertex `at` of primitive `primitive`; returns where the walk may go on.
     fn visit(&mut self, path: &mut SubPath, at: &Vertex, primitive: u32) -> Next;
-}
-
-/// A light sub-path: its non-specular vertices are stored (for connections and merges) and
-/// connected to the camera.
-struct LightVisitor<'e, 'a> {
-    engine: &'e Engine<'a>,
-    k: &'e IterationConstants,
-    shadow: ShadowRays,
-    out: &'e mut LightChunk,
-}
-
-impl WalkVisitor for LightVisitor<'_, '_> {
-    fn visit(&mut self, path: &mut SubPath, at: &Vertex, primitive: u32) -> Next {
-        let e = self.engine;
-        if !at.bsdf.is_delta() {
-            self.out.vertices.push(LightVertex {
-                p: at.hit.p,
-                n: at.hit.n,
-                uv: at.hit.uv,
-                ns: at.hit.shading_n,
-                p_error: at.hit.p_error,
-                wo: at.wo,
-                beta: path.beta,
-                mis: path.mis,
-                segments: path.segments,
-                primitive,
-                hero_only: path.ctx.hero_only,
-            });
-            if e.algorithm.connects() && e.keeps(Strategy::CameraSplat) && path.segments < e.max_segments {
-                e.connect_to_camera(at, path, self.k, self.shadow, self.out);
-            }
-        }
-        // A light sub-path leaves at least one segment of the full path to the camera.
-        if path.segments + 2 > e.max_segments {
-            Next::Stop
-        } else {
-            Next::Any
-        }
-    }
-}
-
-/// A camera sub-path: emitters it hits, next-event estimation, connections to the vertices of
-/// its light sub-path and merges with the iteration's photons, summed in `radiance`.
-struct CameraVisitor<'e, 'a> {
-    engine: &'e Engine<'a>,
-    j: usize,
-    k: &'e IterationConstants,
-    light: &'e LightPaths<'e>,
-    shadow: ShadowRays,
-    /// The probability of picking a given light.
-    pick: f32,
-    /// Whether the method merges without connecting (`ppm`, `bpm`).
-    only_merges: bool,
-    radiance: Vec3,
-}
-
-impl CameraVisitor<'_, '_> {
-    /// The weight of emission found by the camera path itself; `densities` gives the
-    /// emitter's (emission, direct) densities of the arrival.
-    fn emitter_weight(&self, path: &SubPath, densities: impl FnOnce() -> (f32, f32)) -> f32 {
-        if path.segments == 1 || self.engine.only.is_some() {
-            1.0
-        } else if self.only_merges {
-            // Merging's paths: only a specular chain reaches an emitter by itself.
-            if path.specular_path {
-                1.0
-            } else {
-                0.0
-            }
-        } else {
-            let (emit, direct) = densities();
-            mis::emitter_hit(&path.mis, self.pick * direct, self.pick * emit)
-        }
-    }
-}
-
-impl WalkVisitor for CameraVisitor<'_, '_> {
-    fn escaped(&mut self, path: &mut SubPath, dir: Vec3, absorbed: bool) {
-        let e = self.engine;
-        if absorbed || !e.keeps(Strategy::EmitterHit) {
-            return;
-        }
-        // Without an environment light the background is no light: it is seen with weight 1.
-        let weight = match e.environment {
-            None => 1.0,
-            Some(i) => self.emitter_weight(path, || e.scene.lights[i].environment_pdfs(&e.sphere, dir)),
-        };
-        self.radiance += path.beta * path.ctx.channels.colour(e.scene.background(dir)) * weight;
-    }
-
-    fn reached(&mut self, path: &mut SubPath, ray: &Ray, isect: &Intersection) -> bool {
-        let e = self.engine;
-        if let Some(index) = e.scene.light_of(isect.primitive) {
-            let emitter = &e.scene.lights[index as usize];
-            let (hit, wo) = (&isect.hit, -ray.dir);
-            let le = emitter.emitted(hit, wo);
-            if le != Vec3::ZERO && e.keeps(Strategy::EmitterHit) {
-                let weight =
-                    self.emitter_weight(path, || emitter.emission_pdfs(ray.origin, hit.p, hit.n, wo));
-                self.radiance += path.beta * path.ctx.channels.colour(le) * weight;
-            }
-        }
-        path.segments < e.max_segments
-    }
-
-    fn visit(&mut self, path: &mut SubPath, at: &Vertex, _: u32) -> Next {
-        let (e, k, light, j) = (self.engine, self.k, self.light, self.j);
-        if at.bsdf.is_delta() {
-            return Next::Any;
-        }
-        if e.algorithm.connects() {
-            if e.lights > 0 && e.keeps(Strategy::NextEvent) {
-                self.radiance += path.beta * e.next_event(at, path, k, self.shadow, self.pick);
-            }
-            let range = if j == 0 { 0 } else { light.ends[j - 1] as usize }..light.ends[j] as usize;
-            let connections = if e.keeps(Strategy::Connection) { &light.vertices[range] } else { &[] };
-            for v in connections {
-                if v.segments + path.segments + 1 > e.max_segments {
-                    break;
-                }
-                self.radiance += path.beta * e.connect(at, path, v, k, self.shadow);
-            }
-        }
-        let Some(grid) = light.grid else { return Next::Any };
-        if e.keeps(Strategy::Merge) {
-            self.radiance += path.beta * e.merge(at, path, k, light.vertices, grid);
-        }
-        // Photon mapping merges once: only the specular chain (multiply scattered samples of
-        // rough glass included) goes on past a merge.
-        if e.algorithm == Algorithm::Ppm {
-            Next::SpecularOnly
-        } else {
-            Next::Any
-        }
-    }
-}
-
-/// The light sub-paths of an iteration.
-struct LightPaths<'a> {
-    vertices: &'a [LightVertex],
-    ends: &'a [u32],
-    grid: Option<&'a PhotonGrid>,
 }

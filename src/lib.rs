@@ -20,6 +20,7 @@ pub mod lanes;
 pub mod light;
 pub mod lighting;
 pub mod material;
+pub mod memory;
 pub mod metrics;
 pub mod optics;
 pub mod output;

@@ -117,18 +117,29 @@ impl Strategy {
 /// Settings of the merging methods, and of the engine's research view of one strategy alone.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct MergeParams {
-    /// Initial merge radius (scene units); `None`: `integrators::vertex_merging::DEFAULT_RADIUS_FRACTION` (0.0015) of the diameter of
-    /// the scene's bounding sphere.
+    /// Initial merge radius (scene units); `None`: the default rule of
+    /// [`crate::integrators::initial_radius`] (0.0015 of the diameter of the scene's bounding
+    /// sphere up to 256² pixels, shrinking with the pixel footprint above).
     pub radius: Option<f32>,
     /// Knaus–Zwicker α in (0, 1]: the radius shrinks as `(s + 1)^{(α − 1)/2}`.
     pub alpha: f32,
     /// Render only this strategy, unweighted (weight 1): its own estimate of the paths it can
     /// make (for `CameraSplat`, light tracing). `None`: every strategy of the method, weighted.
     pub only: Option<Strategy>,
+    /// The most light sub-paths an iteration traces (at least 1): an iteration traces
+    /// `N = min(pixels, max_light_paths)` and camera path `j` connects to light path `j mod N`
+    /// ([`crate::integrators::DEFAULT_MAX_LIGHT_PATHS`] by default, which bounds the memory of the
+    /// stored light paths whatever the resolution).
+    pub max_light_paths: u32,
 }
 
 impl Default for MergeParams {
     fn default() -> MergeParams {
-        MergeParams { radius: None, alpha: 0.75, only: None }
+        MergeParams {
+            radius: None,
+            alpha: 0.75,
+            only: None,
+            max_light_paths: crate::integrators::DEFAULT_MAX_LIGHT_PATHS,
+        }
     }
 }

@@ -175,7 +175,10 @@ impl Identity {
         let mut fields: Vec<(String, String)> = fields.into_iter().map(|(k, v)| (k.to_string(), v)).collect();
         if crate::scene::desc::MERGING_METHODS.contains(&integrator) {
             let merging = &opts.params.merging;
-            fields.push(("radius".into(), crate::integrators::initial_radius(scene, merging).to_string()));
+            fields.push((
+                "radius".into(),
+                crate::integrators::initial_radius(scene, merging, opts.resolution).to_string(),
+            ));
             fields.push(("radius-alpha".into(), merging.alpha.to_string()));
         }
         if let Some(strategy) = opts.params.merging.only {

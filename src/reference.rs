@@ -96,7 +96,10 @@ impl ReferenceKey {
     pub fn new(scene: &Scene, method: &str, opts: &RenderOptions, spp: u32) -> ReferenceKey {
         let camera = camera_for(scene, opts.resolution);
         let merging = crate::scene::desc::MERGING_METHODS.contains(&method).then(|| {
-            [crate::integrators::initial_radius(scene, &opts.params.merging), opts.params.merging.alpha]
+            [
+                crate::integrators::initial_radius(scene, &opts.params.merging, opts.resolution),
+                opts.params.merging.alpha,
+            ]
         });
         ReferenceKey {
             integrator: method.into(),

@@ -197,3 +197,83 @@ fn the_engines_light_tracing_strategy_alone_equals_light_tracing() {
         assert!(mean(&splats.0) > 0.0, "{file}: not a black image");
     }
 }
+
+/// The image mean of `k` independent renders of `scene` by `method` at 32×32 with `max_light_paths`
+/// light paths per iteration at most, and its standard error (of the spread of the renders' means).
+fn capped_image_mean(scene: &Scene, method: &str, spp: u32, k: u64, max_light_paths: u32) -> (f64, f64) {
+    let integrator = vitrum::integrators::create(method).unwrap();
+    let means: Vec<f64> = (0..k)
+        .map(|seed| {
+            let mut opts = RenderOptions::for_method(scene, integrator.as_ref(), spp);
+            opts.resolution = Some((32, 32));
+            opts.sampler = SamplerKind::Independent;
+            opts.seed = 300 + seed;
+            opts.params.merging.max_light_paths = max_light_paths;
+            let out = render_opts(scene, method, &opts);
+            assert_eq!(out.non_finite_samples, 0, "{method}: non-finite samples");
+            let image = out.image;
+            image.pixels.iter().map(|p| p.element_sum() as f64).sum::<f64>() / (3 * image.pixels.len()) as f64
+        })
+        .collect();
+    let mean = means.iter().sum::<f64>() / k as f64;
+    let var = means.iter().map(|m| (m - mean) * (m - mean)).sum::<f64>() / (k - 1) as f64;
+    (mean, (var / k as f64).sqrt())
+}
+
+#[test]
+fn capped_light_paths_keep_the_estimate_unbiased() {
+    // 256 light paths for the 1024 pixels of a 32×32 image: camera path j connects to light
+    // path j mod 256, merges with the photons of the 256 and the splats are normalised by 256.
+    // On soft-shadows (a quad light: `path` is unbiased) the capped `bpt` and `vcm` agree with
+    // `path`: the image means of 32 renders within 4 standard errors of their difference, and
+    // the 8×8 block means within their standard errors (χ² below 42 over 16 blocks, as in
+    // `bpt_and_vcm_match_path_where_path_is_unbiased`; a camera path and its light path's other
+    // partners are 8 rows apart, in other blocks).
+    const CAP: u32 = 256;
+    let scene = load(std::path::Path::new("scenes/soft-shadows.toml")).unwrap();
+    let merging = vitrum::params::MergeParams { max_light_paths: CAP, ..Default::default() };
+    assert_eq!(
+        vitrum::integrators::light_paths_per_iteration(32 * 32, &merging),
+        CAP as usize,
+        "the cap binds"
+    );
+    let (path_mean, path_error) = capped_image_mean(&scene, "path", 16, 32, CAP);
+    let reference = render_with_variance(&scene, "path", 32, 1024, 71);
+    for method in ["bpt", "vcm"] {
+        let (mean, error) = capped_image_mean(&scene, method, 16, 32, CAP);
+        let se = (error * error + path_error * path_error).sqrt();
+        println!(
+            "{method}, {CAP} light paths: mean {mean:.5} ± {error:.5}, path {path_mean:.5} ± {path_error:.5}"
+        );
+        assert!((mean - path_mean).abs() <= 4.0 * se, "{method}: mean {mean} vs path {path_mean} (SE {se})");
+        let integrator = vitrum::integrators::create(method).unwrap();
+        let mut opts = RenderOptions::for_method(&scene, integrator.as_ref(), 256);
+        opts.resolution = Some((32, 32));
+        opts.sampler = SamplerKind::Independent;
+        opts.seed = 5;
+        opts.params.merging.max_light_paths = CAP;
+        let out = render_opts(&scene, method, &opts);
+        let (chi2, blocks) = block_chi2(&(out.image, out.variance.unwrap()), &reference);
+        println!("{method}, {CAP} light paths: χ² {chi2:.1} over {blocks} blocks against path");
+        assert_eq!(blocks, 16);
+        assert!(chi2 < 42.0, "{method}: block χ² {chi2} over {blocks} blocks against path");
+    }
+}
+
+#[test]
+fn the_default_merge_radius_follows_the_pixel_footprint_above_256_squared() {
+    use vitrum::integrators::{initial_radius, DEFAULT_RADIUS_FRACTION};
+    let scene = load(std::path::Path::new("scenes/cornell-glass.toml")).unwrap();
+    let merging = vitrum::params::MergeParams::default();
+    let (lo, hi) = scene.bvh_stats.bounds;
+    let scene_rule = DEFAULT_RADIUS_FRACTION * (hi - lo).length();
+    let at = |w, h| initial_radius(&scene, &merging, Some((w, h)));
+    assert_eq!(at(32, 32), scene_rule, "small images keep the scene-size rule");
+    assert_eq!(at(256, 256), scene_rule);
+    for (size, factor) in [(512, 0.5), (1024, 0.25), (4096, 1.0 / 16.0)] {
+        let r = at(size, size);
+        assert!((r / scene_rule - factor).abs() < 1e-5, "{size}²: radius {r} vs {factor} of {scene_rule}");
+    }
+    let explicit = vitrum::params::MergeParams { radius: Some(0.05), ..merging };
+    assert_eq!(initial_radius(&scene, &explicit, Some((4096, 4096))), 0.05, "an explicit radius wins");
+}

@@ -1668,9 +1668,10 @@ fn merge_radius_comes_from_the_command_line_else_the_scene_else_the_scene_size()
     assert_eq!(methods["vcm"]["radius"].as_f64().unwrap() as f32, 0.02, "{methods}");
     assert_eq!(methods["vcm"]["radius_alpha"].as_f64().unwrap() as f32, 0.5, "{methods}");
     assert_eq!(methods["vcm"]["radius_from"], "scene", "{methods}");
-    // 0.0015 of the bounding box's diagonal (the Cornell box is 2 × 2 × 2 plus nothing outside).
+    // 0.0015 of the bounding box's diagonal (the Cornell box is 2 × 2 × 2 plus nothing outside),
+    // times the pixel footprint's sqrt(256² / pixels) at the scene's 800 × 800.
     let default = methods["ppm"]["radius"].as_f64().unwrap();
-    assert!((default - 0.0015 * 12f64.sqrt()).abs() < 1e-6, "{methods}");
+    assert!((default - 0.0015 * 12f64.sqrt() * 256.0 / 800.0).abs() < 1e-6, "{methods}");
     assert!(methods["path"].get("radius").is_none(), "path does not merge: {methods}");
 
     let summary = |extra: &[&str]| -> Value {
@@ -1772,4 +1773,64 @@ fn info_describes_materials_and_lights_in_words_and_as_data() {
     assert_eq!(lights[0]["kind"], "surface");
     assert_eq!(lights[0]["geometry"]["shape"], "sphere");
     assert_eq!(lights[0]["geometry"]["radius"], 10.0);
+}
+
+#[test]
+fn a_render_that_needs_more_memory_than_the_machine_has_is_refused_before_allocating() {
+    // The memory available is overridden (`VITRUM_AVAILABLE_MEMORY`, bytes). At 2048² the film
+    // alone (24 bytes per pixel and replica, and the sum) is 864 MiB: every method is
+    // refused under 100 MB, with the estimate in the message and no output written.
+    let sandbox = Sandbox::new();
+    sandbox.scene(CORNELL);
+    let run = |available: &str, args: &[&str]| {
+        Command::new(env!("CARGO_BIN_EXE_vitrum"))
+            .current_dir(sandbox.dir.path())
+            .env(vitrum::memory::AVAILABLE_OVERRIDE, available)
+            .args(args)
+            .output()
+            .unwrap()
+    };
+    for integrator in vitrum::integrators::all() {
+        let name = integrator.name();
+        let args =
+            ["render", "scene.toml", "-i", name, "--resolution", "2048x2048", "-o", "out/r.exr", "--quiet"];
+        let out = run("100000000", &args);
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{name}: {stderr}");
+        for named in ["needs about", "MiB", "film", "available", "VITRUM_AVAILABLE_MEMORY"] {
+            assert!(stderr.contains(named), "{name}: `{named}` is named: {stderr}");
+        }
+        assert!(!stderr.contains("panicked"), "{stderr}");
+        assert!(sandbox.out_files().is_empty(), "{name} wrote {:?}", sandbox.out_files());
+    }
+    // The method's own working memory counts: at 64² the film and outputs of one sample take
+    // under 1 MB, which 3 MB holds for `path`, not with `vcm`'s stored light paths and its band
+    // of camera estimates.
+    let small = |method| {
+        [
+            "render",
+            "scene.toml",
+            "-i",
+            method,
+            "--resolution",
+            "64x64",
+            "--spp",
+            "1",
+            "-o",
+            "out/r.exr",
+            "--quiet",
+        ]
+    };
+    let out = run("3000000", &small("path"));
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    fs::remove_file(sandbox.out().join("r.exr")).unwrap();
+    let out = run("3000000", &small("vcm"));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert!(stderr.contains("method ") && !stderr.contains("method 0 MiB"), "{stderr}");
+    assert!(sandbox.out_files().is_empty(), "vcm wrote {:?}", sandbox.out_files());
+    // An override that is not a number is bad input.
+    let out = run("lots", &small("path"));
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("not a number of bytes"));
 }

@@ -59,7 +59,7 @@ pub fn run(args: &InfoArgs) -> Result<(), CliError> {
                     .then(|| scene.settings.max_depth(i.as_ref(), None));
                 let mut entry = json!({"max_depth": depth, "from": from});
                 if let Some(m) = scene.settings.merging.get(i.name()) {
-                    entry["radius"] = json!(integrators::initial_radius(&scene, m));
+                    entry["radius"] = json!(integrators::initial_radius(&scene, m, None));
                     entry["radius_from"] = json!(if m.radius.is_some() { "scene" } else { "default" });
                     entry["radius_alpha"] = json!(m.alpha);
                 }
@@ -137,8 +137,12 @@ pub fn run(args: &InfoArgs) -> Result<(), CliError> {
             print!("  {:<12} no depth (shades the first hit only)", i.name());
         }
         if let Some(m) = settings.merging.get(i.name()) {
-            let r0 = integrators::initial_radius(&scene, m);
-            let from = if m.radius.is_some() { "scene" } else { "default fraction of the scene's size" };
+            let r0 = integrators::initial_radius(&scene, m, None);
+            let from = if m.radius.is_some() {
+                "scene"
+            } else {
+                "default: a fraction of the scene's size, scaled to the pixel footprint over 256² pixels"
+            };
             print!(", radius {r0:.4e} ({from}), radius alpha {}", m.alpha);
         }
         println!();

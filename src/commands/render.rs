@@ -74,7 +74,8 @@ pub struct RenderArgs {
     #[arg(long, value_parser = ["sobol", "stratified", "independent"])]
     pub sampler: Option<String>,
     /// ppm, bpm, vcm: initial merge radius in scene units (default from the scene file, else
-    /// 0.0015 of the diameter of the scene's bounding sphere).
+    /// 0.0015 of the diameter of the scene's bounding sphere, times sqrt(256²/pixels) over 256²
+    /// pixels).
     #[arg(long, allow_negative_numbers = true)]
     pub radius: Option<f32>,
     /// ppm, bpm, vcm: Knaus–Zwicker α in (0, 1]: the radius of iteration i is
@@ -294,6 +295,8 @@ pub fn run(args: &RenderArgs) -> Result<(), CliError> {
             return Ok(());
         }
     }
+    // Before anything of the render is allocated: refuse what the machine cannot hold.
+    crate::memory::check(&scene, integrator.as_ref(), &opts).map_err(CliError::BadInput)?;
     let pool = thread_pool(args.threads)?;
 
     let bar = (!args.quiet && std::io::stderr().is_terminal()).then(|| {
@@ -497,9 +500,9 @@ fn report(
     let mrays = out.rays.total() as f64 / out.seconds.max(1e-9) / 1e6;
     let noise = out.noise();
     let depth = crate::scene::desc::has_max_depth(integrator).then_some(opts.params.max_depth);
-    let merging = crate::scene::desc::MERGING_METHODS
-        .contains(&integrator)
-        .then(|| (integrators::initial_radius(scene, &opts.params.merging), opts.params.merging.alpha));
+    let merging = crate::scene::desc::MERGING_METHODS.contains(&integrator).then(|| {
+        (integrators::initial_radius(scene, &opts.params.merging, opts.resolution), opts.params.merging.alpha)
+    });
     if args.json {
         let summary = json!({
             "integrator": integrator,
