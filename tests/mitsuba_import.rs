@@ -370,7 +370,10 @@ fn stretched_spheres_stay_round_as_mitsuba_3_renders_them() {
     let dir = folder(&[("e.xml", &scene)]);
     let imported = mitsuba::import(&dir.path().join("e.xml"), false, None).unwrap();
     assert!(
-        imported.toml.contains("shape = \"sphere\"\ncenter = [0.0, 1.0, 0.0]\nradius = 2.0"),
+        imported.toml.contains(
+            "shape = \"sphere\"\ncenter = [0.0, 0.0, 0.0]\nradius = 2.0\n\
+             transform = { rotate = { axis = [1.0, 0.0, 0.0], angle = 90.0 }, translate = [0.0, 1.0, 0.0] }"
+        ),
         "{}",
         imported.toml
     );
@@ -559,4 +562,54 @@ fn filters_crop_windows_and_near_clip_planes_round_trip() {
     let out = vitrum(dir.path(), &["info", "past.xml"]);
     assert_eq!(out.status.code(), Some(2));
     assert!(stderr(&out).contains("reaches past the 24×16 film"), "{}", stderr(&out));
+}
+
+/// Reference files whose import, exported and imported again, does not render the same bits
+/// yet: (file, why). Each must still differ, so the list stays true when one is fixed.
+const NOT_ROUND_TRIPPING: [(&str, &str); 5] = [
+    ("cylinder-light", "a cylinder is exported by its end points base + axis·height, which re-import to an axis and height an ulp away"),
+    ("shapes", "the cylinder of cylinder-light, and a disk's normal taken from its to_world matrix an ulp away"),
+    ("envmap", "the environment map is exported resampled 4x for Mitsuba's bilinear lookup (vitrum's is nearest)"),
+    ("obj-without-normals", "the recomputed vertex normals, written to the PLY and normalised again on re-import, move by an ulp"),
+    ("texture-obj", "the exported PLY carries no texture coordinates: the image is written as its mean colour"),
+];
+
+#[test]
+fn every_reference_file_imported_exported_and_imported_again_renders_the_same_bits() {
+    // tests/data/mitsuba3 copied (the exports write next to the scene), each file imported to
+    // TOML, exported to XML, and both rendered with 4 samples.
+    let source = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/data/mitsuba3");
+    let dir = tempfile::tempdir().unwrap();
+    for entry in fs::read_dir(&source).unwrap() {
+        let path = entry.unwrap().path();
+        fs::copy(&path, dir.path().join(path.file_name().unwrap())).unwrap();
+    }
+    let mut names: Vec<String> = fs::read_dir(&source)
+        .unwrap()
+        .filter_map(|e| e.unwrap().file_name().into_string().ok())
+        .filter_map(|f| f.strip_suffix(".xml").map(str::to_string))
+        .collect();
+    names.sort();
+    let mut failures = Vec::new();
+    for name in &names {
+        let (toml, xml) = (format!("{name}.a.toml"), format!("{name}.b.xml"));
+        let out = vitrum(dir.path(), &["import", &format!("{name}.xml"), "-o", &toml, "--quiet"]);
+        assert!(out.status.success(), "{name}: {}", stderr(&out));
+        let out = vitrum(dir.path(), &["export", &toml, "-o", &xml, "--quiet"]);
+        assert!(out.status.success(), "{name}: {}", stderr(&out));
+        let first = render(dir.path(), &toml, &["--spp", "4"]);
+        let again = render(dir.path(), &xml, &["--spp", "4"]);
+        let differing = first.iter().zip(&again).filter(|(a, b)| a != b).count();
+        let known = NOT_ROUND_TRIPPING.iter().any(|(n, _)| n == name);
+        if (differing > 0) != known {
+            failures.push(format!(
+                "{name}: {differing} of {} pixels differ (listed as not round-tripping: {known})",
+                first.len()
+            ));
+        }
+    }
+    for (name, _) in NOT_ROUND_TRIPPING {
+        assert!(names.iter().any(|n| n == name), "{name} is not a reference file");
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
 }

@@ -97,8 +97,8 @@ pub fn number(x: f64) -> String {
     s
 }
 
-/// `[x, y, z]` as TOML numbers.
-pub fn vector(v: [f64; 3]) -> String {
+/// `[x, y, …]` as TOML numbers.
+pub fn vector<const N: usize>(v: [f64; N]) -> String {
     let mut s = String::from("[");
     for (i, x) in v.iter().enumerate() {
         if i > 0 {

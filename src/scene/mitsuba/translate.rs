@@ -696,7 +696,25 @@ impl Translator<'_> {
                 if radiance.is_some() {
                     sphere_light = Some((c, r));
                 } else {
-                    geometry.push((name.clone(), sphere(c, r)));
+                    // Mitsuba's sphere has its uv pole (v = 0, the image's top row) on its local
+                    // +z and u from local +x towards +y, turned by the rotation of to_world;
+                    // vitrum's has the pole (v = 1) on +Y and u from +X towards −Z: turned by
+                    // 90° about +X, then by Mitsuba's rotation, it is Mitsuba's. The sphere is
+                    // written at the origin and moved to its centre, so that the turn leaves
+                    // the centre and radius exact.
+                    let turn = sphere_rotation(&m) * DMat3::from_rotation_x(std::f64::consts::FRAC_PI_2);
+                    let (axis, angle) = DQuat::from_mat3(&turn).to_axis_angle();
+                    let mut fields = sphere(DVec3::ZERO, r);
+                    fields.push((
+                        "transform",
+                        format!(
+                            "{{ rotate = {{ axis = {}, angle = {} }}, translate = {} }}",
+                            vector(axis.to_array()),
+                            number(angle.to_degrees()),
+                            vector(c.to_array())
+                        ),
+                    ));
+                    geometry.push((name.clone(), fields));
                 }
             }
             "disk" => {
@@ -1119,15 +1137,32 @@ impl Translator<'_> {
         if p.boolean("raw")?.unwrap_or(false) {
             fields.push("colorspace = \"linear\"".into());
         }
-        if p.get("to_uv").is_some() {
-            return self.lacks(t, "a texture's to_uv");
+        // Mitsuba reads the bitmap at (x, y) = to_uv·(u, v) of the shape's uv, y down from the
+        // top row (its 2-D map: rows and columns 0, 1 and 3 of the 4×4); vitrum at
+        // st = uv·scale + offset, t up from the bottom row. Where Mitsuba's v is vitrum's
+        // (a rectangle) the image is mirrored in v; elsewhere (an OBJ, whose v Mitsuba's loader
+        // flips, a sphere) Mitsuba's v is 1 − vitrum's. Only a diagonal map has a counterpart.
+        let m = p.transform("to_uv")?.unwrap_or(DMat4::IDENTITY);
+        let (a, d, b, e) = (m.x_axis.x, m.x_axis.y, m.y_axis.x, m.y_axis.y);
+        let (c, f) = (m.w_axis.x, m.w_axis.y);
+        if b != 0.0 || d != 0.0 {
+            return Err(error(
+                &t.position,
+                &t.describe(),
+                "to_uv turns or shears the texture coordinates: vitrum's textures take a scale and an offset only",
+            ));
         }
-        if self.mirror_texture_v {
+        let (scale, offset) = if self.mirror_texture_v {
             // Mitsuba's rectangle has uv (0, 0) at its corner (−1, −1) and reads a bitmap's top
             // row at v = 0; vitrum's quad reads the bottom row there.
             out.comment("on a rectangle Mitsuba reads the image with v from its top row: mirrored in v");
-            fields.push("scale = [1.0, -1.0]".into());
-            fields.push("offset = [0.0, 1.0]".into());
+            ([a, -e], [c, 1.0 - f])
+        } else {
+            ([a, e], [c, 1.0 - e - f])
+        };
+        if scale != [1.0, 1.0] || offset != [0.0, 0.0] {
+            fields.push(format!("scale = {}", vector(scale)));
+            fields.push(format!("offset = {}", vector(offset)));
         }
         out.raw("texture", &format!("{{ {} }}", fields.join(", ")));
         p.finish(self)
@@ -1311,19 +1346,34 @@ fn similarity(m: &DMat4) -> Option<(f64, DMat3)> {
     (s > 0.0 && equal && orthogonal && l.determinant() > 0.0).then(|| (s, l * (1.0 / s)))
 }
 
-/// The radius factor Mitsuba 3 gives a sphere under `m`: its `transform_decompose` writes the
-/// linear part as Q·S (Q orthogonal, S symmetric, by 25 steps of the polar iteration
-/// Q ← (Q + Q⁻ᵀ)/2) and takes S's first diagonal element. For a similarity it is the scale.
-fn sphere_scale(m: &DMat4) -> f64 {
+/// Q of Mitsuba 3's `transform_decompose` of `m`'s linear part L = Q·S (Q orthogonal, S
+/// symmetric), by its 25 steps of the polar iteration Q ← (Q + Q⁻ᵀ)/2; `None` for a singular L.
+fn polar_rotation(m: &DMat4) -> Option<DMat3> {
     let l = DMat3::from_mat4(*m);
     if l.determinant() == 0.0 {
-        return 0.0;
+        return None;
     }
     let mut q = l;
     for _ in 0..25 {
         q = (q + q.inverse().transpose()) * 0.5;
     }
-    q.x_axis.dot(l.x_axis)
+    Some(q)
+}
+
+/// The radius factor Mitsuba 3 gives a sphere under `m`: S's first diagonal element of
+/// [`polar_rotation`]'s L = Q·S. For a similarity it is the scale.
+fn sphere_scale(m: &DMat4) -> f64 {
+    polar_rotation(m).map_or(0.0, |q| q.x_axis.dot(DMat3::from_mat4(*m).x_axis))
+}
+
+/// The rotation that turns Mitsuba 3's sphere (and its uv frame) under `m`: Q of
+/// [`polar_rotation`], a mirror's Q negated (vitrum's texture frames turn, never mirror).
+fn sphere_rotation(m: &DMat4) -> DMat3 {
+    match polar_rotation(m) {
+        Some(q) if q.determinant() < 0.0 => -q,
+        Some(q) => q,
+        None => DMat3::IDENTITY,
+    }
 }
 
 /// The scale of `m` in its object's xy plane when it keeps circles round there (the x and y
