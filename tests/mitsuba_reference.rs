@@ -143,6 +143,7 @@ reference_case! {
     thin_lens => "thinlens",
     bitmap_uv_on_a_rectangle => "texture-rectangle",
     bitmap_uv_on_an_obj => "texture-obj",
+    bitmap_uv_on_a_ply => "texture-ply",
     bitmap_to_uv_on_a_rectangle_and_a_sphere => "texture-to-uv",
     dielectric_with_named_indices => "dielectric",
     roughdielectric_ggx => "roughdielectric-ggx",

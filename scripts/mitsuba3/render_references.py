@@ -14,7 +14,7 @@ What it does:
 - Writes the assets the XML files name: `texture.png` (8x8 sRGB, every texel different, so a
   mirrored or turned uv layout shows), `sky.exr` (32x16 latitude-longitude, a bright warm
   patch at one azimuth, different colours in each quadrant), `quad.obj` (a unit quad with
-  texture coordinates), `mesh.obj` (an octahedron with smooth vertex normals) and `mesh.ply`
+  texture coordinates), `quad.ply` (the same quad as a PLY with `u v`), `mesh.obj` (an octahedron with smooth vertex normals) and `mesh.ply`
   (the same octahedron, binary, flat), `bump.obj` (a smooth bump without vertex normals, a uv
   seam across its middle).
 - Renders each XML with the `scalar_rgb` variant, `RENDERS` times, with the sampler seeds
@@ -100,6 +100,19 @@ def write_quad_obj(path):
         f.write("f 1/1/1 2/2/1 3/3/1\nf 1/1/1 3/3/1 4/4/1\n")
 
 
+def write_quad_ply(path):
+    """The quad of write_quad_obj as an ASCII PLY with `u v` per vertex (Mitsuba's PLY loader
+    keeps the file's v, its OBJ loader flips it)."""
+    with open(path, "w") as f:
+        f.write("ply\nformat ascii 1.0\ncomment A unit quad facing +z with texture coordinates "
+                "(render_references.py)\nelement vertex 4\nproperty float x\nproperty float y\n"
+                "property float z\nproperty float u\nproperty float v\nelement face 2\n"
+                "property list uchar int vertex_indices\nend_header\n")
+        for (x, y), (u, v) in zip([(-1, -1), (1, -1), (1, 1), (-1, 1)], [(0, 0), (1, 0), (1, 1), (0, 1)]):
+            f.write(f"{x} {y} 0 {u} {v}\n")
+        f.write("3 0 1 2\n3 0 2 3\n")
+
+
 OCTAHEDRON_V = [(1, 0, 0), (-1, 0, 0), (0, 1, 0), (0, -1, 0), (0, 0, 1), (0, 0, -1)]
 OCTAHEDRON_F = [
     (0, 2, 4), (2, 1, 4), (1, 3, 4), (3, 0, 4),
@@ -172,6 +185,7 @@ def write_assets():
     write_texture(os.path.join(DATA, "texture.png"))
     write_envmap(os.path.join(DATA, "sky.exr"))
     write_quad_obj(os.path.join(DATA, "quad.obj"))
+    write_quad_ply(os.path.join(DATA, "quad.ply"))
     write_mesh_obj(os.path.join(DATA, "mesh.obj"))
     write_mesh_ply(os.path.join(DATA, "mesh.ply"))
     write_bump_obj(os.path.join(DATA, "bump.obj"))

@@ -9,7 +9,7 @@
 //! | cylinder wall | `cylinder` (uncapped; caps are separate disks already) |
 //! | disk / annulus | `disk` with `to_world` / flat `ply` ring |
 //! | quad | `rectangle` with `to_world` |
-//! | polygon, mesh triangles | flat `ply` mesh (`face_normals`); a mesh with OBJ `vn`: smooth vertex normals |
+//! | polygon, mesh triangles | flat `ply` mesh (`face_normals`); a mesh with OBJ `vn`: smooth vertex normals; with `vt`: `u v` per vertex (Mitsuba's PLY keeps v) |
 //! | diffuse | `twosided` + `diffuse` (a checker on an axis-aligned quad: `checkerboard`); a `one_sided` one a bare `diffuse` |
 //! | image texture (diffuse colour, mirror tint) | `bitmap` of the linear texels as EXR, `raw`, `to_uv` per shape kind |
 //! | mirror | `twosided` + `conductor` / `roughconductor` (`material="none"`, GGX, α = roughness²) |
@@ -316,6 +316,9 @@ struct Mesh {
     positions: Vec<Vec3>,
     /// Per-vertex shading normals (smooth surfaces); flat meshes use face normals.
     normals: Option<Vec<Vec3>>,
+    /// Per-vertex texture coordinates (a mesh's `vt`), as vitrum reads them: Mitsuba's PLY
+    /// loader keeps them as they are.
+    uv: Option<Vec<glam::Vec2>>,
     faces: Vec<[u32; 3]>,
 }
 
@@ -340,6 +343,9 @@ impl Mesh {
         if self.normals.is_some() {
             header.push_str("property float nx\nproperty float ny\nproperty float nz\n");
         }
+        if self.uv.is_some() {
+            header.push_str("property float u\nproperty float v\n");
+        }
         let _ = write!(
             header,
             "element face {}\nproperty list uchar uint vertex_indices\nend_header\n",
@@ -352,6 +358,11 @@ impl Mesh {
             }
             if let Some(n) = &self.normals {
                 for c in n[i].to_array() {
+                    out.extend_from_slice(&c.to_le_bytes());
+                }
+            }
+            if let Some(uv) = &self.uv {
+                for c in uv[i].to_array() {
                     out.extend_from_slice(&c.to_le_bytes());
                 }
             }
@@ -662,7 +673,8 @@ enum Geometry {
 }
 
 /// How to write a texture on one shape: the checkerboard on an axis-aligned quad, and the uv
-/// frame of the shape kind (`None` for meshes, which carry no texture coordinates).
+/// frame of the shape kind (a mesh's PLY carries its texture coordinates when it has any: `None`
+/// for one without).
 struct TextureSite {
     checker: Option<CheckerMap>,
     uv: Option<UvFrame>,
@@ -1327,6 +1339,10 @@ impl<'a> Exporter<'a> {
                     // Corners' shading normals (OBJ `vn`), the face's where a triangle has none.
                     let mut normals = Vec::new();
                     let mut smooth = false;
+                    // Corners' texture coordinates (OBJ `vt`), the barycentric ones vitrum gives
+                    // a triangle without them ((0, 0), (1, 0), (0, 1)).
+                    let mut uvs = Vec::new();
+                    let mut textured = false;
                     for (later, &j) in order.iter().enumerate().skip(pos) {
                         let other = &scene.primitives[j];
                         if other.object != prim.object
@@ -1354,11 +1370,21 @@ impl<'a> Exporter<'a> {
                                 }
                                 None => normals.extend([face; 3]),
                             }
+                            match scene.vertex_attributes(j as u32).and_then(|a| a.uv) {
+                                Some(uv) => {
+                                    textured = true;
+                                    uvs.extend(uv);
+                                }
+                                None => uvs.extend([glam::Vec2::ZERO, glam::Vec2::X, glam::Vec2::Y]),
+                            }
                             done[later] = true;
                         }
                     }
                     if smooth {
                         mesh.normals = Some(normals);
+                    }
+                    if textured {
+                        mesh.uv = Some(uvs);
                     }
                     Geometry::Mesh { mesh, smooth }
                 }
@@ -1457,7 +1483,8 @@ impl<'a> Exporter<'a> {
                 x.open("shape", &[("type", "ply")]);
                 x.string("filename", &file);
                 x.boolean("face_normals", !smooth);
-                None
+                // A PLY's uv is Mitsuba's as it is: the same frame as a rectangle's.
+                mesh.uv.is_some().then_some(UvFrame::SAME)
             }
         };
         // A two-sided emissive sphere around the camera is seen from inside: emit inwards.

@@ -107,7 +107,7 @@ pub fn translate(
         two_sided: options.two_sided,
         warnings: Vec::new(),
         materials: HashMap::new(),
-        mirror_texture_v: false,
+        uv_layout: UvLayout::Flipped,
         names: HashSet::new(),
         file,
     };
@@ -163,10 +163,9 @@ struct Translator<'f> {
     two_sided: bool,
     warnings: Vec<String>,
     /// The material key of every BSDF object already written (by address).
-    materials: HashMap<(*const Object, bool), String>,
-    /// Whether the material being written is for a `rectangle`, whose uv Mitsuba reads with v
-    /// down the image (a bitmap is mirrored in v against vitrum's quad: `scale = [1, -1]`).
-    mirror_texture_v: bool,
+    materials: HashMap<(*const Object, UvLayout), String>,
+    /// How the uv of the shape whose material is being written relates to vitrum's.
+    uv_layout: UvLayout,
     /// Material keys taken.
     names: HashSet<String>,
 }
@@ -838,13 +837,13 @@ impl Translator<'_> {
             }
             return Ok(());
         }
-        self.mirror_texture_v = shape.plugin == "rectangle";
+        self.uv_layout = UvLayout::of(&shape.plugin);
         // Mitsuba's area emitter emits on the side the normal faces: so do vitrum's disks and
         // (outward) cylinders with `emission_one_sided`; cubes and meshes emit on both sides.
         let one_sided = matches!(shape.plugin.as_str(), "disk" | "cylinder");
         let emission = radiance.map(|r| (r, one_sided));
         let material = self.material(bsdf.map(Rc::as_ref), emission, &shape.position, materials);
-        self.mirror_texture_v = false;
+        self.uv_layout = UvLayout::Flipped;
         let material = material?;
         if radiance.is_some() && !one_sided {
             self.warn(&shape.position, &format!("{name}: the area emitter is written as the material's emission, which vitrum emits on both sides"));
@@ -870,7 +869,7 @@ impl Translator<'_> {
         at: &Position,
         out: &mut TomlWriter,
     ) -> Result<String, XmlError> {
-        let key_of = bsdf.map(|b| (b as *const Object, self.mirror_texture_v));
+        let key_of = bsdf.map(|b| (b as *const Object, self.uv_layout));
         if emission.is_none() {
             if let Some(key) = key_of.and_then(|k| self.materials.get(&k)) {
                 return Ok(key.clone());
@@ -1152,14 +1151,21 @@ impl Translator<'_> {
                 "to_uv turns or shears the texture coordinates: vitrum's textures take a scale and an offset only",
             ));
         }
-        let (scale, offset) = if self.mirror_texture_v {
-            // Mitsuba's rectangle has uv (0, 0) at its corner (−1, −1) and reads a bitmap's top
-            // row at v = 0; vitrum's quad reads the bottom row there.
-            out.comment("on a rectangle Mitsuba reads the image with v from its top row: mirrored in v");
-            ([a, -e], [c, 1.0 - f])
-        } else {
-            ([a, e], [c, 1.0 - e - f])
-        };
+        let (scale, offset) =
+            match self.uv_layout {
+                UvLayout::Same => {
+                    // Mitsuba's rectangle has uv (0, 0) at its corner (−1, −1) and reads a
+                    // bitmap's top row at v = 0; vitrum's quad reads the bottom row there. A PLY's
+                    // uv is the file's in both.
+                    out.comment("Mitsuba reads the image with v from its top row: mirrored in v");
+                    ([a, -e], [c, 1.0 - f])
+                }
+                UvLayout::Flipped => ([a, e], [c, 1.0 - e - f]),
+                UvLayout::Unmatched => return self.lacks(
+                    t,
+                    "a bitmap on a cylinder, disk or cube (their uv layout is not matched to Mitsuba's yet)",
+                ),
+            };
         if scale != [1.0, 1.0] || offset != [0.0, 0.0] {
             fields.push(format!("scale = {}", vector(scale)));
             fields.push(format!("offset = {}", vector(offset)));
@@ -1270,6 +1276,31 @@ impl Translator<'_> {
             other => return self.lacks(e, &format!("the emitter `{other}`")),
         }
         p.finish(self)
+    }
+}
+
+/// How a Mitsuba shape's uv (u_m, v_m) relates to the uv (u, v) vitrum gives the shape the
+/// import writes, for a bitmap on it (Mitsuba reads the image with v down from its top row,
+/// vitrum with v up from its bottom row).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+enum UvLayout {
+    /// (u_m, v_m) = (u, v): a `rectangle`, a `ply` mesh (its file's uv).
+    Same,
+    /// (u_m, v_m) = (u, 1 − v): an `obj` mesh (Mitsuba's OBJ loader flips v), a `sphere`
+    /// (written with Mitsuba's pole and seam).
+    Flipped,
+    /// Not related by the import yet: `cylinder`, `disk` and `cube` (their uv frames are not
+    /// turned to Mitsuba's).
+    Unmatched,
+}
+
+impl UvLayout {
+    fn of(plugin: &str) -> UvLayout {
+        match plugin {
+            "rectangle" | "ply" => UvLayout::Same,
+            "obj" | "sphere" => UvLayout::Flipped,
+            _ => UvLayout::Unmatched,
+        }
     }
 }
 
