@@ -1359,8 +1359,10 @@ impl<'a> Exporter<'a> {
                             match scene.vertex_attributes(j as u32).and_then(|a| a.normals) {
                                 Some(ns) => {
                                     smooth = true;
+                                    // Written as stored (unit already), so that they read back
+                                    // to the same bits; a zero one as the face's.
                                     normals.extend(ns.map(|n| {
-                                        let n = n.normalize_or(face);
+                                        let n = if n.length_squared() > 0.0 { n } else { face };
                                         if n.dot(face) < 0.0 {
                                             -n
                                         } else {

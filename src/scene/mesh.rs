@@ -33,9 +33,12 @@ impl MeshPlacement {
 
     /// A vertex normal of the file placed in the scene (unit; `None` for a zero normal): the
     /// uniform `scale` leaves it as it is, the transform carries it by its inverse transpose.
+    /// A normal that is unit to rounding (|n|² within 4 ulps of 1) is kept as it is, so that
+    /// the normals vitrum writes (`vitrum export`) read back to the same bits.
     #[inline]
     pub fn normal(&self, n: Vec3) -> Option<Vec3> {
-        let n = crate::geometry::try_unit(n)?;
+        let unit = (n.length_squared() - 1.0).abs() <= 4.0 * f32::EPSILON;
+        let n = if unit { n } else { crate::geometry::try_unit(n)? };
         match &self.transform {
             Some(t) => t.normal(n),
             None => Some(n),
