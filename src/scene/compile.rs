@@ -1244,16 +1244,8 @@ impl Compiler<'_> {
                 two_sided,
                 phong,
             } => {
-                let diffuse = self.reflectance(
-                    &path.key("diffuse_reflectance"),
-                    diffuse_reflectance.unwrap_or(Rgb::Grey(0.5)),
-                )?;
-                let specular = self.reflectance(
-                    &path.key("specular_reflectance"),
-                    specular_reflectance.unwrap_or(Rgb::Grey(1.0)),
-                )?;
-                let ior = self.positive(&path.key("ior"), *ior)?;
-                let ior_outside = self.positive(&path.key("ior_outside"), *ior_outside)?;
+                let (diffuse, specular, ior, ior_outside) =
+                    self.plastic_layers(path, diffuse_reflectance, specular_reflectance, *ior, *ior_outside)?;
                 (
                     Bsdf::Plastic {
                         diffuse,
@@ -1277,16 +1269,8 @@ impl Compiler<'_> {
                 distribution,
                 phong,
             } => {
-                let diffuse = self.reflectance(
-                    &path.key("diffuse_reflectance"),
-                    diffuse_reflectance.unwrap_or(Rgb::Grey(0.5)),
-                )?;
-                let specular = self.reflectance(
-                    &path.key("specular_reflectance"),
-                    specular_reflectance.unwrap_or(Rgb::Grey(1.0)),
-                )?;
-                let ior = self.positive(&path.key("ior"), *ior)?;
-                let ior_outside = self.positive(&path.key("ior_outside"), *ior_outside)?;
+                let (diffuse, specular, ior, ior_outside) =
+                    self.plastic_layers(path, diffuse_reflectance, specular_reflectance, *ior, *ior_outside)?;
                 if ior == ior_outside {
                     return Err(self.err(
                         &path.key("ior"),
@@ -1352,6 +1336,25 @@ impl Compiler<'_> {
                 "give `eta` and `k` together (or a `metal`)",
             )),
         }
+    }
+
+    /// The layers both plastics share, checked at the material `path`: the base's diffuse
+    /// reflectance (default 0.5), the coating's specular scale (default 1), its index and the
+    /// outside's.
+    fn plastic_layers(
+        &self,
+        path: &FieldPath,
+        diffuse: &Option<Rgb>,
+        specular: &Option<Rgb>,
+        ior: f32,
+        ior_outside: f32,
+    ) -> Result<(Vec3, Vec3, f32, f32), SceneError> {
+        Ok((
+            self.reflectance(&path.key("diffuse_reflectance"), diffuse.unwrap_or(Rgb::Grey(0.5)))?,
+            self.reflectance(&path.key("specular_reflectance"), specular.unwrap_or(Rgb::Grey(1.0)))?,
+            self.positive(&path.key("ior"), ior)?,
+            self.positive(&path.key("ior_outside"), ior_outside)?,
+        ))
     }
 
     /// A reflectance: every channel in [0, 1].
