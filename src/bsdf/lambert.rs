@@ -19,13 +19,16 @@ pub struct Lambert<V: Vector = Vec3> {
 
 /// A cosine-distributed direction in the +Z hemisphere (Malley's method on a concentric disk).
 pub fn cosine_hemisphere(u: Vec2) -> Vec3 {
-    hemisphere_above(crate::camera::concentric_disk(u))
+    let d = crate::camera::concentric_disk(u);
+    hemisphere_above(d.x, d.y)
 }
 
-/// The point of the unit +Z hemisphere above the point `d` of the unit disk (Malley's method).
+/// The point of the unit +Z hemisphere above the point (`dx`, `dy`) of the unit disk (Malley's
+/// method), for one point or across lanes.
 #[inline(always)]
-pub fn hemisphere_above(d: Vec2) -> Vec3 {
-    Vec3::new(d.x, d.y, (1.0 - d.length_squared()).max(0.0).sqrt())
+pub fn hemisphere_above<V: Vector>(dx: V::Real, dy: V::Real) -> V {
+    let zero = V::Real::splat(0.0);
+    V::new(dx, dy, (V::Real::splat(1.0) - (dx * dx + dy * dy)).max(zero).sqrt())
 }
 
 impl Lambert {
@@ -69,8 +72,7 @@ impl<V: Vector> Lambert<V> {
     #[inline(always)]
     pub fn disk_sample(&self, wo: V, dx: V::Real, dy: V::Real) -> (Mask3<V>, BsdfSample<V>) {
         let (zero, one) = (V::Real::splat(0.0), V::Real::splat(1.0));
-        // The point of the +Z hemisphere above the disk point (Malley's method, hemisphere_above).
-        let z = (one - (dx * dx + dy * dy)).max(zero).sqrt();
+        let z = hemisphere_above::<V>(dx, dy).z();
         let wi = V::new(dx, dy, V::Real::select(wo.z().lt(zero), -z, z));
         let no = V::Real::mask(false);
         let sample = BsdfSample {
