@@ -1085,13 +1085,16 @@ fn light_power_that_overflows() {
 
 #[test]
 fn environment_map_whose_mean_radiance_overflows() {
-    // Finite texels whose mean over the sphere is not: an environment has no power, its mean
-    // radiance is what overflows (and the message says so, at the map's `file`).
+    // Finite texels and a finite scale whose product, the mean radiance over the sphere, is not
+    // (the mean of texels never exceeds the largest; the scale of 2 takes it past f32): an
+    // environment has no power, its mean radiance is what overflows (and the message says so,
+    // at the map's `file`).
     let sandbox = Sandbox::new();
     let mut sky = vitrum::image::Image::new(4, 2);
     sky.pixels.iter_mut().for_each(|p| *p = glam::Vec3::splat(3e38));
     vitrum::output::exr::write_exr(&sandbox.path("sky.exr"), &sky, &Default::default()).unwrap();
-    let text = map_scene("0");
+    let text = map_scene("0").replace("scale = 0.5", "scale = 2.0");
+    assert!(text.contains("scale = 2.0"));
     let out = render(&sandbox, Some(&sandbox.scene(&text)), &[]);
     let location = format!("scene.toml:{}:", line_of(&text, "file = "));
     assert_refused(
@@ -1424,8 +1427,8 @@ fn info_shows_an_environment_maps_rotation_as_written_and_its_mean_radiance_as_r
         let text = stdout(&out);
         let map = text.lines().find(|l| l.contains("environment map")).unwrap_or_else(|| panic!("{text}"));
         assert!(map.contains(&format!("rotation {written}°")), "{rotation}: {map}");
-        // 0.99999994 by the texels' solid angles in single precision.
-        assert!(map.contains("mean radiance (0.99999") && map.ends_with(") W/(m²·sr)"), "{map}");
+        // Integrated in double precision: exactly 1.
+        assert!(map.ends_with("mean radiance (1, 1, 1) W/(m²·sr)"), "{map}");
         assert!(!map.contains("power") && !map.contains(" W\n") && !map.ends_with(" W"), "{map}");
         let point = text.lines().find(|l| l.contains("point at")).unwrap_or_else(|| panic!("{text}"));
         assert!(
@@ -1833,4 +1836,19 @@ fn a_render_that_needs_more_memory_than_the_machine_has_is_refused_before_alloca
     let out = run("lots", &small("path"));
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("not a number of bytes"));
+}
+
+#[test]
+fn cylinder_given_by_top_and_by_height_at_once() {
+    let extra = extra_object(
+        "shape = \"cylinder\"\nbase = [0.0, 0.2, 0.0]\ntop = [0.0, 0.6, 0.0]\nradius = 0.1\nheight = 0.4",
+    );
+    assert_extra_error(&extra, "top = ", "objects[7].top", &["replaces axis and height"]);
+    let extra =
+        extra_object("shape = \"cylinder\"\nbase = [0.0, 0.2, 0.0]\ntop = [0.0, 0.2, 0.0]\nradius = 0.1");
+    assert_extra_error(&extra, "top = ", "objects[7].top", &["must differ from base"]);
+    // Neither: the error is the object's, at its table header.
+    let text = edited(&[], &extra_object("shape = \"cylinder\"\nbase = [0.0, 0.2, 0.0]\nradius = 0.1"));
+    let header = line_of(&text, "name = \"extra\"") - 1;
+    assert_scene_error_at(&text, header, "objects[7]", &["needs `height`", "or `top`"]);
 }

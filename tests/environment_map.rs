@@ -1,6 +1,6 @@
 //! HDR environment maps: a constant map renders as the constant environment does (and the white
-//! furnace stays at 1), one bright texel lights a diffuse plane exactly as the closed form of its
-//! solid angle says for every method that samples it, the deterministic methods see the map in
+//! furnace stays at 1), one bright texel (a bilinear tent of radiance) lights a diffuse plane
+//! exactly as the closed form of its integral says for every method that samples it, the deterministic methods see the map in
 //! the directions they trace, and bad maps exit with code 2.
 
 mod common;
@@ -89,7 +89,7 @@ const TEXEL: (usize, usize) = (3, 2);
 const BRIGHT: f32 = 50.0;
 
 /// A diffuse square of albedo 0.5 lit by a map that is black but for one texel, seen from above
-/// (nothing else in the scene: every point of it sees the whole texel, and the camera sees only
+/// (nothing else in the scene: every point of it sees the whole texel's tent, and the camera sees only
 /// it; it is small so that light paths from the map's disk mostly reach what the camera sees).
 fn one_bright_texel(dir: &Path, rotation: f32) -> Scene {
     write_map(
@@ -106,12 +106,20 @@ fn one_bright_texel(dir: &Path, rotation: f32) -> Scene {
 
 #[test]
 fn one_bright_texel_lights_a_plane_as_its_solid_angle_says() {
-    // The texel spans Δφ = 2π/W and θ ∈ [π j/H, π (j+1)/H] from the up axis. A Lambertian plane
-    // (normal up) of albedo ρ under it reflects L_o = ρ/π · L · ∫ cos θ dω
-    //   = ρ/π · L · Δφ · (sin² θ₁ − sin² θ₀)/2, whatever the texel's azimuth (the rotation).
-    let (t0, t1) = (PI * TEXEL.1 as f64 / H as f64, PI * (TEXEL.1 + 1) as f64 / H as f64);
-    let expected =
-        0.5 / PI * BRIGHT as f64 * (2.0 * PI / W as f64) * (t1.sin().powi(2) - t0.sin().powi(2)) / 2.0;
+    // The map is bilinear between texels (Mitsuba's envmap): one bright texel is a tent of
+    // radiance L, peaked at its centre, one texel wide each way: across φ ∈ φ_c ± 2π/W (∫ = Δφ =
+    // 2π/W) and across θ ∈ [θ_{j−1}, θ_{j+1}], θ_j = π j/(H − 1) (the rows on the poles). A
+    // Lambertian plane (normal up) of albedo ρ under it reflects
+    //   L_o = ρ/π · L · Δφ · ∫ tent(θ) cos θ sin θ dθ, whatever the texel's azimuth (the rotation),
+    // the θ integral in closed form over the tent's rising and falling halves.
+    let step = PI / (H - 1) as f64;
+    let (a, c, b) = (step * (TEXEL.1 - 1) as f64, step * TEXEL.1 as f64, step * (TEXEL.1 + 1) as f64);
+    assert!(b < PI / 2.0, "the tent lies above the plane's horizon");
+    // ∫ (θ − a) cos θ sin θ dθ and ∫ (b − θ) cos θ sin θ dθ: antiderivatives.
+    let rising = |t: f64| -(t - a) * (2.0 * t).cos() / 4.0 + (2.0 * t).sin() / 8.0;
+    let falling = |t: f64| -(b - t) * (2.0 * t).cos() / 4.0 - (2.0 * t).sin() / 8.0;
+    let tent = (rising(c) - rising(a)) / (c - a) + (falling(b) - falling(c)) / (b - c);
+    let expected = 0.5 / PI * BRIGHT as f64 * (2.0 * PI / W as f64) * tent;
     let dir = tempfile::tempdir().unwrap();
     let scene = one_bright_texel(dir.path(), 33.0);
     for (method, spp) in [("path", 16), ("light", 128), ("bpt", 8), ("vcm", 8)] {
@@ -127,9 +135,14 @@ fn one_bright_texel_lights_a_plane_as_its_solid_angle_says() {
 #[test]
 fn deterministic_methods_see_the_map_in_the_directions_they_trace() {
     let dir = tempfile::tempdir().unwrap();
-    // The top half of the sky one colour, the bottom half another.
+    // The top two of five rows (on the pole and at 45°) one colour, the bottom two another:
+    // within 45° of either pole the bilinear map is exactly that colour.
     let (top, bottom) = (Vec3::new(1.0, 2.0, 3.0), Vec3::new(0.5, 0.25, 0.125));
-    write_map(&dir.path().join("halves.exr"), 4, 2, |_, j| if j == 0 { top } else { bottom });
+    write_map(&dir.path().join("halves.exr"), 4, 5, |_, j| match j {
+        0 | 1 => top,
+        2 => Vec3::ONE,
+        _ => bottom,
+    });
     let up = "position = [0.0, 1.0, 0.0]\nlook_at = [0.0, 2.0, 0.0]\nup = [0.0, 0.0, -1.0]\nfov = 20.0\nresolution = [4, 4]";
     let down = "position = [0.0, 1.0, 0.0]\nlook_at = [0.0, 0.0, 0.0]\nup = [0.0, 0.0, -1.0]\nfov = 20.0\nresolution = [4, 4]";
     let mirror = "[materials.mirror]\ntype = \"mirror\"\ncolor = 0.5\n\

@@ -676,17 +676,11 @@ fn glass_in_sky_writes_the_environment_map_as_an_envmap() {
     let file = e.xml.parent().unwrap().join(env.param("string", "filename").unwrap());
     let written = decode(&file);
     let sky = decode(&scene("textures").join("sky.exr"));
-    // resampled 4×: 4 columns per texel, 4 rows per row plus one (rows on the poles)
-    assert_eq!((written.width, written.height), (4 * sky.width, 4 * sky.height + 1));
-    for (j, row) in [(1, 0), (2, 0), (3, 0), (6, 1), (4 * 37 + 2, 37)] {
-        for (i, column) in [(0, 0), (3, 0), (4 * 100 + 1, 100)] {
-            assert_eq!(written.texel(i, j), sky.texel(column, row), "({i}, {j})");
-        }
-    }
-    // a row on a texel edge holds the mean of the two rows
-    assert_eq!(written.texel(8, 4 * 40), 0.5 * (sky.texel(2, 39) + sky.texel(2, 40)));
+    // as it is: Mitsuba's envmap reads a map as vitrum does (bilinear, the same grid)
+    assert_eq!((written.width, written.height), (sky.width, sky.height));
+    assert!(written.texels == sky.texels, "the texels differ");
     let stderr = String::from_utf8_lossy(&e.output.stderr);
-    assert!(stderr.contains("environment map") && stderr.contains("bilinear"), "{stderr}");
+    assert!(!stderr.lines().any(|l| l.contains("note:") && l.contains("environment")), "{stderr}");
 }
 
 #[test]

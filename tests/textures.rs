@@ -82,22 +82,54 @@ fn quad_uv_runs_along_its_edges() {
 }
 
 #[test]
-fn disk_and_annulus_uv_are_angle_and_radial_position() {
-    // Normal +Z: the angle is measured from +X towards +Y; v is 0 on the rim, 1 at the centre.
+fn disk_and_annulus_uv_are_radial_position_and_angle() {
+    // Mitsuba 3's disk uv. Normal +Z: u is 0 at the centre, 1 on the rim; the angle v is
+    // measured from +X towards +Y.
     let s = one_object("shape = \"disk\"\ncenter = [0.0, 0.0, 0.0]\nnormal = [0.0, 0.0, 1.0]\nradius = 1.0");
     let at = |x: f32, y: f32| uv_at(&s, Vec3::new(x, y, 1.0), -Vec3::Z);
-    assert!(close(at(0.5, 0.0), Vec2::new(0.0, 0.5)));
-    assert!(close(at(0.0, 0.5), Vec2::new(0.25, 0.5)));
+    assert!(close(at(0.5, 0.0), Vec2::new(0.5, 0.0)));
+    assert!(close(at(0.0, 0.5), Vec2::new(0.5, 0.25)));
     assert!(close(at(-0.5, 0.0), Vec2::new(0.5, 0.5)));
-    assert!(close(at(0.0, -0.999), Vec2::new(0.75, 0.001)));
+    assert!(close(at(0.0, -0.999), Vec2::new(0.999, 0.75)));
     // The seam: just below the +X direction the angle is just under 1.
-    assert!(at(0.5, -1e-3).x > 0.999);
-    // An annulus: v = 0 on the outer rim, 1 on the inner one.
+    assert!(at(0.5, -1e-3).y > 0.999);
+    // An annulus: u = 0 on the inner rim, 1 on the outer one.
     let s = one_object(
         "shape = \"disk\"\ncenter = [0.0, 0.0, 0.0]\nnormal = [0.0, 0.0, 1.0]\nradius = 1.0\ninner_radius = 0.5",
     );
-    assert!(close(uv_at(&s, Vec3::new(0.75, 0.0, 1.0), -Vec3::Z), Vec2::new(0.0, 0.5)));
-    assert!(close(uv_at(&s, Vec3::new(0.0, -0.999, 1.0), -Vec3::Z), Vec2::new(0.75, 0.002)));
+    assert!(close(uv_at(&s, Vec3::new(0.75, 0.0, 1.0), -Vec3::Z), Vec2::new(0.5, 0.0)));
+    assert!(close(uv_at(&s, Vec3::new(0.0, -0.999, 1.0), -Vec3::Z), Vec2::new(0.998, 0.75)));
+}
+
+#[test]
+fn a_seam_sets_where_the_angle_starts() {
+    // A disk facing +Z with its seam along +Y (and a tilt out of the plane, projected away):
+    // the angle runs from +Y towards +Z × +Y = −X.
+    let s = one_object(
+        "shape = \"disk\"\ncenter = [0.0, 0.0, 0.0]\nnormal = [0.0, 0.0, 1.0]\nradius = 1.0\nseam = [0.0, 2.0, 0.5]",
+    );
+    let at = |x: f32, y: f32| uv_at(&s, Vec3::new(x, y, 1.0), -Vec3::Z);
+    assert!(close(at(0.0, 0.5), Vec2::new(0.5, 0.0)));
+    assert!(close(at(-0.5, 0.0), Vec2::new(0.5, 0.25)));
+    assert!(close(at(0.5, 0.0), Vec2::new(0.5, 0.75)));
+    // A cylinder along +Y with its seam along +Z: u = 0 at +Z, ¼ at +Y × +Z = +X; v unchanged.
+    let s = one_object(
+        "shape = \"cylinder\"\nbase = [0.0, 0.0, 0.0]\naxis = [0.0, 1.0, 0.0]\nradius = 0.5\nheight = 2.0\nseam = [0.0, 0.0, 1.0]",
+    );
+    assert!(close(uv_at(&s, Vec3::new(0.0, 0.5, 5.0), -Vec3::Z), Vec2::new(0.0, 0.25)));
+    assert!(close(uv_at(&s, Vec3::new(5.0, 1.0, 0.0), -Vec3::X), Vec2::new(0.25, 0.5)));
+    // Turned with the shape: rotated 90° about +Y, the seam +Z points to +X.
+    let s = one_object(
+        "shape = \"cylinder\"\nbase = [0.0, 0.0, 0.0]\naxis = [0.0, 1.0, 0.0]\nradius = 0.5\nheight = 2.0\nseam = [0.0, 0.0, 1.0]\n\
+         transform = { rotate = { axis = [0.0, 1.0, 0.0], angle = 90.0 } }",
+    );
+    assert!(close(uv_at(&s, Vec3::new(5.0, 0.5, 0.0), -Vec3::X), Vec2::new(0.0, 0.25)));
+    // A seam along the axis has no direction across it: refused, naming the field.
+    let text = "[camera]\nposition = [0.0, 0.0, 5.0]\nlook_at = [0.0, 0.0, 0.0]\n[materials.m]\ntype = \"diffuse\"\n\
+                [[objects]]\nmaterial = \"m\"\nshape = \"disk\"\ncenter = [0.0, 0.0, 0.0]\nnormal = [0.0, 0.0, 1.0]\n\
+                radius = 1.0\nseam = [0.0, 0.0, -3.0]\n";
+    let e = load_str(text, "seam", None).err().expect("a seam along the normal is refused").to_string();
+    assert!(e.contains("seam") && e.contains("along the axis"), "{e}");
 }
 
 #[test]
@@ -129,10 +161,10 @@ fn cylinder_uv_is_angle_and_height_and_its_caps_are_disks() {
     assert!(close(uv_at(&s, Vec3::new(0.0, 1.5, -5.0), Vec3::Z), Vec2::new(0.25, 0.75)));
     assert!(close(uv_at(&s, Vec3::new(0.0, 1.0, 5.0), -Vec3::Z), Vec2::new(0.75, 0.5)));
     // The top cap (normal +Y, angle from +X towards −Z) and the bottom cap (normal −Y, angle
-    // from +X towards +Z): v is 0 on the rim, 1 at the centre.
-    assert!(close(uv_at(&s, Vec3::new(0.25, 5.0, 0.0), -Vec3::Y), Vec2::new(0.0, 0.5)));
-    assert!(close(uv_at(&s, Vec3::new(0.0, 5.0, -0.25), -Vec3::Y), Vec2::new(0.25, 0.5)));
-    assert!(close(uv_at(&s, Vec3::new(0.0, -5.0, 0.25), Vec3::Y), Vec2::new(0.25, 0.5)));
+    // from +X towards +Z): u is 0 at the centre, 1 on the rim.
+    assert!(close(uv_at(&s, Vec3::new(0.25, 5.0, 0.0), -Vec3::Y), Vec2::new(0.5, 0.0)));
+    assert!(close(uv_at(&s, Vec3::new(0.0, 5.0, -0.25), -Vec3::Y), Vec2::new(0.5, 0.25)));
+    assert!(close(uv_at(&s, Vec3::new(0.0, -5.0, 0.25), Vec3::Y), Vec2::new(0.5, 0.25)));
 }
 
 #[test]

@@ -148,10 +148,15 @@ fn exact_inverse(p: Vec3) -> Vec3 {
     Vec3::new(-(p.z + 1.0) / 2.0, (p.y - 0.25) / 2.0, (p.x - 0.5) / 2.0)
 }
 
-/// The distance of two texture coordinates, the angular `u` taken around the circle.
+/// The distance of two texture coordinates, each taken around the circle (the angle is a
+/// disk's v and the other round shapes' u; a linear coordinate's 0 and 1 are the only points this
+/// reads as close that are not).
 fn uv_distance(a: glam::Vec2, b: glam::Vec2) -> f32 {
-    let du = (a.x - b.x).abs();
-    du.min(1.0 - du).max((a.y - b.y).abs())
+    let around = |x: f32, y: f32| {
+        let d = (x - y).abs();
+        d.min(1.0 - d)
+    };
+    around(a.x, b.x).max(around(a.y, b.y))
 }
 
 /// Checks that every hit of `rays` in `placed` (a scene transformed by [`EXACT`]) has the uv of

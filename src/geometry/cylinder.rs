@@ -6,12 +6,14 @@ use glam::{Mat3, Vec2, Vec3};
 
 use super::disk::circle_extent;
 use super::sphere::radial_roots;
-use super::{azimuth, point_error, seam_slack, texture_frame, unit_or, Bounds, Ray, SurfaceHit};
+use super::{azimuth, point_error, seam_frame, seam_slack, texture_frame, unit_or, Bounds, Ray, SurfaceHit};
 
 /// The wall of a cylinder between `base` and `base + axis·height`, without caps.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Cylinder {
     pub(crate) base: Vec3,
+    /// Centre of the top circle: as given to [`Cylinder::between`], else `base + axis·height`.
+    top: Vec3,
     /// Local frame: `u`, `v` span the cross-section, `w` is the unit axis.
     pub(crate) u: Vec3,
     pub(crate) v: Vec3,
@@ -21,6 +23,8 @@ pub struct Cylinder {
     /// The frame the texture's angle is measured in: `(u, v)`, turned with the cylinder by a
     /// rotation (apart from `u` and `v`, so that intersections do not change).
     uv_frame: (Vec3, Vec3),
+    /// Whether the normals point towards the axis (Mitsuba's `flip_normals`) instead of away.
+    pub(crate) inward: bool,
 }
 
 impl Cylinder {
@@ -28,7 +32,34 @@ impl Cylinder {
     pub fn new(base: Vec3, axis: Vec3, radius: f32, height: f32) -> Cylinder {
         let w = unit_or(axis, Vec3::Z);
         let (u, v) = texture_frame(w);
-        Cylinder { base, u, v, w, radius, height, uv_frame: (u, v) }
+        Cylinder { base, top: base + w * height, u, v, w, radius, height, uv_frame: (u, v), inward: false }
+    }
+
+    /// Wall of radius `radius` from `base` to `top`, which it keeps as given (the axis and
+    /// height are derived in double precision), so that an exporter writes the same end points.
+    pub fn between(base: Vec3, top: Vec3, radius: f32) -> Cylinder {
+        let d = top.as_dvec3() - base.as_dvec3();
+        let height = d.length();
+        let axis = if height > 0.0 { (d / height).as_vec3() } else { Vec3::Z };
+        Cylinder { top, ..Cylinder::new(base, axis, radius, height as f32) }
+    }
+
+    /// The same wall with its normals towards the axis (`inward`) or away from it: the side
+    /// a one-sided material faces, a one-sided emission leaves from and a dielectric's outside.
+    pub fn facing_inwards(self, inward: bool) -> Cylinder {
+        Cylinder { inward, ..self }
+    }
+
+    /// Whether the normals point towards the axis.
+    pub fn inward(&self) -> bool {
+        self.inward
+    }
+
+    /// The cylinder with its texture's angle 0 along `seam` ([`seam_frame`] about the axis);
+    /// `None` when `seam` lies along the axis.
+    pub fn with_seam(mut self, seam: Vec3) -> Option<Cylinder> {
+        self.uv_frame = seam_frame(self.w, seam)?;
+        Some(self)
     }
 
     /// `x` expressed in the local frame (axial component last).
@@ -67,11 +98,12 @@ impl Cylinder {
         let n = unit_or(q - z * self.w, self.u);
         let p = self.base + (z * self.w + self.radius * n);
         let v = if self.height > 0.0 { z / self.height } else { 0.0 };
+        let facing = if self.inward { -n } else { n };
         SurfaceHit {
             t,
             p,
-            n,
-            shading_n: n,
+            n: facing,
+            shading_n: facing,
             uv: if with_uv { Vec2::new(azimuth(self.uv_frame, n), v.clamp(0.0, 1.0)) } else { Vec2::ZERO },
             // Radially, as for the sphere, n·r is within γ(6)·r of the wall (roundoff of
             // `q − z·w` only tilts n, moving p along the wall); z·w carries the roundoff of the
@@ -84,6 +116,11 @@ impl Cylinder {
     /// Centre of the bottom circle.
     pub fn base(&self) -> Vec3 {
         self.base
+    }
+
+    /// Centre of the top circle.
+    pub fn top(&self) -> Vec3 {
+        self.top
     }
 
     /// Unit axis from the bottom circle to the top one.
@@ -101,11 +138,15 @@ impl Cylinder {
         self.height
     }
 
-    /// Bounds of the two end circles.
+    /// Bounds of the two end circles (the top one where the wall ends, `base + axis·height`,
+    /// and where it was given, which may differ in the last bits).
     pub fn bounds(&self) -> Bounds {
-        let top = self.base + self.w * self.height;
+        let end = self.base + self.w * self.height;
         let extent = circle_extent(self.w, self.radius);
-        Bounds { min: self.base.min(top) - extent, max: self.base.max(top) + extent }
+        Bounds {
+            min: self.base.min(end).min(self.top) - extent,
+            max: self.base.max(end).max(self.top) + extent,
+        }
     }
 
     /// The cross-section frame the texture's angle is measured in ([`texture_frame`] of the
@@ -347,5 +388,28 @@ mod tests {
         let b = unit_y().bounds();
         assert_eq!((b.min, b.max), (Vec3::new(-1.0, 0.0, -1.0), Vec3::new(1.0, 2.0, 1.0)));
         assert!((unit_y().area() - 2.0 * TAU).abs() < 1e-5);
+    }
+
+    #[test]
+    fn a_cylinder_between_two_points_keeps_them_and_reaches_them() {
+        let mut rng = Pcg32::seed_from_u64(17);
+        for _ in 0..200 {
+            let (base, top) = (random_point(&mut rng, 3.0), random_point(&mut rng, 3.0));
+            let c = Cylinder::between(base, top, 0.25);
+            assert_eq!((c.base(), c.top()), (base, top));
+            // Axis and height from the double-precision difference: base + axis·height is the
+            // top to within a few ulps of the coordinates, and the bounds hold both end circles.
+            let end = c.base() + c.axis() * c.height();
+            let scale = base.abs().max(top.abs()).max_element().max(c.height());
+            assert!((end - top).abs().max_element() <= 4.0 * f32::EPSILON * scale, "{end} {top}");
+            assert!((c.axis().length() - 1.0).abs() <= 2.0 * f32::EPSILON);
+            let b = c.bounds();
+            for p in [base, top, end] {
+                assert!(p.cmpge(b.min).all() && p.cmple(b.max).all(), "{p} outside {b:?}");
+            }
+        }
+        // Built from an axis and a height, the top is where the wall ends.
+        let c = Cylinder::new(Vec3::new(0.1, 0.2, 0.3), Vec3::new(1.0, 2.0, 2.0), 0.5, 1.5);
+        assert_eq!(c.top(), c.base() + c.axis() * c.height());
     }
 }

@@ -5,8 +5,8 @@ use std::f32::consts::PI;
 use glam::{Mat3, Vec2, Vec3};
 
 use super::{
-    azimuth, planar_surface, plane_hit, plane_point, seam_slack, texture_frame, unit_or, Bounds, Ray,
-    SurfaceHit,
+    azimuth, planar_surface, plane_hit, plane_point, seam_frame, seam_slack, texture_frame, unit_or, Bounds,
+    Ray, SurfaceHit,
 };
 
 /// Half-extent along each world axis of a circle of `radius` around the unit `normal`:
@@ -17,13 +17,14 @@ pub(crate) fn circle_extent(normal: Vec3, radius: f32) -> Vec3 {
 }
 
 /// Texture coordinates of the point `q` (relative to the centre) of a disk of `radius` with a hole
-/// of `inner_radius`: the angle about its normal measured in `frame` ([`texture_frame`] of the
-/// normal), and the radial position, 0 on the outer rim and 1 at the centre (or the inner rim).
+/// of `inner_radius`, Mitsuba 3's disk uv: the radial position, 0 at the centre (or on the inner
+/// rim) and 1 on the outer rim, and the angle about the normal measured in `frame` ([`texture_frame`]
+/// of the normal, or the frame a `seam` gave).
 #[inline]
 pub fn disk_uv(frame: (Vec3, Vec3), q: Vec3, radius: f32, inner_radius: f32) -> Vec2 {
     let width = radius - inner_radius;
-    let v = if width > 0.0 { (radius - q.length()) / width } else { 0.0 };
-    Vec2::new(azimuth(frame, q), v.clamp(0.0, 1.0))
+    let u = if width > 0.0 { (q.length() - inner_radius) / width } else { 0.0 };
+    Vec2::new(u.clamp(0.0, 1.0), azimuth(frame, q))
 }
 
 /// A disk of radius `radius` around `center`, with a hole of `inner_radius` (an annulus if > 0).
@@ -31,6 +32,9 @@ pub fn disk_uv(frame: (Vec3, Vec3), q: Vec3, radius: f32, inner_radius: f32) -> 
 pub struct Disk {
     pub(crate) center: Vec3,
     pub(crate) normal: Vec3,
+    /// The normal as it was given, before normalising: what defines the disk, for an exporter
+    /// to write back.
+    given_normal: Vec3,
     /// In-plane frame for the angular texture coordinate.
     tangent: (Vec3, Vec3),
     pub(crate) radius: f32,
@@ -40,8 +44,28 @@ pub struct Disk {
 impl Disk {
     /// Disk or annulus facing `normal` (normalised); `inner_radius` 0 gives a full disk.
     pub fn new(center: Vec3, normal: Vec3, radius: f32, inner_radius: f32) -> Disk {
-        let normal = unit_or(normal, Vec3::Z);
-        Disk { center, normal, tangent: texture_frame(normal), radius, inner_radius }
+        let given = normal;
+        let normal = unit_or(given, Vec3::Z);
+        // A zero or non-finite one is replaced by the normal it falls back to.
+        let given_normal = if given.is_finite() && given.dot(normal) > 0.0 { given } else { normal };
+        Disk { center, normal, given_normal, tangent: texture_frame(normal), radius, inner_radius }
+    }
+
+    /// This disk, recording `normal` (parallel to its own) as the normal it was given.
+    pub fn with_given_normal(self, normal: Vec3) -> Disk {
+        Disk { given_normal: normal, ..self }
+    }
+
+    /// The normal as given to [`Disk::new`] (or [`Disk::with_given_normal`]), not normalised.
+    pub fn given_normal(&self) -> Vec3 {
+        self.given_normal
+    }
+
+    /// The disk with its texture's angle 0 along `seam` ([`seam_frame`] about the normal);
+    /// `None` when `seam` lies along the normal.
+    pub fn with_seam(mut self, seam: Vec3) -> Option<Disk> {
+        self.tangent = seam_frame(self.normal, seam)?;
+        Some(self)
     }
 
     /// Nearest hit distance in the open interval (`tmin`, `tmax`); rays in the plane miss.
@@ -169,7 +193,7 @@ mod tests {
         assert_eq!(down(2.0), Some(3.0));
         assert_eq!(down(2.001), None);
         let h = d.surface(&ray([1.5, 0.0, 3.0], [0.0, 0.0, -1.0]), 3.0);
-        assert!((h.uv.y - 0.5).abs() < 1e-6);
+        assert!((h.uv.x - 0.5).abs() < 1e-6);
         assert!((d.area() - 3.0 * PI).abs() < 1e-5);
         let b = Disk::new(Vec3::ZERO, Vec3::Z, 2.0, 0.0).bounds();
         assert_eq!((b.min, b.max), (Vec3::new(-2.0, -2.0, 0.0), Vec3::new(2.0, 2.0, 0.0)));

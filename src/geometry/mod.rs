@@ -381,6 +381,22 @@ pub fn texture_frame(axis: Vec3) -> (Vec3, Vec3) {
     axis.any_orthonormal_pair()
 }
 
+/// The texture frame about the unit `axis` whose angle 0 lies along `seam` (projected onto the
+/// plane normal to the axis): (t₁, axis × t₁), right-handed about the axis as [`texture_frame`]'s;
+/// `None` when `seam` is (nearly) along the axis or not finite. A seam that is already a unit
+/// vector across the axis (to single precision) is t₁ as given, so that an exporter writing
+/// t₁ gives a file that reads back to the same frame.
+pub fn seam_frame(axis: Vec3, seam: Vec3) -> Option<(Vec3, Vec3)> {
+    if (seam.length_squared() - 1.0).abs() <= 4.0 * f32::EPSILON && seam.dot(axis).abs() <= 1e-6 {
+        return Some((seam, axis.cross(seam)));
+    }
+    let across = seam - seam.dot(axis) * axis;
+    (across.length() > 1e-6 * seam.length())
+        .then(|| across.try_normalize())
+        .flatten()
+        .map(|t1| (t1, axis.cross(t1)))
+}
+
 /// Angle of `v` around a unit axis, measured in the plane of the orthonormal `frame` from
 /// `frame.0` towards `frame.1`, as a texture coordinate in [0, 1].
 #[inline]

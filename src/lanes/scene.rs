@@ -145,6 +145,9 @@ impl LaneScene {
                         radius,
                     });
                 }
+                Shape::Cylinder(c) if c.inward() => {
+                    return Err("a cylinder faces inwards (flip_normals): its hits have no lane form".into())
+                }
                 Shape::Cylinder(c) => {
                     lanes.cylinders.push(Entry { shape: **c, primitive, rank });
                     let (reference, axis, fallback, radius) = (c.base, c.w, c.u, c.radius);

@@ -93,11 +93,22 @@ impl EmitterMesh {
         (p, n)
     }
 
-    /// The mesh's projected area seen from the unit direction `d`, both sides counted once:
-    /// `Σ A_i·|n_i·d|` over the triangles (the intensity of a Lambertian emitter of unit
-    /// radiance in that direction).
-    pub fn projected_area(&self, d: Vec3) -> f32 {
-        self.corners.iter().map(|[a, b, c]| 0.5 * (*b - *a).cross(*c - *a).dot(d).abs()).sum()
+    /// The mesh's projected area seen from the unit direction `d`: `Σ A_i·|n_i·d|` over the
+    /// triangles, both sides counted once, or with `one_sided` only the triangles whose
+    /// (winding) normal faces `d`, `Σ A_i·max(n_i·d, 0)` (the intensity of a Lambertian emitter
+    /// of unit radiance in that direction, emitting on both sides or on its front).
+    pub fn projected_area(&self, d: Vec3, one_sided: bool) -> f32 {
+        self.corners
+            .iter()
+            .map(|[a, b, c]| {
+                let cos_area = 0.5 * (*b - *a).cross(*c - *a).dot(d);
+                if one_sided {
+                    cos_area.max(0.0)
+                } else {
+                    cos_area.abs()
+                }
+            })
+            .sum()
     }
 }
 
@@ -140,9 +151,13 @@ mod tests {
             let se = (m * 0.25 * 0.75).sqrt();
             assert!((inner[k] as f32 - 0.25 * m).abs() < 5.0 * se, "triangle {k}: {} of {m}", inner[k]);
         }
-        // The projected area of a flat mesh is its area times |cos|, from either side.
+        // The projected area of a flat mesh is its area times |cos|, from either side; one-sided,
+        // from its front only.
         let d = Vec3::new(0.0, 0.6, -0.8);
-        assert!((mesh.projected_area(d) - 0.8 * mesh.area()).abs() < 1e-5);
+        assert!((mesh.projected_area(d, false) - 0.8 * mesh.area()).abs() < 1e-5);
+        assert!((mesh.projected_area(-d, false) - 0.8 * mesh.area()).abs() < 1e-5);
+        assert!((mesh.projected_area(-d, true) - 0.8 * mesh.area()).abs() < 1e-5);
+        assert_eq!(mesh.projected_area(d, true), 0.0);
     }
 
     #[test]

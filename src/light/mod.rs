@@ -195,6 +195,9 @@ pub enum EmitterShape {
         /// The in-plane texture frames of the bottom (normal −`axis`) and top (+`axis`) caps,
         /// for a cylinder with caps; `None` for the open tube.
         caps: Option<[(Vec3, Vec3); 2]>,
+        /// Whether every normal is turned the other way, towards the inside (Mitsuba's
+        /// `flip_normals`): the wall's to the axis, the caps' into the cylinder.
+        inward: bool,
     },
     /// A triangle mesh (no texture coordinates: its emission is not textured).
     Mesh(Arc<EmitterMesh>),
@@ -266,8 +269,8 @@ impl EmitterShape {
             EmitterShape::Disk { center, normal, radius, inner_radius, .. } => {
                 (annulus_point(center, normal.any_orthonormal_pair(), radius, inner_radius, u), normal)
             }
-            EmitterShape::Cylinder { base, axis, radius, height, frame: (t, b), caps } => {
-                match cylinder_part(radius, height, caps.is_some(), u) {
+            EmitterShape::Cylinder { base, axis, radius, height, frame: (t, b), caps, inward } => {
+                let (p, outward) = match cylinder_part(radius, height, caps.is_some(), u) {
                     (None, u) => {
                         // The wall's angle from the texture frame, its height linear in u.x.
                         let phi = 2.0 * PI * u.y;
@@ -279,7 +282,8 @@ impl EmitterShape {
                         let (center, n) = if k == 0 { (base, -axis) } else { (base + height * axis, axis) };
                         (annulus_point(center, frames[k], radius, 0.0, u), n)
                     }
-                }
+                };
+                (p, if inward { -outward } else { outward })
             }
             EmitterShape::Mesh(ref mesh) => mesh.sample(u),
         }
@@ -295,11 +299,13 @@ impl EmitterShape {
             EmitterShape::Disk { center, radius, inner_radius, frame, .. } => {
                 disk_uv(frame, p - center, radius, inner_radius)
             }
-            EmitterShape::Cylinder { base, axis, radius, height, frame, caps } => {
+            EmitterShape::Cylinder { base, axis, radius, height, frame, caps, inward } => {
                 match cylinder_part(radius, height, caps.is_some(), u) {
-                    // As the wall's hits: the angle in its frame, the height along the axis.
+                    // As the wall's hits: the angle of the outward normal in its frame, the
+                    // height along the axis.
                     (None, _) => {
-                        Vec2::new(azimuth(frame, n), ((p - base).dot(axis) / height).clamp(0.0, 1.0))
+                        let outward = if inward { -n } else { n };
+                        Vec2::new(azimuth(frame, outward), ((p - base).dot(axis) / height).clamp(0.0, 1.0))
                     }
                     (Some(k), _) => {
                         let center = if k == 0 { base } else { base + height * axis };
@@ -842,7 +848,9 @@ impl Light {
     /// with intensity `E·D²` (so `I/D² = E`); an area quad as a point at its centre with the intensity of a Lambertian
     /// emitter in that direction, `L·A·cos θ`; a sphere as a point at its centre with intensity
     /// `L·πr²` (exact in the far field, no penumbra); a cylinder as a point on its axis halfway
-    /// with the intensity of its outline, `L·(2rh·sin θ + πr²·|cos θ|)` (the cap term with caps).
+    /// with the intensity of its outline, `L·(2rh·sin θ + πr²·|cos θ|)` (the cap term with caps);
+    /// an emitting disk, quad or mesh as a point with its projected area, that of its front
+    /// alone when it emits on one side.
     pub fn as_point_from(&self, p: Vec3) -> PointIllumination {
         match self {
             Light::Point { position, intensity } => {
@@ -869,7 +877,7 @@ impl Light {
             Light::Sphere { center, radius, radiance } => {
                 PointIllumination { position: *center, intensity: *radiance * PI * radius * radius }
             }
-            Light::Surface { shape, texture, .. } => {
+            Light::Surface { shape, texture, one_sided, .. } => {
                 let centre = shape.centre();
                 let (y, n) = shape.sample(Vec2::splat(0.5));
                 let uv = if texture.is_some() { shape.uv_at(Vec2::splat(0.5), y, n) } else { Vec2::ZERO };
@@ -878,15 +886,25 @@ impl Light {
                 let intensity = match shape {
                     // a sphere shows the same projected area πr² from everywhere
                     EmitterShape::Sphere { .. } => radiance * shape.area() * 0.25,
-                    EmitterShape::Mesh(mesh) => radiance * mesh.projected_area(to_p),
-                    // The wall's outline 2rh·sin θ from the axis, and one cap's πr²·|cos θ|.
-                    EmitterShape::Cylinder { axis, radius, height, caps, .. } => {
+                    EmitterShape::Mesh(mesh) => radiance * mesh.projected_area(to_p, *one_sided),
+                    // The wall's outline 2rh·sin θ from the axis, and one cap's πr²·|cos θ|; an
+                    // open tube emitting inwards on one side shows its inside through one mouth,
+                    // πr²·|cos θ|, a closed one nothing.
+                    EmitterShape::Cylinder { axis, radius, height, caps, inward, .. } => {
                         let cos = to_p.dot(*axis).abs();
-                        let wall = 2.0 * radius * height * (1.0 - cos * cos).max(0.0).sqrt();
-                        let cap = if caps.is_some() { PI * radius * radius * cos } else { 0.0 };
-                        radiance * (wall + cap)
+                        let mouth = PI * radius * radius * cos;
+                        if *inward && *one_sided {
+                            radiance * if caps.is_some() { 0.0 } else { mouth }
+                        } else {
+                            let wall = 2.0 * radius * height * (1.0 - cos * cos).max(0.0).sqrt();
+                            radiance * (wall + if caps.is_some() { mouth } else { 0.0 })
+                        }
                     }
-                    _ => radiance * shape.area() * to_p.dot(n).abs(),
+                    // A flat emitter: its area times the cosine, one-sided on its front only.
+                    _ => {
+                        let cos = to_p.dot(n);
+                        radiance * shape.area() * if *one_sided { cos.max(0.0) } else { cos.abs() }
+                    }
                 };
                 PointIllumination { position: centre, intensity }
             }
@@ -1112,6 +1130,7 @@ pub(crate) mod tests {
             height,
             frame: wall.texture_frame(),
             caps: caps.then_some(frames),
+            inward: false,
         }
     }
 

@@ -67,16 +67,35 @@ impl Interface {
     }
 }
 
-/// A finite cylinder: the wall plus, when `caps`, a bottom disk (normal −axis) and a top disk.
-pub fn cylinder(base: Vec3, axis: Vec3, radius: f32, height: f32, caps: bool) -> Vec<BodySurface> {
-    let mut s =
-        vec![(Shape::Cylinder(Box::new(Cylinder::new(base, axis, radius, height))), Interface::Material)];
+/// A finite cylinder: the wall plus, when `caps`, a bottom disk (normal −axis) and a top disk;
+/// with `inward`, every normal turned the other way (Mitsuba's `flip_normals`).
+pub fn cylinder(
+    base: Vec3,
+    axis: Vec3,
+    radius: f32,
+    height: f32,
+    caps: bool,
+    inward: bool,
+) -> Vec<BodySurface> {
+    capped(Cylinder::new(base, axis, radius, height), axis, base + axis * height, caps, inward)
+}
+
+/// A finite cylinder from `base` to `top`, kept as given ([`Cylinder::between`]), capped at
+/// both when `caps`; with `inward`, every normal turned the other way.
+pub fn cylinder_between(base: Vec3, top: Vec3, radius: f32, caps: bool, inward: bool) -> Vec<BodySurface> {
+    let wall = Cylinder::between(base, top, radius);
+    capped(wall, wall.axis(), top, caps, inward)
+}
+
+/// `wall`, plus when `caps` a disk at its base facing −`axis` and one at `top` facing `axis`;
+/// with `inward`, the wall and the disks facing the other way.
+fn capped(wall: Cylinder, axis: Vec3, top: Vec3, caps: bool, inward: bool) -> Vec<BodySurface> {
+    let (base, radius) = (wall.base(), wall.radius());
+    let mut s = vec![(Shape::Cylinder(Box::new(wall.facing_inwards(inward))), Interface::Material)];
     if caps {
-        s.push((Shape::Disk(Box::new(Disk::new(base, -axis, radius, 0.0))), Interface::Material));
-        s.push((
-            Shape::Disk(Box::new(Disk::new(base + axis * height, axis, radius, 0.0))),
-            Interface::Material,
-        ));
+        let out = if inward { -axis } else { axis };
+        s.push((Shape::Disk(Box::new(Disk::new(base, -out, radius, 0.0))), Interface::Material));
+        s.push((Shape::Disk(Box::new(Disk::new(top, out, radius, 0.0))), Interface::Material));
     }
     s
 }

@@ -415,6 +415,11 @@ impl Compiler<'_> {
         Ok(v)
     }
 
+    /// The error for a `seam` along the axis (or normal) it turns about.
+    fn along_axis(&self, path: &FieldPath) -> SceneError {
+        self.err(path, "must not lie along the axis (or normal): the texture seam is a direction across it")
+    }
+
     fn direction(&self, path: &FieldPath, v: [f32; 3]) -> Result<Vec3, SceneError> {
         try_unit(Vec3::from_array(v)).ok_or_else(|| self.err(path, "must be a non-zero vector"))
     }
@@ -1470,18 +1475,24 @@ impl Compiler<'_> {
             ShapeDesc::Sphere { center, radius } => {
                 ShapeDesc::Sphere { center: point(center), radius: radius * s }
             }
-            ShapeDesc::Cylinder { base, axis, radius, height, caps } => ShapeDesc::Cylinder {
-                base: point(base),
-                axis: direction(axis),
-                radius: radius * s,
-                height: height * s,
-                caps: *caps,
-            },
-            ShapeDesc::Disk { center, normal, radius, inner_radius } => ShapeDesc::Disk {
+            ShapeDesc::Cylinder { base, top, axis, radius, height, caps, flip_normals, seam } => {
+                ShapeDesc::Cylinder {
+                    base: point(base),
+                    top: top.as_ref().map(point),
+                    axis: axis.as_ref().map(direction),
+                    radius: radius * s,
+                    height: height.map(|h| h * s),
+                    caps: *caps,
+                    flip_normals: *flip_normals,
+                    seam: seam.as_ref().map(direction),
+                }
+            }
+            ShapeDesc::Disk { center, normal, radius, inner_radius, seam } => ShapeDesc::Disk {
                 center: point(center),
                 normal: direction(normal),
                 radius: radius * s,
                 inner_radius: inner_radius * s,
+                seam: seam.as_ref().map(direction),
             },
             ShapeDesc::Quad { corner, u, v } => {
                 ShapeDesc::Quad { corner: point(corner), u: edge(u), v: edge(v) }
@@ -1534,13 +1545,38 @@ impl Compiler<'_> {
                 let r = self.positive(&path.key("radius"), *radius)?;
                 vec![(Shape::Sphere(Box::new(Sphere::new(v(*center), r))), Interface::Material)]
             }
-            ShapeDesc::Cylinder { base, axis, radius, height, caps } => {
-                let axis = self.direction(&path.key("axis"), *axis)?;
+            ShapeDesc::Cylinder { base, top, axis, radius, height, caps, flip_normals, seam } => {
                 let r = self.positive(&path.key("radius"), *radius)?;
-                let h = self.positive(&path.key("height"), *height)?;
-                bodies::cylinder(v(*base), axis, r, h, *caps)
+                let mut surfaces = match (top, height) {
+                    (Some(top), None) if axis.is_none() => {
+                        let top = self.finite_vector(&path.key("top"), *top)?;
+                        if top == v(*base) {
+                            return Err(self.err(&path.key("top"), "must differ from base"));
+                        }
+                        bodies::cylinder_between(v(*base), top, r, *caps, *flip_normals)
+                    }
+                    (None, Some(height)) => {
+                        let axis = self
+                            .direction(&path.key("axis"), axis.unwrap_or_else(super::desc::default_axis))?;
+                        let h = self.positive(&path.key("height"), *height)?;
+                        bodies::cylinder(v(*base), axis, r, h, *caps, *flip_normals)
+                    }
+                    (Some(_), _) => {
+                        return Err(self
+                            .err(&path.key("top"), "replaces axis and height: give top, or axis and height"))
+                    }
+                    (None, None) => {
+                        return Err(
+                            self.err(path, "a cylinder needs `height` (with `axis`, default +Y) or `top`")
+                        )
+                    }
+                };
+                if let (Some(seam), (Shape::Cylinder(wall), _)) = (seam, &mut surfaces[0]) {
+                    **wall = wall.with_seam(v(*seam)).ok_or_else(|| self.along_axis(&path.key("seam")))?;
+                }
+                surfaces
             }
-            ShapeDesc::Disk { center, normal, radius, inner_radius } => {
+            ShapeDesc::Disk { center, normal, radius, inner_radius, seam } => {
                 let n = self.direction(&path.key("normal"), *normal)?;
                 let r = self.positive(&path.key("radius"), *radius)?;
                 let ri = self.non_negative(&path.key("inner_radius"), *inner_radius)?;
@@ -1550,7 +1586,11 @@ impl Compiler<'_> {
                         format!("must be smaller than radius {r} (got {ri})"),
                     ));
                 }
-                vec![(Shape::Disk(Box::new(Disk::new(v(*center), n, r, ri))), Interface::Material)]
+                let mut disk = Disk::new(v(*center), n, r, ri).with_given_normal(v(*normal));
+                if let Some(seam) = seam {
+                    disk = disk.with_seam(v(*seam)).ok_or_else(|| self.along_axis(&path.key("seam")))?;
+                }
+                vec![(Shape::Disk(Box::new(disk)), Interface::Material)]
             }
             ShapeDesc::Quad { corner, u, v: edge_v } => {
                 let (u, ev) = (v(*u), v(*edge_v));
@@ -1567,7 +1607,7 @@ impl Compiler<'_> {
                 let polygon = Polygon::new(verts).map_err(|e| self.err(&path.key("vertices"), e))?;
                 vec![(Shape::Polygon(Box::new(polygon)), Interface::Material)]
             }
-            ShapeDesc::Mesh { file, scale, translate, face_normals, smooth_normals } => {
+            ShapeDesc::Mesh { file, scale, translate, face_normals, smooth_normals, flip_normals } => {
                 if *face_normals && *smooth_normals != SmoothNormals::Off {
                     return Err(self.err(
                         &path.key("smooth_normals"),
@@ -1592,6 +1632,9 @@ impl Compiler<'_> {
                     SmoothNormals::Replace => mesh.recompute_smooth_normals(false),
                     SmoothNormals::WhereMissing if !mesh.has_normals => mesh.recompute_smooth_normals(true),
                     SmoothNormals::WhereMissing => {}
+                }
+                if *flip_normals {
+                    mesh.flip_normals();
                 }
                 let (triangles, degenerate) = (mesh.triangles, mesh.degenerate);
                 if mesh.has_uv || mesh.has_normals {
@@ -1995,9 +2038,10 @@ fn emitter_shape(s: &ShapeDesc, surfaces: &[BodySurface]) -> Option<EmitterShape
                 height: wall.height(),
                 frame: wall.texture_frame(),
                 caps,
+                inward: wall.inward(),
             })
         }
-        (ShapeDesc::Disk { center, normal, radius, inner_radius }, Some(Shape::Disk(disk))) => {
+        (ShapeDesc::Disk { center, normal, radius, inner_radius, .. }, Some(Shape::Disk(disk))) => {
             Some(EmitterShape::Disk {
                 center: v(*center),
                 normal: try_unit(v(*normal))?,

@@ -795,7 +795,8 @@ impl<'de> Deserialize<'de> for LiquidDesc {
     }
 }
 
-fn default_axis() -> Vec3Desc {
+/// The axis of a cylinder, bowl or drinking glass that names none: +Y.
+pub(super) fn default_axis() -> Vec3Desc {
     [0.0, 1.0, 0.0]
 }
 fn default_true() -> bool {
@@ -915,20 +916,34 @@ pub enum ShapeDesc {
         /// Radius.
         radius: f32,
     },
-    /// A finite cylinder, capped by default.
+    /// A finite cylinder, capped by default: from `base` along `axis` for `height`, or from
+    /// `base` to `top`.
     Cylinder {
         /// Centre of the bottom cap.
         base: Vec3Desc,
-        /// Direction from bottom to top (normalised).
-        #[serde(default = "default_axis")]
-        axis: Vec3Desc,
+        /// Centre of the top cap, instead of `axis` and `height`.
+        #[serde(default)]
+        top: Option<Vec3Desc>,
+        /// Direction from bottom to top (normalised; default +Y).
+        #[serde(default)]
+        axis: Option<Vec3Desc>,
         /// Radius.
         radius: f32,
         /// Length along the axis.
-        height: f32,
+        #[serde(default)]
+        height: Option<f32>,
         /// Close both ends with disks.
         #[serde(default = "default_true")]
         caps: bool,
+        /// Turn the normals towards the axis (Mitsuba's `flip_normals`): the inside becomes the
+        /// front a one-sided material reflects on and a one-sided emission leaves from, and a
+        /// dielectric's outside.
+        #[serde(default)]
+        flip_normals: bool,
+        /// Direction from the axis in which the wall's u is 0 (its texture seam), projected onto
+        /// the cross-section; default t₁ of the axis (`scenes/README.md`, Texture coordinates).
+        #[serde(default)]
+        seam: Option<Vec3Desc>,
     },
     /// A disk, or an annulus when `inner_radius > 0`.
     Disk {
@@ -941,6 +956,10 @@ pub enum ShapeDesc {
         /// Radius of the hole.
         #[serde(default)]
         inner_radius: f32,
+        /// Direction from the centre in which v is 0 (the texture seam), projected onto the
+        /// disk's plane; default t₁ of the normal (`scenes/README.md`, Texture coordinates).
+        #[serde(default)]
+        seam: Option<Vec3Desc>,
     },
     /// A parallelogram `corner + a·u + b·v`, a, b in [0, 1]; normal `u × v`.
     Quad {
@@ -974,6 +993,11 @@ pub enum ShapeDesc {
         /// ([`SmoothNormals`]).
         #[serde(default)]
         smooth_normals: SmoothNormals,
+        /// Turn the surface over (Mitsuba's `flip_normals`): every triangle's winding reversed
+        /// and its vertex normals negated, which moves the front (the side a one-sided material
+        /// reflects and a one-sided emission leaves from) and the inside of a dielectric.
+        #[serde(default)]
+        flip_normals: bool,
     },
     /// A hollow sphere: a shell between `inner_radius` and `radius`.
     HollowSphere {

@@ -283,15 +283,16 @@ fn emitter_shape(s: &EmitterShape) -> (String, Value) {
             json!({"shape": "disk", "center": arr(center), "normal": arr(normal),
                    "radius": num(radius), "inner_radius": num(inner_radius)}),
         ),
-        EmitterShape::Cylinder { base, axis, radius, height, caps, .. } => (
+        EmitterShape::Cylinder { base, axis, radius, height, caps, inward, .. } => (
             format!(
-                "cylinder, base {}, axis {}, radius {radius}, height {height}, {}",
+                "cylinder, base {}, axis {}, radius {radius}, height {height}, {}{}",
                 vec3(*base),
                 vec3(*axis),
-                if caps.is_some() { "with caps" } else { "open (no caps)" }
+                if caps.is_some() { "with caps" } else { "open (no caps)" },
+                if *inward { ", facing inwards" } else { "" }
             ),
             json!({"shape": "cylinder", "base": arr(base), "axis": arr(axis), "radius": num(radius),
-                   "height": num(height), "caps": caps.is_some()}),
+                   "height": num(height), "caps": caps.is_some(), "inward": inward}),
         ),
         EmitterShape::Mesh(mesh) => (
             format!("mesh of {} triangles, area {}", mesh.len(), mesh.area()),

@@ -98,6 +98,25 @@ impl ObjMesh {
         }
         self.has_normals = true;
     }
+
+    /// Turns every triangle over, as Mitsuba's `flip_normals` does: the winding reversed
+    /// (`(a, b, c)` becomes `(a, c, b)`, its uv and vertex normals with it) and the vertex
+    /// normals negated, so that the geometric and the shading normals both point the other way.
+    /// The result is the mesh of a file written with the reversed winding and negated normals.
+    pub fn flip_normals(&mut self) {
+        for t in &mut self.triangles {
+            let [a, b, c] = t.vertices();
+            *t = Triangle::new(a, c, b);
+        }
+        for a in &mut self.attributes {
+            if let Some([u0, u1, u2]) = a.uv {
+                a.uv = Some([u0, u2, u1]);
+            }
+            if let Some([n0, n1, n2]) = a.normals {
+                a.normals = Some([-n0, -n2, -n1]);
+            }
+        }
+    }
 }
 
 /// The triangles of a mesh file by its extension: `.ply` ([`load_ply`]), else OBJ ([`load_obj`]).

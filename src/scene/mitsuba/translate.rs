@@ -318,6 +318,36 @@ impl Translator<'_> {
         }
     }
 
+    /// `flip_normals` on `shape`, a sphere (`what`), which vitrum cannot turn over (its normals
+    /// face outwards): accepted where it changes nothing, a shape without an
+    /// emitter (`emits`) whose BSDF looks the same from both sides (a `twosided` one, a
+    /// `thindielectric`, a diffuse read as two-sided with `--two-sided`); otherwise refused (or
+    /// with `--lenient` ignored with a warning), since it would move the side a one-sided BSDF
+    /// reflects on, a dielectric's inside or an emitter's emitting side.
+    fn unflippable(&mut self, shape: &Object, emits: bool, what: &str) -> Result<(), XmlError> {
+        let bsdf = shape.children_tagged("bsdf").next();
+        let sides_alike = match bsdf.map(|b| b.plugin.as_str()) {
+            Some("twosided" | "thindielectric") => true,
+            None | Some("diffuse") => self.two_sided,
+            Some(_) => false,
+        };
+        if !emits && sides_alike {
+            return Ok(());
+        }
+        let why = if emits { "an area emitter (emitting inwards)" } else { "a one-sided BSDF" };
+        let message = format!("flip_normals on {what} with {why}: vitrum's face outwards");
+        if self.lenient {
+            self.warn(&shape.position, &format!("{message}; ignored (--lenient)"));
+            Ok(())
+        } else {
+            Err(error(
+                &shape.position,
+                &shape.describe(),
+                &format!("{message}; --lenient ignores it with a warning"),
+            ))
+        }
+    }
+
     /// The camera and film (and the sampler inside the sensor).
     fn sensor(
         &mut self,
@@ -630,11 +660,6 @@ impl Translator<'_> {
         let name = shape.id.clone().unwrap_or_else(|| format!("shape{index}-{}", shape.plugin));
         let emitter = shape.children_tagged("emitter").next();
         let radiance = match emitter {
-            Some(e) if e.plugin == "area" && shape.plugin == "cylinder" && flip => {
-                // Inward emission has no vitrum equivalent: its cylinders face outwards.
-                self.lacks(e, "an area emitter on a cylinder with flip_normals (emitting inwards)")?;
-                None
-            }
             Some(e) if e.plugin == "area" => {
                 let ep = Props::of(e);
                 let r = ep.color("radiance")?.unwrap_or([1.0; 3]);
@@ -656,20 +681,27 @@ impl Translator<'_> {
         let fail = |m: &str| error(at.0, &at.1, m);
         let mut geometry: Vec<(String, Vec<(&str, String)>)> = Vec::new();
         let mut quad_light = None;
+        // How Mitsuba's uv on this shape relates to vitrum's on what the import writes.
+        let mut layout = UvLayout::of(&shape.plugin);
         let mut sphere_light: Option<(DVec3, f64)> = None;
         match shape.plugin.as_str() {
             "rectangle" => {
-                let (corner, u, v) =
-                    parallelogram(&m, DVec3::new(-1.0, -1.0, 0.0), DVec3::X * 2.0, DVec3::Y * 2.0, flip);
-                if radiance.is_some() {
+                // Mitsuba's rectangle has uv (0, 0) at its corner (−1, −1), u along x, v along y.
+                let square = (DVec3::new(-1.0, -1.0, 0.0), DVec3::X * 2.0, DVec3::Y * 2.0);
+                let ((corner, u, v), uv) = mitsuba_face(&m, square, false, flip);
+                layout = uv;
+                // An emitting rectangle that reflects nothing is a quad light; one that reflects
+                // a quad whose material emits.
+                if radiance.is_some() && reflects_nothing(shape.children_tagged("bsdf").next()) {
                     quad_light = Some((corner, u, v));
                 } else {
                     geometry.push((name.clone(), quad(corner, u, v)));
                 }
             }
             "cube" => {
-                for (k, (corner, u, v)) in cube_faces().into_iter().enumerate() {
-                    let (corner, u, v) = parallelogram(&m, corner, u, v, flip);
+                for (k, face) in cube_faces().into_iter().enumerate() {
+                    let ((corner, u, v), uv) = mitsuba_face(&m, face, true, flip);
+                    layout = uv;
                     geometry.push((format!("{name}.face{k}"), quad(corner, u, v)));
                 }
             }
@@ -677,10 +709,7 @@ impl Translator<'_> {
                 let center = p.point("center")?.unwrap_or(DVec3::ZERO);
                 let radius = p.float("radius")?.unwrap_or(1.0);
                 if flip {
-                    self.warn(
-                        &shape.position,
-                        "flip_normals on a sphere ignored (vitrum's spheres face outwards)",
-                    );
+                    self.unflippable(shape, radiance.is_some(), "a sphere")?;
                 }
                 // Mitsuba 3 keeps a sphere round: under a map that is not a similarity it
                 // warns and takes the radius from the polar decomposition (checked against its
@@ -725,15 +754,26 @@ impl Translator<'_> {
                         ("radius", number(r)),
                     ]
                 };
+                // Mitsuba's disk uv is (radius fraction, angle from the local x towards y / 2π),
+                // vitrum's (radius fraction, angle about its normal from its seam).
                 match round_in_plane(&m) {
                     Some(scale) => {
                         let c = m.transform_point3(DVec3::ZERO);
-                        geometry.push((name.clone(), disk(c, normal_of(&m, flip), scale)));
+                        let n = normal_of(&m, flip);
+                        let mut fields = disk(c, n, scale);
+                        let l = DMat3::from_mat4(m);
+                        let (seam, uv) = seam_of(n, l.x_axis, l.y_axis);
+                        fields.extend(seam);
+                        layout = uv;
+                        geometry.push((name.clone(), fields));
                     }
                     None => {
                         // An elliptic disk: the unit disk under the whole map.
                         let n = if flip { -DVec3::Z } else { DVec3::Z };
                         let mut fields = disk(DVec3::ZERO, n, 1.0);
+                        let (seam, uv) = seam_of(n, DVec3::X, DVec3::Y);
+                        fields.extend(seam);
+                        layout = uv;
                         fields.push(("transform", matrix(&m)));
                         geometry.push((name.clone(), fields));
                     }
@@ -757,27 +797,42 @@ impl Translator<'_> {
                 } else {
                     similarity(&m).map(|(s, _)| s)
                 };
-                if flip {
-                    self.warn(
-                        &shape.position,
-                        "flip_normals on a cylinder ignored (vitrum's cylinders face outwards)",
-                    );
-                }
-                let cylinder = |base: DVec3, axis: DVec3, r: f64| {
-                    vec![
+                // By its end points, as Mitsuba places them (and as the exporter writes them
+                // back: a round trip reads the same numbers).
+                let cylinder = |base: DVec3, top: DVec3, r: f64| {
+                    let mut fields = vec![
                         ("shape", "\"cylinder\"".into()),
                         ("base", vector(base.to_array())),
-                        ("axis", vector(axis.normalize_or_zero().to_array())),
+                        ("top", vector(top.to_array())),
                         ("radius", number(r)),
-                        ("height", number(axis.length())),
                         ("caps", "false".into()),
-                    ]
+                    ];
+                    if flip {
+                        // Mitsuba flips the geometric and shading normals: towards the axis.
+                        fields.push(("flip_normals", "true".into()));
+                    }
+                    fields
                 };
+                // Mitsuba's cylinder uv is (angle from its local x towards y / 2π, height
+                // fraction), its local frame being to_world times Duff et al.'s frame of p1 − p0
+                // (the one vitrum's texture_frame gives); vitrum's wall measures the angle from
+                // its seam.
+                let (tx, ty) = (p1 - p0).normalize_or_zero().any_orthonormal_pair();
                 match scale {
-                    Some(scale) => geometry.push((name.clone(), cylinder(a, axis, radius * scale))),
+                    Some(scale) => {
+                        let mut fields = cylinder(a, b, radius * scale);
+                        let l = DMat3::from_mat4(m);
+                        let (seam, uv) = seam_of(axis.normalize_or_zero(), l * tx, l * ty);
+                        if uv == UvLayout::Same {
+                            fields.extend(seam);
+                            layout = uv;
+                        }
+                        geometry.push((name.clone(), fields));
+                    }
                     None => {
                         // An elliptic or oblique cylinder: the cylinder as written under the map.
-                        let mut fields = cylinder(p0, p1 - p0, radius);
+                        layout = UvLayout::Same;
+                        let mut fields = cylinder(p0, p1, radius);
                         fields.push(("transform", matrix(&m)));
                         geometry.push((name.clone(), fields));
                     }
@@ -786,13 +841,14 @@ impl Translator<'_> {
             "obj" | "ply" => {
                 let file = p.string("filename")?.ok_or_else(|| fail("has no `filename`"))?;
                 let face_normals = p.boolean("face_normals")?.unwrap_or(false);
-                if flip {
-                    self.warn(&shape.position, "flip_normals on a mesh ignored");
-                }
                 let mut fields = vec![
                     ("shape", "\"mesh\"".into()),
                     ("file", toml::Value::String((self.file)(&file)).to_string()),
                 ];
+                if flip {
+                    // Mitsuba flips the geometric and shading normals: vitrum turns the mesh over.
+                    fields.push(("flip_normals", "true".into()));
+                }
                 if face_normals {
                     // Mitsuba shades with the face normals: the file's vertex normals are ignored.
                     fields.push(("face_normals", "true".into()));
@@ -819,9 +875,6 @@ impl Translator<'_> {
             lights.vector("u", u.to_array());
             lights.vector("v", v.to_array());
             lights.vector("radiance", r);
-            if let Some(b) = bsdf {
-                self.warn(&b.position, &format!("{name}: the bsdf of an emitting rectangle is dropped (vitrum's quad lights reflect nothing)"));
-            }
             return Ok(());
         }
         if let (Some((c, r)), Some(radiance)) = (sphere_light, radiance) {
@@ -837,17 +890,12 @@ impl Translator<'_> {
             }
             return Ok(());
         }
-        self.uv_layout = UvLayout::of(&shape.plugin);
-        // Mitsuba's area emitter emits on the side the normal faces: so do vitrum's disks and
-        // (outward) cylinders with `emission_one_sided`; cubes and meshes emit on both sides.
-        let one_sided = matches!(shape.plugin.as_str(), "disk" | "cylinder");
-        let emission = radiance.map(|r| (r, one_sided));
-        let material = self.material(bsdf.map(Rc::as_ref), emission, &shape.position, materials);
+        self.uv_layout = layout;
+        // Mitsuba's area emitter emits on the side the normal faces: so does a vitrum emission
+        // with `emission_one_sided` (disks, cylinders, the cube's quads, meshes).
+        let material = self.material(bsdf.map(Rc::as_ref), radiance, &shape.position, materials);
         self.uv_layout = UvLayout::Flipped;
         let material = material?;
-        if radiance.is_some() && !one_sided {
-            self.warn(&shape.position, &format!("{name}: the area emitter is written as the material's emission, which vitrum emits on both sides"));
-        }
         for (object, fields) in geometry {
             objects.from(&shape.position, &shape.describe());
             objects.array_table("objects");
@@ -861,11 +909,11 @@ impl Translator<'_> {
     }
 
     /// The key of the material for `bsdf` (written once per BSDF object), with `emission`: the
-    /// emitted radiance, and whether only the side the normal faces emits.
+    /// radiance emitted on the side the normal faces (Mitsuba's `area` emitter).
     fn material(
         &mut self,
         bsdf: Option<&Object>,
-        emission: Option<([f64; 3], bool)>,
+        emission: Option<[f64; 3]>,
         at: &Position,
         out: &mut TomlWriter,
     ) -> Result<String, XmlError> {
@@ -893,6 +941,11 @@ impl Translator<'_> {
         }
         out.table(&format!("materials.{key}"));
         match bsdf {
+            None if emission.is_some() => {
+                out.comment("Mitsuba's default for an emitter: a black diffuse BSDF (it reflects nothing)");
+                out.string("type", "diffuse");
+                out.vector("color", [0.0; 3]);
+            }
             None => {
                 out.comment("Mitsuba's default: a (one-sided) diffuse BSDF of reflectance 0.5");
                 out.string("type", "diffuse");
@@ -901,12 +954,10 @@ impl Translator<'_> {
             }
             Some(b) => self.bsdf(b, out, false)?,
         }
-        if let Some((r, one_sided)) = emission {
+        if let Some(r) = emission {
             out.vector("emission", r);
-            if one_sided {
-                out.comment("Mitsuba's area emitter emits on the side the normal faces");
-                out.raw("emission_one_sided", "true");
-            }
+            out.comment("Mitsuba's area emitter emits on the side the normal faces");
+            out.raw("emission_one_sided", "true");
         }
         if emission.is_none() {
             if let Some(k) = key_of {
@@ -1139,8 +1190,9 @@ impl Translator<'_> {
         // Mitsuba reads the bitmap at (x, y) = to_uv·(u, v) of the shape's uv, y down from the
         // top row (its 2-D map: rows and columns 0, 1 and 3 of the 4×4); vitrum at
         // st = uv·scale + offset, t up from the bottom row. Where Mitsuba's v is vitrum's
-        // (a rectangle) the image is mirrored in v; elsewhere (an OBJ, whose v Mitsuba's loader
-        // flips, a sphere) Mitsuba's v is 1 − vitrum's. Only a diagonal map has a counterpart.
+        // (a rectangle, a cylinder, a disk) the image is mirrored in v; elsewhere (an OBJ, whose
+        // v Mitsuba's loader flips, a sphere, a cube's faces) Mitsuba's v is 1 − vitrum's (see
+        // UvLayout). Only a diagonal map has a counterpart.
         let m = p.transform("to_uv")?.unwrap_or(DMat4::IDENTITY);
         let (a, d, b, e) = (m.x_axis.x, m.x_axis.y, m.y_axis.x, m.y_axis.y);
         let (c, f) = (m.w_axis.x, m.w_axis.y);
@@ -1151,21 +1203,22 @@ impl Translator<'_> {
                 "to_uv turns or shears the texture coordinates: vitrum's textures take a scale and an offset only",
             ));
         }
-        let (scale, offset) =
-            match self.uv_layout {
-                UvLayout::Same => {
-                    // Mitsuba's rectangle has uv (0, 0) at its corner (−1, −1) and reads a
-                    // bitmap's top row at v = 0; vitrum's quad reads the bottom row there. A PLY's
-                    // uv is the file's in both.
-                    out.comment("Mitsuba reads the image with v from its top row: mirrored in v");
-                    ([a, -e], [c, 1.0 - f])
-                }
-                UvLayout::Flipped => ([a, e], [c, 1.0 - e - f]),
-                UvLayout::Unmatched => return self.lacks(
+        let (scale, offset) = match self.uv_layout {
+            UvLayout::Same => {
+                // Mitsuba's rectangle has uv (0, 0) at its corner (−1, −1) and reads a
+                // bitmap's top row at v = 0; vitrum's quad reads the bottom row there. A PLY's
+                // uv is the file's in both.
+                out.comment("Mitsuba reads the image with v from its top row: mirrored in v");
+                ([a, -e], [c, 1.0 - f])
+            }
+            UvLayout::Flipped => ([a, e], [c, 1.0 - e - f]),
+            UvLayout::Unmatched => {
+                return self.lacks(
                     t,
-                    "a bitmap on a cylinder, disk or cube (their uv layout is not matched to Mitsuba's yet)",
-                ),
-            };
+                    "a bitmap on a cylinder whose to_world mirrors it (its uv would turn the other way)",
+                )
+            }
+        };
         if scale != [1.0, 1.0] || offset != [0.0, 0.0] {
             fields.push(format!("scale = {}", vector(scale)));
             fields.push(format!("offset = {}", vector(offset)));
@@ -1284,13 +1337,14 @@ impl Translator<'_> {
 /// vitrum with v up from its bottom row).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 enum UvLayout {
-    /// (u_m, v_m) = (u, v): a `rectangle`, a `ply` mesh (its file's uv).
+    /// (u_m, v_m) = (u, v): a `rectangle`, a `ply` mesh (its file's uv), a `cylinder` and a
+    /// `disk` (written with Mitsuba's seam).
     Same,
     /// (u_m, v_m) = (u, 1 − v): an `obj` mesh (Mitsuba's OBJ loader flips v), a `sphere`
-    /// (written with Mitsuba's pole and seam).
+    /// (written with Mitsuba's pole and seam), a `cube`'s faces (each written from its corner
+    /// at Mitsuba's uv (0, 1)), a flipped `rectangle` or `disk` (the angle the other way round).
     Flipped,
-    /// Not related by the import yet: `cylinder`, `disk` and `cube` (their uv frames are not
-    /// turned to Mitsuba's).
+    /// Not related by the import: a `cylinder` whose to_world mirrors its angle.
     Unmatched,
 }
 
@@ -1302,6 +1356,22 @@ impl UvLayout {
             _ => UvLayout::Unmatched,
         }
     }
+}
+
+/// The `seam` field (none where vitrum's default frame, Duff et al.'s t₁ of `n`, is it) that
+/// makes a disk's or cylinder's texture angle about the unit `n` start along `x` and grow towards
+/// `y` (Mitsuba's local x and y axes in the world), and the layout that relates the two uv:
+/// `Same` when vitrum's frame (seam, n × seam) turns the way x, y do, else `Flipped` (the angle
+/// runs the other way: Mitsuba's second coordinate is 1 − vitrum's, true of a disk's).
+fn seam_of(n: DVec3, x: DVec3, y: DVec3) -> (Option<(&'static str, String)>, UvLayout) {
+    // Taken as it is when it already lies across `n` (to single precision): the direction an
+    // export wrote reads back unchanged.
+    let unit = x.normalize_or_zero();
+    let seam = if unit.dot(n).abs() <= 1e-7 { unit } else { (x - x.dot(n) * n).normalize_or_zero() };
+    let default = n.any_orthonormal_pair().0;
+    let field = ((seam - default).length() > 1e-6).then(|| ("seam", vector(seam.to_array())));
+    let layout = if n.cross(seam).dot(y) > 0.0 { UvLayout::Same } else { UvLayout::Flipped };
+    (field, layout)
 }
 
 /// The `key = value` fields of a sphere.
@@ -1326,37 +1396,78 @@ fn quad(corner: DVec3, u: DVec3, v: DVec3) -> Vec<(&'static str, String)> {
     ]
 }
 
-/// The parallelogram `corner + a·u + b·v` (object space) under `m`, with vitrum's normal u × v
-/// along the transformed normal (the inverse transpose of `m` applied to the object's u × v,
-/// flipped with `flip`): a mirroring `m` swaps the edges.
-fn parallelogram(m: &DMat4, corner: DVec3, u: DVec3, v: DVec3, flip: bool) -> (DVec3, DVec3, DVec3) {
-    let (c, wu, wv) = (m.transform_point3(corner), m.transform_vector3(u), m.transform_vector3(v));
+/// A face of a Mitsuba shape whose uv is (a, b) at `origin + a·du + b·dv` (object space), placed
+/// by `m` as a vitrum quad (corner, u, v) with the same uv for an image, and how the two uv relate.
+/// The quad's normal u × v is du × dv's, or its opposite when exactly one of `inward` (du × dv
+/// points into the shape), `flip` (flip_normals) and a mirroring `m` holds: then the quad runs
+/// from `origin + dv` along du and −dv, Mitsuba's v being 1 − vitrum's.
+fn mitsuba_face(
+    m: &DMat4,
+    (origin, du, dv): (DVec3, DVec3, DVec3),
+    inward: bool,
+    flip: bool,
+) -> ((DVec3, DVec3, DVec3), UvLayout) {
     let mirrored = DMat3::from_mat4(*m).determinant() < 0.0;
-    if mirrored != flip {
-        (c, wv, wu)
+    let (wu, wv) = (m.transform_vector3(du), m.transform_vector3(dv));
+    if mirrored ^ flip ^ inward {
+        ((m.transform_point3(origin + dv), wu, -wv), UvLayout::Flipped)
     } else {
-        (c, wu, wv)
+        ((m.transform_point3(origin), wu, wv), UvLayout::Same)
     }
 }
 
-/// The six faces of Mitsuba's cube [−1, 1]³ as (corner, u, v) with u × v outwards.
+/// Whether `bsdf`, an emitting shape's, reflects nothing: absent (Mitsuba 3 gives a shape with
+/// an emitter a black diffuse by default, a shape without one a diffuse 0.5) or a black
+/// `diffuse`, bare or in a `twosided`.
+fn reflects_nothing(bsdf: Option<&Rc<Object>>) -> bool {
+    let Some(b) = bsdf else { return true };
+    match b.plugin.as_str() {
+        "twosided" => reflects_nothing(b.children_tagged("bsdf").next()),
+        "diffuse" => {
+            b.children.is_empty()
+                && match b.property("reflectance").map(|p| &p.value) {
+                    Some(Value::Rgb(c)) => *c == [0.0; 3],
+                    Some(Value::Float(v) | Value::Constant(v)) => *v == 0.0,
+                    _ => false,
+                }
+        }
+        _ => false,
+    }
+}
+
+/// The six faces of Mitsuba's cube [−1, 1]³ as (origin, du, dv): each face's uv (a, b) is at
+/// `origin + a·du + b·dv`, as Mitsuba 3's cube mesh gives its corners' texture coordinates
+/// (`src/shapes/cube.cpp`); du × dv points into the cube on every face.
 fn cube_faces() -> [(DVec3, DVec3, DVec3); 6] {
     let (x, y, z) = (DVec3::X * 2.0, DVec3::Y * 2.0, DVec3::Z * 2.0);
-    let lo = DVec3::splat(-1.0);
+    let c = |a: f64, b: f64, c: f64| DVec3::new(a, b, c);
     [
-        (lo + z, x, y), // +z
-        (lo, y, x),     // −z
-        (lo + x, y, z), // +x
-        (lo, z, y),     // −x
-        (lo + y, z, x), // +y
-        (lo, x, z),     // −y
+        (c(-1.0, -1.0, -1.0), z, x), // −y
+        (c(1.0, 1.0, 1.0), -x, -z),  // +y
+        (c(1.0, -1.0, 1.0), y, -z),  // +x
+        (c(-1.0, -1.0, 1.0), y, x),  // +z
+        (c(-1.0, -1.0, -1.0), y, z), // −x
+        (c(-1.0, 1.0, -1.0), -y, x), // −z
     ]
 }
 
 /// The world normal of the object's +z under `m` (inverse transpose), flipped with `flip`.
+/// When the z column is perpendicular to the x and y columns (within 1e-6 radians) it has that
+/// direction: it is taken, normalised unless it is a unit vector to single precision already
+/// (the exporter writes a disk's normal there, which a round trip then reads back unchanged).
 fn normal_of(m: &DMat4, flip: bool) -> DVec3 {
-    let n = DMat3::from_mat4(*m).inverse().transpose() * DVec3::Z;
-    let n = n.normalize_or_zero();
+    let l = DMat3::from_mat4(*m);
+    let z = l.z_axis;
+    let perpendicular = |c: DVec3| c.dot(z).abs() <= 1e-6 * c.length() * z.length();
+    let n = if z.length_squared() > 0.0 && perpendicular(l.x_axis) && perpendicular(l.y_axis) {
+        if (z.length_squared() - 1.0).abs() <= 2.0 * f64::from(f32::EPSILON) {
+            z
+        } else {
+            z.normalize()
+        }
+    } else {
+        (l.inverse().transpose() * DVec3::Z).normalize_or_zero()
+    };
     if flip {
         -n
     } else {
@@ -1418,8 +1529,13 @@ fn round_in_plane(m: &DMat4) -> Option<f64> {
 }
 
 /// A mesh's `transform = { scale, rotate, translate }` fields for `m` = translate · rotate ·
-/// scale (per axis); `None` when `m` has a shear or a mirror.
+/// scale (per axis), none for the identity (without a transform, vertex normals that are unit
+/// already are kept as they are: an exported mesh's read back to the same bits); `None` when
+/// `m` has a shear or a mirror.
 fn placement(m: &DMat4) -> Option<Vec<(&'static str, String)>> {
+    if *m == DMat4::IDENTITY {
+        return Some(Vec::new());
+    }
     let l = DMat3::from_mat4(*m);
     let s = DVec3::new(l.x_axis.length(), l.y_axis.length(), l.z_axis.length());
     if s.min_element() <= 0.0 {
@@ -1493,12 +1609,22 @@ mod tests {
 
     #[test]
     fn cube_faces_point_outwards_and_cover_the_cube() {
-        for (corner, u, v) in cube_faces() {
+        let mut normals = Vec::new();
+        for face in cube_faces() {
+            let ((corner, u, v), layout) = mitsuba_face(&DMat4::IDENTITY, face, true, false);
+            assert_eq!(layout, UvLayout::Flipped);
             let centre = corner + 0.5 * (u + v);
             let n = u.cross(v).normalize();
             assert!((n.dot(centre) - 1.0).abs() < 1e-12, "{corner} {u} {v}");
             assert_eq!(centre.abs().max_element(), 1.0);
+            normals.push(n);
         }
+        // Six different faces, and Mitsuba's uv (0, 0) of the −y face (its vertex 3) where the
+        // quad's v is 1.
+        normals.dedup_by(|a, b| (*a - *b).length() < 1e-9);
+        assert_eq!(normals.len(), 6);
+        let ((corner, _, v), _) = mitsuba_face(&DMat4::IDENTITY, cube_faces()[0], true, false);
+        assert_eq!(corner + v, DVec3::new(-1.0, -1.0, -1.0));
     }
 
     #[test]
@@ -1554,8 +1680,31 @@ mod tests {
     #[test]
     fn a_mirroring_transform_keeps_the_normal_of_the_inverse_transpose() {
         let m = DMat4::from_scale(DVec3::new(-1.0, 1.0, 1.0));
-        let (_, u, v) = parallelogram(&m, DVec3::new(-1.0, -1.0, 0.0), DVec3::X * 2.0, DVec3::Y * 2.0, false);
+        let square = (DVec3::new(-1.0, -1.0, 0.0), DVec3::X * 2.0, DVec3::Y * 2.0);
+        let ((_, u, v), _) = mitsuba_face(&m, square, false, false);
         assert!(u.cross(v).normalize().dot(normal_of(&m, false)) > 0.999);
+    }
+
+    #[test]
+    fn a_disks_normal_is_its_z_column_read_back_unchanged_when_unit() {
+        let frame = |z: DVec3, x: DVec3| {
+            let y = z.normalize().cross(x);
+            DMat4::from_cols(x.extend(0.0), y.extend(0.0), z.extend(0.0), DVec3::ONE.extend(1.0))
+        };
+        // A unit normal in single precision (as the exporter writes it), under tangents scaled
+        // by the radius: taken as written, not normalised again.
+        let n = DVec3::new(0.0, 0.86602545, 0.49999994);
+        let t = DVec3::new(0.35, 0.0, 0.0);
+        assert_eq!(normal_of(&frame(n, t), false), n);
+        assert_eq!(normal_of(&frame(n, t), true), -n);
+        // A scaled one is normalised: Mitsuba's inverse transpose has its direction.
+        let scaled = normal_of(&frame(n * 0.35, t), false);
+        assert!((scaled.length() - 1.0).abs() < 1e-15 && scaled.dot(n) > 1.0 - 1e-12);
+        // A z column that leans off the plane's normal: the inverse transpose (x × y).
+        let m = frame(n + DVec3::new(0.3, 0.0, 0.0), t);
+        let l = DMat3::from_mat4(m);
+        let expected = l.x_axis.cross(l.y_axis).normalize();
+        assert!(normal_of(&m, false).dot(expected) > 1.0 - 1e-12);
     }
 
     #[test]
