@@ -512,6 +512,47 @@ fn conductors_keep_their_index_roughness_and_distribution() {
 }
 
 #[test]
+fn equal_alpha_u_and_alpha_v_are_the_isotropic_roughness_and_unequal_ones_are_refused() {
+    let metal = |alphas: &str| {
+        let xml = format!(
+            r#"<bsdf type="twosided" id="metal"><bsdf type="roughconductor">{alphas}</bsdf></bsdf>
+    <shape type="sphere"><float name="radius" value="0.3"/><ref id="metal"/></shape>
+</scene>"#
+        );
+        SMALL.replace("</scene>", &xml)
+    };
+    let dir = folder(&[
+        ("iso.xml", &metal(r#"<float name="alpha" value="0.2"/>"#)),
+        ("uv.xml", &metal(r#"<float name="alpha_u" value="0.2"/><float name="alpha_v" value="0.2"/>"#)),
+        ("aniso.xml", &metal(r#"<float name="alpha_u" value="0.2"/><float name="alpha_v" value="0.3"/>"#)),
+        ("half.xml", &metal(r#"<float name="alpha_u" value="0.2"/>"#)),
+        (
+            "both.xml",
+            &metal(
+                r#"<float name="alpha" value="0.2"/><float name="alpha_u" value="0.2"/><float name="alpha_v" value="0.2"/>"#,
+            ),
+        ),
+    ]);
+    // Equal: the same material as `alpha`, so the same image bits.
+    let (iso, uv) = (render(dir.path(), "iso.xml", &[]), render(dir.path(), "uv.xml", &[]));
+    assert!(iso
+        .iter()
+        .zip(&uv)
+        .all(|(a, b)| a.to_array().map(f32::to_bits) == b.to_array().map(f32::to_bits)));
+    for (file, says) in
+        [("aniso.xml", "anisotropic"), ("half.xml", "give both"), ("both.xml", "one or the other")]
+    {
+        let out = vitrum(dir.path(), &["info", file]);
+        assert_eq!(out.status.code(), Some(2), "{file}: {}", stderr(&out));
+        assert!(
+            stderr(&out).contains(says) && stderr(&out).contains(&format!("{file}:")),
+            "{file}: {}",
+            stderr(&out)
+        );
+    }
+}
+
+#[test]
 fn spectra_become_the_colours_mitsuba_3_renders() {
     // A reflectance as wavelength:value pairs, and a constant radiance spectrum, which Mitsuba 3's
     // RGB variants read as the equal-energy illuminant's colour (5 × (1.2048, 0.9483, 0.9089)).

@@ -971,11 +971,35 @@ impl Translator<'_> {
     /// Mitsuba's `alpha` (default 0.1) and `distribution` (beckmann, the default, or ggx);
     /// `Ok(false)` when an anisotropic roughness was dropped (lenient) and the material ends there.
     fn roughness(&mut self, b: &Object, p: &Props<'_>, out: &mut TomlWriter) -> Result<bool, XmlError> {
-        if p.get("alpha_u").is_some() || p.get("alpha_v").is_some() {
-            self.lacks(b, "an anisotropic roughness")?;
-            return Ok(false);
-        }
-        out.number("alpha", p.float("alpha")?.unwrap_or(0.1));
+        let alpha = if p.get("alpha_u").is_some() || p.get("alpha_v").is_some() {
+            // Mitsuba asks for both, without `alpha`; equal, they are the isotropic roughness.
+            // An anisotropic one needs the shapes' dp/du tangent frames, which vitrum's BSDF
+            // frames (built from the normal alone) do not follow.
+            if p.get("alpha").is_some() {
+                return Err(error(
+                    &b.position,
+                    &b.describe(),
+                    "`alpha` together with `alpha_u`/`alpha_v`: give one or the other",
+                ));
+            }
+            match (p.float("alpha_u")?, p.float("alpha_v")?) {
+                (Some(u), Some(v)) if u == v => u,
+                (Some(_), Some(_)) => {
+                    self.lacks(b, "an anisotropic roughness (alpha_u ≠ alpha_v)")?;
+                    return Ok(false);
+                }
+                _ => {
+                    return Err(error(
+                        &b.position,
+                        &b.describe(),
+                        "`alpha_u` and `alpha_v` go together: give both",
+                    ))
+                }
+            }
+        } else {
+            p.float("alpha")?.unwrap_or(0.1)
+        };
+        out.number("alpha", alpha);
         match p.string("distribution")?.as_deref() {
             None | Some("beckmann") => out.string("distribution", "beckmann"),
             Some("ggx") => out.string("distribution", "ggx"),
