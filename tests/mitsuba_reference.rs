@@ -31,7 +31,15 @@ pub const PENDING: [(&str, &str); 0] = [];
 /// Cases where vitrum disagrees with Mitsuba 3 for a reason outside the importer: (case, the
 /// reason with the figures measured). Each is still rendered and must still disagree (so the
 /// list stays true when the reason is fixed).
-pub const KNOWN_DIFFERENCES: [(&str, &str); 4] = [
+pub const KNOWN_DIFFERENCES: [(&str, &str); 5] = [
+    (
+        "cylinder-light-elliptic",
+        "Mitsuba 3's cylinder takes no non-uniform scale across its axis (it warns so) and samples an elliptic tube by \
+         the area 2*pi*r*L of r = its local x stretch, here the minor semi-axis: 0.3217 against the true 0.5891 \
+         (semi-axes 0.16 and 0.064, length 0.8), so its next-event estimates are too dark; vitrum samples it with the \
+         point density 1/(A_o*J) that its path, light, bpt and vcm agree on (tests/emitting_affine.rs). Measured: \
+         mean ratio 1.1503 (+81 SE), 8x8-block relMSE 1.9e-2 against a noise part of 2.2e-5",
+    ),
     (
         "roughdielectric-beckmann",
         "the light between microfacets, as roughdielectric-ggx, with Beckmann normals: mean ratio 1.0019 (+8.0 SE), \
@@ -127,6 +135,8 @@ reference_case! {
     rectangle_light_seen_from_the_back => "rectangle-back",
     cube_extent => "cube",
     sphere_disk_and_cylinder_placement => "shapes",
+    an_area_emitter_on_a_disk_under_a_non_uniform_scale => "disk-light-elliptic",
+    an_area_emitter_on_an_elliptic_cylinder => "cylinder-light-elliptic",
     transforms_rotate_scale_matrix_and_a_placed_camera => "transforms",
     camera_handedness_and_fov_axis_x => "camera-fov-x",
     fov_axis_y => "camera-fov-y",

@@ -31,7 +31,7 @@ use crate::geometry::{
 };
 use crate::lanes::{Real, Vector};
 use crate::texture::Texture;
-use glam::{Vec2, Vec3};
+use glam::{Mat3, Vec2, Vec3};
 use std::f32::consts::PI;
 use std::sync::Arc;
 
@@ -201,6 +201,63 @@ pub enum EmitterShape {
     },
     /// A triangle mesh (no texture coordinates: its emission is not textured).
     Mesh(Arc<EmitterMesh>),
+    /// A sphere, disk or cylinder (`object`, in its object space) placed by a general affine
+    /// map `p ↦ linear·p + translate`: an ellipsoid, elliptic disk or elliptic (or oblique)
+    /// cylinder. It is sampled as `object` is, uniformly by object area, and the point mapped:
+    /// its world area density is `1/(A_o·J)` with `J = det M·|M⁻ᵀ n_o|` the local area scale
+    /// of the map (Nanson's formula), which varies over the surface
+    /// ([`point_area`](EmitterShape::point_area)).
+    Affine(Arc<AffineEmitter>),
+}
+
+/// The map of an [`EmitterShape::Affine`] and what its sampling needs of it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct AffineEmitter {
+    /// The shape in its object space (a sphere, disk or cylinder).
+    pub object: EmitterShape,
+    /// The linear part `M` of the map to the world (determinant > 0).
+    pub linear: Mat3,
+    /// The translation, applied after `M`.
+    pub translate: Vec3,
+    /// `M⁻¹`.
+    to_object: Mat3,
+    /// `M⁻ᵀ`, which carries normals to the world.
+    normal_to_world: Mat3,
+    /// `det M`.
+    det: f32,
+    /// The world area (by [`crate::geometry::AffineShape::area`]'s quadrature).
+    area: f32,
+}
+
+impl AffineEmitter {
+    /// `object` placed by `p ↦ linear·p + translate`, its world area `area` (computed by the
+    /// caller's geometry); `None` for a map that is singular, mirrors or is not finite, or an
+    /// object that is not a sphere, disk or cylinder.
+    pub fn new(object: EmitterShape, linear: Mat3, translate: Vec3, area: f32) -> Option<AffineEmitter> {
+        let det = linear.determinant();
+        let round = matches!(
+            object,
+            EmitterShape::Sphere { .. } | EmitterShape::Disk { .. } | EmitterShape::Cylinder { .. }
+        );
+        let to_object = linear.inverse();
+        (round && det > 0.0 && det.is_finite() && to_object.is_finite() && translate.is_finite()).then(|| {
+            AffineEmitter {
+                object,
+                linear,
+                translate,
+                to_object,
+                normal_to_world: to_object.transpose(),
+                det,
+                area,
+            }
+        })
+    }
+
+    /// The world point and unit normal of the object-space point `p` (normal `n`).
+    fn to_world(&self, (p, n): (Vec3, Vec3)) -> (Vec3, Vec3) {
+        let world_n = (self.normal_to_world * n).normalize_or(n);
+        (self.linear * p + self.translate, world_n)
+    }
 }
 
 /// The point of the annulus around `center` between `inner_radius` and `radius` in the plane
@@ -253,6 +310,37 @@ impl EmitterShape {
                 2.0 * PI * radius * height + if caps.is_some() { 2.0 * PI * radius * radius } else { 0.0 }
             }
             EmitterShape::Mesh(ref mesh) => mesh.area(),
+            EmitterShape::Affine(ref a) => a.area,
+        }
+    }
+
+    /// The reciprocal of the area density with which [`sample`](Self::sample) picks the point
+    /// of unit normal `n` on the surface: the area itself for every shape but an affine one,
+    /// whose density varies, `A_o·det M / |Mᵀ n|` (the object's area times the map's local area
+    /// scale there: `|Mᵀ n| = 1/|M⁻ᵀ n_o|` for the object normal `n_o` mapped to `n`).
+    pub fn point_area(&self, n: Vec3) -> f32 {
+        match *self {
+            EmitterShape::Affine(ref a) => a.object.area() * a.det / (a.linear.transpose() * n).length(),
+            _ => self.area(),
+        }
+    }
+
+    /// A length bounding the shape's size about its points (for the roundoff bound of a
+    /// sampled point).
+    fn extent(&self) -> f32 {
+        match *self {
+            EmitterShape::Sphere { radius, .. } | EmitterShape::Disk { radius, .. } => radius,
+            EmitterShape::Quad { u, v, .. } => (u.abs() + v.abs()).max_element(),
+            EmitterShape::Cylinder { radius, height, .. } => radius + height,
+            EmitterShape::Mesh(ref mesh) => mesh.extent(),
+            // The object's points' size, stretched at most by the Frobenius norm of M.
+            EmitterShape::Affine(ref a) => {
+                let m = a.linear;
+                let frobenius =
+                    (m.x_axis.length_squared() + m.y_axis.length_squared() + m.z_axis.length_squared())
+                        .sqrt();
+                frobenius * (a.object.extent() + a.object.centre().abs().max_element())
+            }
         }
     }
 
@@ -286,6 +374,7 @@ impl EmitterShape {
                 (p, if inward { -outward } else { outward })
             }
             EmitterShape::Mesh(ref mesh) => mesh.sample(u),
+            EmitterShape::Affine(ref a) => a.to_world(a.object.sample(u)),
         }
     }
 
@@ -295,6 +384,11 @@ impl EmitterShape {
         match *self {
             EmitterShape::Quad { .. } => u,
             EmitterShape::Mesh(_) => Vec2::ZERO,
+            // The object-space point's: the texture frame moves with the shape, as a ray's hit.
+            EmitterShape::Affine(ref a) => {
+                let (p, n) = a.object.sample(u);
+                a.object.uv_at(u, p, n)
+            }
             EmitterShape::Sphere { frame: (pole, tangents), .. } => sphere_uv(pole, tangents, n),
             EmitterShape::Disk { center, radius, inner_radius, frame, .. } => {
                 disk_uv(frame, p - center, radius, inner_radius)
@@ -323,8 +417,68 @@ impl EmitterShape {
             EmitterShape::Quad { corner, u, v } => corner + 0.5 * (u + v),
             EmitterShape::Cylinder { base, axis, height, .. } => base + 0.5 * height * axis,
             EmitterShape::Mesh(ref mesh) => mesh.centre(),
+            EmitterShape::Affine(ref a) => a.linear * a.object.centre() + a.translate,
         }
     }
+
+    /// Whether `p` lies strictly inside the emitting sphere or cylinder (or their affine image),
+    /// well away from its surface (see [`Light::encloses`]).
+    pub fn encloses(&self, p: Vec3) -> bool {
+        match *self {
+            EmitterShape::Sphere { center, radius, .. } => encloses_sphere(center, radius, p),
+            EmitterShape::Cylinder { base, axis, radius, height, .. } => {
+                // Well inside, as for the sphere: between the end planes and within the wall.
+                let z = (p - base).dot(axis);
+                let radial = (p - base - z * axis).length();
+                let margin = 1e-3 * height;
+                radial < radius * (1.0 - 1e-3) && z > margin && z < height - margin
+            }
+            EmitterShape::Affine(ref a) => a.object.encloses(a.to_object * (p - a.translate)),
+            _ => false,
+        }
+    }
+
+    /// The radiant intensity towards the unit direction `to_p` of the shape emitting `radiance`
+    /// (Lambertian, on one side or both): `radiance` times its projected area (see
+    /// [`Light::as_point_from`]). An affine image's is exact from its object's: an element of
+    /// vector area `n_o dA_o` becomes `det M·M⁻ᵀ n_o dA_o`, whose projection on `to_p` is
+    /// `det M·|M⁻¹ to_p|` times the object's projection on the unit `M⁻¹ to_p`.
+    fn outline_intensity(&self, radiance: Vec3, to_p: Vec3, one_sided: bool) -> Vec3 {
+        match self {
+            // a sphere shows the same projected area πr² from everywhere
+            EmitterShape::Sphere { .. } => radiance * self.area() * 0.25,
+            EmitterShape::Mesh(mesh) => radiance * mesh.projected_area(to_p, one_sided),
+            // The wall's outline 2rh·sin θ from the axis, and one cap's πr²·|cos θ|; an
+            // open tube emitting inwards on one side shows its inside through one mouth,
+            // πr²·|cos θ|, a closed one nothing.
+            EmitterShape::Cylinder { axis, radius, height, caps, inward, .. } => {
+                let cos = to_p.dot(*axis).abs();
+                let mouth = PI * radius * radius * cos;
+                if *inward && one_sided {
+                    radiance * if caps.is_some() { 0.0 } else { mouth }
+                } else {
+                    let wall = 2.0 * radius * height * (1.0 - cos * cos).max(0.0).sqrt();
+                    radiance * (wall + if caps.is_some() { mouth } else { 0.0 })
+                }
+            }
+            EmitterShape::Affine(a) => {
+                let w = a.to_object * to_p;
+                a.object.outline_intensity(radiance, w.normalize_or_zero(), one_sided) * (a.det * w.length())
+            }
+            // A flat emitter: its area times the cosine, one-sided on its front only.
+            EmitterShape::Quad { .. } | EmitterShape::Disk { .. } => {
+                let n = self.sample(Vec2::splat(0.5)).1;
+                let cos = to_p.dot(n);
+                radiance * self.area() * if one_sided { cos.max(0.0) } else { cos.abs() }
+            }
+        }
+    }
+}
+
+/// Whether `p` is well inside the sphere: a point sampled on the surface (roundoff included)
+/// is not enclosed.
+fn encloses_sphere(center: Vec3, radius: f32, p: Vec3) -> bool {
+    (p - center).length() < radius * (1.0 - 1e-3)
 }
 
 /// The solid-angle density seen from `p` of the point `y` (normal `n_y`) drawn with the area
@@ -552,7 +706,7 @@ impl Light {
                 }
                 1.0 / (2.0 * PI * radius * radius)
             }
-            Light::Surface { shape, .. } => 1.0 / shape.area(),
+            Light::Surface { shape, .. } => 1.0 / shape.point_area(n_y),
         };
         area_to_solid_angle(area_pdf, p, y, n_y)
     }
@@ -659,15 +813,9 @@ impl Light {
             }
             Light::Surface { ref shape, ref texture, one_sided, .. } => {
                 let (p, n) = shape.sample(u_point);
-                let local = match *shape {
-                    EmitterShape::Sphere { radius, .. } | EmitterShape::Disk { radius, .. } => radius,
-                    EmitterShape::Quad { u, v, .. } => (u.abs() + v.abs()).max_element(),
-                    EmitterShape::Cylinder { radius, height, .. } => radius + height,
-                    EmitterShape::Mesh(ref mesh) => mesh.extent(),
-                };
                 let uv = if texture.is_some() { shape.uv_at(u_point, p, n) } else { Vec2::ZERO };
-                let hit = emitter_point(p, n, uv, point_error(p, local, 8));
-                let area = shape.area();
+                let hit = emitter_point(p, n, uv, point_error(p, shape.extent(), 8));
+                let area = shape.point_area(n);
                 let radiance = self.emitted(&hit, n);
                 let side = (!one_sided).then_some(side);
                 area_emission(hit, area, 1.0 / area, radiance, side, u_dir, p_light)
@@ -688,7 +836,9 @@ impl Light {
             | Light::Environment { .. } => return (0.0, 0.0),
             Light::Quad { u, v, .. } => (u.cross(*v).length(), 1.0),
             Light::Sphere { radius, .. } => (4.0 * PI * radius * radius, 1.0),
-            Light::Surface { shape, one_sided, .. } => (shape.area(), if *one_sided { 1.0 } else { 2.0 }),
+            Light::Surface { shape, one_sided, .. } => {
+                (shape.point_area(n), if *one_sided { 1.0 } else { 2.0 })
+            }
         };
         let d = y - from;
         let direct = self.pdf_li(from, y, n) * cos / d.length_squared();
@@ -799,7 +949,7 @@ impl Light {
                 let cos = if *one_sided { cos.max(0.0) } else { cos.abs() };
                 let uv = if texture.is_some() { shape.uv_at(u, y, n) } else { Vec2::ZERO };
                 let radiance = self.emitted(&emitter_point(y, n, uv, 0.0), n);
-                PointIllumination { position: y, intensity: radiance * shape.area() * cos }
+                PointIllumination { position: y, intensity: radiance * shape.point_area(n) * cos }
             }
             Light::Quad { corner, u: eu, v: ev, normal, radiance } => {
                 let y = *corner + u.x * *eu + u.y * *ev;
@@ -826,20 +976,11 @@ impl Light {
     /// where [`Light::as_point_from`] puts their point stand-ins): a shadow ray towards such a
     /// point reaches the light where it meets its surface.
     pub fn encloses(&self, p: Vec3) -> bool {
-        let (center, radius) = match *self {
-            Light::Sphere { center, radius, .. }
-            | Light::Surface { shape: EmitterShape::Sphere { center, radius, .. }, .. } => (center, radius),
-            Light::Surface { shape: EmitterShape::Cylinder { base, axis, radius, height, .. }, .. } => {
-                // Well inside, as for the sphere: between the end planes and within the wall.
-                let z = (p - base).dot(axis);
-                let radial = (p - base - z * axis).length();
-                let margin = 1e-3 * height;
-                return radial < radius * (1.0 - 1e-3) && z > margin && z < height - margin;
-            }
-            _ => return false,
-        };
-        // Well inside: a point sampled on the surface (roundoff included) is not enclosed.
-        (p - center).length() < radius * (1.0 - 1e-3)
+        match self {
+            Light::Sphere { center, radius, .. } => encloses_sphere(*center, *radius, p),
+            Light::Surface { shape, .. } => shape.encloses(p),
+            _ => false,
+        }
     }
 
     /// The light as the deterministic methods (raycast, whitted) see it from point `p`: a point
@@ -883,30 +1024,10 @@ impl Light {
                 let uv = if texture.is_some() { shape.uv_at(Vec2::splat(0.5), y, n) } else { Vec2::ZERO };
                 let radiance = self.emitted(&emitter_point(centre, n, uv, 0.0), n);
                 let to_p = (p - centre).normalize_or_zero();
-                let intensity = match shape {
-                    // a sphere shows the same projected area πr² from everywhere
-                    EmitterShape::Sphere { .. } => radiance * shape.area() * 0.25,
-                    EmitterShape::Mesh(mesh) => radiance * mesh.projected_area(to_p, *one_sided),
-                    // The wall's outline 2rh·sin θ from the axis, and one cap's πr²·|cos θ|; an
-                    // open tube emitting inwards on one side shows its inside through one mouth,
-                    // πr²·|cos θ|, a closed one nothing.
-                    EmitterShape::Cylinder { axis, radius, height, caps, inward, .. } => {
-                        let cos = to_p.dot(*axis).abs();
-                        let mouth = PI * radius * radius * cos;
-                        if *inward && *one_sided {
-                            radiance * if caps.is_some() { 0.0 } else { mouth }
-                        } else {
-                            let wall = 2.0 * radius * height * (1.0 - cos * cos).max(0.0).sqrt();
-                            radiance * (wall + if caps.is_some() { mouth } else { 0.0 })
-                        }
-                    }
-                    // A flat emitter: its area times the cosine, one-sided on its front only.
-                    _ => {
-                        let cos = to_p.dot(n);
-                        radiance * shape.area() * if *one_sided { cos.max(0.0) } else { cos.abs() }
-                    }
-                };
-                PointIllumination { position: centre, intensity }
+                PointIllumination {
+                    position: centre,
+                    intensity: shape.outline_intensity(radiance, to_p, *one_sided),
+                }
             }
             // The deterministic methods see the environment only where rays leave the scene.
             Light::Environment { .. } => PointIllumination { position: p + Vec3::Y, intensity: Vec3::ZERO },
@@ -1094,6 +1215,7 @@ pub(crate) mod tests {
                 }
                 points
             }
+            Light::Surface { shape: EmitterShape::Affine(_), .. } => unreachable!("no affine light here"),
             Light::Surface { shape: EmitterShape::Mesh(ref mesh), .. } => mesh
                 .corners()
                 .iter()

@@ -20,7 +20,7 @@ use crate::dispersion::Ior;
 use crate::geometry::{
     parallelogram_normal, try_unit, AffineShape, Bounds, Disk, Polygon, Quad, Shape, Sphere, VertexAttributes,
 };
-use crate::light::{EmitterMesh, EmitterShape, EnvironmentMap, Light, SpotBeam, Strength};
+use crate::light::{AffineEmitter, EmitterMesh, EmitterShape, EnvironmentMap, Light, SpotBeam, Strength};
 use crate::material::{Bsdf, Material, Medium, Phong, Texture};
 use crate::params::{MergeParams, SsaaParams};
 use crate::pixel_filter::{FilterKind, PixelFilter, DEFAULT_GAUSSIAN_STDDEV, DEFAULT_TENT_RADIUS};
@@ -597,19 +597,13 @@ impl Compiler<'_> {
                     if velocity.is_some() {
                         return Err(self.err(&path.key("velocity"), "an emitting object cannot move"));
                     }
-                    if general.is_some() {
-                        return Err(self.err(
-                            &path.key("transform"),
-                            format!(
-                                "an emitting {} takes only a similarity (one scale factor, a rotation, \
-                                 a translation): under a per-axis scale or a matrix it would be an \
-                                 ellipsoid, elliptic cylinder or ellipse, whose light sampling is not \
-                                 implemented",
-                                shape_kind(&object.shape)
-                            ),
-                        ));
+                    // Under a general map the object-space emitter (from the object-space
+                    // surfaces) is wrapped with the map; otherwise the placed shape emits.
+                    let shape = match general {
+                        Some(_) => affine_emitter(&object.shape, &surfaces),
+                        None => emitter_shape(&placed, &surfaces),
                     }
-                    let shape = emitter_shape(&placed, &surfaces).ok_or_else(|| {
+                    .ok_or_else(|| {
                         self.err(
                             &path.key("material"),
                             "emission is supported on spheres, quads, disks, cylinders and meshes",
@@ -2052,6 +2046,26 @@ fn emitter_shape(s: &ShapeDesc, surfaces: &[BodySurface]) -> Option<EmitterShape
         }
         _ => None,
     }
+}
+
+/// The emitter of a round shape `s` (as written, in object space) placed by a general affine
+/// map: its [`AffineShape`] surfaces' object-space shapes make the object's emitter, which the
+/// map wraps ([`EmitterShape::Affine`]), with the world area of all its surfaces.
+fn affine_emitter(s: &ShapeDesc, surfaces: &[BodySurface]) -> Option<EmitterShape> {
+    let placed: Vec<&AffineShape> = surfaces
+        .iter()
+        .filter_map(|(s, _)| match s {
+            Shape::Affine(a) => Some(&**a),
+            _ => None,
+        })
+        .collect();
+    let first = placed.first()?;
+    let object: Vec<BodySurface> =
+        surfaces.iter().zip(&placed).map(|((_, interface), a)| (a.object().clone(), *interface)).collect();
+    let area = placed.iter().map(|a| f64::from(a.area())).sum::<f64>() as f32;
+    let object = emitter_shape(s, &object)?;
+    AffineEmitter::new(object, first.linear(), first.translation(), area)
+        .map(|a| EmitterShape::Affine(Arc::new(a)))
 }
 
 /// Whether a shape is round (a sphere, cylinder or disk, or a body made of them): placed by

@@ -298,6 +298,15 @@ fn emitter_shape(s: &EmitterShape) -> (String, Value) {
             format!("mesh of {} triangles, area {}", mesh.len(), mesh.area()),
             json!({"shape": "mesh", "triangles": mesh.len(), "area": num(mesh.area())}),
         ),
+        EmitterShape::Affine(a) => {
+            let (text, object) = emitter_shape(&a.object);
+            let rows = a.linear.transpose().to_cols_array_2d();
+            (
+                format!("{text} under the affine map {:?} + {}, area {}", rows, vec3(a.translate), s.area()),
+                json!({"shape": "affine", "object": object, "linear": rows,
+                       "translate": arr(a.translate), "area": num(s.area())}),
+            )
+        }
     }
 }
 

@@ -830,10 +830,19 @@ impl Translator<'_> {
                         geometry.push((name.clone(), fields));
                     }
                     None => {
-                        // An elliptic or oblique cylinder: the cylinder as written under the map.
+                        // An elliptic or oblique cylinder: Mitsuba's own object space, the unit
+                        // cylinder along z under to_world times [r·tx, r·ty, p1 − p0, p0] (the
+                        // form the exporter writes, so that a round trip reads the same numbers;
+                        // an emitter's sampling is parametrised by it).
                         layout = UvLayout::Same;
-                        let mut fields = cylinder(p0, p1, radius);
-                        fields.push(("transform", matrix(&m)));
+                        let mut fields = cylinder(DVec3::ZERO, DVec3::Z, 1.0);
+                        let frame = glam::DMat4::from_cols(
+                            (tx * radius).extend(0.0),
+                            (ty * radius).extend(0.0),
+                            (p1 - p0).extend(0.0),
+                            p0.extend(1.0),
+                        );
+                        fields.push(("transform", matrix(&(m * frame))));
                         geometry.push((name.clone(), fields));
                     }
                 }
