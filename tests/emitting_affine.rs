@@ -10,8 +10,8 @@
 
 mod common;
 
-use common::{largest_block_z, mean_and_error};
-use glam::{Vec2, Vec3};
+use common::{assert_uniformly_one, largest_block_z, mean_and_error};
+use glam::Vec2;
 use vitrum::light::{EmitterShape, Light};
 use vitrum::scene::{load_str, Scene};
 
@@ -61,20 +61,7 @@ fn closed_affine_emitters_are_uniformly_one_inside_for_every_unbiased_method() {
         let scene = furnace(shape);
         assert_eq!(scene.lights.len(), 1, "{what}: one light");
         for method in ["path", "light", "bpt", "vcm"] {
-            let (mean, error) = mean_and_error(&scene, method, 64, 6);
-            let n = mean.len() as f32;
-            let overall = mean.iter().map(|m| m.element_sum()).sum::<f32>() / (3.0 * n);
-            let overall_error = error.iter().map(|e| e.length_squared()).sum::<f32>().sqrt() / (3.0 * n);
-            eprintln!("{what}, {method}: mean {overall} ± {overall_error}");
-            assert!(
-                (overall - 1.0).abs() <= 4.0 * overall_error.max(1e-6),
-                "{what}, {method}: mean {overall} ± {overall_error}, expected 1"
-            );
-            let ones = vec![Vec3::ONE; mean.len()];
-            let zeros = vec![Vec3::ZERO; mean.len()];
-            let z = largest_block_z(&mean, &error, &ones, &zeros, 12, 3);
-            eprintln!("{what}, {method}: worst 3×3 block {z:.2} standard errors from 1");
-            assert!(z <= 4.5, "{what}, {method}: a block is {z} standard errors from 1");
+            assert_uniformly_one(&scene, method, &format!("{what}, {method}"));
         }
     }
 }

@@ -52,6 +52,26 @@ pub fn mean_and_error(scene: &Scene, integrator: &str, spp: u32, k: u64) -> (Vec
     (mean, error)
 }
 
+/// Asserts that `integrator` renders `scene` (12 pixels wide) as 1 everywhere, as a closed
+/// emitter of unit radiance seen from inside does: the image mean within 4 standard errors of 1
+/// and no 3×3 block more than 4.5 standard errors from 1 (`what` names the case in messages).
+pub fn assert_uniformly_one(scene: &Scene, integrator: &str, what: &str) {
+    let (mean, error) = mean_and_error(scene, integrator, 64, 6);
+    let n = mean.len() as f32;
+    let overall = mean.iter().map(|m| m.element_sum()).sum::<f32>() / (3.0 * n);
+    let overall_error = error.iter().map(|e| e.length_squared()).sum::<f32>().sqrt() / (3.0 * n);
+    eprintln!("{what}: mean {overall} ± {overall_error}");
+    assert!(
+        (overall - 1.0).abs() <= 4.0 * overall_error.max(1e-6),
+        "{what}: mean {overall} ± {overall_error}, expected 1"
+    );
+    let ones = vec![Vec3::ONE; mean.len()];
+    let zeros = vec![Vec3::ZERO; mean.len()];
+    let z = largest_block_z(&mean, &error, &ones, &zeros, 12, 3);
+    eprintln!("{what}: worst 3×3 block {z:.2} standard errors from 1");
+    assert!(z <= 4.5, "{what}: a block is {z} standard errors from 1");
+}
+
 /// The largest difference, in standard errors of the difference, between the block means of two
 /// per-pixel means (`a` with errors `sa`, `b` with `sb`, images `width` pixels wide) over square
 /// blocks of `block` × `block` pixels, channel by channel. Pixels are independent renders' means,
