@@ -27,6 +27,15 @@ pub struct Cylinder {
     pub(crate) inward: bool,
 }
 
+/// Texture coordinates of a cylinder wall's point: u the angle of its outward normal `outward`
+/// in `frame`, v its height `z` above the base as a fraction of `height` (clamped to [0, 1]).
+/// The one formula for hits and for an emitting wall's samples.
+#[inline]
+pub(crate) fn wall_uv(frame: (Vec3, Vec3), outward: Vec3, z: f32, height: f32) -> Vec2 {
+    let v = if height > 0.0 { z / height } else { 0.0 };
+    Vec2::new(azimuth(frame, outward), v.clamp(0.0, 1.0))
+}
+
 impl Cylinder {
     /// Wall of radius `radius` from `base` along `axis` (normalised) for `height`.
     pub fn new(base: Vec3, axis: Vec3, radius: f32, height: f32) -> Cylinder {
@@ -97,14 +106,13 @@ impl Cylinder {
         let z = q.dot(self.w);
         let n = unit_or(q - z * self.w, self.u);
         let p = self.base + (z * self.w + self.radius * n);
-        let v = if self.height > 0.0 { z / self.height } else { 0.0 };
         let facing = if self.inward { -n } else { n };
         SurfaceHit {
             t,
             p,
             n: facing,
             shading_n: facing,
-            uv: if with_uv { Vec2::new(azimuth(self.uv_frame, n), v.clamp(0.0, 1.0)) } else { Vec2::ZERO },
+            uv: if with_uv { wall_uv(self.uv_frame, n, z, self.height) } else { Vec2::ZERO },
             // Radially, as for the sphere, n·r is within γ(6)·r of the wall (roundoff of
             // `q − z·w` only tilts n, moving p along the wall); z·w carries the roundoff of the
             // dot product, γ(4)·|z|, along the axis; summing the two rounds twice more: γ(8)

@@ -14,6 +14,7 @@ mod sphere;
 mod triangle;
 
 pub use affine::AffineShape;
+pub(crate) use cylinder::wall_uv;
 pub use cylinder::Cylinder;
 pub use disk::{disk_uv, Disk};
 pub use polygon::Polygon;

@@ -27,7 +27,7 @@ pub use spot::SpotBeam;
 use crate::bsdf::lambert::cosine_hemisphere;
 use crate::bsdf::Frame;
 use crate::geometry::{
-    azimuth, disk_uv, point_error, spawn_origin, sphere_uv, texture_frame, Ray, SurfaceHit,
+    disk_uv, point_error, spawn_origin, sphere_uv, texture_frame, wall_uv, Ray, SurfaceHit,
 };
 use crate::lanes::{Real, Vector};
 use crate::texture::Texture;
@@ -399,7 +399,7 @@ impl EmitterShape {
                     // height along the axis.
                     (None, _) => {
                         let outward = if inward { -n } else { n };
-                        Vec2::new(azimuth(frame, outward), ((p - base).dot(axis) / height).clamp(0.0, 1.0))
+                        wall_uv(frame, outward, (p - base).dot(axis), height)
                     }
                     (Some(k), _) => {
                         let center = if k == 0 { base } else { base + height * axis };
