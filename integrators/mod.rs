@@ -22,7 +22,7 @@ pub use vertex_merging::{
     initial_radius, iteration_radius, light_paths_per_iteration, Algorithm, VertexMerging,
     DEFAULT_MAX_LIGHT_PATHS, DEFAULT_RADIUS_FRACTION, RADIUS_REFERENCE_PIXELS,
 };
-pub use wavefront::{Occupancy, SampleBatch, StageOccupancy, Wavefront};
+pub use wavefront::{Occupancy, StageOccupancy, Wavefront};
 pub use whitted::Whitted;
 
 use crate::bsdf::{BsdfSample, Scattering, TransportMode};
@@ -59,9 +59,18 @@ pub(crate) fn pick_light(count: usize, sampler: &mut Sampler) -> usize {
     if count == 1 {
         return 0;
     }
-    let choice = sampler.get_1d(Dim::Light);
-    ((choice * count as f32) as usize).min(count - 1)
+    light_index(sampler.get_1d(Dim::Light), count)
 }
+
+/// The light of `count` (at least one) that the uniform number `u` chooses: `⌊u·count⌋`, the
+/// last one for `u` → 1.
+#[inline(always)]
+pub(crate) fn light_index(u: f32, count: usize) -> usize {
+    ((u * count as f32) as usize).min(count - 1)
+}
+
+/// Bounces after which Russian roulette may end a path (every method that plays it).
+pub(crate) const ROULETTE_DEPTH: u32 = 3;
 
 /// The state of one camera sample while its path is traced.
 #[derive(Clone, Debug)]

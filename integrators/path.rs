@@ -16,10 +16,10 @@
 //! on with the hero wavelength alone ([`PathContext::secondaries_after`]).
 
 use super::EngineChoice;
-use super::{pick_light, sample_bsdf, Integrator, PathContext, RenderParams};
-use crate::bsdf::{Scattering, ShadingFrame, TransportMode};
-use crate::geometry::{spawn_origin, Ray, SurfaceHit};
-use crate::lanes::Real;
+use super::{light_index, Integrator, PathContext, RenderParams};
+use crate::bsdf::{BsdfSample, Scattering, ShadingFrame, TransportMode};
+use crate::geometry::{offset_origin, Ray};
+use crate::lanes::{Mask3, Real, Vector};
 use crate::lighting::{crossing, ShadowRay};
 use crate::render::RenderOptions;
 use crate::sampler::Dim;
@@ -27,8 +27,7 @@ use crate::scene::effects::Support;
 use crate::scene::{Effect, Intersection, Scene};
 use glam::Vec3;
 
-/// Bounces after which Russian roulette may end a path.
-const ROULETTE_DEPTH: u32 = 3;
+use super::ROULETTE_DEPTH;
 
 /// The default maximum depth of `path` and `light` (bounces): the largest allowed. Rough glass
 /// traps light by total internal reflection for hundreds of bounces (a glass sphere of roughness
@@ -74,12 +73,13 @@ impl Integrator for Path {
         camera_ray: &Ray,
         ctx: &mut PathContext,
     ) -> Vec3 {
+        let world = OneRay { scene };
         let mut path = PathState::new(*camera_ray);
         loop {
-            let isect = scene.intersect(&path.ray, f32::INFINITY);
-            let step = path.advance(scene, params, isect, ctx);
-            if let Some(light) = step.light {
-                path.resolve(&light, light.shadow.is_none_or(|s| !s.blocked(scene)));
+            let isect = scene.intersect(&path.ray(), f32::INFINITY);
+            let step = path.advance(&world, params, &isect, ctx);
+            if step.light.pending {
+                path.resolve(&step.light, step.light.shadow.is_none_or(|s| !s.blocked(scene)));
             }
             if !step.goes_on {
                 return path.l;
@@ -92,215 +92,638 @@ impl Integrator for Path {
     }
 }
 
-/// One camera path in flight: everything `path` carries from one vertex to the next. The
-/// scalar engine ([`Path::radiance`]) advances one path at a time; the wavefront engine
-/// (`integrators/wavefront.rs`) advances many, asking the scene for their closest hits and
-/// their shadow rays across lanes. Both run the same [`PathState::advance`], so they estimate
-/// the same image with the same random numbers.
-#[derive(Clone, Copy, Debug)]
-pub(crate) struct PathState {
-    /// The ray to trace next.
-    pub ray: Ray,
-    /// Radiance gathered so far.
-    pub l: Vec3,
-    /// Throughput from the camera to the ray's origin.
-    beta: Vec3,
-    /// Product of η² over the refractions so far (undone for Russian roulette).
-    eta_scale: f32,
-    /// Whether the last scattering was not evaluable (delta or multiple): no MIS on what it hits.
-    skip_mis: bool,
-    /// The density of the last BSDF sample (for MIS against next-event estimation).
-    bsdf_pdf: f32,
-    /// Absorption coefficient of the medium the ray travels in.
-    absorption: Vec3,
-    /// Bounces so far.
-    depth: u32,
+/// What a path vertex asks of the world it is shaded in: the scene's own enums for one ray
+/// ([`OneRay`]), or tables read across 16 lanes (the wavefront engine's stages). The physics
+/// and the order of the random numbers are [`PathState::advance`]'s, written once; a world only
+/// fetches a vertex's data (its surface, material, light, medium) and counts what it traces.
+/// Every method takes `active`, the lanes that need its answer (a `bool` for one ray): what
+/// other lanes get is never used.
+pub(crate) trait PathWorld {
+    /// Numbers: `f32`, or one per lane.
+    type R: Real;
+    /// Vectors of them.
+    type V: Vector<Real = Self::R>;
+    /// What the closest-hit stage found along the path's ray.
+    type Hit;
+    /// The scattering model at a vertex.
+    type Bsdf: VertexBsdf<Self::V>;
+    /// The shading frame at a vertex.
+    type Frame: VertexFrame<Self::V>;
+    /// A light chosen for next-event estimation.
+    type Light: Copy;
+    /// The shadow ray of a light sample.
+    type Shadow: Copy;
+    /// The path's random stream, counters and channels.
+    type Context;
+
+    /// Lights in the scene.
+    fn light_count(&self) -> usize;
+    /// Which paths are there (idle lanes are not).
+    fn live(&self, hit: &Self::Hit) -> Mask3<Self::V>;
+    /// Where the ray found a surface.
+    fn found(&self, hit: &Self::Hit) -> Mask3<Self::V>;
+    /// The hit's distance along the ray, point, geometric normal and the point's error bound.
+    fn surface(&self, hit: &Self::Hit) -> (Self::R, Self::V, Self::V, Self::R);
+    /// The radiance of the environment along `dir` (leaving the scene), in the path's channels,
+    /// weighted against next-event estimation of the environment light (`light_pick`: the
+    /// probability of choosing one light) unless `skip_mis`; the plain background without one.
+    #[allow(clippy::too_many_arguments)]
+    fn escaped(
+        &self,
+        dir: Self::V,
+        skip_mis: Mask3<Self::V>,
+        bsdf_pdf: Self::R,
+        light_pick: Self::R,
+        active: Mask3<Self::V>,
+        ctx: &Self::Context,
+    ) -> Self::V;
+    /// The hit's emission towards `wo` (where it is not zero), in the path's channels, and the
+    /// solid-angle density with which the light's sampling would have reached it from `origin`.
+    fn emission(
+        &self,
+        hit: &Self::Hit,
+        origin: Self::V,
+        wo: Self::V,
+        active: Mask3<Self::V>,
+        ctx: &Self::Context,
+    ) -> (Mask3<Self::V>, Self::V, Self::R);
+    /// The hit's scattering model, and the factor the path's throughput takes there before
+    /// anything is sampled (a spectral path ending its secondary wavelengths; 1 otherwise).
+    fn bsdf(&self, hit: &Self::Hit, active: Mask3<Self::V>, ctx: &mut Self::Context)
+        -> (Self::Bsdf, Self::V);
+    /// The hit's shading frame for the direction `wo` back along the path.
+    fn frame(&self, hit: &Self::Hit, wo: Self::V) -> Self::Frame;
+    /// The next number of the stream for `purpose`, where `active` (which alone draw it).
+    fn draw_1d(&self, ctx: &mut Self::Context, purpose: Dim, active: Mask3<Self::V>) -> Self::R;
+    /// The next two numbers of the stream for `purpose`, where `active`.
+    fn draw_2d(&self, ctx: &mut Self::Context, purpose: Dim, active: Mask3<Self::V>) -> (Self::R, Self::R);
+    /// The light with index `⌊u·count⌋` (the last for u → 1).
+    fn light_at(&self, u: Self::R) -> Self::Light;
+    /// Light `light` sampled from the hit with the numbers `u`.
+    fn sample_light(
+        &self,
+        hit: &Self::Hit,
+        light: Self::Light,
+        u: (Self::R, Self::R),
+        active: Mask3<Self::V>,
+        ctx: &Self::Context,
+    ) -> LightDraw<Self::V>;
+    /// No shadow ray.
+    fn no_shadow(&self) -> Self::Shadow;
+    /// The shadow ray from the hit to `target` on `light`, counted where `active`.
+    fn shadow(
+        &self,
+        hit: &Self::Hit,
+        target: Self::V,
+        light: Self::Light,
+        time: Self::R,
+        active: Mask3<Self::V>,
+        ctx: &mut Self::Context,
+    ) -> Self::Shadow;
+    /// The factor a spectral path's throughput takes after the BSDF sample `s` (its secondary
+    /// wavelengths at a dispersive interface; 1 otherwise).
+    fn secondaries_after(
+        &self,
+        hit: &Self::Hit,
+        s: &BsdfSample<Self::V>,
+        wo_local: Self::V,
+        active: Mask3<Self::V>,
+        ctx: &mut Self::Context,
+    ) -> Self::V;
+    /// Where the hit is a dielectric interface, the absorption of the medium the scattered ray
+    /// travels in (the one it stays in when reflected, enters when transmitted); elsewhere the
+    /// medium does not change.
+    fn medium_after(
+        &self,
+        hit: &Self::Hit,
+        dir: Self::V,
+        transmitted: Mask3<Self::V>,
+        active: Mask3<Self::V>,
+        ctx: &Self::Context,
+    ) -> (Mask3<Self::V>, Self::V);
+    /// Counts a scattered ray, reflected or refracted, where `active`.
+    fn count_scattered(ctx: &mut Self::Context, reflected: Mask3<Self::V>, active: Mask3<Self::V>);
 }
 
-/// What one vertex asks of the scene besides its next ray: a shadow ray towards a sampled light,
-/// whose contribution counts when nothing blocks it.
+/// A scattering model at a vertex, for one ray or per lane (radiance transport).
+pub(crate) trait VertexBsdf<V: Vector> {
+    /// Whether it scatters only into delta lobes (nothing for next-event estimation to evaluate).
+    fn is_delta(&self) -> Mask3<V>;
+    /// Whether its sample draws a lobe choice.
+    fn chooses_lobe(&self) -> Mask3<V>;
+    /// f(wo, wi) in the local frame.
+    fn eval(&self, wo: V, wi: V) -> V;
+    /// The solid-angle density of sampling `wi` from `wo`.
+    fn pdf(&self, wo: V, wi: V) -> V::Real;
+    /// A direction for `wo` from the lobe choice `uc` and the pair `u`, and where there is one.
+    fn sample(
+        &self,
+        wo: V,
+        uc: V::Real,
+        u: (V::Real, V::Real),
+        active: Mask3<V>,
+    ) -> (Mask3<V>, BsdfSample<V>);
+}
+
+/// A shading frame at a vertex, for one ray or per lane.
+pub(crate) trait VertexFrame<V: Vector> {
+    /// World-space `v` in the local frame.
+    fn to_local(&self, v: V) -> V;
+    /// Local `v` in world space.
+    fn to_world(&self, v: V) -> V;
+    /// [`ShadingFrame::factor`] for radiance transport.
+    fn factor(&self, wo: V, wi: V) -> V::Real;
+}
+
+/// A light sampled for next-event estimation: where there is a sample, the direction towards it,
+/// its radiance there (in the path's channels), its solid-angle density, whether it is a delta
+/// light, and the point a shadow ray aims at.
 #[derive(Clone, Copy, Debug)]
-pub(crate) struct PendingLight {
-    /// The visibility query; `None` when nothing can block the light (it is visible).
-    pub shadow: Option<ShadowRay>,
+pub(crate) struct LightDraw<V: Vector> {
+    /// Where the light has a sample.
+    pub sampled: Mask3<V>,
+    /// Unit direction from the vertex towards the light.
+    pub wi: V,
+    /// Radiance arriving from it (intensity over distance² for a point light).
+    pub radiance: V,
+    /// Solid-angle density (1 for a delta light).
+    pub pdf: V::Real,
+    /// Whether the light is a delta (no MIS).
+    pub delta: Mask3<V>,
+    /// The shadow ray's target.
+    pub target: V,
+}
+
+/// One camera path in flight, or one per lane: everything `path` carries from one vertex to the
+/// next. The scalar engine ([`Path::radiance`]) advances one path at a time; the wavefront
+/// engine (`integrators/wavefront.rs`) advances many, asking the scene for their closest hits
+/// and their shadow rays across lanes, and shading them one at a time or, where the scene allows,
+/// 16 at a time. All of them run the same [`PathState::advance`], so they estimate the same image
+/// with the same random numbers.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct PathState<V: Vector = Vec3> {
+    /// The origin of the ray to trace next.
+    pub origin: V,
+    /// Its direction.
+    pub dir: V,
+    /// Its time (moving objects).
+    pub time: V::Real,
+    /// Radiance gathered so far.
+    pub l: V,
+    /// Throughput from the camera to the ray's origin.
+    pub beta: V,
+    /// Product of η² over the refractions so far (undone for Russian roulette).
+    pub eta_scale: V::Real,
+    /// Whether the last scattering was not evaluable (delta or multiple): no MIS on what it hits.
+    pub skip_mis: Mask3<V>,
+    /// The density of the last BSDF sample (for MIS against next-event estimation).
+    pub bsdf_pdf: V::Real,
+    /// Absorption coefficient of the medium the ray travels in.
+    pub absorption: V,
+    /// Bounces so far (a whole number).
+    pub depth: V::Real,
+}
+
+/// A light sample waiting for its shadow ray: whose contribution counts when nothing blocks it.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct PendingLight<V: Vector, S> {
+    /// Where a light was sampled that can contribute.
+    pub pending: Mask3<V>,
+    /// The visibility query.
+    pub shadow: S,
     /// The path throughput at the vertex.
-    beta: Vec3,
+    beta: V,
     /// The light's contribution at the vertex if it is visible (f·Le·w/pdf).
-    value: Vec3,
+    value: V,
 }
 
 /// The outcome of [`PathState::advance`].
 #[derive(Clone, Copy, Debug)]
-pub(crate) struct Step {
-    /// Whether the path goes on along its new ray.
-    pub goes_on: bool,
-    /// The shadow ray of next-event estimation, if a light was sampled and could be visible.
-    pub light: Option<PendingLight>,
-}
-
-impl Step {
-    const END: Step = Step { goes_on: false, light: None };
+pub(crate) struct Step<V: Vector, S> {
+    /// Where the path goes on along its new ray.
+    pub goes_on: Mask3<V>,
+    /// The light sampled by next-event estimation, pending its shadow ray.
+    pub light: PendingLight<V, S>,
 }
 
 impl PathState {
     /// A path starting along the camera ray `ray`.
     pub fn new(ray: Ray) -> PathState {
+        PathState { origin: ray.origin, dir: ray.dir, time: ray.time, ..PathState::fresh() }
+    }
+
+    /// The ray to trace next.
+    #[inline]
+    pub fn ray(&self) -> Ray {
+        Ray { origin: self.origin, dir: self.dir, time: self.time }
+    }
+}
+
+impl<V: Vector> PathState<V> {
+    /// Paths about to start along rays still to be set: unit throughput, no medium, no MIS on
+    /// what the camera sees.
+    pub fn fresh() -> PathState<V> {
+        let (zero, one) = (V::Real::splat(0.0), V::Real::splat(1.0));
+        let origin = V::splat(Vec3::ZERO);
         PathState {
-            ray,
-            l: Vec3::ZERO,
-            beta: Vec3::ONE,
-            eta_scale: 1.0,
-            skip_mis: true,
-            bsdf_pdf: 0.0,
-            absorption: Vec3::ZERO,
-            depth: 0,
+            origin,
+            dir: origin,
+            time: zero,
+            l: origin,
+            beta: V::splat(Vec3::ONE),
+            eta_scale: one,
+            skip_mis: V::Real::mask(true),
+            bsdf_pdf: zero,
+            absorption: origin,
+            depth: zero,
         }
     }
 
-    /// Adds the pending light `light` of this path's last step, `visible` or not.
-    #[inline]
-    pub fn resolve(&mut self, light: &PendingLight, visible: bool) {
-        self.l += light.beta * if visible { light.value } else { Vec3::ZERO };
+    /// Adds the pending light `light` of this path's last step where it is `visible`.
+    #[inline(always)]
+    pub fn resolve<S>(&mut self, light: &PendingLight<V, S>, visible: Mask3<V>) {
+        self.l = V::select(light.pending & visible, self.l + light.beta * light.value, self.l);
     }
 
-    /// One vertex: the closest hit `isect` of [`ray`](Self::ray) (or its escape), its emission
+    /// One vertex: the closest hit `hit` of the path's ray (or its escape), its emission
     /// weighted against next-event estimation, next-event estimation (returned as a pending
-    /// shadow ray), the BSDF sample that makes the next ray, and Russian roulette.
-    #[inline]
-    pub fn advance(
+    /// shadow ray), the BSDF sample that makes the next ray, and Russian roulette. The random
+    /// numbers are drawn in this order: a light choice (with several lights) and a point on the
+    /// light where the vertex is not a delta, a lobe choice where the model chooses one, the
+    /// direction pair, and a roulette number where roulette plays.
+    #[inline(always)]
+    pub fn advance<W: PathWorld<V = V, R = V::Real>>(
         &mut self,
-        scene: &Scene,
+        world: &W,
         params: &RenderParams,
-        isect: Option<Intersection>,
-        ctx: &mut PathContext,
-    ) -> Step {
-        let light_pick = 1.0 / scene.lights.len().max(1) as f32;
-        let ray = self.ray;
-        let Some(isect) = isect else {
-            if self.absorption == Vec3::ZERO {
-                self.l += self.beta
-                    * ctx.channels.colour(escaped(scene, ray.dir, self.skip_mis, self.bsdf_pdf, light_pick));
-            }
-            return Step::END;
+        hit: &W::Hit,
+        ctx: &mut W::Context,
+    ) -> Step<V, W::Shadow> {
+        let (zero, one) = (V::Real::splat(0.0), V::Real::splat(1.0));
+        let none = V::Real::mask(false);
+        let vzero = V::splat(Vec3::ZERO);
+        let lights = world.light_count();
+        let light_pick = V::Real::splat(1.0 / lights.max(1) as f32);
+        let found = world.found(hit);
+        let mut step = Step {
+            goes_on: none,
+            light: PendingLight { pending: none, shadow: world.no_shadow(), beta: vzero, value: vzero },
         };
-        let hit = isect.hit;
-        if self.absorption != Vec3::ZERO {
-            self.beta *= (-self.absorption * hit.t).exp();
+        // A ray that leaves the scene outside any medium sees the environment.
+        let escapes = !found & world.live(hit) & self.absorption.is_zero();
+        if V::Real::any(escapes) {
+            let le = world.escaped(self.dir, self.skip_mis, self.bsdf_pdf, light_pick, escapes, ctx);
+            self.l = V::select(escapes, self.l + self.beta * le, self.l);
         }
-        let wo = -ray.dir;
+        if !V::Real::any(found) {
+            return step;
+        }
+        let (t, p, n, p_error) = world.surface(hit);
+        let absorbs = found & !self.absorption.is_zero();
+        if V::Real::any(absorbs) {
+            self.beta = V::select(absorbs, self.beta * (-self.absorption * t).exp_where(absorbs), self.beta);
+        }
+        let wo = -self.dir;
         // Emission reached by BSDF sampling (or seen directly), weighted against NEE.
-        if let Some(index) = scene.light_of(isect.primitive) {
-            let light = &scene.lights[index as usize];
-            let le = light.emitted(&hit, wo);
-            if le != Vec3::ZERO {
-                let w = if self.skip_mis {
-                    1.0
-                } else {
-                    power_heuristic(self.bsdf_pdf, light_pick * light.pdf_li(ray.origin, hit.p, hit.n))
-                };
-                self.l += self.beta * ctx.channels.colour(le) * w;
-            }
+        let (emits, le, pdf_li) = world.emission(hit, self.origin, wo, found, ctx);
+        let emits = emits & found;
+        if V::Real::any(emits) {
+            let w = V::Real::select(self.skip_mis, one, power_heuristic(self.bsdf_pdf, light_pick * pdf_li));
+            self.l = V::select(emits, self.l + self.beta * le * w, self.l);
         }
-        if self.depth >= params.max_depth {
-            return Step::END;
+        let scatters = found & self.depth.lt(V::Real::splat(params.max_depth as f32));
+        if !V::Real::any(scatters) {
+            return step;
         }
-        let material = scene.material_of(isect.primitive);
-        let bsdf = Scattering::at(material, hit.p, hit.uv, &ctx.channels);
-        self.beta *= ctx.end_secondaries_at(&material.bsdf, &bsdf);
-        let frame = ShadingFrame::at(&hit, wo);
+        let (bsdf, ends_secondaries) = world.bsdf(hit, scatters, ctx);
+        self.beta = V::select(scatters, self.beta * ends_secondaries, self.beta);
+        let frame = world.frame(hit, wo);
         let wo_local = frame.to_local(wo);
-        let light = if !bsdf.is_delta() && !scene.lights.is_empty() {
-            next_event(scene, &bsdf, &frame, wo_local, &hit, ray.time, light_pick, ctx)
-                .map(|(shadow, value)| PendingLight { shadow, beta: self.beta, value })
-        } else {
-            None
-        };
-        let end = Step { goes_on: false, light };
-        let Some(s) = sample_bsdf(&bsdf, wo_local, TransportMode::Radiance, &mut ctx.sampler) else {
-            return end;
-        };
-        if s.pdf <= 0.0 || s.f == Vec3::ZERO {
-            return end;
+        // Next-event estimation: one uniformly chosen light, sampled.
+        let nee = scatters & !bsdf.is_delta() & V::Real::mask(lights > 0);
+        if V::Real::any(nee) {
+            let choice = if lights > 1 { world.draw_1d(ctx, Dim::Light, nee) } else { zero };
+            let light = world.light_at(choice);
+            let u = world.draw_2d(ctx, Dim::Light, nee);
+            let ls = world.sample_light(hit, light, u, nee, ctx);
+            let wi_local = frame.to_local(ls.wi);
+            let f = bsdf.eval(wo_local, wi_local) * (wi_local.z().abs() * frame.factor(vzero, ls.wi));
+            let pending = nee & ls.sampled & !f.is_zero();
+            let shadow = world.shadow(hit, ls.target, light, self.time, pending, ctx);
+            let pdf = light_pick * ls.pdf;
+            let w = V::Real::select(ls.delta, one, power_heuristic(pdf, bsdf.pdf(wo_local, wi_local)));
+            step.light =
+                PendingLight { pending, shadow, beta: self.beta, value: f * ls.radiance * (w / pdf) };
         }
+        // The BSDF sample that makes the next ray.
+        let uc = world.draw_1d(ctx, Dim::Bsdf, scatters & bsdf.chooses_lobe());
+        let u = world.draw_2d(ctx, Dim::Bsdf, scatters);
+        let (sampled, s) = bsdf.sample(wo_local, uc, u, scatters);
+        let mut scatters = scatters & sampled & !(s.pdf.le(zero) | s.f.is_zero());
         let wi = frame.to_world(s.wi);
-        let shading = frame.factor(wo, wi, TransportMode::Radiance);
-        if shading == 0.0 {
-            return end;
+        let shading = frame.factor(wo, wi);
+        scatters = scatters & shading.ne(zero);
+        if !V::Real::any(scatters) {
+            return step;
         }
-        self.beta *=
-            s.f * (s.wi.z.abs() / s.pdf) * ctx.secondaries_after(&material.bsdf, &s, wo_local) * shading;
-        self.skip_mis = !s.is_evaluable();
-        self.bsdf_pdf = s.pdf;
-        if let Some(c) = crossing(&material.bsdf, ray.dir, hit.n, ctx.channels.hero()) {
-            let medium = if s.is_transmission { c.transmitted } else { c.incident };
-            self.absorption = ctx.channels.colour(medium.absorption);
+        let secondaries = world.secondaries_after(hit, &s, wo_local, scatters, ctx);
+        let beta = self.beta * (s.f * (s.wi.z().abs() / s.pdf) * secondaries * shading);
+        let (crosses, absorption) = world.medium_after(hit, self.dir, s.is_transmission, scatters, ctx);
+        let eta_scale = V::Real::select(s.is_transmission, self.eta_scale * (s.eta * s.eta), self.eta_scale);
+        W::count_scattered(ctx, (wi.dot(n) * wo.dot(n)).gt(zero), scatters);
+        let origin = offset_origin(p, n, p_error, wi);
+        let depth = self.depth + 1.0;
+        // Russian roulette, on the throughput with the η² of refraction undone.
+        let rr = (beta * eta_scale).max_element();
+        let plays = scatters & depth.gt(V::Real::splat(ROULETTE_DEPTH as f32)) & rr.lt(one);
+        let q = (V::Real::splat(1.0) - rr).max(zero);
+        let dies = plays & world.draw_1d(ctx, Dim::Other, plays).lt(q);
+        let beta = V::select(plays, beta / (V::Real::splat(1.0) - q), beta);
+        self.beta = V::select(scatters, beta, self.beta);
+        self.skip_mis = (scatters & !s.is_evaluable()) | (!scatters & self.skip_mis);
+        self.bsdf_pdf = V::Real::select(scatters, s.pdf, self.bsdf_pdf);
+        self.absorption = V::select(scatters & crosses, absorption, self.absorption);
+        self.eta_scale = V::Real::select(scatters, eta_scale, self.eta_scale);
+        self.origin = V::select(scatters, origin, self.origin);
+        self.dir = V::select(scatters, wi + vzero, self.dir);
+        self.depth = V::Real::select(scatters, depth, self.depth);
+        step.goes_on = scatters & !dies;
+        step
+    }
+}
+
+/// A BSDF sample that is not there (where a lane has none).
+#[inline(always)]
+pub(crate) fn no_sample<V: Vector>() -> BsdfSample<V> {
+    let (zero, no) = (V::Real::splat(0.0), V::Real::mask(false));
+    let v = V::splat(Vec3::ZERO);
+    BsdfSample { wi: v, f: v, pdf: zero, is_specular: no, is_multiple: no, is_transmission: no, eta: zero }
+}
+
+/// The world of one ray: the scene's primitives, materials and lights as they are.
+pub(crate) struct OneRay<'a> {
+    /// The scene.
+    pub scene: &'a Scene,
+}
+
+impl<'a> PathWorld for OneRay<'a> {
+    type R = f32;
+    type V = Vec3;
+    type Hit = Option<Intersection>;
+    type Bsdf = Scattering<'a>;
+    type Frame = ShadingFrame;
+    type Light = usize;
+    type Shadow = Option<ShadowRay>;
+    type Context = PathContext;
+
+    #[inline]
+    fn light_count(&self) -> usize {
+        self.scene.lights.len()
+    }
+
+    #[inline]
+    fn live(&self, _: &Self::Hit) -> bool {
+        true
+    }
+
+    #[inline]
+    fn found(&self, hit: &Self::Hit) -> bool {
+        hit.is_some()
+    }
+
+    #[inline]
+    fn surface(&self, hit: &Self::Hit) -> (f32, Vec3, Vec3, f32) {
+        let h = &surface(hit).hit;
+        (h.t, h.p, h.n, h.p_error)
+    }
+
+    #[inline]
+    fn escaped(
+        &self,
+        dir: Vec3,
+        skip_mis: bool,
+        bsdf_pdf: f32,
+        light_pick: f32,
+        _: bool,
+        ctx: &PathContext,
+    ) -> Vec3 {
+        let scene = self.scene;
+        ctx.channels.colour(match scene.environment_light() {
+            Some(i) if !skip_mis => {
+                let env = &scene.lights[i];
+                env.environment_radiance(dir)
+                    * power_heuristic(bsdf_pdf, light_pick * env.environment_pdf(dir))
+            }
+            _ => scene.background(dir),
+        })
+    }
+
+    #[inline]
+    fn emission(
+        &self,
+        hit: &Self::Hit,
+        origin: Vec3,
+        wo: Vec3,
+        _: bool,
+        ctx: &PathContext,
+    ) -> (bool, Vec3, f32) {
+        let isect = surface(hit);
+        let Some(index) = self.scene.light_of(isect.primitive) else {
+            return (false, Vec3::ZERO, 0.0);
+        };
+        let light = &self.scene.lights[index as usize];
+        let le = light.emitted(&isect.hit, wo);
+        if le == Vec3::ZERO {
+            return (false, le, 0.0);
         }
-        if s.is_transmission {
-            self.eta_scale *= s.eta * s.eta;
-        }
-        if wi.dot(hit.n) * wo.dot(hit.n) > 0.0 {
-            ctx.rays.reflected += 1;
+        (true, ctx.channels.colour(le), light.pdf_li(origin, isect.hit.p, isect.hit.n))
+    }
+
+    #[inline]
+    fn bsdf(&self, hit: &Self::Hit, _: bool, ctx: &mut PathContext) -> (Scattering<'a>, Vec3) {
+        let isect = surface(hit);
+        let material = self.scene.material_of(isect.primitive);
+        let bsdf = Scattering::at(material, isect.hit.p, isect.hit.uv, &ctx.channels);
+        let ends = ctx.end_secondaries_at(&material.bsdf, &bsdf);
+        (bsdf, ends)
+    }
+
+    #[inline]
+    fn frame(&self, hit: &Self::Hit, wo: Vec3) -> ShadingFrame {
+        ShadingFrame::at(&surface(hit).hit, wo)
+    }
+
+    #[inline]
+    fn draw_1d(&self, ctx: &mut PathContext, purpose: Dim, active: bool) -> f32 {
+        if active {
+            ctx.sampler.get_1d(purpose)
         } else {
-            ctx.rays.refracted += 1;
+            0.0
         }
-        self.ray = ray.spawn(spawn_origin(&hit, wi), wi);
-        self.depth += 1;
-        if self.depth > ROULETTE_DEPTH {
-            let rr = (self.beta * self.eta_scale).max_element();
-            if rr < 1.0 {
-                let q = (1.0 - rr).max(0.0);
-                if ctx.sampler.get_1d(Dim::Other) < q {
-                    return end;
-                }
-                self.beta /= 1.0 - q;
+    }
+
+    #[inline]
+    fn draw_2d(&self, ctx: &mut PathContext, purpose: Dim, active: bool) -> (f32, f32) {
+        if active {
+            ctx.sampler.get_2d(purpose).into()
+        } else {
+            (0.0, 0.0)
+        }
+    }
+
+    #[inline]
+    fn light_at(&self, u: f32) -> usize {
+        light_index(u, self.scene.lights.len())
+    }
+
+    #[inline]
+    fn sample_light(
+        &self,
+        hit: &Self::Hit,
+        light: usize,
+        u: (f32, f32),
+        _: bool,
+        ctx: &PathContext,
+    ) -> LightDraw<Vec3> {
+        let p = surface(hit).hit.p;
+        match self.scene.lights[light].sample_li(p, u.into()) {
+            None => LightDraw {
+                sampled: false,
+                wi: Vec3::ZERO,
+                radiance: Vec3::ZERO,
+                pdf: 1.0,
+                delta: true,
+                target: p,
+            },
+            Some(ls) => LightDraw {
+                sampled: true,
+                wi: ls.wi,
+                radiance: ctx.channels.colour(ls.radiance),
+                pdf: ls.pdf,
+                delta: ls.delta,
+                target: if ls.distance.is_finite() {
+                    ls.position
+                } else {
+                    p + ls.wi * self.scene.far_distance(p)
+                },
+            },
+        }
+    }
+
+    #[inline]
+    fn no_shadow(&self) -> Option<ShadowRay> {
+        None
+    }
+
+    #[inline]
+    fn shadow(
+        &self,
+        hit: &Self::Hit,
+        target: Vec3,
+        light: usize,
+        time: f32,
+        active: bool,
+        ctx: &mut PathContext,
+    ) -> Option<ShadowRay> {
+        if !active {
+            return None;
+        }
+        ShadowRay::new(&surface(hit).hit, target, Some(light as u32), time, &mut ctx.rays)
+    }
+
+    #[inline]
+    fn secondaries_after(
+        &self,
+        hit: &Self::Hit,
+        s: &BsdfSample,
+        wo_local: Vec3,
+        _: bool,
+        ctx: &mut PathContext,
+    ) -> Vec3 {
+        ctx.secondaries_after(&self.scene.material_of(surface(hit).primitive).bsdf, s, wo_local)
+    }
+
+    #[inline]
+    fn medium_after(
+        &self,
+        hit: &Self::Hit,
+        dir: Vec3,
+        transmitted: bool,
+        _: bool,
+        ctx: &PathContext,
+    ) -> (bool, Vec3) {
+        let isect = surface(hit);
+        let bsdf = &self.scene.material_of(isect.primitive).bsdf;
+        match crossing(bsdf, dir, isect.hit.n, ctx.channels.hero()) {
+            Some(c) => {
+                let medium = if transmitted { c.transmitted } else { c.incident };
+                (true, ctx.channels.colour(medium.absorption))
+            }
+            None => (false, Vec3::ZERO),
+        }
+    }
+
+    #[inline]
+    fn count_scattered(ctx: &mut PathContext, reflected: bool, active: bool) {
+        if active {
+            if reflected {
+                ctx.rays.reflected += 1;
+            } else {
+                ctx.rays.refracted += 1;
             }
         }
-        Step { goes_on: true, light }
     }
 }
 
-/// Radiance of the environment for a ray of direction `dir` that leaves the scene, weighted
-/// against next-event estimation of the environment light (the plain background when there is
-/// none).
-fn escaped(scene: &Scene, dir: Vec3, skip_mis: bool, bsdf_pdf: f32, light_pick: f32) -> Vec3 {
-    match scene.environment_light() {
-        Some(i) if !skip_mis => {
-            let env = &scene.lights[i];
-            env.environment_radiance(dir) * power_heuristic(bsdf_pdf, light_pick * env.environment_pdf(dir))
+/// The surface of a hit the path found (asked only where it found one).
+#[inline(always)]
+fn surface(hit: &Option<Intersection>) -> &Intersection {
+    hit.as_ref().expect("asked only of a path that found a surface")
+}
+
+impl<'a> VertexBsdf<Vec3> for Scattering<'a> {
+    #[inline]
+    fn is_delta(&self) -> bool {
+        Scattering::is_delta(self)
+    }
+
+    #[inline]
+    fn chooses_lobe(&self) -> bool {
+        Scattering::chooses_lobe(self)
+    }
+
+    #[inline]
+    fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
+        Scattering::eval(self, wo, wi, TransportMode::Radiance)
+    }
+
+    #[inline]
+    fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        Scattering::pdf(self, wo, wi)
+    }
+
+    #[inline]
+    fn sample(&self, wo: Vec3, uc: f32, u: (f32, f32), active: bool) -> (bool, BsdfSample) {
+        match active.then(|| Scattering::sample(self, wo, uc, u.into(), TransportMode::Radiance)).flatten() {
+            Some(s) => (true, s),
+            None => (false, no_sample()),
         }
-        _ => scene.background(dir),
     }
 }
 
-/// Next-event estimation: one uniformly chosen light, sampled; the shadow ray that decides its
-/// visibility (every surface, glass included, blocks it) and its contribution f·Le·w/pdf
-/// (weighted by MIS) if visible; `None` when it carries nothing.
-#[allow(clippy::too_many_arguments)]
-fn next_event(
-    scene: &Scene,
-    bsdf: &Scattering,
-    frame: &ShadingFrame,
-    wo_local: Vec3,
-    hit: &SurfaceHit,
-    time: f32,
-    light_pick: f32,
-    ctx: &mut PathContext,
-) -> Option<(Option<ShadowRay>, Vec3)> {
-    let index = pick_light(scene.lights.len(), &mut ctx.sampler);
-    let light = &scene.lights[index];
-    let u = ctx.sampler.get_2d(Dim::Light);
-    let ls = light.sample_li(hit.p, u)?;
-    let wi_local = frame.to_local(ls.wi);
-    let f = bsdf.eval(wo_local, wi_local, TransportMode::Radiance)
-        * (wi_local.z.abs() * frame.factor(Vec3::ZERO, ls.wi, TransportMode::Radiance));
-    if f == Vec3::ZERO {
-        return None;
+impl VertexFrame<Vec3> for ShadingFrame {
+    #[inline]
+    fn to_local(&self, v: Vec3) -> Vec3 {
+        ShadingFrame::to_local(self, v)
     }
-    let target =
-        if ls.distance.is_finite() { ls.position } else { hit.p + ls.wi * scene.far_distance(hit.p) };
-    let shadow = ShadowRay::new(hit, target, Some(index as u32), time, &mut ctx.rays);
-    let pdf = light_pick * ls.pdf;
-    let w = if ls.delta { 1.0 } else { power_heuristic(pdf, bsdf.pdf(wo_local, wi_local)) };
-    let value = f * ctx.channels.colour(ls.radiance) * (w / pdf);
-    Some((shadow, value))
+
+    #[inline]
+    fn to_world(&self, v: Vec3) -> Vec3 {
+        ShadingFrame::to_world(self, v)
+    }
+
+    #[inline]
+    fn factor(&self, wo: Vec3, wi: Vec3) -> f32 {
+        ShadingFrame::factor(self, wo, wi, TransportMode::Radiance)
+    }
 }

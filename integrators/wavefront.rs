@@ -23,7 +23,7 @@
 
 mod stages;
 
-use super::path::{PathState, PendingLight};
+use super::path::{OneRay, PathState, PendingLight};
 use super::{EngineChoice, PathContext, RenderParams};
 use crate::geometry::Ray;
 use crate::lanes::{Isa, LaneScene, Lanes, RayLanes, WIDTH};
@@ -34,6 +34,9 @@ use crate::scene::{Intersection, Scene};
 use glam::Vec3;
 use stages::LaneStages;
 
+/// A light sample of one path waiting for its shadow ray.
+type Pending = PendingLight<Vec3, Option<ShadowRay>>;
+
 /// The wavefront engine for one scene.
 #[derive(Clone, Debug)]
 pub struct Wavefront {
@@ -43,22 +46,6 @@ pub struct Wavefront {
     /// Every stage across lanes, or why not (each path is shaded by [`PathState::advance`], one
     /// lane at a time).
     stages: Result<LaneStages, String>,
-}
-
-/// Camera samples of one row: the samples `samples` (of `total` planned, 0 when unknown) of the
-/// pixels `xs` of row `y`, taken pixel by pixel and each pixel's in sample order.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub struct SampleBatch {
-    /// The row.
-    pub y: u32,
-    /// The pixels of the row.
-    pub xs: std::ops::Range<u32>,
-    /// The sample indices of each pixel.
-    pub samples: std::ops::Range<u32>,
-    /// The planned sample count (1: through the pixel's centre).
-    pub total: u32,
-    /// The replicas the sample indices belong to (each draws from its own seed).
-    pub replicas: crate::sampler::Replicas,
 }
 
 /// How full a stage's batches were: lanes that carried a ray, of the lanes issued.
@@ -137,26 +124,6 @@ impl Wavefront {
         }
     }
 
-    /// Where every stage runs across lanes, the estimates of `batch`'s samples with their camera
-    /// rays made across lanes too ([`LaneStages::camera_samples`]); `None` elsewhere and for a
-    /// camera with a near clip plane (the camera pass then makes the rays with
-    /// [`crate::camera::Camera::generate_ray_lens`] and calls [`radiance`](Self::radiance)).
-    pub fn camera_samples(
-        &self,
-        params: &RenderParams,
-        camera: &crate::camera::Camera,
-        seed: u64,
-        batch: &SampleBatch,
-        counters: (&mut crate::stats::RayCounts, &mut [u64; crate::sampler::DIM_PURPOSES]),
-        occupancy: &mut StageOccupancy,
-    ) -> Option<Vec<Vec3>> {
-        let stages = self.stages.as_ref().ok()?;
-        if camera.near_clip > 0.0 {
-            return None;
-        }
-        Some(stages.camera_samples(params, camera, seed, batch, counters, occupancy))
-    }
-
     /// The radiance of every camera ray of `rays`, each with its sample's context (its random
     /// stream, channels and counters), as [`super::Path`]'s `radiance` gives it one at a time:
     /// hits and shadow rays across lanes, shading path by path.
@@ -168,6 +135,9 @@ impl Wavefront {
         ctxs: &mut [PathContext],
         occupancy: &mut StageOccupancy,
     ) -> Vec<Vec3> {
+        if let Ok(stages) = &self.stages {
+            return stages.radiance(params, rays, ctxs, occupancy);
+        }
         let mut paths: Vec<PathState> = rays.iter().map(|&r| PathState::new(r)).collect();
         self.trace(scene, params, &mut paths, ctxs, occupancy);
         paths.iter().map(|p| p.l).collect()
@@ -186,18 +156,19 @@ impl Wavefront {
         let mut live: Vec<u32> = (0..n as u32).collect();
         let mut next: Vec<u32> = Vec::with_capacity(n);
         let mut hits: Vec<Option<Intersection>> = Vec::with_capacity(n);
-        let mut pending: Vec<(u32, PendingLight)> = Vec::with_capacity(n);
+        let mut pending: Vec<(u32, Pending)> = Vec::with_capacity(n);
+        let world = OneRay { scene };
         while !live.is_empty() {
             self.closest_hits(scene, paths, &live, &mut hits, &mut occupancy.closest);
             pending.clear();
             next.clear();
-            for (&i, &isect) in live.iter().zip(&hits) {
+            for (&i, isect) in live.iter().zip(&hits) {
                 let (path, ctx) = (&mut paths[i as usize], &mut ctxs[i as usize]);
-                let step = path.advance(scene, params, isect, ctx);
+                let step = path.advance(&world, params, isect, ctx);
                 match step.light {
-                    Some(light) if light.shadow.is_some() => pending.push((i, light)),
-                    Some(light) => path.resolve(&light, true),
-                    None => {}
+                    light if light.pending && light.shadow.is_some() => pending.push((i, light)),
+                    light if light.pending => path.resolve(&light, true),
+                    _ => {}
                 }
                 if step.goes_on {
                     next.push(i);
@@ -219,16 +190,16 @@ impl Wavefront {
     ) {
         hits.clear();
         let Ok(lanes) = &self.lanes else {
-            hits.extend(live.iter().map(|&i| scene.intersect(&paths[i as usize].ray, f32::INFINITY)));
+            hits.extend(live.iter().map(|&i| scene.intersect(&paths[i as usize].ray(), f32::INFINITY)));
             return;
         };
         for batch in live.chunks(WIDTH) {
-            let (rays, tmax) = gather(batch.iter().map(|&i| (&paths[i as usize].ray, f32::INFINITY)));
+            let (rays, tmax) = gather(batch.iter().map(|&i| (paths[i as usize].ray(), f32::INFINITY)));
             let found = lanes.closest(&rays, &tmax);
             occupancy.add(batch.len());
             hits.extend(batch.iter().enumerate().map(|(k, &i)| {
                 let t = found.t[k];
-                t.is_finite().then(|| scene.record(&paths[i as usize].ray, t, found.primitive[k], None))
+                t.is_finite().then(|| scene.record(&paths[i as usize].ray(), t, found.primitive[k], None))
             }));
         }
     }
@@ -238,10 +209,10 @@ impl Wavefront {
         &self,
         scene: &Scene,
         paths: &mut [PathState],
-        pending: &[(u32, PendingLight)],
+        pending: &[(u32, Pending)],
         occupancy: &mut Occupancy,
     ) {
-        let shadow = |light: &PendingLight| light.shadow.expect("only pending lights with a shadow ray");
+        let shadow = |light: &Pending| light.shadow.expect("only pending lights with a shadow ray");
         let Ok(lanes) = &self.lanes else {
             for (i, light) in pending {
                 paths[*i as usize].resolve(light, !shadow(light).blocked(scene));
@@ -251,7 +222,7 @@ impl Wavefront {
         for batch in pending.chunks(WIDTH) {
             let queries: [Option<ShadowRay>; WIDTH] =
                 std::array::from_fn(|k| batch.get(k).map(|(_, l)| shadow(l)));
-            let (rays, tmax) = gather(queries.iter().flatten().map(|q| (&q.ray, q.tmax)));
+            let (rays, tmax) = gather(queries.iter().flatten().map(|q| (q.ray, q.tmax)));
             let light = queries.map(|q| q.and_then(|q| q.light()).unwrap_or(u32::MAX));
             let reach = queries.map(|q| q.map_or(0.0, |q| q.reach(scene)));
             let blocked = lanes.occluded(&rays, &tmax, &light, &reach);
@@ -264,7 +235,7 @@ impl Wavefront {
 }
 
 /// Up to [`WIDTH`] rays with their limits as lanes; missing lanes are idle (limit −1).
-fn gather<'a>(batch: impl Iterator<Item = (&'a Ray, f32)>) -> (RayLanes, Lanes) {
+fn gather(batch: impl Iterator<Item = (Ray, f32)>) -> (RayLanes, Lanes) {
     let mut rays = RayLanes::default();
     let mut tmax = [-1.0; WIDTH];
     for (k, (ray, limit)) in batch.take(WIDTH).enumerate() {

@@ -315,11 +315,18 @@ pub struct CameraConnection {
 /// Shirley–Chiu concentric map from the unit square to the unit disk (area preserving).
 #[inline(always)]
 pub fn concentric_disk(u: Vec2) -> Vec2 {
-    let (centre, r, theta) = concentric_polar(u.x, u.y);
-    if centre {
-        return Vec2::ZERO;
-    }
-    r * Vec2::new(theta.cos(), theta.sin())
+    let (x, y) = concentric_disk_point(u.x, u.y, true);
+    Vec2::new(x, y)
+}
+
+/// [`concentric_disk`] for one sample or across lanes: the point of the disk for (`ux`, `uy`),
+/// its trigonometry taken where `active` (the point is meaningless elsewhere).
+#[inline(always)]
+pub fn concentric_disk_point<R: Real>(ux: R, uy: R, active: R::Mask) -> (R, R) {
+    let (centre, r, theta) = concentric_polar(ux, uy);
+    let (cos, sin) = theta.cos_sin(active & !centre);
+    let zero = R::splat(0.0);
+    (R::select(centre, zero, r * cos), R::select(centre, zero, r * sin))
 }
 
 /// [`concentric_disk`] up to its trigonometry, for one sample or across lanes: whether

@@ -196,6 +196,21 @@ impl<V: Vector> BsdfSample<V> {
     pub fn is_evaluable(&self) -> Mask3<V> {
         !self.is_specular & !self.is_multiple
     }
+
+    /// `if m { a } else { b }`, field by field (per lane).
+    #[inline(always)]
+    pub fn select(m: Mask3<V>, a: &BsdfSample<V>, b: &BsdfSample<V>) -> BsdfSample<V> {
+        let pick = |x: Mask3<V>, y: Mask3<V>| (m & x) | (!m & y);
+        BsdfSample {
+            wi: V::select(m, a.wi, b.wi),
+            f: V::select(m, a.f, b.f),
+            pdf: V::Real::select(m, a.pdf, b.pdf),
+            is_specular: pick(a.is_specular, b.is_specular),
+            is_multiple: pick(a.is_multiple, b.is_multiple),
+            is_transmission: pick(a.is_transmission, b.is_transmission),
+            eta: V::Real::select(m, a.eta, b.eta),
+        }
+    }
 }
 
 /// A BSDF evaluated for a pair of directions, with the two densities multiple importance

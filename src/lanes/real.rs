@@ -83,6 +83,11 @@ pub trait Real:
     fn even_sum(x: Self, y: Self, z: Self) -> Self::Mask;
     /// The truth value `v` (in every lane).
     fn mask(v: bool) -> Self::Mask;
+    /// Whether `m` holds (in any lane): what guards work that only some lanes need.
+    fn any(m: Self::Mask) -> bool;
+    /// `(cos x, sin x)` by libm where `active` (so each lane's pair is the one-ray pair to the
+    /// bit), 0 elsewhere: lanes that do not need the trigonometry do not pay for it.
+    fn cos_sin(self, active: Self::Mask) -> (Self, Self);
 }
 
 /// A 3-vector for one ray (glam's `Vec3`) or one per lane ([`Vec3x`]), with glam's arithmetic
@@ -129,6 +134,12 @@ pub trait Vector:
     fn floor(self) -> Self;
     /// `if m { a } else { b }`.
     fn select(m: Mask3<Self>, a: Self, b: Self) -> Self;
+    /// Whether every component is 0 (glam's `== Vec3::ZERO`).
+    fn is_zero(self) -> Mask3<Self>;
+    /// glam's `max_element`.
+    fn max_element(self) -> Self::Real;
+    /// glam's `exp`, by libm component by component where `active` (unchanged elsewhere).
+    fn exp_where(self, active: Mask3<Self>) -> Self;
 }
 
 /// The truth values of a [`Vector`]'s numbers.
@@ -217,6 +228,18 @@ impl Real for f32 {
     fn mask(v: bool) -> bool {
         v
     }
+    #[inline(always)]
+    fn any(m: bool) -> bool {
+        m
+    }
+    #[inline(always)]
+    fn cos_sin(self, active: bool) -> (f32, f32) {
+        if active {
+            (self.cos(), self.sin())
+        } else {
+            (0.0, 0.0)
+        }
+    }
 }
 
 impl Real for F32x {
@@ -298,6 +321,20 @@ impl Real for F32x {
     fn mask(v: bool) -> Mask {
         Mask::splat(v)
     }
+    #[inline(always)]
+    fn any(m: Mask) -> bool {
+        m.any()
+    }
+    #[inline(always)]
+    fn cos_sin(self, active: Mask) -> (F32x, F32x) {
+        let (mut c, mut s) = (F32x::splat(0.0), F32x::splat(0.0));
+        for k in 0..super::WIDTH {
+            if active.0[k] {
+                (c.0[k], s.0[k]) = (self.0[k].cos(), self.0[k].sin());
+            }
+        }
+        (c, s)
+    }
 }
 
 impl Vector for Vec3 {
@@ -363,6 +400,22 @@ impl Vector for Vec3 {
             b
         }
     }
+    #[inline(always)]
+    fn is_zero(self) -> bool {
+        self == Vec3::ZERO
+    }
+    #[inline(always)]
+    fn max_element(self) -> f32 {
+        Vec3::max_element(self)
+    }
+    #[inline(always)]
+    fn exp_where(self, active: bool) -> Vec3 {
+        if active {
+            self.exp()
+        } else {
+            self
+        }
+    }
 }
 
 impl Vector for Vec3x {
@@ -424,7 +477,26 @@ impl Vector for Vec3x {
     fn select(m: Mask, a: Vec3x, b: Vec3x) -> Vec3x {
         Vec3x::select(m, a, b)
     }
+    #[inline(always)]
+    fn is_zero(self) -> Mask {
+        Vec3x::is_zero(self)
+    }
+    #[inline(always)]
+    fn max_element(self) -> F32x {
+        Vec3x::max_element(self)
+    }
+    #[inline(always)]
+    fn exp_where(self, active: Mask) -> Vec3x {
+        let mut v = self;
+        for k in 0..super::WIDTH {
+            if active.0[k] {
+                v.set_lane(k, self.lane(k).exp());
+            }
+        }
+        v
+    }
 }
+
 #[cfg(test)]
 // Lane loops index several arrays by the lane.
 #[allow(clippy::needless_range_loop)]

@@ -4,7 +4,7 @@
 use super::*;
 use crate::camera::Camera;
 use crate::geometry::Ray;
-use crate::integrators::{EngineChoice, Integrator, PathContext, SampleBatch, StageOccupancy, Wavefront};
+use crate::integrators::{EngineChoice, Integrator, PathContext, StageOccupancy, Wavefront};
 use crate::sampler::{Dim, Replicas, Sampler, DIM_PURPOSES};
 use crate::scene::effects::Support;
 use crate::scene::{Effect, Scene, SpectralMode};
@@ -164,34 +164,19 @@ impl<'a> Pass<'a> {
         let x0 = self.camera.crop.x;
         for first in (0..width).step_by(pixels_per_batch) {
             let xs = x0 + first as u32..x0 + (first + pixels_per_batch).min(width) as u32;
-            let batch = SampleBatch { y, xs: xs.clone(), samples: samples.clone(), total, replicas };
-            let counters = (&mut row.rays, &mut row.requests);
-            let (opts, camera) = (&self.opts, &self.camera);
-            let estimates = match engine.camera_samples(
-                &opts.params,
-                camera,
-                opts.seed,
-                &batch,
-                counters,
-                &mut occupancy,
-            ) {
-                Some(estimates) => estimates,
-                None => {
-                    rays.clear();
-                    ctxs.clear();
-                    for x in xs {
-                        for s in samples.clone() {
-                            let (ray, ctx) = self.start(x, y, s, total);
-                            rays.push(ray);
-                            ctxs.push(ctx);
-                        }
-                    }
-                    let radiance =
-                        engine.radiance(self.scene, &opts.params, &rays, &mut ctxs, &mut occupancy);
-                    ctxs.iter().zip(radiance).map(|(ctx, l)| self.finish(ctx, l, row)).collect()
+            rays.clear();
+            ctxs.clear();
+            for x in xs.clone() {
+                for s in samples.clone() {
+                    let (ray, ctx) = self.start(x, y, s, total);
+                    rays.push(ray);
+                    ctxs.push(ctx);
                 }
-            };
-            let first = (batch.xs.start - x0) as usize;
+            }
+            let radiance = engine.radiance(self.scene, &self.opts.params, &rays, &mut ctxs, &mut occupancy);
+            let estimates: Vec<Vec3> =
+                ctxs.iter().zip(radiance).map(|(ctx, l)| self.finish(ctx, l, row)).collect();
+            let first = (xs.start - x0) as usize;
             let pixels = sum[first..].iter_mut().zip(replica_sums[first * r..].chunks_mut(r));
             for ((sum, replica_sums), pixel) in pixels.zip(estimates.chunks(samples.len())) {
                 for (&l, s) in pixel.iter().zip(samples.clone()) {

@@ -343,6 +343,18 @@ impl Sampler {
         }
     }
 
+    /// Continues the stream after numbers drawn from its [`sobol_state`](Self::sobol_state)
+    /// elsewhere (across lanes): at dimension `dimension`, with `requests` more requests per
+    /// purpose.
+    #[inline]
+    pub fn resume(&mut self, dimension: u32, requests: &[u32; DIM_PURPOSES]) {
+        debug_assert!(dimension >= self.dimension, "a stream only moves on");
+        self.dimension = dimension;
+        for (total, n) in self.requests.iter_mut().zip(requests) {
+            *total += n;
+        }
+    }
+
     /// The Sobol' stream's state, what its numbers across lanes depend on
     /// ([`crate::lanes::sobol_pairs`]); `None` for the other kinds.
     pub fn sobol_state(&self) -> Option<SobolState> {
