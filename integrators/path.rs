@@ -411,7 +411,13 @@ impl<V: Vector> PathState<V> {
             let pending = nee & ls.sampled & !f.is_zero();
             let shadow = world.shadow(hit, ls.target, light, self.time, pending, ctx);
             let pdf = light_pick * ls.pdf;
-            let w = V::Real::select(ls.delta, one, power_heuristic(pdf, bsdf.pdf(wo_local, wi_local)));
+            // A delta light has no density for BSDF sampling to match: no MIS.
+            let weighted = pending & !ls.delta;
+            let w = if V::Real::any(weighted) {
+                V::Real::select(weighted, power_heuristic(pdf, bsdf.pdf(wo_local, wi_local)), one)
+            } else {
+                one
+            };
             step.light =
                 PendingLight { pending, shadow, beta: self.beta, value: f * ls.radiance * (w / pdf) };
         }
