@@ -30,8 +30,8 @@ use crate::lanes::{
     dispatch, sobol_firsts, sobol_pairs, F32x, Isa, LaneHits, LaneScene, Mask, RayLanes, SurfaceX, Vec3x,
     WIDTH,
 };
-use crate::light::area_to_solid_angle;
 use crate::light::Light;
+use crate::light::{area_to_solid_angle, front_area_sample, point_light_sample, quad_point, LightSampleOf};
 use crate::lighting::ShadowSegment;
 use crate::material::Bsdf;
 use crate::sampler::{Dim, SamplerKind, DIM_PURPOSES};
@@ -660,7 +660,7 @@ impl PathWorld for LaneStages {
         hit: &LaneHit,
         l: [u32; WIDTH],
         (ux, uy): (F32x, F32x),
-        _: Mask,
+        active: Mask,
         _: &Self::Context,
     ) -> LightDraw<Vec3x> {
         let (lights, zero) = (&self.lights, F32x::ZERO);
@@ -669,20 +669,40 @@ impl PathWorld for LaneStages {
         let one = lights.count == 1;
         let vector = |t: &Table3| if one { Vec3x::splat(t.get(0)) } else { t.at(&l) };
         let point = if one { Mask::splat(lights.point.0[0] != 0.0) } else { lights.point.at(&l).ne(zero) };
-        // Light::sample_li of a quad (a point on it) or of a point light.
-        let corner = vector(&lights.corner);
-        let y = Vec3x::select(point, corner, corner + ux * vector(&lights.u) + uy * vector(&lights.v));
-        let ny = vector(&lights.normal);
-        let d = y - p;
-        let distance = d.length();
-        let wi = d / distance;
-        let emitted = vector(&lights.radiance);
-        let quad_radiance = Vec3x::select(ny.dot(-wi).gt(zero), emitted, Vec3x::ZERO);
-        let radiance = Vec3x::select(point, emitted / (distance * distance), quad_radiance);
+        // Light::sample_li of a quad (a point on it) or of a point light, where some lane has one.
+        let (corner, emitted) = (vector(&lights.corner), vector(&lights.radiance));
+        let quads = active & !point;
+        let at_point = if (active & point).any() {
+            point_light_sample(p, corner, emitted)
+        } else {
+            LightSampleOf {
+                sampled: Mask::NONE,
+                wi: Vec3x::ZERO,
+                distance: zero,
+                radiance: Vec3x::ZERO,
+                pdf: zero,
+            }
+        };
+        if !quads.any() {
+            let s = at_point;
+            return LightDraw {
+                sampled: s.sampled,
+                wi: s.wi,
+                radiance: s.radiance,
+                pdf: s.pdf,
+                delta: point,
+                target: corner,
+            };
+        }
+        let y = quad_point(corner, vector(&lights.u), vector(&lights.v), ux, uy);
         let area_pdf = if one { F32x::splat(lights.area_pdf.0[0]) } else { lights.area_pdf.at(&l) };
-        let pdf = F32x::select(point, F32x::ONE, area_to_solid_angle(area_pdf, p, y, ny));
-        let quad_sampled = !radiance.is_zero() & pdf.gt(zero) & pdf.is_finite();
-        let sampled = distance.gt(zero) & (point | quad_sampled);
+        let on_quad = front_area_sample(p, y, vector(&lights.normal), emitted, area_pdf);
+        let pick = |a: Mask, b: Mask| (point & a) | (!point & b);
+        let sampled = pick(at_point.sampled, on_quad.sampled);
+        let wi = Vec3x::select(point, at_point.wi, on_quad.wi);
+        let radiance = Vec3x::select(point, at_point.radiance, on_quad.radiance);
+        let pdf = F32x::select(point, at_point.pdf, on_quad.pdf);
+        let y = Vec3x::select(point, corner, y);
         LightDraw { sampled, wi, radiance, pdf, delta: point, target: y }
     }
 

@@ -29,7 +29,7 @@ use crate::bsdf::Frame;
 use crate::geometry::{
     disk_uv, point_error, spawn_origin, sphere_uv, texture_frame, wall_uv, Ray, SurfaceHit,
 };
-use crate::lanes::{Real, Vector};
+use crate::lanes::{Mask3, Real, Vector};
 use crate::texture::Texture;
 use glam::{Mat3, Vec2, Vec3};
 use std::f32::consts::PI;
@@ -493,6 +493,58 @@ pub fn area_to_solid_angle<V: Vector>(area_pdf: V::Real, p: V, y: V, n_y: V) -> 
     V::Real::select(cos.eq(zero), zero, pdf)
 }
 
+/// Next-event estimation's sample of a light from the point `p`, for one point or per lane:
+/// where there is one, the unit direction towards the light, its distance, the radiance
+/// arriving and the solid-angle density.
+#[derive(Clone, Copy, Debug)]
+pub struct LightSampleOf<V: Vector> {
+    /// Where the light has a sample.
+    pub sampled: Mask3<V>,
+    /// Unit direction from `p` towards the light.
+    pub wi: V,
+    /// Distance to the light's point.
+    pub distance: V::Real,
+    /// Radiance arriving at `p` (intensity over distance² for a point light).
+    pub radiance: V,
+    /// Solid-angle density (1 for a point light).
+    pub pdf: V::Real,
+}
+
+/// The sample of a point light at `position` of intensity `intensity` from `p`.
+#[inline(always)]
+pub fn point_light_sample<V: Vector>(p: V, position: V, intensity: V) -> LightSampleOf<V> {
+    let d = position - p;
+    let distance = d.length();
+    LightSampleOf {
+        sampled: distance.gt(V::Real::splat(0.0)),
+        wi: d / distance,
+        distance,
+        radiance: intensity / (distance * distance),
+        pdf: V::Real::splat(1.0),
+    }
+}
+
+/// The point of a quad (corner `corner`, edges `eu`, `ev`) at the uniform numbers (`ux`, `uy`).
+#[inline(always)]
+pub fn quad_point<V: Vector>(corner: V, eu: V, ev: V, ux: V::Real, uy: V::Real) -> V {
+    corner + eu * ux + ev * uy
+}
+
+/// The sample of the point `y` (normal `n`) of an area light that emits `radiance` from its
+/// front, sampled with area density `area_pdf`, from `p`: none where `y` is `p`, is seen from
+/// behind, or has no finite positive density.
+#[inline(always)]
+pub fn front_area_sample<V: Vector>(p: V, y: V, n: V, radiance: V, area_pdf: V::Real) -> LightSampleOf<V> {
+    let zero = V::Real::splat(0.0);
+    let d = y - p;
+    let distance = d.length();
+    let wi = d / distance;
+    let radiance = V::select(n.dot(-wi).gt(zero), radiance, V::splat(Vec3::ZERO));
+    let pdf = area_to_solid_angle(area_pdf, p, y, n);
+    let sampled = distance.gt(zero) & !radiance.is_zero() & pdf.gt(zero) & pdf.is_finite();
+    LightSampleOf { sampled, wi, distance, radiance, pdf }
+}
+
 /// A uniformly distributed unit vector.
 pub fn uniform_sphere(u: Vec2) -> Vec3 {
     let z = 1.0 - 2.0 * u.x;
@@ -605,16 +657,28 @@ impl Light {
     /// density; `None` when the sample carries no light.
     pub fn sample_li(&self, p: Vec3, u: Vec2) -> Option<LightSample> {
         if let Light::Point { position, intensity } = self {
-            let d = *position - p;
-            let distance = d.length();
-            return (distance > 0.0).then(|| LightSample {
+            let s = point_light_sample(p, *position, *intensity);
+            return s.sampled.then_some(LightSample {
                 position: *position,
-                wi: d / distance,
-                distance,
-                radiance: *intensity / (distance * distance),
+                wi: s.wi,
+                distance: s.distance,
+                radiance: s.radiance,
                 pdf: 1.0,
                 delta: true,
-                normal: -d / distance,
+                normal: -s.wi,
+            });
+        }
+        if let Light::Quad { corner, u: eu, v: ev, normal, radiance } = self {
+            let y = quad_point(*corner, *eu, *ev, u.x, u.y);
+            let s = front_area_sample(p, y, *normal, *radiance, 1.0 / eu.cross(*ev).length());
+            return s.sampled.then_some(LightSample {
+                position: y,
+                wi: s.wi,
+                distance: s.distance,
+                radiance: s.radiance,
+                pdf: s.pdf,
+                delta: false,
+                normal: *normal,
             });
         }
         if let Light::Spot { position, direction, intensity, beam } = self {
@@ -656,9 +720,6 @@ impl Light {
             });
         }
         let (y, n, uv) = match self {
-            Light::Quad { corner, u: eu, v: ev, normal, .. } => {
-                (*corner + u.x * *eu + u.y * *ev, *normal, Vec2::ZERO)
-            }
             Light::Sphere { center, radius, .. } => {
                 let s = self.sample_point(p, u);
                 (s.position, (s.position - *center) / *radius, Vec2::ZERO)
@@ -668,6 +729,7 @@ impl Light {
                 (y, n, if texture.is_some() { shape.uv_at(u, y, n) } else { Vec2::ZERO })
             }
             Light::Point { .. }
+            | Light::Quad { .. }
             | Light::Spot { .. }
             | Light::Directional { .. }
             | Light::Environment { .. } => unreachable!("handled above"),
