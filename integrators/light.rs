@@ -91,7 +91,9 @@
 //! `k`-sample render.
 
 use super::splat_film::{CameraTarget, SampleSplats, SplatBuffer};
-use super::{pick_light, sample_bsdf, Integrator, PathContext, RenderParams, DEFAULT_PATH_DEPTH};
+use super::{
+    pick_light, sample_bsdf, Integrator, PathContext, RenderParams, DEFAULT_PATH_DEPTH, ROULETTE_DEPTH,
+};
 use crate::bsdf::{Scattering, ShadingFrame, TransportMode};
 use crate::camera::Camera;
 use crate::geometry::{spawn_origin, Ray, SurfaceHit};
@@ -125,9 +127,6 @@ const SOBOL_PATHS: u64 = 1 << 16;
 /// of a batch, few enough to bound the splat buffers alive at once (a chunk's buffer holds about
 /// 16 bytes per path vertex seen by the camera: typically well under a megabyte).
 const CHUNKS_PER_THREAD: usize = 8;
-
-/// Bounces after which Russian roulette may end a path.
-const ROULETTE_DEPTH: u32 = 3;
 
 /// Light tracing: paths from the lights, every non-specular vertex splatted into the film.
 pub struct LightTracer;

@@ -24,8 +24,11 @@
 //! Beyond the film, an iteration holds its stored light paths (their non-specular vertices, the
 //! photon grid over them, the chunks' splats on their way to the film) and one band of camera
 //! estimates ([`CAMERA_BAND_PIXELS`]); the light paths' splats go straight into the film's sums
-//! ([`SampleSplats`]). With `N` capped, none of it grows with the resolution: at most about
-//! 300 MB at the default cap on `scenes/cornell-glass.toml`. Above the cap, camera path `j`
+//! ([`SampleSplats`]). With `N` capped, none of it grows with the resolution: peak memory about
+//! 310 MB above `path`'s at the default cap on `scenes/cornell-glass.toml` (`docs/performance.md`;
+//! it is the cap times the stored vertices per light path, about 2.5 there, more in closed scenes
+//! of bright walls). The cap is `[render.METHOD] max_light_paths` or `--max-light-paths`.
+//! Above the cap, camera path `j`
 //! connects to light path `j mod N` (and, for `bpt`, shares its wavelengths and time), merges
 //! with the photons of the `N` paths and the splats are normalised by `N`: every `N` in the
 //! formulas is the number of light paths actually traced (the kernel's `η = π r² N` of the
@@ -95,7 +98,10 @@
 //! weight 1.
 
 use super::splat_film::SampleSplats;
-use super::{sample_bsdf, Integrator, MergeParams, PathContext, RenderParams, Strategy, DEFAULT_PATH_DEPTH};
+use super::{
+    sample_bsdf, Integrator, MergeParams, PathContext, RenderParams, Strategy, DEFAULT_PATH_DEPTH,
+    ROULETTE_DEPTH,
+};
 use crate::bsdf::{Scattering, ShadingFrame, TransportMode};
 use crate::camera::Camera;
 use crate::geometry::{spawn_origin, Ray, SurfaceHit};
@@ -124,9 +130,6 @@ use photon_grid::PhotonGrid;
 
 /// Light paths per chunk of work (the unit of determinism).
 const CHUNK_PATHS: usize = 1 << 12;
-
-/// Bounces after which Russian roulette may end a sub-path.
-const ROULETTE_DEPTH: u32 = 3;
 
 /// The default initial merge radius as a fraction of the diameter of the scene's bounding
 /// sphere, for images of at most [`RADIUS_REFERENCE_PIXELS`] pixels ([`initial_radius`]).
@@ -262,9 +265,9 @@ impl Integrator for VertexMerging {
         let camera = camera_for(scene, opts.resolution);
         let pixels = camera.width as usize * camera.height as usize;
         let paths = light_paths_per_iteration(pixels, &opts.params.merging) as u64;
-        // A vertex, its position in the grid's order, its share of the grid's buckets (up to
-        // two) and the sort's key and permutation.
-        let vertex = std::mem::size_of::<light_paths::LightVertex>() as u64 + 4 + 8 + 4 + 4;
+        // A vertex and what the photon grid (merging methods only) holds for it.
+        let grid = if self.0.merges() { PhotonGrid::BYTES_PER_PHOTON } else { 0 };
+        let vertex = std::mem::size_of::<light_paths::LightVertex>() as u64 + grid;
         // Its end, its splats (16 bytes each), its vertices.
         let path = 4 + SPLATS_PER_PATH * 16 + VERTICES_PER_PATH * vertex;
         paths * path + CAMERA_BAND_PIXELS as u64 * 12
@@ -514,15 +517,10 @@ impl<'a> Engine<'a> {
         // 1 / (pixel area · N), which is 1 / (film area) when N is the pixel count.
         let scale = 1.0 / (self.pixel_area as f64 * self.light_paths as f64);
         let mut splats = SampleSplats::new(s, scale);
-        let mut store = self.trace_light_paths(s, &k, film, &mut splats);
+        let store = self.trace_light_paths(s, &k, film, &mut splats);
         let origin = self.scene.bvh_stats.bounds.0;
-        let grid = self.algorithm.merges().then(|| PhotonGrid::build(&mut store.vertices, k.radius, origin));
-        let light = LightPaths {
-            vertices: &store.vertices,
-            ends: &store.ends,
-            position: grid.as_ref().map(|g| g.1.as_slice()),
-            grid: grid.as_ref().map(|g| &g.0),
-        };
+        let grid = self.algorithm.merges().then(|| PhotonGrid::build(&store.vertices, k.radius, origin));
+        let light = LightPaths { vertices: &store.vertices, ends: &store.ends, grid: grid.as_ref() };
         // The camera paths of the crop window's pixels, each on its whole-film pixel's stream.
         let crop = self.camera.crop;
         let (w, x0, y0) = (self.camera.width as usize, crop.x as usize, crop.y as usize);

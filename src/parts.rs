@@ -181,6 +181,13 @@ impl Identity {
             ));
             fields.push(("radius-alpha".into(), merging.alpha.to_string()));
         }
+        // Written only when it is not the default, so that earlier parts keep their identity.
+        let cap = opts.params.merging.max_light_paths;
+        if crate::scene::desc::BIDIRECTIONAL_METHODS.contains(&integrator)
+            && cap != crate::integrators::DEFAULT_MAX_LIGHT_PATHS
+        {
+            fields.push(("max-light-paths".into(), cap.to_string()));
+        }
         if let Some(strategy) = opts.params.merging.only {
             fields.push(("strategy".into(), strategy.name().to_string()));
         }

@@ -4,6 +4,7 @@
 //! the other strategies.
 
 use super::light_paths::{LightPaths, LightVertex};
+use super::photon_grid::Buckets;
 use super::{
     joined, mis, Algorithm, Engine, IterationConstants, Mis, Next, PhotonGrid, SubPath, Vertex, WalkVisitor,
 };
@@ -173,10 +174,11 @@ impl Engine<'_> {
         k: &IterationConstants,
         vertices: &[LightVertex],
         grid: &PhotonGrid,
+        buckets: &Buckets,
     ) -> Vec3 {
         let mut sum = Vec3::ZERO;
         let ppm = self.algorithm == Algorithm::Ppm;
-        grid.query(vertices, at.hit.p, k.radius, |i| {
+        grid.query(buckets, |i| {
             let v = &vertices[i];
             if v.segments + path.segments > self.max_segments {
                 return;
@@ -271,9 +273,19 @@ impl WalkVisitor for CameraVisitor<'_, '_> {
         if at.bsdf.is_delta() {
             return Next::Any;
         }
+        // The merge's buckets, asked for in the cache now and its first photons after next-event
+        // estimation, so that their cache misses overlap the shadow rays (hints only).
+        let merge = light.grid.filter(|_| e.keeps(Strategy::Merge)).map(|grid| {
+            let buckets = grid.buckets(at.hit.p, k.radius);
+            grid.prefetch_starts(&buckets);
+            (grid, buckets)
+        });
         if e.algorithm.connects() {
             if e.lights > 0 && e.keeps(Strategy::NextEvent) {
                 self.radiance += path.beta * e.next_event(at, path, k, self.shadow, self.pick);
+            }
+            if let Some((grid, buckets)) = &merge {
+                grid.prefetch_photons(buckets);
             }
             if e.keeps(Strategy::Connection) {
                 for v in light.of(self.partner) {
@@ -284,9 +296,11 @@ impl WalkVisitor for CameraVisitor<'_, '_> {
                 }
             }
         }
-        let Some(grid) = light.grid else { return Next::Any };
-        if e.keeps(Strategy::Merge) {
-            self.radiance += path.beta * e.merge(at, path, k, light.vertices, grid);
+        if light.grid.is_none() {
+            return Next::Any;
+        }
+        if let Some((grid, buckets)) = &merge {
+            self.radiance += path.beta * e.merge(at, path, k, light.vertices, grid, buckets);
         }
         // Photon mapping merges once: only the specular chain (multiply scattered samples of
         // rough glass included) goes on past a merge.

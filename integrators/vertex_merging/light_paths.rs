@@ -78,22 +78,19 @@ pub(super) struct LightStore {
 
 /// The light sub-paths of an iteration, as the camera paths see them.
 pub(super) struct LightPaths<'a> {
-    /// The vertices of every light path: path after path, or in the photon grid's order.
+    /// The vertices of every light path, path after path.
     pub vertices: &'a [LightVertex],
-    /// Per light path, the end of its vertices in the path-after-path order.
+    /// Per light path, the end of its vertices in `vertices`.
     pub ends: &'a [u32],
-    /// Per vertex in the path-after-path order, its position in `vertices` when the photon
-    /// grid sorted them (`None`: not sorted).
-    pub position: Option<&'a [u32]>,
     /// The photon grid over `vertices` (merging methods only).
     pub grid: Option<&'a PhotonGrid>,
 }
 
 impl LightPaths<'_> {
     /// The vertices of light path `j`, from the light on.
-    pub fn of(&self, j: usize) -> impl Iterator<Item = &LightVertex> {
+    pub fn of(&self, j: usize) -> &[LightVertex] {
         let start = if j == 0 { 0 } else { self.ends[j - 1] as usize };
-        (start..self.ends[j] as usize).map(|i| &self.vertices[self.position.map_or(i, |p| p[i] as usize)])
+        &self.vertices[start..self.ends[j] as usize]
     }
 }
 

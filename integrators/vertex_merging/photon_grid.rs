@@ -1,21 +1,35 @@
-//! The photons of an iteration in a hashed uniform grid: the merge queries' index. The photons
-//! themselves are sorted into the grid's bucket order (a stable counting sort, then a
-//! permutation in place), so a query reads each bucket's photons as one contiguous run instead
-//! of through an index into the whole store: at large photon counts that spares a cache miss per
-//! photon, which kept the time per pixel from staying flat in resolution. Nothing here depends on
-//! the thread count.
+//! The photons of an iteration in a hashed uniform grid: the merge queries' index. The grid keeps
+//! its own compact copy of the photons, a position and the photon's index in the store
+//! (`GridPhoton`, 16 bytes), in bucket order (a stable counting sort), so that a query reads
+//! each bucket's candidates as one contiguous run of small records and touches the store (96
+//! bytes a vertex) only for the photons within the radius, about one in twelve of the candidates
+//! on `scenes/cornell-glass.toml`. The store itself stays path after path, the order the camera
+//! paths' connections read it in. At the default cap the photons fill far more than the cache,
+//! so a query's cost is its cache misses: this layout keeps them few (the candidates' runs, the
+//! found photons), which keeps the time per pixel from growing much with the resolution. The
+//! sort is stable and the buckets are visited in a fixed order, so a merge visits its photons in
+//! the same order whatever the thread count (the order of the earlier layout, which sorted the
+//! store itself).
 
 use super::light_paths::LightVertex;
 use glam::Vec3;
 
-/// The photons of one iteration in a hashed uniform grid of cells twice the radius wide, over
-/// photons stored in bucket order.
+/// A photon as the grid holds it: where it is and its index in the store.
+#[derive(Clone, Copy, Debug)]
+struct GridPhoton {
+    p: Vec3,
+    index: u32,
+}
+
+/// The photons of one iteration in a hashed uniform grid of cells twice the radius wide.
 pub(super) struct PhotonGrid {
     origin: Vec3,
     inv_cell: f32,
     mask: u64,
-    /// Per bucket, the start of its photons in the sorted store (one more entry at the end).
+    /// Per bucket, the start of its photons in `photons` (one more entry at the end).
     starts: Vec<u32>,
+    /// The photons in bucket order.
+    photons: Vec<GridPhoton>,
 }
 
 impl PhotonGrid {
@@ -26,7 +40,7 @@ impl PhotonGrid {
 
     /// The bucket of cell `c`: the hash of its block of 2×2×2 cells, then its place in the
     /// block, so that the cells of a block have consecutive buckets and their photons lie side
-    /// by side in the sorted store (a query's 2×2×2 cells span few blocks).
+    /// by side (a query's 2×2×2 cells span few blocks).
     fn bucket(&self, c: [i64; 3]) -> usize {
         let h = ((c[0] >> 1) as u64).wrapping_mul(73_856_093)
             ^ ((c[1] >> 1) as u64).wrapping_mul(19_349_663)
@@ -35,16 +49,16 @@ impl PhotonGrid {
         ((h << 3 | within as u64) & self.mask) as usize
     }
 
-    /// A grid for merges of radius `radius` over `vertices`, which it sorts into bucket order
-    /// (stable: within a bucket, in their order before); returns the grid and, per vertex in its
-    /// order before, its position after.
-    pub fn build(vertices: &mut [LightVertex], radius: f32, origin: Vec3) -> (PhotonGrid, Vec<u32>) {
+    /// A grid for merges of radius `radius` over `vertices` (stable: within a bucket, photons
+    /// keep their order in `vertices`).
+    pub fn build(vertices: &[LightVertex], radius: f32, origin: Vec3) -> PhotonGrid {
         let buckets = vertices.len().max(1).next_power_of_two();
         let mut grid = PhotonGrid {
             origin,
             inv_cell: 1.0 / (2.0 * radius),
             mask: buckets as u64 - 1,
             starts: vec![0; buckets + 1],
+            photons: Vec::new(),
         };
         let keys: Vec<u32> = vertices.iter().map(|v| grid.bucket(grid.cell_of(v.p)) as u32).collect();
         for &k in &keys {
@@ -53,53 +67,100 @@ impl PhotonGrid {
         for b in 0..buckets {
             grid.starts[b + 1] += grid.starts[b];
         }
+        // Each photon to the next free place of its bucket: the reads in order, the writes
+        // independent of one another (no chain of dependent cache misses).
         let mut fill = grid.starts.clone();
-        let position: Vec<u32> = keys
-            .iter()
-            .map(|&k| {
-                fill[k as usize] += 1;
-                fill[k as usize] - 1
-            })
-            .collect();
-        drop((keys, fill));
-        // Move every vertex to its position, one cycle of the permutation at a time.
-        let mut target = position.clone();
-        for i in 0..vertices.len() {
-            while target[i] as usize != i {
-                let t = target[i] as usize;
-                vertices.swap(i, t);
-                target.swap(i, t);
-            }
+        let mut photons = vec![GridPhoton { p: Vec3::ZERO, index: 0 }; vertices.len()];
+        for (i, (v, &k)) in vertices.iter().zip(&keys).enumerate() {
+            let slot = &mut fill[k as usize];
+            photons[*slot as usize] = GridPhoton { p: v.p, index: i as u32 };
+            *slot += 1;
         }
-        (grid, position)
+        grid.photons = photons;
+        grid
     }
 
-    /// Call `visit` with the index of every photon within `radius` of `p`, each once.
-    pub fn query(&self, vertices: &[LightVertex], p: Vec3, radius: f32, mut visit: impl FnMut(usize)) {
+    /// The bytes the grid holds per photon while it is built (at most): its record, its key and
+    /// its share of the buckets (up to two per photon) and of their copy while filling.
+    pub const BYTES_PER_PHOTON: u64 = std::mem::size_of::<GridPhoton>() as u64 + 4 + 2 * 2 * 4;
+
+    /// The buckets a merge at `p` within `radius` reads, each once, in the order it reads them.
+    pub fn buckets(&self, p: Vec3, radius: f32) -> Buckets {
         let lo = self.cell_of(p - Vec3::splat(radius));
         let hi = self.cell_of(p + Vec3::splat(radius));
-        let mut seen = [usize::MAX; 8];
-        let mut count = 0;
-        let r2 = radius * radius;
+        let mut out = Buckets { p, radius, list: [0; 8], count: 0 };
+        // Cells are twice the radius wide: at most 2 per axis, 8 in all.
         for x in lo[0]..=hi[0] {
             for y in lo[1]..=hi[1] {
                 for z in lo[2]..=hi[2] {
                     let b = self.bucket([x, y, z]);
-                    if seen[..count].contains(&b) {
-                        continue;
-                    }
-                    if count < seen.len() {
-                        seen[count] = b;
-                        count += 1;
-                    }
-                    let start = self.starts[b] as usize;
-                    for (i, v) in vertices[start..self.starts[b + 1] as usize].iter().enumerate() {
-                        if (v.p - p).length_squared() <= r2 {
-                            visit(start + i);
-                        }
+                    if !out.list[..out.count].contains(&b) && out.count < out.list.len() {
+                        out.list[out.count] = b;
+                        out.count += 1;
                     }
                 }
             }
         }
+        out
     }
+
+    /// Ask for the buckets' starts in the cache ahead of the merge (a hint: results unchanged).
+    pub fn prefetch_starts(&self, buckets: &Buckets) {
+        for &b in buckets.list() {
+            prefetch(&self.starts[b]);
+        }
+    }
+
+    /// Ask for the buckets' first photons in the cache ahead of the merge (best after
+    /// [`PhotonGrid::prefetch_starts`] has had time to bring the starts).
+    pub fn prefetch_photons(&self, buckets: &Buckets) {
+        for &b in buckets.list() {
+            if let Some(photon) = self.photons.get(self.starts[b] as usize) {
+                prefetch(photon);
+            }
+        }
+    }
+
+    /// Call `visit` with the store index of every photon within the radius of the merge of
+    /// `buckets`, each once.
+    pub fn query(&self, buckets: &Buckets, mut visit: impl FnMut(usize)) {
+        let r2 = buckets.radius * buckets.radius;
+        for &b in buckets.list() {
+            for photon in &self.photons[self.starts[b] as usize..self.starts[b + 1] as usize] {
+                if (photon.p - buckets.p).length_squared() <= r2 {
+                    visit(photon.index as usize);
+                }
+            }
+        }
+    }
+}
+
+/// The buckets of one merge ([`PhotonGrid::buckets`]): found once, read two or three times (the
+/// prefetches, the query).
+pub(super) struct Buckets {
+    p: Vec3,
+    radius: f32,
+    list: [usize; 8],
+    count: usize,
+}
+
+impl Buckets {
+    fn list(&self) -> &[usize] {
+        &self.list[..self.count]
+    }
+}
+
+/// Ask the processor to bring the cache line of `x` into its caches: a hint that changes no
+/// result, which lets the line's cache miss overlap other work (the merge's photons fill far
+/// more than the cache at the default cap).
+#[inline(always)]
+fn prefetch<T>(x: &T) {
+    #[cfg(target_arch = "x86_64")]
+    // SAFETY: a prefetch reads nothing the program sees and never faults, and SSE (which
+    // provides it) is part of every x86-64 processor.
+    unsafe {
+        std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>((x as *const T).cast());
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = x;
 }

@@ -58,7 +58,8 @@ pub fn run(args: &InfoArgs) -> Result<(), CliError> {
                 let depth = crate::scene::desc::has_max_depth(i.name())
                     .then(|| scene.settings.max_depth(i.as_ref(), None));
                 let mut entry = json!({"max_depth": depth, "from": from});
-                if let Some(m) = scene.settings.merging.get(i.name()) {
+                let merges = crate::scene::desc::MERGING_METHODS.contains(&i.name());
+                if let Some(m) = scene.settings.merging.get(i.name()).filter(|_| merges) {
                     entry["radius"] = json!(integrators::initial_radius(&scene, m, None));
                     entry["radius_from"] = json!(if m.radius.is_some() { "scene" } else { "default" });
                     entry["radius_alpha"] = json!(m.alpha);
@@ -136,7 +137,8 @@ pub fn run(args: &InfoArgs) -> Result<(), CliError> {
         } else {
             print!("  {:<12} no depth (shades the first hit only)", i.name());
         }
-        if let Some(m) = settings.merging.get(i.name()) {
+        let merges = crate::scene::desc::MERGING_METHODS.contains(&i.name());
+        if let Some(m) = settings.merging.get(i.name()).filter(|_| merges) {
             let r0 = integrators::initial_radius(&scene, m, None);
             let from = if m.radius.is_some() {
                 "scene"

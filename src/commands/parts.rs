@@ -69,6 +69,9 @@ pub fn resume_defaults(args: &RenderArgs, file: &PartFile) -> Result<RenderArgs,
         a.radius_alpha =
             id.get("radius-alpha").map(|r| r.parse().map_err(|_| bad("radius-alpha"))).transpose()?;
     }
+    if a.max_light_paths.is_none() {
+        a.max_light_paths = id.get("max-light-paths").map(str::to_string);
+    }
     if a.strategy.is_none() {
         a.strategy = id.get("strategy").map(str::to_string);
     }

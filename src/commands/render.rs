@@ -82,6 +82,11 @@ pub struct RenderArgs {
     /// radius·(i + 1)^((α − 1)/2) (default from the scene file, else 0.75).
     #[arg(long, allow_negative_numbers = true)]
     pub radius_alpha: Option<f32>,
+    /// bpt, ppm, bpm, vcm: the most light sub-paths an iteration traces, at least 1 (default from
+    /// the scene file, else 2²⁰): an iteration traces min(pixels, this) and camera paths share
+    /// them above it, which bounds the memory of the stored light paths whatever the resolution.
+    #[arg(long, value_name = "N", allow_negative_numbers = true)]
+    pub max_light_paths: Option<String>,
     /// bpt, ppm, bpm, vcm: render one strategy alone, unweighted (emitter, nee, connect, splat,
     /// merge): its own estimate of the paths it can make (`splat` is light tracing's).
     #[arg(long, value_parser = ["emitter", "nee", "connect", "splat", "merge"])]
@@ -150,6 +155,23 @@ pub fn parse_replicas(s: &str) -> Result<Replicas, String> {
         .ok_or_else(|| format!("{s:?}: the replica count must be a whole number from 1 to {}", Replicas::MAX))
 }
 
+/// Parses `--max-light-paths` for the method `method`: a whole number of at least 1, for the
+/// bidirectional methods only.
+fn parse_max_light_paths(text: &str, method: &str) -> Result<u32, CliError> {
+    if !crate::scene::desc::BIDIRECTIONAL_METHODS.contains(&method) {
+        return Err(CliError::BadInput(format!(
+            "--max-light-paths {text}: `{method}` traces no light sub-paths per iteration (bpt, ppm, bpm and vcm do)"
+        )));
+    }
+    match text.trim().parse::<u32>() {
+        Ok(n) if n >= 1 => Ok(n),
+        _ => Err(CliError::BadInput(format!(
+            "--max-light-paths {text}: must be a whole number of light sub-paths per iteration, from 1 to {}",
+            u32::MAX
+        ))),
+    }
+}
+
 /// Options of a render after applying command-line overrides to the scene's defaults.
 pub fn render_options(
     scene: &Scene,
@@ -205,6 +227,9 @@ pub fn render_options(
             return Err(CliError::BadInput(format!("--radius-alpha {a}: must be in (0, 1]")));
         }
         params.merging.alpha = a;
+    }
+    if let Some(text) = &args.max_light_paths {
+        params.merging.max_light_paths = parse_max_light_paths(text, integrator.name())?;
     }
     if let Some(name) = &args.strategy {
         let strategy = integrators::Strategy::from_name(name).expect("clap checks the name");

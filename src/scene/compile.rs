@@ -4,7 +4,7 @@ use super::bodies::{self, BodySurface, Interface, Liquid};
 use super::desc::{
     ColorSpaceDesc, CropDesc, DistributionDesc, FilterDesc, IorDesc, LightDesc, LiquidDesc, MaterialDesc,
     PhongDesc, PixelFilterDesc, Rgb, SceneDesc, ShapeDesc, SmoothNormals, TextureDesc, TransformDesc,
-    Vec3Desc, WrapDesc, IOR_TABLE_ERROR, LIQUIDS, MERGING_METHODS, METHOD_TABLES, MOVED_MAX_DEPTH,
+    Vec3Desc, WrapDesc, BIDIRECTIONAL_METHODS, IOR_TABLE_ERROR, LIQUIDS, METHOD_TABLES, MOVED_MAX_DEPTH,
 };
 use super::effects::{Effect, Effects};
 use super::mesh::MeshPlacement;
@@ -926,10 +926,20 @@ impl Compiler<'_> {
             }
         }
         let mut merging = BTreeMap::new();
-        for method in MERGING_METHODS {
-            let Some(m) = r.merge_of(method) else { continue };
+        for method in BIDIRECTIONAL_METHODS {
             let at = path.key(method);
             let mut params = MergeParams::default();
+            if let Some(cap) = r.max_light_paths_of(method) {
+                if cap == 0 {
+                    let msg = "must be at least 1 light sub-path per iteration (got 0)".to_string();
+                    return Err(self.err(&at.key("max_light_paths"), msg));
+                }
+                params.max_light_paths = cap;
+            }
+            let Some(m) = r.merge_of(method) else {
+                merging.insert(method.to_string(), params);
+                continue;
+            };
             if let Some(radius) = m.radius {
                 if !(radius > 0.0 && radius.is_finite()) {
                     let msg = format!("must be a positive distance in scene units (got {radius})");

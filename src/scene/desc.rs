@@ -243,7 +243,7 @@ pub struct RenderDesc {
     pub light: DepthDesc,
     /// `[render.bpt]`: bidirectional path tracing.
     #[serde(default)]
-    pub bpt: DepthDesc,
+    pub bpt: BidirectionalDesc,
     /// `[render.ppm]`: progressive photon mapping.
     #[serde(default)]
     pub ppm: MergeDesc,
@@ -267,6 +267,9 @@ pub const METHOD_TABLES: [&str; 10] =
 
 /// The methods that merge photons and so take `radius` and `radius_alpha`.
 pub const MERGING_METHODS: [&str; 3] = ["ppm", "bpm", "vcm"];
+
+/// The methods of the bidirectional engine, which take `max_light_paths`.
+pub const BIDIRECTIONAL_METHODS: [&str; 4] = ["bpt", "ppm", "bpm", "vcm"];
 
 /// Whether the method `name` has a maximum depth (`[render.NAME] max_depth`): every method
 /// but `raycast`, which shades the first hit only.
@@ -301,6 +304,21 @@ pub struct MergeDesc {
     /// Knaus–Zwicker α in (0, 1) of the radius schedule; default 0.75.
     #[serde(default)]
     pub radius_alpha: Option<f32>,
+    /// The most light sub-paths an iteration traces (at least 1); default 2²⁰.
+    #[serde(default)]
+    pub max_light_paths: Option<u32>,
+}
+
+/// The table of `bpt`: its depth and the cap on light sub-paths per iteration.
+#[derive(Clone, Copy, Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BidirectionalDesc {
+    /// Maximum number of scattering events of a full path; default the method's own.
+    #[serde(default)]
+    pub max_depth: Option<u32>,
+    /// The most light sub-paths an iteration traces (at least 1); default 2²⁰.
+    #[serde(default)]
+    pub max_light_paths: Option<u32>,
 }
 
 fn default_auto() -> String {
@@ -368,6 +386,15 @@ impl RenderDesc {
         }
     }
 
+    /// The cap on light sub-paths per iteration the scene sets for the bidirectional method
+    /// `name` in its `[render.NAME]` table.
+    pub fn max_light_paths_of(&self, name: &str) -> Option<u32> {
+        match name {
+            "bpt" => self.bpt.max_light_paths,
+            _ => self.merge_of(name).and_then(|m| m.max_light_paths),
+        }
+    }
+
     /// The maximum depth the scene sets for the method `name` in its `[render.NAME]` table.
     pub fn max_depth_of(&self, name: &str) -> Option<u32> {
         match name {
@@ -404,7 +431,7 @@ impl Default for RenderDesc {
             distributed: DepthDesc::default(),
             path: DepthDesc::default(),
             light: DepthDesc::default(),
-            bpt: DepthDesc::default(),
+            bpt: BidirectionalDesc::default(),
             ppm: MergeDesc::default(),
             bpm: MergeDesc::default(),
             vcm: MergeDesc::default(),

@@ -83,7 +83,9 @@ pub struct RenderSettings {
     pub spp: u32,
     /// The maximum depths the scene sets per method (`[render.METHOD] max_depth`), by name.
     pub max_depths: BTreeMap<String, u32>,
-    /// The merge settings the scene sets per merging method (`[render.vcm] radius = …`), by name.
+    /// The engine settings the scene sets per bidirectional method, by name: the cap on light
+    /// sub-paths for all four (`[render.bpt] max_light_paths = …`), the merge radius and α for
+    /// the merging ones (`[render.vcm] radius = …`).
     pub merging: BTreeMap<String, MergeParams>,
     /// Seed of the random streams.
     pub seed: u64,
