@@ -18,7 +18,9 @@ use rand_pcg::Pcg32;
 use std::hint::black_box;
 use std::path::Path;
 use vitrum::geometry::{Ray, Shape};
-use vitrum::lanes::{cylinder_hits, disk_hits, quad_hits, sphere_hits, Isa, Lanes, RayLanes, WIDTH};
+use vitrum::lanes::{
+    cylinder_hits, disk_hits, quad_hits, sphere_hits, Isa, LaneScene, Lanes, RayLanes, WIDTH,
+};
 use vitrum::scene::Scene;
 
 mod common;
@@ -138,5 +140,112 @@ fn bench(c: &mut Criterion) {
     }
 }
 
-criterion_group!(benches, bench);
+/// Camera rays of `scene`: a 128 × 128 image's pixel centres, row by row (neighbours in a
+/// batch, as the wavefront engine's first round has them).
+fn camera_rays(scene: &Scene) -> Vec<Ray> {
+    let cam = &scene.camera;
+    let n = 128;
+    (0..n * n)
+        .map(|i| {
+            let (x, y) = ((i % n) as f32 + 0.5, (i / n) as f32 + 0.5);
+            cam.generate_ray(glam::Vec2::new(x / n as f32, y / n as f32))
+        })
+        .collect()
+}
+
+/// Closest hits by the BVH one ray at a time, with their records; the sum of the records'
+/// distances in ray order.
+fn one_ray(scene: &Scene, rays: &[Ray]) -> f32 {
+    rays.iter().filter_map(|r| scene.intersect(r, f32::INFINITY)).map(|h| h.hit.t).fold(0.0, |s, t| s + t)
+}
+
+/// Closest hits by the lane scene (the BVH traversed by 16 rays at once), with the same records.
+fn sixteen_rays(scene: &Scene, lanes: &LaneScene, rays: &[Ray], batches: &[RayLanes]) -> f32 {
+    let mut sum = 0.0;
+    for (batch, packed) in rays.chunks(WIDTH).zip(batches) {
+        let found = lanes.closest(packed, &[f32::INFINITY; WIDTH]);
+        for (k, r) in batch.iter().enumerate() {
+            if found.t[k].is_finite() {
+                sum += scene.record(r, found.t[k], found.primitive[k], found.bary[k]).hit.t;
+            }
+        }
+    }
+    sum
+}
+
+/// Whether each ray of `rays` is blocked within distance 1.5, one ray at a time; the count.
+fn one_ray_shadows(scene: &Scene, rays: &[Ray]) -> usize {
+    rays.iter().filter(|r| scene.occluded(r, 1.5, |_, _| true)).count()
+}
+
+/// The same, 16 rays at a time.
+fn sixteen_shadows(lanes: &LaneScene, batches: &[RayLanes]) -> usize {
+    let none = [u32::MAX; WIDTH];
+    let reach = [f32::INFINITY; WIDTH];
+    batches
+        .iter()
+        .map(|b| lanes.occluded(b, &[1.5; WIDTH], &none, &reach).iter().filter(|&&x| x).count())
+        .sum()
+}
+
+/// The 16-ray BVH traversal against 16 one-ray traversals on `scenes/smooth-glass.toml` (968
+/// triangles): closest hits of camera rays and of bounce-like rays (uniform directions from inside
+/// the box), and shadow rays; `lanes-ratio:` lines give one-ray time ÷ 16-ray time.
+fn bench_mesh(c: &mut Criterion) {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
+    let scene = vitrum::scene::load(&root.join("smooth-glass.toml")).unwrap();
+    let sets = [("camera", camera_rays(&scene)), ("bounce", rays())];
+    let quick = std::env::args().any(|a| a == "--test" || a == "--list");
+    for isa in Isa::available() {
+        let lanes = LaneScene::new(&scene, isa).unwrap();
+        for (name, rays) in &sets {
+            let batches: Vec<RayLanes> = rays.chunks(WIDTH).map(RayLanes::gather).collect();
+            let mut group = c.benchmark_group(format!("lanes smooth-glass {name} {isa:?}"));
+            group.throughput(Throughput::Elements(rays.len() as u64));
+            group.bench_function("one ray", |b| b.iter(|| one_ray(&scene, black_box(rays))));
+            group.bench_function("16 rays", |b| {
+                b.iter(|| sixteen_rays(&scene, &lanes, rays, black_box(&batches)))
+            });
+            group.bench_function("one ray shadows", |b| b.iter(|| one_ray_shadows(&scene, black_box(rays))));
+            group.bench_function("16 rays shadows", |b| {
+                b.iter(|| sixteen_shadows(&lanes, black_box(&batches)))
+            });
+            group.finish();
+            if quick {
+                continue;
+            }
+            // The same hits either way, to the bit.
+            let reference = one_ray(&scene, rays);
+            assert_eq!(sixteen_rays(&scene, &lanes, rays, &batches).to_bits(), reference.to_bits());
+            assert_eq!(sixteen_shadows(&lanes, &batches), one_ray_shadows(&scene, rays));
+            let (h, h_lo, h_hi) = paired_ratio(
+                15,
+                || {
+                    black_box(one_ray(&scene, rays));
+                },
+                || {
+                    black_box(sixteen_rays(&scene, &lanes, rays, &batches));
+                },
+            );
+            let (o, o_lo, o_hi) = paired_ratio(
+                15,
+                || {
+                    black_box(one_ray_shadows(&scene, rays));
+                },
+                || {
+                    black_box(sixteen_shadows(&lanes, &batches));
+                },
+            );
+            println!(
+                "lanes-ratio: smooth-glass ({} triangles), {} {name} rays, {isa:?}: closest one ray / 16 rays = \
+                 {h:.2} ({h_lo:.2}..{h_hi:.2}), occluded one ray / 16 rays = {o:.2} ({o_lo:.2}..{o_hi:.2}) \
+                 (medians of 15 pairs)",
+                scene.primitives.len(),
+                rays.len()
+            );
+        }
+    }
+}
+
+criterion_group!(benches, bench, bench_mesh);
 criterion_main!(benches);

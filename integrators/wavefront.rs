@@ -5,9 +5,10 @@
 //! lanes (`wavefront/stages.rs`), camera rays included. Elsewhere a batch of paths (a row's
 //! camera samples of one pass) is kept as a list of live paths, and each round runs three
 //! stages over the whole list:
-//! 1. **closest hits**: the rays of 16 live paths at a time against every primitive of the scene
-//!    across lanes ([`LaneScene::closest`]), or through the BVH one ray per lane where the scene
-//!    has no lane form (`--engine wavefront` only: `auto` runs the scalar engine there);
+//! 1. **closest hits**: the rays of 16 live paths at a time across lanes, against every
+//!    primitive or through the BVH ([`LaneScene::closest`]), or through the BVH one ray per lane
+//!    where the scene has no lane form (moving objects; `--engine wavefront` only: `auto` runs
+//!    the scalar engine there);
 //! 2. **shading**: per path, [`PathState::advance`], the very step the scalar engine takes
 //!    (emission and its MIS weight, next-event estimation, the BSDF sample, Russian roulette),
 //!    which leaves the shadow ray of its light sample pending;
@@ -103,10 +104,10 @@ impl Wavefront {
     pub fn new(scene: &Scene, opts: &RenderOptions) -> Wavefront {
         let lanes = LaneScene::new(scene, Isa::detect());
         let stages = match &lanes {
-            Ok(l) => {
+            Ok(l) => l.tables().and_then(|()| {
                 let spectral = opts.spectral.resolve(&scene.effects);
                 LaneStages::new(scene, l.clone(), opts.sampler, spectral)
-            }
+            }),
             Err(why) => Err(why.clone()),
         };
         Wavefront { lanes, stages }
@@ -117,8 +118,9 @@ impl Wavefront {
         match (&self.lanes, &self.stages) {
             (Ok(l), Ok(_)) => format!("every stage across 16 lanes, {}", l.isa().name()),
             (Ok(l), Err(why)) => format!(
-                "hits and shadow rays across 16 lanes ({}), shading one path at a time: {why}",
-                l.isa().name()
+                "hits and shadow rays across 16 lanes ({}, {}), shading one path at a time: {why}",
+                l.isa().name(),
+                l.method()
             ),
             (Err(_), _) => "the BVH one ray per lane, shading one path at a time".to_string(),
         }
@@ -199,7 +201,8 @@ impl Wavefront {
             occupancy.add(batch.len());
             hits.extend(batch.iter().enumerate().map(|(k, &i)| {
                 let t = found.t[k];
-                t.is_finite().then(|| scene.record(&paths[i as usize].ray(), t, found.primitive[k], None))
+                let ray = paths[i as usize].ray();
+                t.is_finite().then(|| scene.record(&ray, t, found.primitive[k], found.bary[k]))
             }));
         }
     }
@@ -254,15 +257,22 @@ pub(super) fn choose(scene: &Scene, opts: &RenderOptions) -> EngineChoice {
         return EngineChoice::scalar("--engine scalar: one ray at a time, the reference implementation");
     }
     let engine = Wavefront::new(scene, opts);
-    match (opts.params.engine, &engine.lanes) {
-        (_, Ok(_)) => EngineChoice::wavefront(
-            engine,
-            format!("{} primitives, each tested against 16 rays at once", scene.primitives.len()),
-        ),
-        (EngineOption::Wavefront, Err(_)) => {
+    match (opts.params.engine, &engine.lanes, &engine.stages) {
+        // Hits through the BVH across lanes but shading path by path: measured slower than the
+        // scalar engine (docs/architecture.md, "Meshes across lanes").
+        (EngineOption::Auto, Ok(l), Err(why)) if l.traverses_bvh() => EngineChoice::scalar(format!(
+            "{} primitives: the wavefront engine would traverse the BVH across lanes but shade one path at \
+             a time ({why}), measured at 0.85–0.98× the scalar engine's speed",
+            scene.primitives.len()
+        )),
+        (_, Ok(l), _) => {
+            let why = format!("{} primitives, {}", scene.primitives.len(), l.method());
+            EngineChoice::wavefront(engine, why)
+        }
+        (EngineOption::Wavefront, Err(_), _) => {
             EngineChoice::wavefront(engine, "--engine wavefront asks for it whatever the scene")
         }
-        (_, Err(why)) => EngineChoice::scalar(format!(
+        (_, Err(why), _) => EngineChoice::scalar(format!(
             "{why}; the wavefront engine would traverse the BVH one ray per lane, no faster than one ray at a time"
         )),
     }

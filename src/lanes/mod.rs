@@ -1,6 +1,6 @@
 //! Shape tests across rays: one shape against [`WIDTH`] rays at once, and a scene's primitives
-//! grouped for them ([`LaneScene`]): the closest hits and shadow rays of the wavefront engine of
-//! `path` (`integrators/wavefront.rs`).
+//! grouped for them or its BVH traversed by them ([`LaneScene`]): the closest hits and shadow rays
+//! of the wavefront engine of `path` (`integrators/wavefront.rs`).
 //!
 //! Rays are stored as structure of arrays ([`RayLanes`]) and every kernel is written once, as
 //! plain loops over the lanes that repeat the scalar test's arithmetic operation for operation
@@ -12,6 +12,7 @@
 //! runtime detection, not a SIMD crate: the kernels need nothing beyond what the compiler's
 //! vectoriser does with plain loops, and the dispatch is three lines.
 
+mod bvh;
 mod real;
 mod sampler;
 mod scene;

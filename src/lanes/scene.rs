@@ -1,22 +1,33 @@
 //! A scene's primitives for the lane kernels: the closest hit and the occlusion of [`WIDTH`]
-//! rays, each primitive tested against all of them at once.
+//! rays, found one of two ways, chosen by measurement when the lane scene is made:
 //!
-//! Every primitive is tested (no hierarchy): measured on the shipped analytic scenes (9–10
-//! primitives, one CwBvh node), the BVH's one-ray closest hit takes 1.7–1.9× the time per ray
-//! of testing every primitive across 16 lanes (`cargo bench --bench lanes`). That holds for
-//! few primitives only, so a [`LaneScene`] takes static scenes of at most
-//! [`LaneScene::MAX_PRIMITIVES`] analytic ones (quads, spheres, cylinders, disks); anything else
-//! is traversed through the BVH one ray per lane.
+//! - **every primitive tested across the 16 lanes** (no hierarchy), for static scenes of at most
+//!   [`LaneScene::TEST_EVERY_UP_TO`] quads, spheres, outward cylinders and disks. On the shipped
+//!   analytic scenes (9–10 primitives, one CwBvh node) the BVH's one-ray closest hit takes
+//!   1.2–1.9× the time per ray of this (`cargo bench --bench lanes`), and rendering `path` with
+//!   the BVH traversed across lanes instead ([`super::bvh`]) runs at 0.57× (soft-shadows), 0.68×
+//!   (cornell-glass), 0.89× (frosted-glass, 12 primitives) and 0.91× (dispersion, 16) of this
+//!   form's speed (`scripts/perf/ab_speed.py`, 200², 8 spp, 4 rounds, AVX-512). Between 16 and 64
+//!   primitives no shipped scene measures the crossing; the limit is the stage tables' 64.
+//! - **the scene's CwBvh traversed by the 16 rays** ([`super::bvh`]) for any other static scene:
+//!   meshes (with vertex normals or not), polygons, ellipsoids, inward cylinders, any number of
+//!   primitives. Each lane gets the scalar traversal's primitive, distance and triangle
+//!   barycentrics ([`LaneHits::bary`]), so [`Scene::record`] makes the same hit record.
+//!
+//! Scenes whose objects move have no lane form (their shapes are tested where they are at each
+//! ray's time).
 
 // Lane loops index several arrays by the lane, as the kernels they vectorise into do.
 #![allow(clippy::needless_range_loop)]
 
+use super::bvh::SceneBvh;
 use super::shapes::{cylinder_kernel, disk_kernel, quad_kernel, sphere_kernel};
 use super::wide::{F32x, Mask, Vec3x};
 use super::{dispatch, Isa, Lanes, RayLanes, WIDTH};
 use crate::geometry::{gamma, Shape};
 use crate::scene::Scene;
 use glam::Vec3;
+use std::sync::Arc;
 
 /// One primitive of a kind: its shape, its index into [`Scene::primitives`] and its compile
 /// rank (which wins a tie).
@@ -39,6 +50,11 @@ pub struct LaneScene {
     /// Per primitive (modulo [`LaneScene::MAX_PRIMITIVES`]), the light it emits for, or
     /// [`NONE`].
     light_of: [u32; LaneScene::MAX_PRIMITIVES],
+    /// The BVH traversed across lanes, where the scene is not tested primitive by primitive
+    /// (shared: the engine and its stages hold copies of the lane scene).
+    bvh: Option<Arc<SceneBvh>>,
+    /// Why the lane stages' per-primitive tables cannot take the scene, if they cannot.
+    tables: Result<(), String>,
     isa: Isa,
 }
 
@@ -87,15 +103,24 @@ pub struct LaneHits {
     pub t: Lanes,
     /// The primitive hit (an index into [`Scene::primitives`]); meaningless for a miss.
     pub primitive: [u32; WIDTH],
+    /// A triangle's barycentrics at the hit, as its test found them (`None` for other shapes
+    /// and misses): what [`Scene::record`] takes to make the triangle's hit record.
+    pub bary: [Option<[f32; 3]>; WIDTH],
 }
 
 impl LaneScene {
-    /// The most primitives a lane scene takes: beyond this many, testing every one costs more
-    /// than traversing the BVH (see the module documentation).
+    /// The most primitives the lane stages' per-primitive tables take
+    /// (`integrators/wavefront/stages.rs`; [`LaneScene::tables`] says whether a scene fits).
     pub const MAX_PRIMITIVES: usize = 64;
 
-    /// The lane form of `scene`, with kernels for `isa`; `Err` says why the scene cannot have
-    /// one (it moves, has too many primitives, or has polygons or mesh triangles).
+    /// The most primitives tested one by one across lanes (beyond, and for any shape but quads,
+    /// spheres, outward cylinders and disks, the BVH is traversed across lanes; see the module
+    /// documentation for the measurements).
+    pub const TEST_EVERY_UP_TO: usize = 64;
+
+    /// The lane form of `scene`, with kernels for `isa`: every primitive tested across lanes
+    /// (a few quads, spheres, cylinders and disks) or the BVH traversed across lanes (any other
+    /// static scene); `Err` says why the scene cannot have one (its objects move).
     pub fn new(scene: &Scene, isa: Isa) -> Result<LaneScene, String> {
         if scene.has_motion() {
             return Err(
@@ -105,12 +130,6 @@ impl LaneScene {
             );
         }
         let count = scene.primitives.len();
-        if count > Self::MAX_PRIMITIVES {
-            return Err(format!(
-                "{count} primitives: testing every one across lanes pays only up to {}",
-                Self::MAX_PRIMITIVES
-            ));
-        }
         let mut lanes = LaneScene {
             quads: vec![],
             spheres: vec![],
@@ -118,11 +137,17 @@ impl LaneScene {
             disks: vec![],
             records: vec![],
             light_of: [NONE; Self::MAX_PRIMITIVES],
+            bvh: None,
+            tables: Ok(()),
             isa,
         };
+        // Why some primitive has no kernel of its own and no lane hit record, if one has none.
+        let mut analytic = Ok(());
         for (i, prim) in scene.primitives.iter().enumerate() {
             let (primitive, rank) = (i as u32, scene.compile_rank(i as u32));
-            lanes.light_of[i] = prim.light.unwrap_or(NONE);
+            if i < Self::MAX_PRIMITIVES {
+                lanes.light_of[i] = prim.light.unwrap_or(NONE);
+            }
             let plane = |reference, axis| RecordShape {
                 kind: RecordKind::Plane,
                 reference,
@@ -146,7 +171,8 @@ impl LaneScene {
                     });
                 }
                 Shape::Cylinder(c) if c.inward() => {
-                    return Err("a cylinder faces inwards (flip_normals): its hits have no lane form".into())
+                    analytic = analytic.and(Err("a cylinder faces inwards (flip_normals)".to_string()));
+                    lanes.records.push(RecordShape::default());
                 }
                 Shape::Cylinder(c) => {
                     lanes.cylinders.push(Entry { shape: **c, primitive, rank });
@@ -164,14 +190,44 @@ impl LaneScene {
                     lanes.records.push(plane(d.center, d.normal));
                 }
                 other => {
-                    return Err(format!(
-                        "{} primitives have no lane kernel yet (quads, spheres, cylinders and disks have)",
+                    analytic = analytic.and(Err(format!(
+                        "{} primitives have no lane kernel (each lane runs the scalar test)",
                         other.kind()
-                    ))
+                    )));
+                    lanes.records.push(RecordShape::default());
                 }
             }
         }
+        lanes.tables = if count > Self::MAX_PRIMITIVES {
+            Err(format!("{count} primitives (the lane stages' tables take up to {})", Self::MAX_PRIMITIVES))
+        } else {
+            analytic.clone().map_err(|why| format!("{why}, which have no lane hit record"))
+        };
+        if analytic.is_err() || count > Self::TEST_EVERY_UP_TO {
+            lanes.bvh = Some(Arc::new(SceneBvh::new(scene)));
+            (lanes.quads, lanes.spheres, lanes.cylinders, lanes.disks) = (vec![], vec![], vec![], vec![]);
+        }
         Ok(lanes)
+    }
+
+    /// Whether the lane stages' per-primitive tables and hit records ([`LaneScene::records`])
+    /// take the scene: at most [`LaneScene::MAX_PRIMITIVES`] quads, spheres, outward cylinders
+    /// and disks; `Err` says why not.
+    pub fn tables(&self) -> Result<(), String> {
+        self.tables.clone()
+    }
+
+    /// Whether the hits are found through the BVH (else every primitive is tested).
+    pub fn traverses_bvh(&self) -> bool {
+        self.bvh.is_some()
+    }
+
+    /// How the hits are found, in words: every primitive tested, or the BVH traversed.
+    pub fn method(&self) -> &'static str {
+        match self.bvh {
+            None => "every primitive tested against 16 rays at once",
+            Some(_) => "the BVH traversed by 16 rays at once",
+        }
     }
 
     /// The instruction set the kernels run with.
@@ -183,6 +239,9 @@ impl LaneScene {
     /// finds, with ties going to the primitive compiled first as there. A lane with a `tmax` of
     /// 0 or below is idle (it never hits).
     pub fn closest(&self, rays: &RayLanes, tmax: &Lanes) -> LaneHits {
+        if let Some(bvh) = &self.bvh {
+            return bvh.closest(self.isa, rays, tmax);
+        }
         closest_hits(self.isa, self, rays, tmax)
     }
 
@@ -198,6 +257,9 @@ impl LaneScene {
         light: &[u32; WIDTH],
         reach: &Lanes,
     ) -> [bool; WIDTH] {
+        if let Some(bvh) = &self.bvh {
+            return bvh.occluded(self.isa, rays, tmax, light, reach);
+        }
         any_hits(self.isa, self, rays, tmax, light, reach)
     }
 }
@@ -258,7 +320,7 @@ fn each_primitive<S>(
 /// The closest hit of every lane among all primitives.
 #[inline(always)]
 fn closest_kernel(scene: &LaneScene, rays: &RayLanes, tmax: &Lanes) -> LaneHits {
-    let best = LaneHits { t: [f32::INFINITY; WIDTH], primitive: [NONE; WIDTH] };
+    let best = LaneHits { t: [f32::INFINITY; WIDTH], primitive: [NONE; WIDTH], bary: [None; WIDTH] };
     let mut state = (best, [u32::MAX; WIDTH], *tmax);
     each_primitive(
         scene,
@@ -325,7 +387,8 @@ dispatch! {
 impl LaneScene {
     /// The hit records of `hits` (lanes with a finite distance; the others' are meaningless):
     /// [`Scene::record`]'s point, normal and error bound to the bit, without texture
-    /// coordinates (the lane stages read none).
+    /// coordinates (the lane stages read none). Only for lanes that hit a quad, a sphere, an
+    /// outward cylinder or a disk: a scene that [`LaneScene::tables`] accepts has no others.
     pub fn records(&self, rays: &RayLanes, hits: &LaneHits) -> SurfaceX {
         let zero = Vec3x::splat(Vec3::ZERO);
         let mut table = RecordLanes {

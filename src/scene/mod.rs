@@ -287,6 +287,17 @@ impl Scene {
         self.bvh.primitive_indices[primitive as usize]
     }
 
+    /// The acceleration structure (obvhs's CwBvh, in BVH coordinates: world ÷
+    /// [`Scene::bvh_scale`]), for traversals other than [`Scene::intersect`]'s (the lanes').
+    pub fn bvh(&self) -> &CwBvh {
+        &self.bvh
+    }
+
+    /// World = BVH coordinates × this power of two (see [`Scene::bvh`]).
+    pub fn bvh_scale(&self) -> f32 {
+        self.bvh_scale
+    }
+
     /// Whether any primitive moves.
     pub fn has_motion(&self) -> bool {
         self.has_motion
