@@ -11,9 +11,10 @@
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use std::path::Path;
-use vitrum::integrators::{create, EngineOption};
+use std::sync::Arc;
+use vitrum::integrators::{create, EngineOption, Wavefront};
 use vitrum::lanes::Isa;
-use vitrum::render::{camera_film, RenderOptions};
+use vitrum::render::{camera_film, camera_film_on, EngineChoice, RenderOptions};
 use vitrum::scene::{load, Scene};
 
 mod common;
@@ -49,7 +50,12 @@ fn bench(c: &mut Criterion) {
         let engine = create("path").unwrap().engine(&scene, &wavefront).describe();
         group.bench_function(format!("{name}/scalar"), |b| b.iter(|| render(&scene, &scalar)));
         group.bench_function(format!("{name}/wavefront"), |b| b.iter(|| render(&scene, &wavefront)));
-        let (a, b) = (render(&scene, &scalar), render(&scene, &wavefront));
+        // The engine's own statistics: it is held here to read them after the render.
+        let held = Arc::new(Wavefront::new(&scene, &wavefront));
+        let on_held = EngineChoice::shared(held.clone(), "held by the bench");
+        let path = create("path").unwrap();
+        let a = render(&scene, &scalar);
+        let b = camera_film_on(&scene, path.as_ref(), &wavefront, on_held, &|_, _| {});
         assert_eq!(a.sum, b.sum, "{name}: the engines' images differ");
         let (median, low, high) =
             paired_ratio(6, || drop(render(&scene, &scalar)), || drop(render(&scene, &wavefront)));
@@ -57,7 +63,7 @@ fn bench(c: &mut Criterion) {
             "wavefront-ratio: {name}: scalar / wavefront = {median:.2} (range {low:.2}-{high:.2}; {}; {engine})",
             Isa::detect().name()
         ));
-        let o = b.occupancy;
+        let o = held.occupancy();
         lines.push(format!(
             "wavefront-occupancy: {name}: hits {:.3} ({} of {} lanes), shadow rays {:.3} ({} of {})",
             o.closest.fraction(),

@@ -6,7 +6,7 @@
 //! empirical ambient term), so caustics are absent as in Whitted.
 
 use super::whitted::{trace, Sampling, Segment};
-use super::{Integrator, PathContext, RenderParams};
+use super::{CameraEstimator, Integrator, Method, PathContext, Progression, RenderParams};
 use crate::geometry::Ray;
 use crate::scene::effects::Support;
 use crate::scene::{Effect, Scene};
@@ -16,12 +16,8 @@ use glam::Vec3;
 pub struct Distributed;
 
 impl Integrator for Distributed {
-    fn name(&self) -> &'static str {
-        "distributed"
-    }
-
-    fn description(&self) -> &'static str {
-        "distributed ray tracing (Cook 1984): soft shadows, glossy/frosted, depth of field, motion blur, dispersion"
+    fn method(&self) -> Method {
+        Method::Distributed
     }
 
     fn support(&self, effect: Effect) -> Support {
@@ -33,6 +29,12 @@ impl Integrator for Distributed {
         }
     }
 
+    fn progression(&self) -> Progression<'_> {
+        Progression::Camera(self)
+    }
+}
+
+impl CameraEstimator for Distributed {
     fn radiance(&self, scene: &Scene, params: &RenderParams, ray: &Ray, ctx: &mut PathContext) -> Vec3 {
         trace(scene, params, ray, Segment::camera(), Sampling::Distributed, ctx)
     }

@@ -91,17 +91,13 @@
 //! `k`-sample render.
 
 use super::splat_film::{CameraTarget, SampleSplats, SplatBuffer};
-use super::{
-    pick_light, sample_bsdf, Integrator, PathContext, RenderParams, DEFAULT_PATH_DEPTH, ROULETTE_DEPTH,
-};
+use super::{pick_light, sample_bsdf, Integrator, Method, PathContext, RenderParams, ROULETTE_DEPTH};
 use crate::bsdf::{Scattering, ShadingFrame, TransportMode};
 use crate::camera::Camera;
-use crate::geometry::{spawn_origin, Ray, SurfaceHit};
+use crate::geometry::{spawn_origin, SurfaceHit};
 use crate::light::SceneSphere;
 use crate::lighting::{crossing, ShadowMode, ShadowRays};
-use crate::render::{
-    camera_for, render_accumulated, Accumulate, CameraDims, Film, Progression, RenderOptions, RenderOutput,
-};
+use crate::render::{camera_for, Accumulate, CameraDims, Film, Progression, RenderOptions};
 use crate::sampler::{Dim, Replicas, Sampler, SamplerKind};
 use crate::scene::effects::Support;
 use crate::scene::{Effect, Scene};
@@ -132,12 +128,8 @@ const CHUNKS_PER_THREAD: usize = 8;
 pub struct LightTracer;
 
 impl Integrator for LightTracer {
-    fn name(&self) -> &'static str {
-        "light"
-    }
-
-    fn description(&self) -> &'static str {
-        "light tracing: light paths splat into the film; caustics from any light; smooth mirrors/glass black"
+    fn method(&self) -> Method {
+        Method::Light
     }
 
     fn support(&self, effect: Effect) -> Support {
@@ -153,27 +145,8 @@ impl Integrator for LightTracer {
         }
     }
 
-    fn default_max_depth(&self) -> u32 {
-        DEFAULT_PATH_DEPTH
-    }
-
-    /// Unused: light tracing renders the whole image in [`Integrator::render_image`], which
-    /// always returns `Some`, so the camera pass never asks for the radiance of a camera ray.
-    fn radiance(&self, _: &Scene, _: &RenderParams, _: &Ray, _: &mut PathContext) -> Vec3 {
-        Vec3::ZERO
-    }
-
-    fn render_image(
-        &self,
-        scene: &Scene,
-        opts: &RenderOptions,
-        progress: &(dyn Fn(u64, u64) + Sync),
-    ) -> Option<RenderOutput> {
-        Some(render_accumulated(scene, self, opts, progress))
-    }
-
     fn progression(&self) -> Progression<'_> {
-        Progression::Own(self)
+        Progression::Accumulated(self)
     }
 }
 

@@ -1,4 +1,6 @@
-//! The rendering methods, one per file, behind one trait, and the registry of their names.
+//! The rendering methods, one per file, each implementing the render contract
+//! ([`crate::render::Integrator`] and its [`Progression`]), and the registry that builds them
+//! from the table of methods ([`crate::methods`]).
 
 mod distributed;
 mod light;
@@ -10,7 +12,11 @@ mod vertex_merging;
 mod wavefront;
 mod whitted;
 
+pub use crate::methods::Method;
 pub use crate::params::{EngineOption, MergeParams, RenderParams, SsaaParams, Strategy};
+pub use crate::render::{
+    Accumulate, BatchEngine, CameraEstimator, EngineChoice, FixedImage, Integrator, PathContext, Progression,
+};
 pub use distributed::Distributed;
 pub use light::LightTracer;
 #[cfg(test)]
@@ -26,15 +32,10 @@ pub use wavefront::{Occupancy, StageOccupancy, Wavefront};
 pub use whitted::Whitted;
 
 use crate::bsdf::{BsdfSample, Scattering, TransportMode};
-use crate::geometry::Ray;
 use crate::material::Bsdf;
 use crate::optics::fresnel_dielectric;
-use crate::render::{Progression, RenderOptions, RenderOutput};
 use crate::sampler::{Dim, Sampler};
-use crate::scene::effects::Support;
-use crate::scene::{Effect, RenderSettings, Scene};
 use crate::spectrum::{Channels, HERO_ONLY};
-use crate::stats::RayCounts;
 use glam::Vec3;
 
 /// A sample of `bsdf` for the local direction `wo`, drawing from `sampler` only the numbers it
@@ -72,25 +73,10 @@ pub(crate) fn light_index(u: f32, count: usize) -> usize {
 /// Bounces after which Russian roulette may end a path (every method that plays it).
 pub(crate) const ROULETTE_DEPTH: u32 = 3;
 
-/// The state of one camera sample while its path is traced.
-#[derive(Clone, Debug)]
-pub struct PathContext {
-    /// The sample's random stream.
-    pub sampler: Sampler,
-    /// Rays traced so far, by kind.
-    pub rays: RayCounts,
-    /// What the channels of the sample's radiance hold: RGB, or its wavelengths.
-    pub channels: Channels,
-    /// Whether the path has ended its secondary wavelengths (at a dispersive interface).
-    pub hero_only: bool,
-}
-
+/// How a camera sample's path ends its secondary wavelengths: the spectral part of
+/// [`PathContext`] (defined with the contract, [`crate::render::PathContext`]), which the
+/// methods share.
 impl PathContext {
-    /// A context for the given stream, in RGB mode.
-    pub fn new(sampler: Sampler) -> PathContext {
-        PathContext { sampler, rays: RayCounts::default(), channels: Channels::Rgb, hero_only: false }
-    }
-
     /// The factor a spectral path's throughput takes at a surface of `bsdf`, modelled as
     /// `scattering`, before anything is sampled or evaluated there: [`HERO_ONLY`] the first time it
     /// meets a dispersive interface that is not smooth (rough glass, whose value at the hero
@@ -140,132 +126,36 @@ pub(crate) fn ends_secondaries(channels: &Channels, hero_only: bool, bsdf: &Bsdf
     channels.is_spectral() && !hero_only && bsdf.is_dispersive()
 }
 
-/// Which engine runs a method on a scene, and why (for `vitrum info` and the render summary).
-#[derive(Clone, Debug)]
-pub struct EngineChoice {
-    /// The wavefront engine, when it runs; `None`: one ray at a time.
-    pub wavefront: Option<std::sync::Arc<Wavefront>>,
-    /// Why this engine runs.
-    pub reason: String,
-}
-
-impl EngineChoice {
-    /// The one-ray engine, for `reason`.
-    pub fn scalar(reason: impl Into<String>) -> EngineChoice {
-        EngineChoice { wavefront: None, reason: reason.into() }
-    }
-
-    /// The wavefront engine `engine`, for `reason`.
-    pub fn wavefront(engine: Wavefront, reason: impl Into<String>) -> EngineChoice {
-        EngineChoice { wavefront: Some(std::sync::Arc::new(engine)), reason: reason.into() }
-    }
-
-    /// `wavefront` or `scalar`.
-    pub fn name(&self) -> &'static str {
-        if self.wavefront.is_some() {
-            "wavefront"
-        } else {
-            "scalar"
-        }
-    }
-
-    /// The engine, how it finds hits and why it runs, in one phrase.
-    pub fn describe(&self) -> String {
-        match &self.wavefront {
-            Some(w) => format!("wavefront ({}): {}", w.describe(), self.reason),
-            None => format!("scalar: {}", self.reason),
-        }
+/// The method `method`, built.
+pub fn build(method: Method) -> Box<dyn Integrator> {
+    match method {
+        Method::RayCast => Box::new(RayCast),
+        Method::Whitted => Box::new(Whitted),
+        Method::Ssaa => Box::new(Ssaa),
+        Method::Distributed => Box::new(Distributed),
+        Method::Path => Box::new(Path),
+        Method::Light => Box::new(LightTracer),
+        Method::Bpt => Box::new(VertexMerging(Algorithm::Bpt)),
+        Method::Ppm => Box::new(VertexMerging(Algorithm::Ppm)),
+        Method::Bpm => Box::new(VertexMerging(Algorithm::Bpm)),
+        Method::Vcm => Box::new(VertexMerging(Algorithm::Vcm)),
     }
 }
 
-/// A rendering method.
-pub trait Integrator: Send + Sync {
-    /// Registry name (`raycast`, `whitted`, …).
-    fn name(&self) -> &'static str;
-    /// One line for `vitrum integrators`.
-    fn description(&self) -> &'static str;
-    /// What the method does with an effect the scene calls for.
-    fn support(&self, effect: Effect) -> Support;
-    /// The maximum depth when neither the scene nor the command line sets one.
-    fn default_max_depth(&self) -> u32 {
-        5
-    }
-    /// Radiance arriving at the camera along `ray`.
-    fn radiance(&self, scene: &Scene, params: &RenderParams, ray: &Ray, ctx: &mut PathContext) -> Vec3;
-    /// Methods with their own image loop (adaptive supersampling, light tracing) render here;
-    /// `None` means the shared camera pass estimates every pixel with [`Integrator::radiance`].
-    fn render_image(
-        &self,
-        _scene: &Scene,
-        _opts: &RenderOptions,
-        _progress: &(dyn Fn(u64, u64) + Sync),
-    ) -> Option<RenderOutput> {
-        None
-    }
-    /// Which engine traces `scene` under `opts` ([`RenderParams::engine`]), and why: a method
-    /// with a wavefront engine (`path`) runs it where it supports the scene; the default is one
-    /// ray at a time.
-    fn engine(&self, _scene: &Scene, _opts: &RenderOptions) -> EngineChoice {
-        EngineChoice::scalar("one ray at a time: only `path` has a wavefront engine")
-    }
-    /// How the method's image grows with the sample count (progressive rendering, per-pixel
-    /// variance); the default is the shared camera pass.
-    fn progression(&self) -> Progression<'_> {
-        Progression::CameraPass
-    }
-    /// The bytes the method allocates for a render of `scene` with `opts` beyond the film and
-    /// the outputs ([`crate::memory::MemoryEstimate`]); none by default.
-    fn working_memory(&self, _scene: &Scene, _opts: &RenderOptions) -> u64 {
-        0
-    }
-}
-
-/// Every integrator, in the order `vitrum integrators` lists them.
+/// Every integrator, in the order of the table of methods ([`crate::methods::METHODS`]), which
+/// `vitrum integrators` lists.
 pub fn all() -> Vec<Box<dyn Integrator>> {
-    vec![
-        Box::new(RayCast),
-        Box::new(Whitted),
-        Box::new(Ssaa),
-        Box::new(Distributed),
-        Box::new(Path),
-        Box::new(LightTracer),
-        Box::new(VertexMerging(Algorithm::Bpt)),
-        Box::new(VertexMerging(Algorithm::Ppm)),
-        Box::new(VertexMerging(Algorithm::Bpm)),
-        Box::new(VertexMerging(Algorithm::Vcm)),
-    ]
+    Method::ALL.into_iter().map(build).collect()
 }
 
 /// The integrator registered under `name`.
 pub fn create(name: &str) -> Option<Box<dyn Integrator>> {
-    all().into_iter().find(|i| i.name() == name)
+    Method::from_name(name).map(build)
 }
 
-/// The registered names.
+/// The registered names, in table order.
 pub fn names() -> Vec<&'static str> {
-    all().iter().map(|i| i.name()).collect()
-}
-
-/// How a scene's settings meet a method: its depth and its parameters.
-impl RenderSettings {
-    /// The maximum depth of a render by `integrator`: `cli` (the command line's `--max-depth`),
-    /// else the scene's `[render.METHOD] max_depth`, else the method's own default.
-    pub fn max_depth(&self, integrator: &dyn Integrator, cli: Option<u32>) -> u32 {
-        cli.or_else(|| self.max_depths.get(integrator.name()).copied())
-            .unwrap_or_else(|| integrator.default_max_depth())
-    }
-
-    /// The parameters of a render by `integrator` with the scene's settings, the depth as
-    /// [`RenderSettings::max_depth`] gives it.
-    pub fn params(&self, integrator: &dyn Integrator, cli_depth: Option<u32>) -> RenderParams {
-        RenderParams {
-            max_depth: self.max_depth(integrator, cli_depth),
-            reflectance: self.reflectance,
-            ssaa: self.ssaa,
-            merging: self.merging.get(integrator.name()).copied().unwrap_or_default(),
-            engine: crate::params::EngineOption::Auto,
-        }
-    }
+    crate::methods::NAMES.to_vec()
 }
 
 #[cfg(test)]
@@ -341,6 +231,55 @@ mod tests {
         assert_eq!(ctx.end_secondaries_at(&rough, &rough_model), HERO_ONLY);
         let mut rgb = PathContext::new(sampler(0));
         assert_eq!(rgb.end_secondaries_at(&rough, &rough_model), Vec3::ONE);
+    }
+
+    #[test]
+    fn the_registry_builds_every_method_of_the_table_as_itself() {
+        let built = all();
+        assert_eq!(built.len(), crate::methods::METHODS.len());
+        for (integrator, row) in built.iter().zip(crate::methods::METHODS) {
+            assert_eq!(integrator.method(), row.method);
+            assert_eq!((integrator.name(), integrator.description()), (row.name, row.description));
+            assert_eq!(create(row.name).map(|i| i.method()), Some(row.method));
+        }
+        assert!(create("Path").is_none() && create("").is_none());
+    }
+
+    #[test]
+    fn every_method_has_exactly_one_estimator_and_the_drivers_read_it() {
+        use crate::render::Progression;
+        let kind = |name: &str| match create(name).unwrap().progression() {
+            Progression::Camera(_) => "camera",
+            Progression::Accumulated(_) => "accumulated",
+            Progression::Fixed(_) => "fixed",
+        };
+        let kinds: Vec<_> = crate::methods::NAMES.iter().map(|n| (*n, kind(n))).collect();
+        assert_eq!(
+            kinds,
+            [
+                ("raycast", "camera"),
+                ("whitted", "camera"),
+                ("ssaa", "fixed"),
+                ("distributed", "camera"),
+                ("path", "camera"),
+                ("light", "accumulated"),
+                ("bpt", "accumulated"),
+                ("ppm", "accumulated"),
+                ("bpm", "accumulated"),
+                ("vcm", "accumulated"),
+            ]
+        );
+        // Only camera estimators answer per camera ray; the others have the one-ray engine.
+        let scene = crate::scene::load_default();
+        let opts = crate::render::RenderOptions::from_scene(&scene, 1);
+        for integrator in all() {
+            let camera = integrator.camera().is_some();
+            assert_eq!(camera, kind(integrator.name()) == "camera", "{}", integrator.name());
+            let engine = integrator.engine(&scene, &opts);
+            if !camera {
+                assert_eq!(engine.name(), "scalar", "{}", integrator.name());
+            }
+        }
     }
 
     #[test]

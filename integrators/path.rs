@@ -15,8 +15,8 @@
 //! through dispersive glass (or meets rough dispersive glass) it ends the secondary ones and goes
 //! on with the hero wavelength alone ([`PathContext::secondaries_after`]).
 
-use super::EngineChoice;
 use super::{light_index, Integrator, PathContext, RenderParams};
+use super::{CameraEstimator, EngineChoice, Method, Progression};
 use crate::bsdf::{BsdfSample, Scattering, ShadingFrame, TransportMode};
 use crate::geometry::{offset_origin, Ray};
 use crate::lanes::{Mask3, Real, Vector};
@@ -29,12 +29,7 @@ use glam::Vec3;
 
 use super::ROULETTE_DEPTH;
 
-/// The default maximum depth of `path` and `light` (bounces): the largest allowed. Rough glass
-/// traps light by total internal reflection for hundreds of bounces (a glass sphere of roughness
-/// 0.2 in a white furnace renders 0.9968 when paths stop at 64, 1.0000 at 256), and Russian
-/// roulette rightly spares such lossless paths, so only a depth limit ends them; the few that go
-/// deep cost little.
-pub const DEFAULT_PATH_DEPTH: u32 = crate::scene::compile::MAX_DEPTH;
+pub use crate::methods::DEFAULT_PATH_DEPTH;
 
 /// Monte Carlo path tracing with next-event estimation and MIS.
 pub struct Path;
@@ -50,22 +45,20 @@ pub(crate) fn power_heuristic<R: Real>(a: R, b: R) -> R {
 }
 
 impl Integrator for Path {
-    fn name(&self) -> &'static str {
-        "path"
-    }
-
-    fn description(&self) -> &'static str {
-        "Monte Carlo path tracing: next-event estimation + MIS, specular chains, Russian roulette; the reference"
+    fn method(&self) -> Method {
+        Method::Path
     }
 
     fn support(&self, _: Effect) -> Support {
         Support::Simulates
     }
 
-    fn default_max_depth(&self) -> u32 {
-        DEFAULT_PATH_DEPTH
+    fn progression(&self) -> Progression<'_> {
+        Progression::Camera(self)
     }
+}
 
+impl CameraEstimator for Path {
     fn radiance(
         &self,
         scene: &Scene,

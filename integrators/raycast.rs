@@ -3,7 +3,7 @@
 //! Glass and mirrors show only their own surface shading (the thesis's Fig. 12): nothing is
 //! reflected or refracted, and every object, glass included, casts a full shadow.
 
-use super::{Integrator, PathContext, RenderParams};
+use super::{CameraEstimator, Integrator, Method, PathContext, Progression, RenderParams};
 use crate::geometry::Ray;
 use crate::lighting::{emitted, phong_local, ShadowMode, ShadowRays};
 use crate::scene::effects::Support;
@@ -14,12 +14,8 @@ use glam::Vec3;
 pub struct RayCast;
 
 impl Integrator for RayCast {
-    fn name(&self) -> &'static str {
-        "raycast"
-    }
-
-    fn description(&self) -> &'static str {
-        "ray casting: first hit, Phong shading, hard shadows; glass shows only its surface"
+    fn method(&self) -> Method {
+        Method::RayCast
     }
 
     fn support(&self, effect: Effect) -> Support {
@@ -37,6 +33,12 @@ impl Integrator for RayCast {
         }
     }
 
+    fn progression(&self) -> Progression<'_> {
+        Progression::Camera(self)
+    }
+}
+
+impl CameraEstimator for RayCast {
     fn radiance(&self, scene: &Scene, _: &RenderParams, ray: &Ray, ctx: &mut PathContext) -> Vec3 {
         let Some(isect) = scene.intersect(ray, f32::INFINITY) else {
             return ctx.channels.colour(scene.background(ray.dir));

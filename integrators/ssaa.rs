@@ -18,9 +18,8 @@
 //! alone, lose accuracy faster than a regular grid of the same spacing (see the README).
 
 use super::whitted::{deterministic_support, trace, Sampling, Segment};
-use super::{Integrator, PathContext, RenderParams};
+use super::{FixedImage, Integrator, Method, PathContext, RenderParams};
 use crate::camera::Camera;
-use crate::geometry::Ray;
 use crate::image::Image;
 use crate::render::{camera_for, Progression, RenderOptions, RenderOutput};
 use crate::sampler::Sampler;
@@ -38,12 +37,8 @@ const SPLIT: usize = 3;
 pub struct Ssaa;
 
 impl Integrator for Ssaa {
-    fn name(&self) -> &'static str {
-        "ssaa"
-    }
-
-    fn description(&self) -> &'static str {
-        "supersampled antialiasing over Whitted radiance: regular n×n grid or adaptive corner subdivision"
+    fn method(&self) -> Method {
+        Method::Ssaa
     }
 
     fn support(&self, effect: Effect) -> Support {
@@ -55,16 +50,22 @@ impl Integrator for Ssaa {
         }
     }
 
-    fn radiance(&self, scene: &Scene, params: &RenderParams, ray: &Ray, ctx: &mut PathContext) -> Vec3 {
-        trace(scene, params, ray, Segment::camera(), Sampling::Fixed, ctx)
+    fn progression(&self) -> Progression<'_> {
+        Progression::Fixed(self)
+    }
+}
+
+impl FixedImage for Ssaa {
+    fn why(&self) -> &'static str {
+        "its sample pattern is set by --ssaa-mode/--ssaa-grid/--ssaa-levels, not by a sample count"
     }
 
-    fn render_image(
+    fn render(
         &self,
         scene: &Scene,
         opts: &RenderOptions,
         progress: &(dyn Fn(u64, u64) + Sync),
-    ) -> Option<RenderOutput> {
+    ) -> RenderOutput {
         let start = Instant::now();
         let camera = camera_for(scene, opts.resolution);
         let tracer = Tracer { scene, params: &opts.params, camera: &camera };
@@ -157,7 +158,7 @@ impl Integrator for Ssaa {
         }
         let non_finite = pixels.iter().filter(|p| !p.is_finite()).count() as u64;
         let spp = (counts.iter().sum::<f32>() / counts.len().max(1) as f32).round().max(1.0) as u32;
-        Some(RenderOutput {
+        RenderOutput {
             image: Image { width: w, height: h, pixels },
             spp,
             seconds: start.elapsed().as_secs_f64(),
@@ -168,13 +169,7 @@ impl Integrator for Ssaa {
             // A fixed pattern (grid or contrast-driven subdivision): no sample variance.
             variance: None,
             replicas: None,
-        })
-    }
-
-    fn progression(&self) -> Progression<'_> {
-        Progression::Fixed(
-            "its sample pattern is set by --ssaa-mode/--ssaa-grid/--ssaa-levels, not by a sample count",
-        )
+        }
     }
 }
 

@@ -99,17 +99,14 @@
 
 use super::splat_film::SampleSplats;
 use super::{
-    sample_bsdf, Integrator, MergeParams, PathContext, RenderParams, Strategy, DEFAULT_PATH_DEPTH,
-    ROULETTE_DEPTH,
+    sample_bsdf, Integrator, MergeParams, Method, PathContext, RenderParams, Strategy, ROULETTE_DEPTH,
 };
 use crate::bsdf::{Scattering, ShadingFrame, TransportMode};
 use crate::camera::Camera;
 use crate::geometry::{spawn_origin, Ray, SurfaceHit};
 use crate::light::SceneSphere;
 use crate::lighting::crossing;
-use crate::render::{
-    camera_for, render_accumulated, Accumulate, CameraDims, Film, Progression, RenderOptions, RenderOutput,
-};
+use crate::render::{camera_for, Accumulate, CameraDims, Film, Progression, RenderOptions};
 use crate::sampler::{Dim, Replicas, Sampler, SamplerKind};
 use crate::scene::effects::Support;
 use crate::scene::{Effect, Intersection, Scene};
@@ -169,11 +166,11 @@ pub enum Algorithm {
 impl Algorithm {
     /// The algorithm of the method called `name` (`bpt`, `ppm`, `bpm`, `vcm`).
     pub fn from_name(name: &str) -> Option<Algorithm> {
-        match name {
-            "bpt" => Some(Algorithm::Bpt),
-            "ppm" => Some(Algorithm::Ppm),
-            "bpm" => Some(Algorithm::Bpm),
-            "vcm" => Some(Algorithm::Vcm),
+        match Method::from_name(name)? {
+            Method::Bpt => Some(Algorithm::Bpt),
+            Method::Ppm => Some(Algorithm::Ppm),
+            Method::Bpm => Some(Algorithm::Bpm),
+            Method::Vcm => Some(Algorithm::Vcm),
             _ => None,
         }
     }
@@ -203,27 +200,12 @@ impl Algorithm {
 pub struct VertexMerging(pub Algorithm);
 
 impl Integrator for VertexMerging {
-    fn name(&self) -> &'static str {
+    fn method(&self) -> Method {
         match self.0 {
-            Algorithm::Bpt => "bpt",
-            Algorithm::Ppm => "ppm",
-            Algorithm::Bpm => "bpm",
-            Algorithm::Vcm => "vcm",
-        }
-    }
-
-    fn description(&self) -> &'static str {
-        match self.0 {
-            Algorithm::Bpt => {
-                "bidirectional path tracing: camera and light sub-paths connected, MIS over every strategy"
-            }
-            Algorithm::Ppm => {
-                "progressive photon mapping: specular camera chains merge photons once; radius shrinks"
-            }
-            Algorithm::Bpm => "bidirectional photon mapping: merges at every non-specular camera vertex, MIS",
-            Algorithm::Vcm => {
-                "vertex connection and merging: bpt plus merging, MIS over both; every light path"
-            }
+            Algorithm::Bpt => Method::Bpt,
+            Algorithm::Ppm => Method::Ppm,
+            Algorithm::Bpm => Method::Bpm,
+            Algorithm::Vcm => Method::Vcm,
         }
     }
 
@@ -236,26 +218,8 @@ impl Integrator for VertexMerging {
         }
     }
 
-    fn default_max_depth(&self) -> u32 {
-        DEFAULT_PATH_DEPTH
-    }
-
-    /// Unused: the engine renders in [`Integrator::render_image`], which always returns `Some`.
-    fn radiance(&self, _: &Scene, _: &RenderParams, _: &Ray, _: &mut PathContext) -> Vec3 {
-        Vec3::ZERO
-    }
-
-    fn render_image(
-        &self,
-        scene: &Scene,
-        opts: &RenderOptions,
-        progress: &(dyn Fn(u64, u64) + Sync),
-    ) -> Option<RenderOutput> {
-        Some(render_accumulated(scene, self, opts, progress))
-    }
-
     fn progression(&self) -> Progression<'_> {
-        Progression::Own(self)
+        Progression::Accumulated(self)
     }
 
     /// The stored light paths of an iteration (their vertices, the photon grid, their splats)

@@ -25,7 +25,7 @@
 mod stages;
 
 use super::path::{OneRay, PathState, PendingLight};
-use super::{EngineChoice, PathContext, RenderParams};
+use super::{BatchEngine, EngineChoice, PathContext, RenderParams};
 use crate::geometry::Ray;
 use crate::lanes::{Isa, LaneScene, Lanes, RayLanes, WIDTH};
 use crate::lighting::ShadowRay;
@@ -38,8 +38,8 @@ use stages::LaneStages;
 /// A light sample of one path waiting for its shadow ray.
 type Pending = PendingLight<Vec3, Option<ShadowRay>>;
 
-/// The wavefront engine for one scene.
-#[derive(Clone, Debug)]
+/// The wavefront engine for one scene, with its statistics.
+#[derive(Debug)]
 pub struct Wavefront {
     /// The scene's primitives for the lane kernels, or why it has none (the BVH is traversed one
     /// ray per lane).
@@ -47,6 +47,8 @@ pub struct Wavefront {
     /// Every stage across lanes, or why not (each path is shaded by [`PathState::advance`], one
     /// lane at a time).
     stages: Result<LaneStages, String>,
+    /// How full the lane stages were over every batch the engine traced as a [`BatchEngine`].
+    occupancy: std::sync::Mutex<StageOccupancy>,
 }
 
 /// How full a stage's batches were: lanes that carried a ray, of the lanes issued.
@@ -110,7 +112,18 @@ impl Wavefront {
             }),
             Err(why) => Err(why.clone()),
         };
-        Wavefront { lanes, stages }
+        Wavefront { lanes, stages, occupancy: Default::default() }
+    }
+
+    /// How full the lane stages were over every batch traced so far as a [`BatchEngine`] (the
+    /// camera pass's batches).
+    pub fn occupancy(&self) -> StageOccupancy {
+        *self.occupancy.lock().unwrap_or_else(|e| e.into_inner())
+    }
+
+    /// Adds `occupancy` to the engine's statistics.
+    fn tally(&self, occupancy: &StageOccupancy) {
+        self.occupancy.lock().unwrap_or_else(|e| e.into_inner()).merge(occupancy);
     }
 
     /// What runs across lanes, in words.
@@ -234,6 +247,27 @@ impl Wavefront {
                 paths[*i as usize].resolve(light, !blocked[k]);
             }
         }
+    }
+}
+
+/// The engine as the camera pass drives it: [`Wavefront::radiance`], its lane occupancy added
+/// to the engine's statistics.
+impl BatchEngine for Wavefront {
+    fn describe(&self) -> String {
+        Wavefront::describe(self)
+    }
+
+    fn estimate_rays(
+        &self,
+        scene: &Scene,
+        params: &RenderParams,
+        rays: &[Ray],
+        ctxs: &mut [PathContext],
+    ) -> Vec<Vec3> {
+        let mut occupancy = StageOccupancy::default();
+        let radiance = self.radiance(scene, params, rays, ctxs, &mut occupancy);
+        self.tally(&occupancy);
+        radiance
     }
 }
 

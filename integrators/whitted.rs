@@ -11,7 +11,7 @@
 //! Whitted's algorithm with the rays *distributed*: light points, glossy directions, lens
 //! positions and times are sampled instead of fixed ([`Sampling::Distributed`]).
 
-use super::{ends_secondaries, Integrator, PathContext, RenderParams};
+use super::{ends_secondaries, CameraEstimator, Integrator, Method, PathContext, Progression, RenderParams};
 use crate::bsdf::rough_dielectric::{RoughDielectric, TransportMode};
 use crate::bsdf::{Frame, Scattering, ShadingFrame, ThinDielectric};
 use crate::geometry::{spawn_origin, Ray, SurfaceHit};
@@ -28,18 +28,20 @@ use glam::Vec3;
 pub struct Whitted;
 
 impl Integrator for Whitted {
-    fn name(&self) -> &'static str {
-        "whitted"
-    }
-
-    fn description(&self) -> &'static str {
-        "Whitted ray tracing: recursive reflection and refraction, Fresnel, shadows through glass; no caustics"
+    fn method(&self) -> Method {
+        Method::Whitted
     }
 
     fn support(&self, effect: Effect) -> Support {
         deterministic_support(effect)
     }
 
+    fn progression(&self) -> Progression<'_> {
+        Progression::Camera(self)
+    }
+}
+
+impl CameraEstimator for Whitted {
     fn radiance(&self, scene: &Scene, params: &RenderParams, ray: &Ray, ctx: &mut PathContext) -> Vec3 {
         trace(scene, params, ray, Segment::camera(), Sampling::Fixed, ctx)
     }

@@ -11,7 +11,6 @@ use crate::commands::export::ExportArgs;
 use crate::commands::info::InfoArgs;
 use crate::commands::render::RenderArgs;
 pub use crate::commands::support::CliError;
-use crate::integrators;
 use crate::interrupt;
 use clap::{Parser, Subcommand};
 
@@ -80,8 +79,8 @@ pub fn main() -> i32 {
         Command::Report(args) => crate::commands::report::run(&args),
         Command::Merge(args) => crate::commands::merge::run(&args),
         Command::Integrators => {
-            for i in integrators::all() {
-                println!("{:<12} {}", i.name(), i.description());
+            for m in crate::methods::METHODS {
+                println!("{:<12} {}", m.name, m.description);
             }
             Ok(())
         }

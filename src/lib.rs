@@ -21,6 +21,7 @@ pub mod light;
 pub mod lighting;
 pub mod material;
 pub mod memory;
+pub mod methods;
 pub mod metrics;
 pub mod optics;
 pub mod output;

@@ -282,7 +282,7 @@ impl PartInfo {
             .identity
             .get("integrator")
             .and_then(crate::integrators::create)
-            .is_some_and(|i| matches!(i.progression(), Progression::CameraPass));
+            .is_some_and(|i| matches!(i.progression(), Progression::Camera(_)));
         camera_pass
             && (self.identity.get("sampler") == Some(SamplerKind::Stratified.name()) || self.planned == 1)
     }

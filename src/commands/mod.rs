@@ -233,8 +233,8 @@ impl CachedReference {
             None => None,
         };
         if let Some(method) = &named {
-            if let crate::render::Progression::Fixed(why) = method.progression() {
-                let name = method.name();
+            if let crate::render::Progression::Fixed(image) = method.progression() {
+                let (name, why) = (method.name(), image.why());
                 return Err(bad(format!(
                     "--reference-method {name}: its samples are not a sample count ({why})"
                 )));

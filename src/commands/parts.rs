@@ -130,7 +130,8 @@ pub fn plan(
             ));
         }
     }
-    if let Progression::Fixed(why) | Progression::Fresh(why) = integrator.progression() {
+    if let Progression::Fixed(image) = integrator.progression() {
+        let why = image.why();
         return bad(format!("{option}: `{}` cannot be rendered in parts: {why}", integrator.name()));
     }
     let target = match (&resumed, args.samples.clone(), args.shard, opts.budget) {

@@ -295,10 +295,11 @@ pub fn run(args: &RenderArgs) -> Result<(), CliError> {
     }
     check_effects(&scene, integrator.as_ref(), &opts, args.strict)?;
     if args.variance {
-        if let render::Progression::Fixed(why) = integrator.progression() {
+        if let render::Progression::Fixed(image) = integrator.progression() {
             return Err(CliError::BadInput(format!(
-                "--variance: `{}` renders a fixed sample pattern ({why}); it has no sample variance",
-                integrator.name()
+                "--variance: `{}` renders a fixed sample pattern ({}); it has no sample variance",
+                integrator.name(),
+                image.why()
             )));
         }
         if opts.budget == Budget::Samples(1) {

@@ -4,7 +4,6 @@
 use super::*;
 use crate::camera::Camera;
 use crate::geometry::Ray;
-use crate::integrators::{EngineChoice, Integrator, PathContext, StageOccupancy, Wavefront};
 use crate::sampler::{Dim, Replicas, Sampler, DIM_PURPOSES};
 use crate::scene::effects::Support;
 use crate::scene::{Effect, Scene, SpectralMode};
@@ -45,7 +44,6 @@ impl CameraDims {
 /// Counters of one row over a range of samples.
 pub(super) struct RowStats {
     pub(super) rays: RayCounts,
-    pub(super) occupancy: StageOccupancy,
     pub(super) non_finite: u64,
     pub(super) requests: [u64; DIM_PURPOSES],
 }
@@ -67,7 +65,8 @@ impl RowStats {
 /// Everything fixed during camera passes.
 pub(super) struct Pass<'a> {
     pub(super) scene: &'a Scene,
-    pub(super) integrator: &'a dyn Integrator,
+    /// The method's radiance per camera ray.
+    pub(super) estimator: &'a dyn CameraEstimator,
     pub(super) camera: Camera,
     pub(super) opts: RenderOptions,
     pub(super) dims: CameraDims,
@@ -81,14 +80,21 @@ pub(super) struct Pass<'a> {
 pub const WAVEFRONT_BATCH: usize = 1024;
 
 impl<'a> Pass<'a> {
-    pub(super) fn new(scene: &'a Scene, integrator: &'a dyn Integrator, opts: &RenderOptions) -> Pass<'a> {
+    /// The camera passes of `integrator`, whose radiance per camera ray is `estimator`, over
+    /// `scene` with `opts`.
+    pub(super) fn new(
+        scene: &'a Scene,
+        integrator: &dyn Integrator,
+        estimator: &'a dyn CameraEstimator,
+        opts: &RenderOptions,
+    ) -> Pass<'a> {
         Pass {
             scene,
-            integrator,
+            estimator,
             camera: camera_for(scene, opts.resolution),
             opts: opts.clone(),
             dims: CameraDims::resolve(scene, integrator, opts.spectral),
-            engine: integrator.engine(scene, opts),
+            engine: estimator.engine(scene, opts),
         }
     }
 
@@ -137,17 +143,17 @@ impl<'a> Pass<'a> {
     /// and sampler requests.
     pub(super) fn sample(&self, x: u32, y: u32, index: u32, total: u32, row: &mut RowStats) -> Vec3 {
         let (ray, mut ctx) = self.start(x, y, index, total);
-        let radiance = self.integrator.radiance(self.scene, &self.opts.params, &ray, &mut ctx);
+        let radiance = self.estimator.radiance(self.scene, &self.opts.params, &ray, &mut ctx);
         self.finish(&ctx, radiance, row)
     }
 
     /// Continues the sums of the film's row `y` (`sums`: per pixel of the crop window, the sum
-    /// and the replicas' sums) with the samples `samples` (of `total`) by the wavefront engine:
+    /// and the replicas' sums) with the samples `samples` (of `total`) by the batch engine:
     /// its paths go in batches of at most [`WAVEFRONT_BATCH`] whole pixels' samples, whose
     /// estimates are added pixel by pixel in sample order, as the one-ray loop adds them.
     fn wavefront_row(
         &self,
-        engine: &Wavefront,
+        engine: &dyn BatchEngine,
         y: u32,
         (sum, replica_sums): (&mut [DVec3], &mut [DVec3]),
         samples: Range<u32>,
@@ -160,7 +166,6 @@ impl<'a> Pass<'a> {
         let per_pixel = samples.len().max(1);
         let pixels_per_batch = (WAVEFRONT_BATCH / per_pixel).max(1);
         let (mut rays, mut ctxs) = (Vec::new(), Vec::new());
-        let mut occupancy = StageOccupancy::default();
         let x0 = self.camera.crop.x;
         for first in (0..width).step_by(pixels_per_batch) {
             let xs = x0 + first as u32..x0 + (first + pixels_per_batch).min(width) as u32;
@@ -173,7 +178,7 @@ impl<'a> Pass<'a> {
                     ctxs.push(ctx);
                 }
             }
-            let radiance = engine.radiance(self.scene, &self.opts.params, &rays, &mut ctxs, &mut occupancy);
+            let radiance = engine.estimate_rays(self.scene, &self.opts.params, &rays, &mut ctxs);
             let estimates: Vec<Vec3> =
                 ctxs.iter().zip(radiance).map(|(ctx, l)| self.finish(ctx, l, row)).collect();
             let first = (xs.start - x0) as usize;
@@ -184,7 +189,6 @@ impl<'a> Pass<'a> {
                 }
             }
         }
-        row.occupancy.merge(&occupancy);
     }
 
     /// Continue the sums of the film's row `y` (`sum` per pixel of the crop window,
@@ -198,14 +202,9 @@ impl<'a> Pass<'a> {
         sum: &mut [DVec3],
         replica_sums: &mut [DVec3],
     ) -> RowStats {
-        let mut row = RowStats {
-            rays: RayCounts::default(),
-            occupancy: StageOccupancy::default(),
-            non_finite: 0,
-            requests: [0; DIM_PURPOSES],
-        };
+        let mut row = RowStats { rays: RayCounts::default(), non_finite: 0, requests: [0; DIM_PURPOSES] };
         if let Some(engine) = &self.engine.wavefront {
-            self.wavefront_row(engine, y, (sum, replica_sums), samples, total, &mut row);
+            self.wavefront_row(engine.as_ref(), y, (sum, replica_sums), samples, total, &mut row);
             return row;
         }
         let replicas = self.opts.replicas;
@@ -246,7 +245,6 @@ impl<'a> Pass<'a> {
             .collect();
         for row in rows {
             film.rays += row.rays;
-            film.occupancy.merge(&row.occupancy);
             film.non_finite += row.non_finite;
             for (a, b) in film.requests.0.iter_mut().zip(row.requests) {
                 *a += b;

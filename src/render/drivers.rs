@@ -2,7 +2,6 @@
 //! (`render`, `camera_pass`, `render_accumulated`, render parts).
 
 use super::*;
-use crate::integrators::Integrator;
 use crate::scene::Scene;
 use std::ops::Range;
 use std::time::{Duration, Instant};
@@ -141,10 +140,11 @@ pub fn render(
     opts: &RenderOptions,
     progress: &(dyn Fn(u64, u64) + Sync),
 ) -> RenderOutput {
-    if let Some(out) = integrator.render_image(scene, opts, progress) {
-        return out;
+    match integrator.progression() {
+        Progression::Camera(_) => camera_pass(scene, integrator, opts, progress).0,
+        Progression::Accumulated(method) => render_accumulated(scene, method, opts, progress),
+        Progression::Fixed(image) => image.render(scene, opts, progress),
     }
-    camera_pass(scene, integrator, opts, progress).0
 }
 
 /// The shared camera pass, with the sampler requests it made per purpose; it stops early, at a
@@ -159,22 +159,47 @@ pub fn camera_pass(
     (film.output(), film.requests)
 }
 
-/// The film of [`camera_pass`], with its counters (rays, sampler requests, the wavefront
-/// engine's lane occupancy by stage).
+/// The film of [`camera_pass`], with its counters (rays, sampler requests).
+///
+/// # Panics
+/// For a method that does not estimate per camera ray ([`Progression::Camera`]).
 pub fn camera_film(
     scene: &Scene,
     integrator: &dyn Integrator,
     opts: &RenderOptions,
     progress: &(dyn Fn(u64, u64) + Sync),
 ) -> Film {
-    let pass = Pass::new(scene, integrator, opts);
+    let pass = camera_pass_of(scene, integrator, opts);
     let mut film = pass.film();
     run_camera_pass(&pass, &mut film, progress, &mut |_| {});
     film
 }
 
-/// Render `opts.budget` with a method that adds sample indices itself (for its
-/// [`Integrator::render_image`]): in passes of whole sample indices until the samples are done,
+/// [`camera_film`] on the engine `engine` instead of the one the method chooses: its caller
+/// can hold the engine and read its statistics after the render.
+pub fn camera_film_on(
+    scene: &Scene,
+    integrator: &dyn Integrator,
+    opts: &RenderOptions,
+    engine: EngineChoice,
+    progress: &(dyn Fn(u64, u64) + Sync),
+) -> Film {
+    let pass = Pass { engine, ..camera_pass_of(scene, integrator, opts) };
+    let mut film = pass.film();
+    run_camera_pass(&pass, &mut film, progress, &mut |_| {});
+    film
+}
+
+/// The camera passes of `integrator`, which must estimate per camera ray.
+fn camera_pass_of<'a>(scene: &'a Scene, integrator: &'a dyn Integrator, opts: &RenderOptions) -> Pass<'a> {
+    let Some(estimator) = integrator.camera() else {
+        panic!("the camera pass runs methods that estimate per camera ray, not `{}`", integrator.name())
+    };
+    Pass::new(scene, integrator, estimator, opts)
+}
+
+/// Render `opts.budget` with a method that adds sample indices itself
+/// ([`Progression::Accumulated`]): in passes of whole sample indices until the samples are done,
 /// the time is up or a stop is requested ([`crate::interrupt`]).
 pub fn render_accumulated(
     scene: &Scene,
@@ -197,9 +222,9 @@ pub fn part_film(
     first: u32,
 ) -> Result<Film, &'static str> {
     let mut film = match integrator.progression() {
-        Progression::CameraPass => Pass::new(scene, integrator, opts).film(),
-        Progression::Own(method) => method.film(scene, opts),
-        Progression::Fresh(why) | Progression::Fixed(why) => return Err(why),
+        Progression::Camera(estimator) => Pass::new(scene, integrator, estimator, opts).film(),
+        Progression::Accumulated(method) => method.film(scene, opts),
+        Progression::Fixed(image) => return Err(image.why()),
     };
     film.first = first;
     Ok(film)
@@ -221,11 +246,11 @@ pub fn render_part(
     after_pass: &mut dyn FnMut(&Film),
 ) -> Result<(), &'static str> {
     match integrator.progression() {
-        Progression::CameraPass => {
-            run_camera_pass(&Pass::new(scene, integrator, opts), film, progress, after_pass)
+        Progression::Camera(estimator) => {
+            run_camera_pass(&Pass::new(scene, integrator, estimator, opts), film, progress, after_pass)
         }
-        Progression::Own(method) => run_accumulated(scene, method, opts, film, progress, after_pass),
-        Progression::Fresh(why) | Progression::Fixed(why) => return Err(why),
+        Progression::Accumulated(method) => run_accumulated(scene, method, opts, film, progress, after_pass),
+        Progression::Fixed(image) => return Err(image.why()),
     }
     Ok(())
 }

@@ -38,8 +38,6 @@ pub struct Film {
     pub non_finite: u64,
     /// Sampler requests per purpose (camera pass only).
     pub requests: DimensionRequests,
-    /// How full the wavefront engine's lanes were, by stage (camera pass with it only).
-    pub occupancy: crate::integrators::StageOccupancy,
     /// Whether wavelengths are traced.
     pub spectral: bool,
     /// Seconds spent adding samples.
@@ -63,7 +61,6 @@ impl Film {
             rays: RayCounts::default(),
             non_finite: 0,
             requests: DimensionRequests::default(),
-            occupancy: Default::default(),
             spectral,
             seconds: 0.0,
         }

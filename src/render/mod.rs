@@ -24,8 +24,8 @@
 //!
 //! Which methods grow ([`Integrator::progression`]): the camera-pass methods (`raycast`,
 //! `whitted`, `distributed`, `path`; the deterministic ones converge to their own antialiased
-//! image) and `light`. `ssaa` renders one fixed pattern whatever the sample count
-//! ([`Progression::Fixed`]): a progressive render of it is that one image.
+//! image), `light` and the bidirectional methods. `ssaa` renders one fixed pattern whatever the
+//! sample count ([`Progression::Fixed`]): a progressive render of it is that one image.
 //!
 //! # Passes and interrupts
 //! A render spends its budget in sample passes: a sample budget of n in passes
@@ -57,7 +57,8 @@
 
 use crate::camera::Camera;
 use crate::image::Image;
-use crate::integrators::{Integrator, RenderParams};
+use crate::methods::Method;
+use crate::params::RenderParams;
 use crate::sampler::{Replicas, SamplerKind};
 use crate::scene::{Scene, SpectralMode};
 use crate::stats::RayCounts;
@@ -66,12 +67,14 @@ use std::ops::Range;
 use std::time::Duration;
 
 mod camera_pass;
+mod contract;
 mod drivers;
 mod film;
 mod progressive;
 mod replicas;
 
 pub use camera_pass::*;
+pub use contract::*;
 pub use drivers::*;
 pub use film::*;
 pub use progressive::*;
@@ -113,20 +116,24 @@ impl RenderOptions {
     /// Options for `spp` samples with the scene's own settings for its own integrator
     /// (`[render] integrator`; for another method, use [`for_method`](Self::for_method)).
     pub fn from_scene(scene: &Scene, spp: u32) -> RenderOptions {
-        let integrator =
-            crate::integrators::create(&scene.settings.integrator).expect("compile checked the name");
-        RenderOptions::for_method(scene, integrator.as_ref(), spp)
+        let method = Method::from_name(&scene.settings.integrator).expect("compile checked the name");
+        RenderOptions::of(scene, method, spp)
     }
 
     /// Options for `spp` samples of `integrator` with the scene's settings for that method
     /// (its `[render.METHOD]` table, else the method's own defaults, such as its full depth).
     pub fn for_method(scene: &Scene, integrator: &dyn Integrator, spp: u32) -> RenderOptions {
+        RenderOptions::of(scene, integrator.method(), spp)
+    }
+
+    /// Options for `spp` samples of `method` with the scene's settings for it.
+    fn of(scene: &Scene, method: Method, spp: u32) -> RenderOptions {
         let s = &scene.settings;
         RenderOptions {
             budget: Budget::Samples(spp),
             resolution: None,
             seed: s.seed,
-            params: s.params(integrator, None),
+            params: s.params_of(method, None),
             spectral: s.spectral,
             sampler: s.sampler,
             planned_spp: None,
@@ -192,47 +199,6 @@ impl RenderOutput {
     }
 }
 
-/// A method with its own image loop that still builds its image sample index by sample index
-/// (light tracing), so that it can render progressively and estimate its variance.
-pub trait Accumulate: Sync {
-    /// An empty film for rendering `scene` with `opts`.
-    fn film(&self, scene: &Scene, opts: &RenderOptions) -> Film;
-    /// Add the sample indices `samples` (from [`Film::next_sample`] on) to `film`, each sample index
-    /// adding one term to every pixel's sum and sum of squares; the caller then advances
-    /// `film.samples` and its time. `progress` gets (work done, work total) of this call.
-    fn add_samples(
-        &self,
-        scene: &Scene,
-        opts: &RenderOptions,
-        samples: Range<u32>,
-        film: &mut Film,
-        progress: &(dyn Fn(u64, u64) + Sync),
-    );
-}
-
-/// How a method's image grows with the sample count (see the module documentation).
-#[derive(Clone, Copy)]
-pub enum Progression<'a> {
-    /// The shared camera pass adds samples of [`Integrator::radiance`].
-    CameraPass,
-    /// The method adds sample indices itself.
-    Own(&'a dyn Accumulate),
-    /// The method cannot grow an image: every checkpoint is rendered anew; the text says why.
-    Fresh(&'static str),
-    /// The method renders one image whatever the sample count; the text says why.
-    Fixed(&'static str),
-}
-
-impl std::fmt::Debug for Progression<'_> {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match self {
-            Progression::CameraPass => write!(f, "CameraPass"),
-            Progression::Own(_) => write!(f, "Own"),
-            Progression::Fresh(why) => write!(f, "Fresh({why:?})"),
-            Progression::Fixed(why) => write!(f, "Fixed({why:?})"),
-        }
-    }
-}
 /// The camera for a render, with the resolution override applied.
 pub fn camera_for(scene: &Scene, resolution: Option<(u32, u32)>) -> Camera {
     match resolution {
@@ -409,7 +375,7 @@ mod tests {
         let path = crate::integrators::create("path").unwrap();
         let mut opts = RenderOptions::from_scene(&scene, 6);
         opts.resolution = Some((12, 8));
-        let pass = Pass::new(&scene, path.as_ref(), &opts);
+        let pass = Pass::new(&scene, path.as_ref(), path.camera().unwrap(), &opts);
         let (mut once, mut split) = (pass.film(), pass.film());
         pass.add(&mut once, 0..6, 6, &|_, _| {});
         for range in [0..1, 1..3, 3..6] {

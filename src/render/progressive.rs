@@ -1,7 +1,6 @@
 //! Progressive renders: an image that grows sample by sample, reported at checkpoints.
 
 use super::*;
-use crate::integrators::Integrator;
 use crate::scene::Scene;
 use std::time::Instant;
 
@@ -20,7 +19,8 @@ pub enum Growth {
 pub(super) enum Source<'a> {
     /// The shared camera pass (boxed: it holds the engine choice).
     Camera(Box<Pass<'a>>),
-    Own(&'a dyn Accumulate),
+    /// Sample indices the method adds itself.
+    Accumulated(&'a dyn Accumulate),
     /// Whole renders (fresh or fixed).
     Renders,
 }
@@ -45,16 +45,15 @@ impl<'a> Progressive<'a> {
     /// caller chooses the sample counts); incremental when the method can grow an image.
     pub fn new(scene: &'a Scene, integrator: &'a dyn Integrator, opts: &RenderOptions) -> Progressive<'a> {
         let (growth, source) = match integrator.progression() {
-            Progression::CameraPass => {
-                (Growth::Incremental, Source::Camera(Box::new(Pass::new(scene, integrator, opts))))
+            Progression::Camera(estimator) => {
+                (Growth::Incremental, Source::Camera(Box::new(Pass::new(scene, integrator, estimator, opts))))
             }
-            Progression::Own(method) => (Growth::Incremental, Source::Own(method)),
-            Progression::Fresh(why) => (Growth::Fresh(why), Source::Renders),
-            Progression::Fixed(why) => (Growth::Fixed(why), Source::Renders),
+            Progression::Accumulated(method) => (Growth::Incremental, Source::Accumulated(method)),
+            Progression::Fixed(image) => (Growth::Fixed(image.why()), Source::Renders),
         };
         let film = match &source {
             Source::Camera(pass) => Some(pass.film()),
-            Source::Own(method) => Some(method.film(scene, opts)),
+            Source::Accumulated(method) => Some(method.film(scene, opts)),
             Source::Renders => None,
         };
         Progressive { scene, integrator, opts: opts.clone(), growth, source, film, last: None, spent: 0.0 }
@@ -100,7 +99,7 @@ impl<'a> Progressive<'a> {
             (Source::Camera(pass), Some(film)) if spp > film.samples => {
                 pass.add(film, film.samples..spp, 0, progress);
             }
-            (Source::Own(method), Some(film)) if spp > film.samples => {
+            (Source::Accumulated(method), Some(film)) if spp > film.samples => {
                 method.add_samples(self.scene, &self.opts, film.samples..spp, film, progress);
             }
             (Source::Renders, _) => {

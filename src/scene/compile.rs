@@ -37,8 +37,7 @@ use std::time::{Duration, Instant};
 
 /// Largest image the renderer accepts, in pixels (checked before any allocation).
 pub const MAX_PIXELS: u64 = 1 << 26;
-/// Deepest recursion the renderer accepts (bounded stack; deeper paths carry no visible light).
-pub const MAX_DEPTH: u32 = 256;
+pub use crate::methods::MAX_DEPTH;
 /// Largest image side in pixels.
 pub const MAX_SIDE: u32 = 65536;
 /// `camera` without its near clip plane when the plane lies before the whole scene (every

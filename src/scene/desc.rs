@@ -4,6 +4,7 @@
 //! W/sr, area-light radiance in W/(m²·sr), colours as linear RGB (a single number means grey).
 //! `scenes/README.md` documents every field; keep the two in step.
 
+use crate::methods::Method;
 use serde::Deserialize;
 use std::collections::BTreeMap;
 
@@ -261,20 +262,21 @@ pub const MOVED_MAX_DEPTH: &str = "a depth is set per method, e.g. `[render.whit
      [render.ppm], [render.bpm], [render.vcm]); without one each method uses its own default (5; 256 \
      for path, light and the bidirectional methods)";
 
-/// The methods with a `[render.METHOD]` table, in the order `vitrum integrators` lists them.
-pub const METHOD_TABLES: [&str; 10] =
-    ["raycast", "whitted", "ssaa", "distributed", "path", "light", "bpt", "ppm", "bpm", "vcm"];
+/// The methods with a `[render.METHOD]` table, in the order `vitrum integrators` lists them:
+/// every method of the table of methods ([`crate::methods::NAMES`]).
+pub const METHOD_TABLES: [&str; crate::methods::NAMES.len()] = crate::methods::NAMES;
 
-/// The methods that merge photons and so take `radius` and `radius_alpha`.
-pub const MERGING_METHODS: [&str; 3] = ["ppm", "bpm", "vcm"];
+/// The methods that merge photons and so take `radius` and `radius_alpha`
+/// ([`crate::methods::Settings::Merging`]).
+pub const MERGING_METHODS: [&str; crate::methods::MERGING_NAMES.len()] = crate::methods::MERGING_NAMES;
 
 /// The methods of the bidirectional engine, which take `max_light_paths`.
 pub const BIDIRECTIONAL_METHODS: [&str; 4] = ["bpt", "ppm", "bpm", "vcm"];
 
 /// Whether the method `name` has a maximum depth (`[render.NAME] max_depth`): every method
-/// but `raycast`, which shades the first hit only.
+/// but `raycast`, which shades the first hit only ([`Method::has_max_depth`]).
 pub fn has_max_depth(name: &str) -> bool {
-    name != "raycast"
+    Method::from_name(name).is_some_and(Method::has_max_depth)
 }
 
 /// The table of a method without parameters of its own: it must be empty.
@@ -378,10 +380,10 @@ fn default_ssaa_threshold() -> f32 {
 impl RenderDesc {
     /// The `[render.NAME]` table of the merging method `name` (`None` for other methods).
     pub fn merge_of(&self, name: &str) -> Option<&MergeDesc> {
-        match name {
-            "ppm" => Some(&self.ppm),
-            "bpm" => Some(&self.bpm),
-            "vcm" => Some(&self.vcm),
+        match Method::from_name(name)? {
+            Method::Ppm => Some(&self.ppm),
+            Method::Bpm => Some(&self.bpm),
+            Method::Vcm => Some(&self.vcm),
             _ => None,
         }
     }
@@ -397,17 +399,17 @@ impl RenderDesc {
 
     /// The maximum depth the scene sets for the method `name` in its `[render.NAME]` table.
     pub fn max_depth_of(&self, name: &str) -> Option<u32> {
-        match name {
-            "whitted" => self.whitted.max_depth,
-            "ssaa" => self.ssaa.max_depth,
-            "distributed" => self.distributed.max_depth,
-            "path" => self.path.max_depth,
-            "light" => self.light.max_depth,
-            "bpt" => self.bpt.max_depth,
-            "ppm" => self.ppm.max_depth,
-            "bpm" => self.bpm.max_depth,
-            "vcm" => self.vcm.max_depth,
-            _ => None,
+        match Method::from_name(name)? {
+            Method::RayCast => None,
+            Method::Whitted => self.whitted.max_depth,
+            Method::Ssaa => self.ssaa.max_depth,
+            Method::Distributed => self.distributed.max_depth,
+            Method::Path => self.path.max_depth,
+            Method::Light => self.light.max_depth,
+            Method::Bpt => self.bpt.max_depth,
+            Method::Ppm => self.ppm.max_depth,
+            Method::Bpm => self.bpm.max_depth,
+            Method::Vcm => self.vcm.max_depth,
         }
     }
 }
@@ -1198,4 +1200,51 @@ pub enum LightDesc {
         /// Emitted radiance in W/(m²·sr).
         radiance: Rgb,
     },
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::methods::METHODS;
+
+    #[test]
+    fn the_moved_depth_message_names_every_method_with_a_depth_and_the_defaults_of_the_table() {
+        let depths: Vec<_> = METHODS.iter().filter(|m| m.method.has_max_depth()).collect();
+        for m in &depths {
+            assert!(MOVED_MAX_DEPTH.contains(&format!("[render.{}]", m.name)), "{}", m.name);
+        }
+        assert!(!MOVED_MAX_DEPTH.contains("[render.raycast]"), "raycast has no depth");
+        // "(5; 256 for path, light and the bidirectional methods)": the two defaults of the table.
+        let mut defaults: Vec<u32> = depths.iter().map(|m| m.default_max_depth).collect();
+        defaults.dedup();
+        assert_eq!(defaults.len(), 2, "{defaults:?}");
+        let (low, high) = (defaults[0], defaults[1]);
+        assert!(MOVED_MAX_DEPTH
+            .contains(&format!("({low}; {high} for path, light and the bidirectional methods)")));
+        for m in &depths {
+            let bidirectional = matches!(m.settings, crate::methods::Settings::Merging) || m.name == "bpt";
+            let expected = if m.name == "path" || m.name == "light" || bidirectional { high } else { low };
+            assert_eq!(m.default_max_depth, expected, "{}", m.name);
+        }
+    }
+
+    #[test]
+    fn every_method_of_the_table_with_a_depth_reads_its_own_table() {
+        let mut render: RenderDesc = toml::from_str(
+            "[whitted]\nmax_depth = 1\n[ssaa]\nmax_depth = 2\n[distributed]\nmax_depth = 3\n[path]\nmax_depth = 4\n\
+             [light]\nmax_depth = 5\n[bpt]\nmax_depth = 6\n[ppm]\nmax_depth = 7\n[bpm]\nmax_depth = 8\n\
+             [vcm]\nmax_depth = 9\n",
+        )
+        .unwrap();
+        let read: Vec<Option<u32>> = METHODS.iter().map(|m| render.max_depth_of(m.name)).collect();
+        assert_eq!(
+            read,
+            [None, Some(1), Some(2), Some(3), Some(4), Some(5), Some(6), Some(7), Some(8), Some(9)]
+        );
+        render.vcm.radius = Some(0.5);
+        for m in METHODS {
+            assert_eq!(render.merge_of(m.name).is_some(), m.method.merges(), "{}", m.name);
+        }
+        assert_eq!(render.merge_of("vcm").unwrap().radius, Some(0.5));
+    }
 }

@@ -21,7 +21,8 @@ use crate::camera::Camera;
 use crate::geometry::{Ray, Shape, SurfaceHit, VertexAttributes};
 use crate::light::{Light, SceneSphere};
 use crate::material::Material;
-use crate::params::{MergeParams, SsaaParams};
+use crate::methods::Method;
+use crate::params::{MergeParams, RenderParams, SsaaParams};
 use crate::sampler::SamplerKind;
 use glam::{Vec3, Vec3A};
 use obvhs::cwbvh::CwBvh;
@@ -103,6 +104,26 @@ pub struct RenderSettings {
     pub sampler: SamplerKind,
     /// Settings of the supersampling integrator.
     pub ssaa: SsaaParams,
+}
+
+impl RenderSettings {
+    /// The maximum depth of a render by `method`: `cli` (the command line's `--max-depth`), else
+    /// the scene's `[render.METHOD] max_depth`, else the method's own default.
+    pub fn max_depth_of(&self, method: Method, cli: Option<u32>) -> u32 {
+        cli.or_else(|| self.max_depths.get(method.name()).copied()).unwrap_or(method.info().default_max_depth)
+    }
+
+    /// The parameters of a render by `method` with the scene's settings, the depth as
+    /// [`RenderSettings::max_depth_of`] gives it.
+    pub fn params_of(&self, method: Method, cli_depth: Option<u32>) -> RenderParams {
+        RenderParams {
+            max_depth: self.max_depth_of(method, cli_depth),
+            reflectance: self.reflectance,
+            ssaa: self.ssaa,
+            merging: self.merging.get(method.name()).copied().unwrap_or_default(),
+            engine: crate::params::EngineOption::Auto,
+        }
+    }
 }
 
 /// When to trace wavelengths instead of RGB.
