@@ -538,7 +538,7 @@ impl<'a> PathWorld for OneRay<'a> {
         (true, ctx.channels.colour(le), light.pdf_li(origin, isect.hit.p, isect.hit.n))
     }
 
-    #[inline]
+    #[inline(always)]
     fn bsdf(&self, hit: &Self::Hit, _: bool, ctx: &mut PathContext) -> (Scattering<'a>, Vec3) {
         let isect = surface(hit);
         let material = self.scene.material_of(isect.primitive);
