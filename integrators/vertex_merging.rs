@@ -136,9 +136,7 @@ pub const DEFAULT_RADIUS_FRACTION: f32 = 0.0015;
 /// footprint, as `sqrt(RADIUS_REFERENCE_PIXELS / pixels)` ([`initial_radius`]).
 pub const RADIUS_REFERENCE_PIXELS: u64 = 256 * 256;
 
-/// The most light sub-paths an iteration traces by default (2²⁰, the pixels of a 1024² image):
-/// beyond that, camera paths share light paths ([`MergeParams::max_light_paths`]).
-pub const DEFAULT_MAX_LIGHT_PATHS: u32 = 1 << 20;
+pub use crate::params::DEFAULT_MAX_LIGHT_PATHS;
 
 /// Camera paths traced between two additions to the film: their estimates wait in a buffer of
 /// this many pixels at most, whatever the resolution.

@@ -114,6 +114,11 @@ impl Strategy {
     }
 }
 
+/// The most light sub-paths an iteration of the bidirectional engine traces by default (2²⁰, the
+/// pixels of a 1024² image): beyond that, camera paths share light paths
+/// ([`MergeParams::max_light_paths`]).
+pub const DEFAULT_MAX_LIGHT_PATHS: u32 = 1 << 20;
+
 /// Settings of the merging methods, and of the engine's research view of one strategy alone.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct MergeParams {
@@ -128,18 +133,13 @@ pub struct MergeParams {
     pub only: Option<Strategy>,
     /// The most light sub-paths an iteration traces (at least 1): an iteration traces
     /// `N = min(pixels, max_light_paths)` and camera path `j` connects to light path `j mod N`
-    /// ([`crate::integrators::DEFAULT_MAX_LIGHT_PATHS`] by default, which bounds the memory of the
+    /// ([`DEFAULT_MAX_LIGHT_PATHS`] by default, which bounds the memory of the
     /// stored light paths whatever the resolution).
     pub max_light_paths: u32,
 }
 
 impl Default for MergeParams {
     fn default() -> MergeParams {
-        MergeParams {
-            radius: None,
-            alpha: 0.75,
-            only: None,
-            max_light_paths: crate::integrators::DEFAULT_MAX_LIGHT_PATHS,
-        }
+        MergeParams { radius: None, alpha: 0.75, only: None, max_light_paths: DEFAULT_MAX_LIGHT_PATHS }
     }
 }

@@ -184,7 +184,7 @@ impl Identity {
         // Written only when it is not the default, so that earlier parts keep their identity.
         let cap = opts.params.merging.max_light_paths;
         if crate::scene::desc::BIDIRECTIONAL_METHODS.contains(&integrator)
-            && cap != crate::integrators::DEFAULT_MAX_LIGHT_PATHS
+            && cap != crate::params::DEFAULT_MAX_LIGHT_PATHS
         {
             fields.push(("max-light-paths".into(), cap.to_string()));
         }
