@@ -70,13 +70,30 @@ def find_vitrum(given):
     fail(3, "no vitrum binary: run `cargo build --release` or pass --vitrum PATH")
 
 
-def run(cmd, what):
+class CommandFailed(Exception):
+    """A command that exited with a non-zero code: `what` it was, its exit `code` and its `stderr`."""
+
+    def __init__(self, what, code, stderr):
+        super().__init__(f"{what} failed (exit code {code})")
+        self.what, self.code, self.stderr = what, code, stderr
+
+
+def try_run(cmd, what):
+    """Run `cmd` (echoed to stderr), capturing its output; raise CommandFailed if it fails."""
     print("$ " + " ".join(cmd), file=sys.stderr)
     p = subprocess.run(cmd, capture_output=True, text=True)
     if p.returncode != 0:
-        sys.stderr.write(p.stderr)
-        fail(1 if p.returncode == 1 else 2, f"{what} failed (exit code {p.returncode})")
+        raise CommandFailed(what, p.returncode, p.stderr)
     return p
+
+
+def run(cmd, what):
+    """Run `cmd` like try_run; if it fails, print its stderr and exit: 1 if it exited 1, else 2."""
+    try:
+        return try_run(cmd, what)
+    except CommandFailed as e:
+        sys.stderr.write(e.stderr)
+        fail(1 if e.code == 1 else 2, str(e))
 
 
 def vitrum_integrators(vitrum):

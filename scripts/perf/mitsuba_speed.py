@@ -30,7 +30,6 @@ Images, the XML and a JSON of every figure go to --out (default: a new temporary
 import argparse
 import json
 import os
-import subprocess
 import sys
 import tempfile
 import time
@@ -89,20 +88,27 @@ def mitsuba_child(xml, variant, spp_list, seed, warm_up, out_prefix, isa):
 ISA = "native"
 
 
-def mitsuba(xml, variant, spp_list, seed, out_prefix):
-    """Mitsuba renders in a fresh process (llvm after an untimed warm-up)."""
+def mitsuba(xml, variant, spp_list, seed, out_prefix, raise_failure=False):
+    """Mitsuba renders in a fresh process (llvm after an untimed warm-up): the child's JSON. A failed
+    child exits this process (code 1), or with `raise_failure` raises rc.CommandFailed."""
     cmd = [sys.executable, os.path.abspath(__file__), "--child", xml, variant, ",".join(map(str, spp_list)),
            str(seed), "1" if variant.startswith("llvm") else "0", out_prefix, ISA]
-    p = subprocess.run(cmd, capture_output=True, text=True)
-    if p.returncode != 0:
-        sys.stderr.write(p.stderr)
-        rc.fail(1, f"Mitsuba {variant} failed (exit code {p.returncode})")
+    try:
+        p = rc.try_run(cmd, f"Mitsuba {variant}")
+    except rc.CommandFailed as e:
+        if raise_failure:
+            raise
+        sys.stderr.write(e.stderr)
+        rc.fail(1, str(e))
     return json.loads(p.stdout.strip().splitlines()[-1])
 
 
-def export(vitrum, scene, xml, spp, depth, res, sampler):
-    rc.run([vitrum, "export", scene, "--format", "mitsuba", "-o", xml, "--spp", str(spp), "--max-depth",
-            str(depth), "--resolution", res, "--integrator", "path"], "vitrum export")
+def export(vitrum, scene, xml, spp, depth, res, sampler, run=rc.run):
+    """`vitrum export` of `scene` to Mitsuba XML with `path` at these settings (`run`: rc.run, which
+    exits on failure, or rc.try_run, which raises); its notes on stderr are returned as lines."""
+    cmd = [vitrum, "export", scene, "--format", "mitsuba", "-o", xml, "--spp", str(spp), "--max-depth",
+           str(depth), "--resolution", res, "--integrator", "path"]
+    notes = run(cmd, "vitrum export").stderr.splitlines()
     if sampler != "independent":
         with open(xml) as f:
             text = f.read()
@@ -110,12 +116,14 @@ def export(vitrum, scene, xml, spp, depth, res, sampler):
             rc.fail(1, "the exported XML has no independent sampler to replace")
         with open(xml, "w") as f:
             f.write(text.replace('<sampler type="independent">', f'<sampler type="{sampler}">'))
+    return notes
 
 
-def vitrum_render(vitrum, scene, res, depth, out, budget, seed):
+def vitrum_render(vitrum, scene, res, depth, out, budget, seed, run=rc.run):
+    """`vitrum render -i path` (all threads) with `budget` (["--spp", N] or ["--time", S]): its JSON."""
     cmd = [vitrum, "render", scene, "-i", "path", "--resolution", res, "--max-depth", str(depth),
            "--seed", str(seed), "-o", out, "--json", "--quiet"] + budget
-    return json.loads(rc.run(cmd, "vitrum render").stdout)
+    return json.loads(run(cmd, "vitrum render").stdout)
 
 
 def rel_mse(vitrum, test, reference):
