@@ -20,6 +20,7 @@ use super::{CameraEstimator, EngineChoice, Method, Progression};
 use crate::bsdf::{BsdfSample, Scattering, ShadingFrame, TransportMode};
 use crate::geometry::{offset_origin, Ray};
 use crate::lanes::{Mask3, Real, Vector};
+use crate::light::LightSampleOf;
 use crate::lighting::{crossing, ShadowRay};
 use crate::render::RenderOptions;
 use crate::sampler::Dim;
@@ -228,19 +229,12 @@ pub(crate) trait VertexFrame<V: Vector> {
     fn factor(&self, wo: V, wi: V) -> V::Real;
 }
 
-/// A light sampled for next-event estimation: where there is a sample, the direction towards it,
-/// its radiance there (in the path's channels), its solid-angle density, whether it is a delta
-/// light, and the point a shadow ray aims at.
+/// A light sampled for next-event estimation: the sample (its radiance in the path's channels),
+/// whether the light is a delta, and the point a shadow ray aims at.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct LightDraw<V: Vector> {
-    /// Where the light has a sample.
-    pub sampled: Mask3<V>,
-    /// Unit direction from the vertex towards the light.
-    pub wi: V,
-    /// Radiance arriving from it (intensity over distance² for a point light).
-    pub radiance: V,
-    /// Solid-angle density (1 for a delta light).
-    pub pdf: V::Real,
+    /// The sample.
+    pub sample: LightSampleOf<V>,
     /// Whether the light is a delta (no MIS).
     pub delta: Mask3<V>,
     /// The shadow ray's target.
@@ -398,14 +392,14 @@ impl<V: Vector> PathState<V> {
             let choice = if lights > 1 { world.draw_1d(ctx, Dim::Light, nee) } else { zero };
             let light = world.light_at(choice);
             let u = world.draw_2d(ctx, Dim::Light, nee);
-            let ls = world.sample_light(hit, light, u, nee, ctx);
+            let LightDraw { sample: ls, delta, target } = world.sample_light(hit, light, u, nee, ctx);
             let wi_local = frame.to_local(ls.wi);
             let f = bsdf.eval(wo_local, wi_local) * (wi_local.z().abs() * frame.factor(vzero, ls.wi));
             let pending = nee & ls.sampled & !f.is_zero();
-            let shadow = world.shadow(hit, ls.target, light, self.time, pending, ctx);
+            let shadow = world.shadow(hit, target, light, self.time, pending, ctx);
             let pdf = light_pick * ls.pdf;
             // A delta light has no density for BSDF sampling to match: no MIS.
-            let weighted = pending & !ls.delta;
+            let weighted = pending & !delta;
             let w = if V::Real::any(weighted) {
                 V::Real::select(weighted, power_heuristic(pdf, bsdf.pdf(wo_local, wi_local)), one)
             } else {
@@ -586,19 +580,15 @@ impl<'a> PathWorld for OneRay<'a> {
     ) -> LightDraw<Vec3> {
         let p = surface(hit).hit.p;
         match self.scene.lights[light].sample_li(p, u.into()) {
-            None => LightDraw {
-                sampled: false,
-                wi: Vec3::ZERO,
-                radiance: Vec3::ZERO,
-                pdf: 1.0,
-                delta: true,
-                target: p,
-            },
+            None => LightDraw { sample: LightSampleOf::none(), delta: true, target: p },
             Some(ls) => LightDraw {
-                sampled: true,
-                wi: ls.wi,
-                radiance: ctx.channels.colour(ls.radiance),
-                pdf: ls.pdf,
+                sample: LightSampleOf {
+                    sampled: true,
+                    wi: ls.wi,
+                    distance: ls.distance,
+                    radiance: ctx.channels.colour(ls.radiance),
+                    pdf: ls.pdf,
+                },
                 delta: ls.delta,
                 target: if ls.distance.is_finite() {
                     ls.position

@@ -675,35 +675,16 @@ impl PathWorld for LaneStages {
         let at_point = if (active & point).any() {
             point_light_sample(p, corner, emitted)
         } else {
-            LightSampleOf {
-                sampled: Mask::NONE,
-                wi: Vec3x::ZERO,
-                distance: zero,
-                radiance: Vec3x::ZERO,
-                pdf: zero,
-            }
+            LightSampleOf::none()
         };
         if !quads.any() {
-            let s = at_point;
-            return LightDraw {
-                sampled: s.sampled,
-                wi: s.wi,
-                radiance: s.radiance,
-                pdf: s.pdf,
-                delta: point,
-                target: corner,
-            };
+            return LightDraw { sample: at_point, delta: point, target: corner };
         }
         let y = quad_point(corner, vector(&lights.u), vector(&lights.v), ux, uy);
         let area_pdf = if one { F32x::splat(lights.area_pdf.0[0]) } else { lights.area_pdf.at(&l) };
         let on_quad = front_area_sample(p, y, vector(&lights.normal), emitted, area_pdf);
-        let pick = |a: Mask, b: Mask| (point & a) | (!point & b);
-        let sampled = pick(at_point.sampled, on_quad.sampled);
-        let wi = Vec3x::select(point, at_point.wi, on_quad.wi);
-        let radiance = Vec3x::select(point, at_point.radiance, on_quad.radiance);
-        let pdf = F32x::select(point, at_point.pdf, on_quad.pdf);
-        let y = Vec3x::select(point, corner, y);
-        LightDraw { sampled, wi, radiance, pdf, delta: point, target: y }
+        let sample = LightSampleOf::select(point, &at_point, &on_quad);
+        LightDraw { sample, delta: point, target: Vec3x::select(point, corner, y) }
     }
 
     #[inline(always)]

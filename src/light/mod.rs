@@ -510,6 +510,27 @@ pub struct LightSampleOf<V: Vector> {
     pub pdf: V::Real,
 }
 
+impl<V: Vector> LightSampleOf<V> {
+    /// No sample (in any lane).
+    #[inline(always)]
+    pub fn none() -> LightSampleOf<V> {
+        let (zero, v) = (V::Real::splat(0.0), V::splat(Vec3::ZERO));
+        LightSampleOf { sampled: V::Real::mask(false), wi: v, distance: zero, radiance: v, pdf: zero }
+    }
+
+    /// `if m { a } else { b }`, field by field (per lane).
+    #[inline(always)]
+    pub fn select(m: Mask3<V>, a: &LightSampleOf<V>, b: &LightSampleOf<V>) -> LightSampleOf<V> {
+        LightSampleOf {
+            sampled: (m & a.sampled) | (!m & b.sampled),
+            wi: V::select(m, a.wi, b.wi),
+            distance: V::Real::select(m, a.distance, b.distance),
+            radiance: V::select(m, a.radiance, b.radiance),
+            pdf: V::Real::select(m, a.pdf, b.pdf),
+        }
+    }
+}
+
 /// The sample of a point light at `position` of intensity `intensity` from `p`.
 #[inline(always)]
 pub fn point_light_sample<V: Vector>(p: V, position: V, intensity: V) -> LightSampleOf<V> {
