@@ -454,9 +454,36 @@ pub(crate) fn no_sample<V: Vector>() -> BsdfSample<V> {
 }
 
 /// The world of one ray: the scene's primitives, materials and lights as they are.
+#[derive(Clone, Copy)]
 pub(crate) struct OneRay<'a> {
     /// The scene.
     pub scene: &'a Scene,
+}
+
+/// Light `light` of `scene` sampled from the point `p` with the numbers `u`, its radiance in
+/// the channels of `ctx`: next-event estimation's light sample, for one ray or for one lane.
+#[inline]
+pub(crate) fn light_draw(
+    scene: &Scene,
+    p: Vec3,
+    light: usize,
+    u: (f32, f32),
+    ctx: &PathContext,
+) -> LightDraw<Vec3> {
+    match scene.lights[light].sample_li(p, u.into()) {
+        None => LightDraw { sample: LightSampleOf::none(), delta: true, target: p },
+        Some(ls) => LightDraw {
+            sample: LightSampleOf {
+                sampled: true,
+                wi: ls.wi,
+                distance: ls.distance,
+                radiance: ctx.channels.colour(ls.radiance),
+                pdf: ls.pdf,
+            },
+            delta: ls.delta,
+            target: if ls.distance.is_finite() { ls.position } else { p + ls.wi * scene.far_distance(p) },
+        },
+    }
 }
 
 impl<'a> PathWorld for OneRay<'a> {
@@ -578,25 +605,7 @@ impl<'a> PathWorld for OneRay<'a> {
         _: bool,
         ctx: &PathContext,
     ) -> LightDraw<Vec3> {
-        let p = surface(hit).hit.p;
-        match self.scene.lights[light].sample_li(p, u.into()) {
-            None => LightDraw { sample: LightSampleOf::none(), delta: true, target: p },
-            Some(ls) => LightDraw {
-                sample: LightSampleOf {
-                    sampled: true,
-                    wi: ls.wi,
-                    distance: ls.distance,
-                    radiance: ctx.channels.colour(ls.radiance),
-                    pdf: ls.pdf,
-                },
-                delta: ls.delta,
-                target: if ls.distance.is_finite() {
-                    ls.position
-                } else {
-                    p + ls.wi * self.scene.far_distance(p)
-                },
-            },
-        }
+        light_draw(self.scene, surface(hit).hit.p, light, u, ctx)
     }
 
     #[inline]

@@ -59,7 +59,7 @@ fn both_engines_render_every_shipped_scene_to_the_same_bits() {
     // tests' distances: so the images, ray counts and sampler requests are the same. With the
     // Sobol' sampler every scene whose effects allow runs every stage across lanes: the set is
     // stated, so that a scene leaving it (or joining it) is a decision, not an accident.
-    let mut across_lanes = Vec::new();
+    let (mut across_lanes, mut every_vertex) = (Vec::new(), Vec::new());
     for file in shipped_scenes() {
         let scene = load(&file).unwrap();
         let name = file.file_name().unwrap().to_string_lossy();
@@ -78,11 +78,23 @@ fn both_engines_render_every_shipped_scene_to_the_same_bits() {
         assert_eq!(scalar.rays, wavefront.rays, "{name}: ray counts");
         assert_eq!(scalar_requests, wavefront_requests, "{name}: sampler requests");
         assert!(scalar.rays.total() > 400, "{name}: the render traces rays");
-        if describe(&scene, EngineOption::Wavefront).contains("every stage across") {
+        let how = describe(&scene, EngineOption::Wavefront);
+        if how.contains("every stage across") {
             across_lanes.push(name.to_string());
         }
+        if !how.contains("lane by lane") {
+            every_vertex.push(name.to_string());
+        }
     }
+    // Every shipped scene runs every stage across lanes.
+    let mut shipped: Vec<String> =
+        shipped_scenes().iter().map(|f| f.file_name().unwrap().to_string_lossy().to_string()).collect();
+    shipped.sort();
     across_lanes.sort();
+    assert_eq!(across_lanes, shipped, "the shipped scenes that run every stage across lanes");
+    // These shade every vertex from the lanes' tables; the others send what has no lane form
+    // yet (and the test above proves it gives the same bits) lane by lane to the scalar world.
+    every_vertex.sort();
     let expected = [
         "camera-on-surface.toml",
         "coincident-quads.toml",
@@ -99,7 +111,27 @@ fn both_engines_render_every_shipped_scene_to_the_same_bits() {
         "soft-shadows.toml",
         "thin-coating.toml",
     ];
-    assert_eq!(across_lanes, expected, "the shipped scenes that run every stage across lanes");
+    assert_eq!(every_vertex, expected, "the shipped scenes whose every vertex has a lane form");
+}
+
+#[test]
+fn every_sampler_and_the_spectral_mode_give_the_scalar_bits_across_lanes() {
+    // The other samplers draw lane by lane from each path's own stream; spectral renders and
+    // moving objects shade every vertex lane by lane; the mixed scenes send some materials and
+    // lights lane by lane and keep the rest in the tables. All of them: the scalar engine's bits.
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
+    for name in ["cornell-glass", "metals", "glass-in-sky", "glass-of-water", "motion-blur", "textured-box"] {
+        let scene = load(&root.join(format!("{name}.toml"))).unwrap();
+        for sampler in SamplerKind::ALL {
+            let [scalar, wavefront] = [EngineOption::Scalar, EngineOption::Wavefront]
+                .map(|engine| path_render(&scene, engine, 16, 3, 5, sampler));
+            assert!(describe(&scene, EngineOption::Wavefront).contains("every stage across lanes"));
+            let (a, b) = (bits(&scalar.image), bits(&wavefront.image));
+            let differing = a.iter().zip(&b).filter(|(x, y)| x != y).count();
+            assert_eq!(differing, 0, "{name}, {}: {differing} of {} pixels differ", sampler.name(), a.len());
+            assert_eq!(scalar.rays, wavefront.rays, "{name}, {}: ray counts", sampler.name());
+        }
+    }
 }
 
 #[test]
@@ -217,36 +249,49 @@ fn the_engine_is_chosen_by_what_the_scene_calls_for_and_says_why() {
     // Quad lights, diffuse walls, smooth glass: every stage across lanes.
     let soft = describe(&scene("soft-shadows"), EngineOption::Auto);
     assert!(
-        soft.starts_with("wavefront (every stage across 16 lanes") || soft.contains("every stage across"),
+        soft.starts_with("wavefront (every stage across lanes") && !soft.contains("lane by lane"),
         "{soft}"
     );
     // The thesis's scene, a point light: every stage across lanes too.
     let point = describe(&scene("cornell-glass"), EngineOption::Auto);
     assert!(point.contains("every stage across"), "{point}");
-    // A rough mirror and rough glass: hits and shadow rays across lanes, shading path by path,
-    // and why.
+    // A rough mirror and rough glass: every stage across lanes, their vertices lane by lane
+    // through the scalar world, and auto runs it (hits by testing every primitive).
     let frosted = describe(&scene("frosted-glass"), EngineOption::Auto);
-    assert!(frosted.contains("shading one path at a time") && frosted.contains("is a mirror"), "{frosted}");
-    // Meshes: hits and shadow rays through the BVH across lanes when asked (bit for bit the
-    // scalar engine's: the first test), but auto keeps the scalar engine, measured faster while
-    // shading runs one path at a time, and says why.
+    assert!(
+        frosted.starts_with("wavefront (every stage across lanes")
+            && frosted.contains("lane by lane")
+            && frosted.contains("(a mirror)")
+            && frosted.contains("(rough glass)"),
+        "{frosted}"
+    );
+    // Meshes: the BVH traversed by 16 rays, the vertices from the tables but their hit records
+    // lane by lane, when asked (bit for bit the scalar engine's: the first test); auto keeps the
+    // scalar engine, measured no slower there, and says why.
     for name in ["smooth-glass", "hard/bowl-of-liquid"] {
         let asked = describe(&scene(name), EngineOption::Wavefront);
         assert!(
-            asked.contains("hits and shadow rays across 16 lanes")
-                && asked.contains("the BVH traversed by 16 rays"),
+            asked.contains("every stage across lanes")
+                && asked.contains("the BVH traversed by 16 rays")
+                && asked.contains("the hit records: "),
             "{asked}"
         );
         let auto = describe(&scene(name), EngineOption::Auto);
         assert!(auto.starts_with("scalar:") && auto.contains("traverse the BVH across lanes"), "{auto}");
     }
-    // Moving objects: no lane form; auto runs the scalar engine and says why.
+    // Moving objects: no lane kernels, each ray through the BVH at its time, the vertices from
+    // the tables: auto runs the wavefront engine (measured ahead) and says why.
     let motion = describe(&scene("motion-blur"), EngineOption::Auto);
-    assert!(motion.starts_with("scalar:") && motion.contains("motion blur"), "{motion}");
-    // --engine wavefront runs it anyway (through the BVH), --engine scalar never.
-    assert!(describe(&scene("motion-blur"), EngineOption::Wavefront).starts_with("wavefront (the BVH"));
+    assert!(motion.starts_with("wavefront (") && motion.contains("motion blur"), "{motion}");
+    // A spectral render: every vertex lane by lane, auto keeps the scalar engine.
+    let water = describe(&scene("glass-of-water"), EngineOption::Auto);
+    assert!(water.starts_with("scalar:") && water.contains("wavelengths"), "{water}");
+    // --engine wavefront runs it anyway (each ray through the BVH at its time), --engine
+    // scalar never.
+    let asked = describe(&scene("motion-blur"), EngineOption::Wavefront);
+    assert!(asked.contains("each ray through the BVH on its own"), "{asked}");
     assert!(describe(&scene("soft-shadows"), EngineOption::Scalar).starts_with("scalar: --engine scalar"));
-    // Another sampler has no lane form yet.
+    // Another sampler draws lane by lane from each path's own stream.
     let path = create("path").unwrap();
     let mut opts = RenderOptions::for_method(&scene("soft-shadows"), path.as_ref(), 1);
     opts.sampler = SamplerKind::Independent;
@@ -312,7 +357,7 @@ fn the_command_line_chooses_and_reports_the_engine() {
         dir.path().join("t.exr").to_str().unwrap(),
     ]);
     let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(stderr.contains("engine: wavefront (every stage across 16 lanes"), "{stderr}");
+    assert!(stderr.contains("engine: wavefront (every stage across lanes"), "{stderr}");
     // A method without a wavefront engine refuses --engine wavefront, writing nothing.
     let refused = dir.path().join("refused.exr");
     let out =

@@ -1,53 +1,55 @@
-//! Every stage of the wavefront engine across lanes, for the scenes whose effects it covers
-//! ([`LaneStages::new`] says which): chunks of 16 paths ([`PathChunk`]: the path state of
-//! `path` with one lane per path, [`PathState`]`<Vec3x>`, and each path's own context) go
-//! through one round per bounce:
+//! Every stage of the wavefront engine across lanes: chunks of 16 paths ([`PathChunk`]: the
+//! path state of `path` with one lane per path, [`PathState`]`<Vec3x>`, and each path's own
+//! context) go through one round per bounce:
 //! 1. closest hits and their records across lanes ([`LaneScene::closest`],
 //!    [`LaneScene::records`]);
 //! 2. the vertex across lanes: [`PathState::advance`], the very function the scalar engine
-//!    runs, here over the lanes' numbers with [`LaneStages`] as its world: the primitives'
+//!    runs, here over the lanes' numbers with [`LaneWorld`] as its world: the primitives'
 //!    materials and the lights read from fixed-size tables ([`Table`], whose reads vectorise as
 //!    gathers), each lane drawing its random numbers from its own stream at its own dimension;
 //! 3. the shadow rays across lanes ([`LaneScene::occluded`]), and the light gathered where
 //!    nothing blocks it;
 //!
 //! a path that ends writes its estimate and context back, and after each round the paths that
-//! go on are compacted into full chunks. The camera rays are the camera pass's. Each lane
-//! computes what the scalar engine computes, operation for operation: images are the scalar
-//! engine's, bit for bit (`tests/wavefront.rs`).
+//! go on are compacted into full chunks. The camera rays are the camera pass's.
+//!
+//! What the tables do not hold (a material, a light or an emitter without a lane form, an
+//! environment, wavelengths, a scene too large for the tables, another sampler's draws) the
+//! world asks of the scalar world ([`OneRay`]) lane by lane, for the lanes that need it: the
+//! same functions the scalar engine calls, so nothing is written twice, and the rest of the
+//! vertex stays across lanes. [`LaneStages::lane_by_lane`] says what a scene sends that way.
+//! Each lane computes what the scalar engine computes, operation for operation: images are the
+//! scalar engine's, bit for bit (`tests/wavefront.rs`).
 
 // Lane loops index several arrays by the lane, as the kernels they vectorise into do.
 #![allow(clippy::needless_range_loop)]
 
-use super::super::path::{no_sample, LightDraw, PathState, PathWorld, Step, VertexBsdf, VertexFrame};
-use super::super::{light_index, PathContext, RenderParams};
+use super::super::path::{PathState, Step};
+use super::super::{PathContext, RenderParams};
 use super::{Occupancy, StageOccupancy};
-use crate::bsdf::rough_dielectric::smooth_dielectric_sample;
-use crate::bsdf::{BsdfSample, Frame, Lambert, RoughDielectric, TransportMode};
-use crate::camera::concentric_disk_point;
+use crate::bsdf::RoughDielectric;
 use crate::geometry::Ray;
-use crate::lanes::{
-    dispatch, sobol_firsts, sobol_pairs, F32x, Isa, LaneHits, LaneScene, Mask, RayLanes, SurfaceX, Vec3x,
-    WIDTH,
-};
+use crate::lanes::{dispatch, F32x, Isa, LaneHits, LaneScene, Mask, RayLanes, SurfaceX, Vec3x, WIDTH};
 use crate::light::Light;
-use crate::light::{area_to_solid_angle, front_area_sample, point_light_sample, quad_point, LightSampleOf};
-use crate::lighting::ShadowSegment;
+use crate::lighting::ShadowRay;
 use crate::material::Bsdf;
 use crate::sampler::{Dim, SamplerKind, DIM_PURPOSES};
-use crate::scene::Scene;
+use crate::scene::{Intersection, Scene};
 use crate::stats::RayCounts;
-use crate::texture::checker;
 use crate::texture::Texture;
 use glam::Vec3;
+use world::lanes_of;
+pub(crate) use world::{LaneCtx, LaneShadow, LaneWorld, Models};
+
+mod world;
 
 /// An idle lane's slot.
 const NONE: u32 = u32::MAX;
 
-/// Entries of a [`Table`]: the most primitives a [`LaneScene`] takes, and the most lights.
+/// Entries of a [`Table`]: the most materials and lights the tables take.
 const ENTRIES: usize = LaneScene::MAX_PRIMITIVES;
 
-/// One number per primitive (or light), read per lane at the lane's index; the index is taken
+/// One number per material (or light), read per lane at the lane's index; the index is taken
 /// modulo the table's size (a power of two), so a read has no bounds check and the reads of 16
 /// lanes vectorise as one gather.
 #[derive(Clone, Copy, Debug)]
@@ -60,9 +62,15 @@ impl Table {
     fn at(&self, index: &[u32; WIDTH]) -> F32x {
         F32x(std::array::from_fn(|k| self.0[index[k] as usize % ENTRIES]))
     }
+
+    /// Where the entry at each lane's index is set (not 0).
+    #[inline(always)]
+    fn set_at(&self, index: &[u32; WIDTH]) -> Mask {
+        self.at(index).ne(F32x::ZERO)
+    }
 }
 
-/// A vector per primitive (or light): three [`Table`]s.
+/// A vector per material (or light): three [`Table`]s.
 #[derive(Clone, Copy, Debug)]
 struct Table3([Table; 3]);
 
@@ -83,11 +91,11 @@ impl Table3 {
     }
 }
 
-/// What the stages read of a hit's primitive: its material (a diffuse albedo as a 3-D checker,
-/// a constant colour being a checker of two equal colours; smooth glass with its relative index
-/// and the absorption on each side) and, for a quad light, its emission.
+/// What the stages read of a hit's material, per material: a diffuse albedo as a 3-D checker (a
+/// constant colour being a checker of two equal colours), or smooth glass with its relative index
+/// and the absorption on each side.
 #[derive(Clone, Debug)]
-struct Primitives {
+struct Materials {
     glass: Table,
     color1: Table3,
     color2: Table3,
@@ -95,15 +103,24 @@ struct Primitives {
     eta: Table,
     inside: Table3,
     outside: Table3,
-    /// Radiance of a quad light (zero for other primitives) and its area density.
-    emit_radiance: Table3,
-    emit_area_pdf: Table,
 }
 
-/// The lights (quads and points), per light.
+/// What the stages read of a hit's primitive, per primitive: its material, the light it emits
+/// as ([`NONE`] for none), and whether its vertices are the scalar world's (a material or an
+/// emitter the tables do not hold).
+#[derive(Clone, Debug, Default)]
+struct Primitives {
+    material: Vec<u32>,
+    light: Vec<u32>,
+    scalar: Vec<bool>,
+}
+
+/// The lights, per light: quads and points in tables, any other light sampled lane by lane.
 #[derive(Clone, Debug)]
 struct Lights {
     count: usize,
+    /// 1 for a light sampled lane by lane by the scalar world (every light beyond the tables).
+    scalar: Table,
     /// 1 for a point light, 0 for a quad.
     point: Table,
     /// A quad's corner, a point light's position.
@@ -120,10 +137,26 @@ struct Lights {
 /// Every stage across lanes for one scene.
 #[derive(Clone, Debug)]
 pub struct LaneStages {
-    lanes: LaneScene,
+    /// The scene's primitives for the lane kernels, or why it has none (its objects move: each
+    /// lane's ray is then traced through the BVH on its own, at its time).
+    lanes: Result<LaneScene, String>,
+    /// Whether the tables hold the scene's materials (else every vertex that finds a surface is
+    /// shaded lane by lane).
+    tables: bool,
+    /// Whether the lane kernels make the hits' records (a few analytic shapes, whose shading
+    /// normal is the geometric one), else the scalar engine's `Scene::record` lane by lane.
+    lane_records: bool,
+    materials: Materials,
     primitives: Primitives,
     lights: Lights,
-    background: Vec3,
+    /// The background, where an escaping ray sees it in RGB (no environment light, no
+    /// wavelengths); `None` where each lane asks the scalar world.
+    background: Option<Vec3>,
+    /// Whether the sampler is Sobol' (each lane's stream kept across lanes), else each lane
+    /// draws from its own sampler.
+    sobol: bool,
+    /// What goes lane by lane through the scalar world, in words.
+    lane_by_lane: Vec<String>,
 }
 
 /// 16 camera paths: the path state with one lane per path, their streams and counters, and
@@ -134,7 +167,6 @@ struct PathChunk {
     ctx: LaneContext,
     slot: [u32; WIDTH],
 }
-
 /// The purposes a path vertex draws numbers for: [`Dim::Light`], [`Dim::Bsdf`] and
 /// [`Dim::Other`], the last three.
 const VERTEX_PURPOSES: usize = DIM_PURPOSES - Dim::Light as usize;
@@ -171,11 +203,13 @@ impl LaneContext {
         rays: [[0; WIDTH]; 3],
     };
 
-    /// Lane `k` takes up the stream of `ctx` (a Sobol' stream), with nothing counted yet.
-    fn start(&mut self, k: usize, ctx: &PathContext) {
-        let state = ctx.sampler.sobol_state().expect("the lane stages take Sobol' streams only");
-        (self.key[k], self.reversed[k], self.dimension[k]) =
-            (state.pixel_key, state.reversed_sample, state.dimension);
+    /// Lane `k` takes up the stream of `ctx` (where the stream is `sobol`; other streams stay
+    /// in the path's context), with nothing counted yet.
+    fn start(&mut self, k: usize, ctx: &PathContext, sobol: bool) {
+        if let Some(state) = ctx.sampler.sobol_state().filter(|_| sobol) {
+            (self.key[k], self.reversed[k], self.dimension[k]) =
+                (state.pixel_key, state.reversed_sample, state.dimension);
+        }
         for r in &mut self.requests {
             r[k] = 0;
         }
@@ -184,11 +218,14 @@ impl LaneContext {
         }
     }
 
-    /// Gives lane `k`'s numbers drawn and rays traced back to its path's context `ctx`.
-    fn finish(&self, k: usize, ctx: &mut PathContext) {
-        let mut requests = [0; DIM_PURPOSES];
-        requests[Dim::Light as usize..].copy_from_slice(&self.requests.map(|r| r[k]));
-        ctx.sampler.resume(self.dimension[k], &requests);
+    /// Gives lane `k`'s numbers drawn (from a `sobol` stream) and rays traced back to its
+    /// path's context `ctx`.
+    fn finish(&self, k: usize, ctx: &mut PathContext, sobol: bool) {
+        if sobol {
+            let mut requests = [0; DIM_PURPOSES];
+            requests[Dim::Light as usize..].copy_from_slice(&self.requests.map(|r| r[k]));
+            ctx.sampler.resume(self.dimension[k], &requests);
+        }
         let [shadow, reflected, refracted] = self.rays.map(|r| r[k] as u64);
         ctx.rays += RayCounts { primary: 0, reflected, refracted, shadow };
     }
@@ -230,31 +267,39 @@ impl LaneContext {
 }
 
 /// What the closest-hit stage found for a chunk: which lanes carry a path, their hits and the
-/// hits' records.
+/// hits' records; and the lanes shaded by the scalar world, with their full records.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct LaneHit {
     live: Mask,
     found: Mask,
     hits: LaneHits,
     records: SurfaceX,
-}
-
-/// The scattering at 16 vertices: two-sided diffuse with its albedo, or smooth glass with its
-/// relative index.
-#[derive(Clone, Copy, Debug)]
-pub(crate) struct LaneBsdf {
-    glass: Mask,
-    lambert: Lambert<Vec3x>,
-    eta: F32x,
-}
-
-/// A chunk's shadow rays: where one can be blocked, and the segments.
-#[derive(Clone, Copy, Debug)]
-pub(crate) struct LaneShadow {
-    shadowed: Mask,
-    segment: ShadowSegment<Vec3x>,
-    /// The light each lane's ray aims at.
+    /// The shading normal (the geometric one but on a smooth mesh).
+    shading_n: Vec3x,
+    /// The material of each lane's primitive, and the light it emits as ([`NONE`] for none):
+    /// the tables' indices.
+    material: [u32; WIDTH],
     light: [u32; WIDTH],
+    /// Lanes whose vertex the scalar world shades.
+    scalar: Mask,
+    /// The hits as the scalar engine records them, in those lanes and wherever the lane kernels
+    /// make no records (stale in the other lanes, never read there).
+    isect: [Option<Intersection>; WIDTH],
+}
+
+impl LaneHit {
+    /// No hits yet.
+    const EMPTY: LaneHit = LaneHit {
+        live: Mask::NONE,
+        found: Mask::NONE,
+        hits: LaneHits { t: [f32::INFINITY; WIDTH], primitive: [0; WIDTH], bary: [None; WIDTH] },
+        records: SurfaceX { p: Vec3x::ZERO, n: Vec3x::ZERO, p_error: F32x::ZERO },
+        shading_n: Vec3x::ZERO,
+        material: [0; WIDTH],
+        light: [NONE; WIDTH],
+        scalar: Mask::NONE,
+        isect: [None; WIDTH],
+    };
 }
 
 impl PathState<Vec3x> {
@@ -292,26 +337,39 @@ impl PathState<Vec3x> {
 }
 
 impl LaneStages {
-    /// The stages for `scene` rendered with the Sobol' `sampler` in RGB (`spectral` false) with
-    /// quad and point lights, or
-    /// why they cannot run it (an effect whose data has no lane tables yet).
+    /// The stages for `scene` with the lane kernels `lanes` (or why it has none), rendered with
+    /// `sampler`, spectrally where `spectral`: what has a lane form goes into the tables, the
+    /// rest is noted as going lane by lane ([`LaneStages::lane_by_lane`]).
     pub fn new(
         scene: &Scene,
-        lanes: LaneScene,
+        lanes: Result<LaneScene, String>,
         sampler: SamplerKind,
         spectral: bool,
-    ) -> Result<LaneStages, String> {
-        if sampler != SamplerKind::Sobol {
-            return Err(format!("the {} sampler has no lane form (the Sobol' sampler has)", sampler.name()));
+    ) -> LaneStages {
+        let mut lane_by_lane = Vec::new();
+        let sobol = sampler == SamplerKind::Sobol;
+        if !sobol {
+            lane_by_lane.push(format!("the {} sampler's draws", sampler.name()));
         }
-        if spectral {
-            return Err("wavelengths are traced (dispersion)".into());
-        }
-        if scene.lights.is_empty() || scene.lights.len() > ENTRIES {
-            return Err(format!("{} lights (the lanes take 1 to {ENTRIES})", scene.lights.len()));
+        let tables = if spectral {
+            Err("wavelengths are traced (dispersion)".to_string())
+        } else if scene.materials.len() > ENTRIES {
+            Err(format!("{} materials (the tables take {ENTRIES})", scene.materials.len()))
+        } else {
+            Ok(())
+        };
+        let lane_records = match &lanes {
+            Ok(l) => l.tables(),
+            Err(why) => Err(why.clone()),
+        };
+        if let Err(why) = &tables {
+            lane_by_lane.push(format!("every vertex: {why}"));
+        } else if let Err(why) = &lane_records {
+            lane_by_lane.push(format!("the hit records: {why}"));
         }
         let mut lights = Lights {
             count: scene.lights.len(),
+            scalar: Table::ZERO,
             point: Table::ZERO,
             corner: Table3::ZERO,
             u: Table3::ZERO,
@@ -320,30 +378,44 @@ impl LaneStages {
             radiance: Table3::ZERO,
             area_pdf: Table::ZERO,
         };
-        for (i, light) in scene.lights.iter().enumerate() {
-            let (corner, u, v, normal, radiance) = match *light {
-                Light::Quad { corner, u, v, normal, radiance } => (corner, u, v, normal, radiance),
+        if spectral {
+            // The tables hold RGB.
+            lights.scalar = Table([1.0; ENTRIES]);
+        } else if scene.lights.len() > ENTRIES {
+            lights.scalar = Table([1.0; ENTRIES]);
+            lane_by_lane.push(format!(
+                "the light samples: {} lights (the tables take {ENTRIES})",
+                scene.lights.len()
+            ));
+        }
+        let mut other_lights = Vec::new();
+        for (i, light) in scene.lights.iter().enumerate().take(ENTRIES) {
+            match *light {
+                Light::Quad { corner, u, v, normal, radiance } => {
+                    lights.corner.set(i, corner);
+                    lights.u.set(i, u);
+                    lights.v.set(i, v);
+                    lights.normal.set(i, normal);
+                    lights.radiance.set(i, radiance);
+                    lights.area_pdf.0[i] = 1.0 / u.cross(v).length();
+                }
                 Light::Point { position, intensity } => {
                     lights.point.0[i] = 1.0;
                     lights.corner.set(i, position);
                     lights.radiance.set(i, intensity);
-                    continue;
                 }
+                _ if spectral => {}
                 _ => {
-                    return Err(
-                        "a light is a sphere, a spot, a directional light, an emissive object or the environment (quads and points have a lane form)"
-                            .into(),
-                    )
+                    lights.scalar.0[i] = 1.0;
+                    other_lights.push(light.kind_name());
                 }
-            };
-            lights.corner.set(i, corner);
-            lights.u.set(i, u);
-            lights.v.set(i, v);
-            lights.normal.set(i, normal);
-            lights.radiance.set(i, radiance);
-            lights.area_pdf.0[i] = 1.0 / u.cross(v).length();
+            }
         }
-        let mut primitives = Primitives {
+        if !other_lights.is_empty() {
+            other_lights.dedup();
+            lane_by_lane.push(format!("the samples of {} lights", other_lights.join(", ")));
+        }
+        let mut materials = Materials {
             glass: Table::ZERO,
             color1: Table3::ZERO,
             color2: Table3::ZERO,
@@ -351,57 +423,108 @@ impl LaneStages {
             eta: Table([1.0; ENTRIES]),
             inside: Table3::ZERO,
             outside: Table3::ZERO,
-            emit_radiance: Table3::ZERO,
-            emit_area_pdf: Table::ZERO,
         };
-        for (i, prim) in scene.primitives.iter().enumerate() {
-            let m = &scene.materials[prim.material as usize];
-            match &m.bsdf {
-                Bsdf::Diffuse { one_sided: true, .. } => {
-                    return Err(format!("material `{}` is a one-sided diffuse", m.name))
-                }
-                Bsdf::Diffuse { albedo: Texture::Constant(c), .. } => {
-                    primitives.color1.set(i, *c);
-                    primitives.color2.set(i, *c);
-                }
-                Bsdf::Diffuse { albedo: Texture::Checker { color1, color2, size }, .. } => {
-                    primitives.color1.set(i, *color1);
-                    primitives.color2.set(i, *color2);
-                    primitives.cell.0[i] = *size;
-                }
-                Bsdf::Dielectric { inside, outside, roughness, distribution } if !m.bsdf.is_dispersive() => {
-                    let eta = inside.ior_at(None) / outside.ior_at(None);
-                    if !RoughDielectric::new(eta, distribution.with_alpha(roughness * roughness))
-                        .is_specular()
-                    {
-                        return Err(format!("material `{}` is rough glass", m.name));
+        let mut primitives = Primitives::default();
+        let mut other_materials = Vec::new();
+        if tables.is_ok() {
+            let mut material_scalar = vec![false; scene.materials.len()];
+            for (i, m) in scene.materials.iter().enumerate() {
+                let in_tables = match &m.bsdf {
+                    Bsdf::Diffuse { one_sided: false, albedo: Texture::Constant(c) } => {
+                        materials.color1.set(i, *c);
+                        materials.color2.set(i, *c);
+                        Ok(())
                     }
-                    primitives.glass.0[i] = 1.0;
-                    primitives.eta.0[i] = eta;
-                    primitives.inside.set(i, inside.absorption);
-                    primitives.outside.set(i, outside.absorption);
+                    Bsdf::Diffuse { one_sided: false, albedo: Texture::Checker { color1, color2, size } } => {
+                        materials.color1.set(i, *color1);
+                        materials.color2.set(i, *color2);
+                        materials.cell.0[i] = *size;
+                        Ok(())
+                    }
+                    Bsdf::Dielectric { inside, outside, roughness, distribution }
+                        if !m.bsdf.is_dispersive() =>
+                    {
+                        let eta = inside.ior_at(None) / outside.ior_at(None);
+                        if RoughDielectric::new(eta, distribution.with_alpha(roughness * roughness))
+                            .is_specular()
+                        {
+                            materials.glass.0[i] = 1.0;
+                            materials.eta.0[i] = eta;
+                            materials.inside.set(i, inside.absorption);
+                            materials.outside.set(i, outside.absorption);
+                            Ok(())
+                        } else {
+                            Err("rough glass")
+                        }
+                    }
+                    Bsdf::Diffuse { one_sided: true, .. } => Err("one-sided diffuse"),
+                    Bsdf::Diffuse { .. } => Err("an image texture"),
+                    Bsdf::Mirror { .. } => Err("a mirror"),
+                    Bsdf::Conductor(_) => Err("a conductor"),
+                    Bsdf::ThinDielectric { .. } => Err("a thin dielectric"),
+                    Bsdf::Plastic { .. } => Err("a plastic"),
+                    Bsdf::RoughPlastic { .. } => Err("a rough plastic"),
+                    Bsdf::Dielectric { .. } => Err("dispersive glass"),
+                };
+                if let Err(kind) = in_tables {
+                    material_scalar[i] = true;
+                    if scene.primitives.iter().any(|p| p.material as usize == i) {
+                        other_materials.push(format!("`{}` ({kind})", m.name));
+                    }
                 }
-                Bsdf::Diffuse { .. } => return Err(format!("material `{}` reads an image texture", m.name)),
-                Bsdf::Mirror { .. } => return Err(format!("material `{}` is a mirror", m.name)),
-                Bsdf::Conductor(_) => return Err(format!("material `{}` is a conductor", m.name)),
-                Bsdf::ThinDielectric { .. } => {
-                    return Err(format!("material `{}` is a thin dielectric", m.name))
-                }
-                Bsdf::Plastic { .. } => return Err(format!("material `{}` is a plastic", m.name)),
-                Bsdf::RoughPlastic { .. } => return Err(format!("material `{}` is a rough plastic", m.name)),
-                Bsdf::Dielectric { .. } => return Err(format!("material `{}` is dispersive glass", m.name)),
             }
-            if let Some(l) = prim.light {
-                primitives.emit_radiance.set(i, lights.radiance.get(l as usize));
-                primitives.emit_area_pdf.0[i] = lights.area_pdf.0[l as usize];
+            for prim in &scene.primitives {
+                let emitter = prim.light.map(|l| l as usize);
+                let emits_from_table =
+                    emitter.is_some_and(|l| l < ENTRIES && matches!(scene.lights[l], Light::Quad { .. }));
+                let other_emitter = emitter.is_some() && !emits_from_table;
+                if other_emitter && !material_scalar[prim.material as usize] {
+                    let m = &scene.materials[prim.material as usize];
+                    other_materials.push(format!("`{}` (an emitter without a lane form)", m.name));
+                }
+                primitives.material.push(prim.material);
+                primitives.light.push(prim.light.unwrap_or(NONE));
+                primitives.scalar.push(material_scalar[prim.material as usize] || other_emitter);
             }
         }
-        Ok(LaneStages { lanes, primitives, lights, background: scene.settings.background })
+        if !other_materials.is_empty() {
+            other_materials.sort();
+            other_materials.dedup();
+            lane_by_lane.push(format!("the vertices on {}", other_materials.join(", ")));
+        }
+        let background =
+            (scene.environment_light().is_none() && !spectral).then_some(scene.settings.background);
+        if background.is_none() && tables.is_ok() {
+            lane_by_lane.push("the environment seen by escaping rays".to_string());
+        }
+        LaneStages {
+            lanes,
+            tables: tables.is_ok(),
+            lane_records: tables.is_ok() && lane_records.is_ok(),
+            materials,
+            primitives,
+            lights,
+            background,
+            sobol,
+            lane_by_lane,
+        }
     }
 
     /// The instruction set the stages run with.
     pub fn isa(&self) -> Isa {
-        self.lanes.isa()
+        self.lanes.as_ref().map_or(Isa::detect(), |l| l.isa())
+    }
+
+    /// Whether the tables hold the scene's materials (else every vertex that finds a surface is
+    /// shaded lane by lane).
+    pub fn has_tables(&self) -> bool {
+        self.tables
+    }
+
+    /// What the scalar world computes lane by lane, in words (empty where every part of every
+    /// vertex has a lane form).
+    pub fn lane_by_lane(&self) -> &[String] {
+        &self.lane_by_lane
     }
 
     /// The radiance of every camera ray of `rays`, each with its sample's context (its random
@@ -409,12 +532,16 @@ impl LaneStages {
     /// [`crate::integrators::Path`]'s `radiance` gives it one at a time.
     pub fn radiance(
         &self,
+        scene: &Scene,
         params: &RenderParams,
         rays: &[Ray],
         ctxs: &mut [PathContext],
         occupancy: &mut StageOccupancy,
     ) -> Vec<Vec3> {
         let n = rays.len();
+        let models: Models = Default::default();
+        let world = LaneWorld { stages: self, scene, models: &models };
+        let mut hit = LaneHit::EMPTY;
         SCRATCH.with_borrow_mut(|scratch| {
             let chunks = &mut scratch.chunks;
             chunks.clear();
@@ -423,7 +550,7 @@ impl LaneStages {
                     PathChunk { path: PathState::fresh(), ctx: LaneContext::EMPTY, slot: [NONE; WIDTH] };
                 for (k, (ray, ctx)) in rays.iter().zip(ctxs).enumerate() {
                     chunk.path.set_lane(k, &PathState::new(*ray));
-                    chunk.ctx.start(k, ctx);
+                    chunk.ctx.start(k, ctx, self.sobol);
                     chunk.slot[k] = (c * WIDTH + k) as u32;
                 }
                 chunks.push(chunk);
@@ -431,12 +558,12 @@ impl LaneStages {
             let mut estimates = vec![Vec3::ZERO; n];
             while !chunks.is_empty() {
                 for chunk in chunks.iter_mut() {
-                    let ended = self.round(params, chunk, occupancy);
+                    let ended = world.round(params, chunk, ctxs, &mut hit, occupancy);
                     for k in 0..WIDTH {
                         if ended.0[k] {
                             let slot = chunk.slot[k] as usize;
                             estimates[slot] = chunk.path.l.lane(k);
-                            chunk.ctx.finish(k, &mut ctxs[slot]);
+                            chunk.ctx.finish(k, &mut ctxs[slot], self.sobol);
                             chunk.slot[k] = NONE;
                         }
                     }
@@ -446,21 +573,89 @@ impl LaneStages {
             estimates
         })
     }
+}
 
-    /// One bounce of the 16 paths of `chunk`: the lanes whose path ends.
-    fn round(&self, params: &RenderParams, chunk: &mut PathChunk, occupancy: &mut StageOccupancy) -> Mask {
+impl LaneWorld<'_, '_> {
+    /// One bounce of the 16 paths of `chunk` (their contexts in `ctxs` at their slots), their
+    /// hits found into `hit`: the lanes whose path ends.
+    fn round(
+        &self,
+        params: &RenderParams,
+        chunk: &mut PathChunk,
+        ctxs: &mut [PathContext],
+        hit: &mut LaneHit,
+        occupancy: &mut StageOccupancy,
+    ) -> Mask {
         let live = Mask(std::array::from_fn(|k| chunk.slot[k] != NONE));
-        let rays = RayLanes { origin: chunk.path.origin.to_lanes(), dir: chunk.path.dir.to_lanes() };
-        let tmax = F32x::select(live, F32x::splat(f32::INFINITY), F32x::splat(-1.0));
-        let hits = self.lanes.closest(&rays, &tmax.0);
-        occupancy.closest.add(live.count());
-        let records = self.lanes.records(&rays, &hits);
-        let found = live & F32x(hits.t).lt(F32x::splat(f32::INFINITY));
-        let hit = LaneHit { live, found, hits, records };
-        let step = shade(self.isa(), self, params, chunk, &hit);
+        self.closest_hits(&chunk.path, live, hit, &mut occupancy.closest);
+        let mut ctx = LaneCtx { lanes: &mut chunk.ctx, paths: ctxs, slot: chunk.slot };
+        let step = shade(self.stages.isa(), self, params, &mut chunk.path, hit, &mut ctx);
         let visible = self.shadow_rays(&step.light.shadow, &mut occupancy.shadow);
         chunk.path.resolve(&step.light, visible);
         live & !step.goes_on
+    }
+
+    /// The closest hits of the `live` lanes' rays, with their records, into `hit` (the full
+    /// records only where the scalar world shades a lane: the others keep stale ones, never read).
+    fn closest_hits(
+        &self,
+        path: &PathState<Vec3x>,
+        live: Mask,
+        hit: &mut LaneHit,
+        occupancy: &mut Occupancy,
+    ) {
+        let (stages, scene) = (self.stages, self.scene);
+        let rays = RayLanes { origin: path.origin.to_lanes(), dir: path.dir.to_lanes() };
+        let ray = |k: usize| Ray { origin: path.origin.lane(k), dir: path.dir.lane(k), time: path.time.0[k] };
+        occupancy.add(live.count());
+        let isect = &mut hit.isect;
+        let hits = match &stages.lanes {
+            Ok(lanes) => {
+                let tmax = F32x::select(live, F32x::splat(f32::INFINITY), F32x::splat(-1.0));
+                lanes.closest(&rays, &tmax.0)
+            }
+            Err(_) => {
+                // Moving objects: each ray through the BVH at its time.
+                let mut hits =
+                    LaneHits { t: [f32::INFINITY; WIDTH], primitive: [0; WIDTH], bary: [None; WIDTH] };
+                for k in lanes_of(live) {
+                    isect[k] = scene.intersect(&ray(k), f32::INFINITY);
+                    if let Some(i) = &isect[k] {
+                        (hits.t[k], hits.primitive[k]) = (i.hit.t, i.primitive);
+                    }
+                }
+                hits
+            }
+        };
+        let found = live & F32x(hits.t).lt(F32x::splat(f32::INFINITY));
+        let mut scalar = found;
+        if stages.tables {
+            let prims = &stages.primitives;
+            for k in lanes_of(found) {
+                let i = hits.primitive[k] as usize;
+                (hit.material[k], hit.light[k], scalar.0[k]) =
+                    (prims.material[i], prims.light[i], prims.scalar[i]);
+            }
+        }
+        let mut records = match &stages.lanes {
+            Ok(lanes) if stages.lane_records => lanes.records(&rays, &hits),
+            _ => SurfaceX { p: Vec3x::ZERO, n: Vec3x::ZERO, p_error: F32x::ZERO },
+        };
+        let mut shading_n = records.n;
+        // The records the lane kernels do not make (or the scalar world reads in full).
+        let recorded = if stages.lane_records { scalar } else { found };
+        for k in lanes_of(recorded) {
+            if stages.lanes.is_ok() {
+                isect[k] = Some(scene.record(&ray(k), hits.t[k], hits.primitive[k], hits.bary[k]));
+            }
+            let i = isect[k].expect("a lane that found a surface has its record");
+            records.p.set_lane(k, i.hit.p);
+            records.n.set_lane(k, i.hit.n);
+            records.p_error.0[k] = i.hit.p_error;
+            shading_n.set_lane(k, i.hit.shading_n);
+        }
+        (hit.live, hit.found, hit.hits, hit.records, hit.shading_n, hit.scalar) =
+            (live, found, hits, records, shading_n, scalar);
     }
 
     /// The shadow rays: whether each lane's pending light is visible (true where its shadow ray
@@ -472,30 +667,46 @@ impl LaneStages {
         }
         occupancy.add(used);
         let segment = &shadow.segment;
+        let Ok(lanes) = &self.stages.lanes else {
+            // Moving objects: each ray through the BVH at its time.
+            let mut visible = Mask::ALL;
+            for k in lanes_of(shadow.shadowed) {
+                let mut ray = Ray::new(segment.origin.lane(k), segment.dir.lane(k));
+                ray.time = shadow.time.0[k];
+                let query = ShadowRay {
+                    ray,
+                    tmax: segment.tmax.0[k],
+                    remaining: segment.remaining.0[k],
+                    target: shadow.target.lane(k),
+                    light: Some(shadow.light[k]),
+                };
+                visible.0[k] = !query.blocked(self.scene);
+            }
+            return visible;
+        };
         let rays = RayLanes { origin: segment.origin.to_lanes(), dir: segment.dir.to_lanes() };
         let tmax = F32x::select(shadow.shadowed, segment.tmax, F32x::splat(-1.0));
-        let reach = segment.remaining * (1.0 - 1e-3);
-        let blocked = self.lanes.occluded(&rays, &tmax.0, &shadow.light, &reach.0);
+        let blocked = lanes.occluded(&rays, &tmax.0, &shadow.light, &shadow.reach.0);
         !Mask(blocked)
     }
 }
 
-/// The vertex of every lane of `chunk` ([`PathState::advance`] with the stages as its world).
+/// The vertex of every lane of `path` ([`PathState::advance`] in the world of the lanes).
 #[inline(always)]
-fn shade_kernel(
-    stages: &LaneStages,
+fn shade_kernel<'a, 's>(
+    world: &LaneWorld<'a, 's>,
     params: &RenderParams,
-    chunk: &mut PathChunk,
+    path: &mut PathState<Vec3x>,
     hit: &LaneHit,
+    ctx: &mut LaneCtx<'a>,
 ) -> Step<Vec3x, LaneShadow> {
-    chunk.path.advance(stages, params, hit, &mut chunk.ctx)
+    path.advance(world, params, hit, ctx)
 }
 
 dispatch! {
     /// [`shade_kernel`] compiled for `isa`.
-    fn shade(stages: &LaneStages, params: &RenderParams, chunk: &mut PathChunk, hit: &LaneHit) -> Step<Vec3x, LaneShadow> => shade_kernel
+    fn shade<'a, 's>(world: &LaneWorld<'a, 's>, params: &RenderParams, path: &mut PathState<Vec3x>, hit: &LaneHit, ctx: &mut LaneCtx<'a>) -> Step<Vec3x, LaneShadow> => shade_kernel
 }
-
 /// Packs the live paths of `chunks`, in order, into full chunks at the front (the last one
 /// padded with idle lanes) and drops the rest. Paths only move towards the front, so this
 /// works in place; a full chunk that stays where it is is not touched.
@@ -540,279 +751,4 @@ struct Scratch {
 
 thread_local! {
     static SCRATCH: std::cell::RefCell<Scratch> = std::cell::RefCell::new(Scratch::default());
-}
-
-impl PathWorld for LaneStages {
-    type R = F32x;
-    type V = Vec3x;
-    type Hit = LaneHit;
-    type Bsdf = LaneBsdf;
-    type Frame = Frame<Vec3x>;
-    type Light = [u32; WIDTH];
-    type Shadow = LaneShadow;
-    type Context = LaneContext;
-
-    #[inline(always)]
-    fn light_count(&self) -> usize {
-        self.lights.count
-    }
-
-    #[inline(always)]
-    fn live(&self, hit: &LaneHit) -> Mask {
-        hit.live
-    }
-
-    #[inline(always)]
-    fn found(&self, hit: &LaneHit) -> Mask {
-        hit.found
-    }
-
-    #[inline(always)]
-    fn surface(&self, hit: &LaneHit) -> (F32x, Vec3x, Vec3x, F32x) {
-        (F32x(hit.hits.t), hit.records.p, hit.records.n, hit.records.p_error)
-    }
-
-    #[inline(always)]
-    fn escaped(&self, _: Vec3x, _: Mask, _: F32x, _: F32x, _: Mask, _: &Self::Context) -> Vec3x {
-        // No environment light (the stages take none): the plain background.
-        Vec3x::splat(self.background)
-    }
-
-    #[inline(always)]
-    fn emission(
-        &self,
-        hit: &LaneHit,
-        origin: Vec3x,
-        wo: Vec3x,
-        _: Mask,
-        _: &Self::Context,
-    ) -> (Mask, Vec3x, F32x) {
-        let primitive = &hit.hits.primitive;
-        let (p, n) = (hit.records.p, hit.records.n);
-        // Light::emitted of a quad: on its front.
-        let le = Vec3x::select(
-            n.dot(wo).gt(F32x::splat(0.0)),
-            self.primitives.emit_radiance.at(primitive),
-            Vec3x::ZERO,
-        );
-        let emits = !le.is_zero();
-        let pdf_li = if emits.any() {
-            area_to_solid_angle(self.primitives.emit_area_pdf.at(primitive), origin, p, n)
-        } else {
-            F32x::ZERO
-        };
-        (emits, le, pdf_li)
-    }
-
-    #[inline(always)]
-    fn bsdf(&self, hit: &LaneHit, active: Mask, _: &mut Self::Context) -> (LaneBsdf, Vec3x) {
-        let (prims, primitive) = (&self.primitives, &hit.hits.primitive);
-        let glass = active & prims.glass.at(primitive).ne(F32x::splat(0.0));
-        let albedo = if (active & !glass).any() {
-            checker(
-                hit.records.p,
-                prims.cell.at(primitive),
-                prims.color1.at(primitive),
-                prims.color2.at(primitive),
-            )
-        } else {
-            Vec3x::ZERO
-        };
-        let eta = if glass.any() { prims.eta.at(primitive) } else { F32x::ONE };
-        // Two-sided diffuse (the stages take no one-sided surface).
-        (LaneBsdf { glass, lambert: Lambert { albedo, one_sided: Mask::NONE }, eta }, Vec3x::ONE)
-    }
-
-    #[inline(always)]
-    fn frame(&self, hit: &LaneHit, _: Vec3x) -> Frame<Vec3x> {
-        // Analytic shapes: the shading normal is the geometric one.
-        Frame::from_normal(hit.records.n)
-    }
-
-    #[inline(always)]
-    fn draw_1d(&self, ctx: &mut LaneContext, purpose: Dim, active: Mask) -> F32x {
-        if !active.any() {
-            return F32x::ZERO;
-        }
-        let x = sobol_firsts(self.isa(), &ctx.key, &ctx.reversed, &ctx.dimension);
-        ctx.advance(purpose, active, 1);
-        F32x::select(active, F32x(x), F32x::ZERO)
-    }
-
-    #[inline(always)]
-    fn draw_2d(&self, ctx: &mut LaneContext, purpose: Dim, active: Mask) -> (F32x, F32x) {
-        if !active.any() {
-            return (F32x::ZERO, F32x::ZERO);
-        }
-        let (x, y) = sobol_pairs(self.isa(), &ctx.key, &ctx.reversed, &ctx.dimension);
-        ctx.advance(purpose, active, 2);
-        (F32x::select(active, F32x(x), F32x::ZERO), F32x::select(active, F32x(y), F32x::ZERO))
-    }
-
-    #[inline(always)]
-    fn light_at(&self, u: F32x) -> [u32; WIDTH] {
-        std::array::from_fn(|k| light_index(u.0[k], self.lights.count) as u32)
-    }
-
-    #[inline(always)]
-    fn sample_light(
-        &self,
-        hit: &LaneHit,
-        l: [u32; WIDTH],
-        (ux, uy): (F32x, F32x),
-        active: Mask,
-        _: &Self::Context,
-    ) -> LightDraw<Vec3x> {
-        let (lights, zero) = (&self.lights, F32x::ZERO);
-        let p = hit.records.p;
-        // One light is the same in every lane: no gathers.
-        let one = lights.count == 1;
-        let vector = |t: &Table3| if one { Vec3x::splat(t.get(0)) } else { t.at(&l) };
-        let point = if one { Mask::splat(lights.point.0[0] != 0.0) } else { lights.point.at(&l).ne(zero) };
-        // Light::sample_li of a quad (a point on it) or of a point light, where some lane has one.
-        let (corner, emitted) = (vector(&lights.corner), vector(&lights.radiance));
-        let quads = active & !point;
-        let at_point = if (active & point).any() {
-            point_light_sample(p, corner, emitted)
-        } else {
-            LightSampleOf::none()
-        };
-        if !quads.any() {
-            return LightDraw { sample: at_point, delta: point, target: corner };
-        }
-        let y = quad_point(corner, vector(&lights.u), vector(&lights.v), ux, uy);
-        let area_pdf = if one { F32x::splat(lights.area_pdf.0[0]) } else { lights.area_pdf.at(&l) };
-        let on_quad = front_area_sample(p, y, vector(&lights.normal), emitted, area_pdf);
-        let sample = LightSampleOf::select(point, &at_point, &on_quad);
-        LightDraw { sample, delta: point, target: Vec3x::select(point, corner, y) }
-    }
-
-    #[inline(always)]
-    fn no_shadow(&self) -> LaneShadow {
-        let zero = F32x::ZERO;
-        LaneShadow {
-            shadowed: Mask::NONE,
-            segment: ShadowSegment { origin: Vec3x::ZERO, dir: Vec3x::ZERO, tmax: zero, remaining: zero },
-            light: [NONE; WIDTH],
-        }
-    }
-
-    #[inline(always)]
-    fn shadow(
-        &self,
-        hit: &LaneHit,
-        target: Vec3x,
-        light: [u32; WIDTH],
-        _: F32x,
-        active: Mask,
-        ctx: &mut Self::Context,
-    ) -> LaneShadow {
-        let r = &hit.records;
-        let segment = ShadowSegment::toward(r.p, r.n, r.p_error, target);
-        for k in 0..WIDTH {
-            ctx.rays[0][k] += active.0[k] as u32;
-        }
-        LaneShadow { shadowed: active & !segment.remaining.le(F32x::ZERO), segment, light }
-    }
-
-    #[inline(always)]
-    fn secondaries_after(
-        &self,
-        _: &LaneHit,
-        _: &BsdfSample<Vec3x>,
-        _: Vec3x,
-        _: Mask,
-        _: &mut Self::Context,
-    ) -> Vec3x {
-        Vec3x::ONE
-    }
-
-    #[inline(always)]
-    fn medium_after(
-        &self,
-        hit: &LaneHit,
-        dir: Vec3x,
-        transmitted: Mask,
-        active: Mask,
-        _: &Self::Context,
-    ) -> (Mask, Vec3x) {
-        let (prims, primitive) = (&self.primitives, &hit.hits.primitive);
-        let glass = active & prims.glass.at(primitive).ne(F32x::splat(0.0));
-        if !glass.any() {
-            return (glass, Vec3x::ZERO);
-        }
-        // lighting::crossing: the medium a reflected ray stays in or a refracted one enters.
-        let (inside, outside) = (prims.inside.at(primitive), prims.outside.at(primitive));
-        let enters = dir.dot(hit.records.n).lt(F32x::ZERO);
-        let incident = Vec3x::select(enters, outside, inside);
-        let entered = Vec3x::select(enters, inside, outside);
-        (glass, Vec3x::select(transmitted, entered, incident))
-    }
-
-    #[inline(always)]
-    fn count_scattered(ctx: &mut Self::Context, reflected: Mask, active: Mask) {
-        for k in 0..WIDTH {
-            ctx.rays[1][k] += (active.0[k] & reflected.0[k]) as u32;
-            ctx.rays[2][k] += (active.0[k] & !reflected.0[k]) as u32;
-        }
-    }
-}
-
-impl VertexBsdf<Vec3x> for LaneBsdf {
-    #[inline(always)]
-    fn is_delta(&self) -> Mask {
-        self.glass
-    }
-
-    #[inline(always)]
-    fn chooses_lobe(&self) -> Mask {
-        self.glass
-    }
-
-    #[inline(always)]
-    fn eval(&self, wo: Vec3x, wi: Vec3x) -> Vec3x {
-        self.lambert.eval(wo, wi)
-    }
-
-    #[inline(always)]
-    fn pdf(&self, wo: Vec3x, wi: Vec3x) -> F32x {
-        self.lambert.pdf(wo, wi)
-    }
-
-    #[inline(always)]
-    fn sample(&self, wo: Vec3x, uc: F32x, (ux, uy): (F32x, F32x), active: Mask) -> (Mask, BsdfSample<Vec3x>) {
-        let (glass, diffuse) = (active & self.glass, active & !self.glass);
-        let (mut ok, mut s) = (Mask::NONE, no_sample());
-        if glass.any() {
-            // Smooth glass: RoughDielectric::sample.
-            let (glass_ok, g) = smooth_dielectric_sample(self.eta, wo, uc, TransportMode::Radiance);
-            (ok, s) = (glass & glass_ok, g);
-        }
-        if diffuse.any() {
-            // Lambert::sample.
-            let (dx, dy) = concentric_disk_point(ux, uy, diffuse);
-            let (diffuse_ok, d) = self.lambert.disk_sample(wo, dx, dy);
-            ok = ok | (diffuse & diffuse_ok);
-            s = BsdfSample::select(diffuse, &d, &s);
-        }
-        (ok, s)
-    }
-}
-
-impl VertexFrame<Vec3x> for Frame<Vec3x> {
-    #[inline(always)]
-    fn to_local(&self, v: Vec3x) -> Vec3x {
-        Frame::to_local(self, v)
-    }
-
-    #[inline(always)]
-    fn to_world(&self, v: Vec3x) -> Vec3x {
-        Frame::to_world(self, v)
-    }
-
-    #[inline(always)]
-    fn factor(&self, _: Vec3x, _: Vec3x) -> F32x {
-        // Analytic shapes: no shading normal, so the factor is exactly 1.
-        F32x::ONE
-    }
 }

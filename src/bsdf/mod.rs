@@ -86,24 +86,24 @@ impl<V: Vector> Frame<V> {
 /// The frame a BSDF is evaluated in at a surface hit: around the shading normal, with the
 /// geometric normal kept for the side tests (pbrt-v4's treatment; `docs/architecture.md`,
 /// "Shading normals"). For analytic shapes and flat triangles both normals are the same and
-/// every factor is exactly 1.
+/// every factor is exactly 1. One frame (`ShadingFrame`), or one per lane
+/// (`ShadingFrame<Vec3x>`), written once.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct ShadingFrame {
+pub struct ShadingFrame<V: Vector = Vec3> {
     /// The local frame: around the shading normal, or the geometric one where `wo` lies on
     /// different sides of the two.
-    pub frame: Frame,
+    pub frame: Frame<V>,
     /// The geometric normal.
-    pub ng: Vec3,
+    pub ng: V,
     /// Whether the frame's normal differs from the geometric one.
-    smooth: bool,
+    smooth: Mask3<V>,
 }
 
 impl ShadingFrame {
     /// The frame at `hit` for the direction `wo` back along the path (world space).
     #[inline]
     pub fn at(hit: &crate::geometry::SurfaceHit, wo: Vec3) -> ShadingFrame {
-        let n = ShadingFrame::normal(hit, wo);
-        ShadingFrame { frame: Frame::from_normal(n), ng: hit.n, smooth: n != hit.n }
+        ShadingFrame::around(hit.n, hit.shading_n, wo)
     }
 
     /// The normal of [`ShadingFrame::at`] without the frame: the shading normal, or the
@@ -112,23 +112,44 @@ impl ShadingFrame {
     /// all there is).
     #[inline]
     pub fn normal(hit: &crate::geometry::SurfaceHit, wo: Vec3) -> Vec3 {
-        let (ns, ng) = (hit.shading_n, hit.n);
-        if ns == ng || (wo.dot(ns) > 0.0) != (wo.dot(ng) > 0.0) {
-            ng
-        } else {
-            ns
-        }
+        ShadingFrame::chosen_normal(hit.n, hit.shading_n, wo)
+    }
+}
+
+impl<V: Vector> ShadingFrame<V> {
+    /// The frame at a hit of geometric normal `ng` and shading normal `ns` for the direction
+    /// `wo` back along the path (world space): [`ShadingFrame::at`] of one hit or of 16.
+    #[inline(always)]
+    pub fn around(ng: V, ns: V, wo: V) -> ShadingFrame<V> {
+        let n = ShadingFrame::chosen_normal(ng, ns, wo);
+        ShadingFrame { frame: Frame::from_normal(n), ng, smooth: !(n - ng).is_zero() }
+    }
+
+    /// The frame at a flat hit (shading normal = geometric normal `n`, an analytic shape's):
+    /// [`ShadingFrame::around`]`(n, n, wo)` without the choice.
+    #[inline(always)]
+    pub fn flat(n: V) -> ShadingFrame<V> {
+        ShadingFrame { frame: Frame::from_normal(n), ng: n, smooth: V::Real::mask(false) }
+    }
+
+    /// [`ShadingFrame::normal`] from the two normals.
+    #[inline(always)]
+    pub fn chosen_normal(ng: V, ns: V, wo: V) -> V {
+        let zero = V::Real::splat(0.0);
+        let (above_s, above_g) = (wo.dot(ns).gt(zero), wo.dot(ng).gt(zero));
+        let sides_differ = (above_s & !above_g) | (above_g & !above_s);
+        V::select((ns - ng).is_zero() | sides_differ, ng, ns)
     }
 
     /// World-space `v` in the local frame.
-    #[inline]
-    pub fn to_local(&self, v: Vec3) -> Vec3 {
+    #[inline(always)]
+    pub fn to_local(&self, v: V) -> V {
         self.frame.to_local(v)
     }
 
     /// Local-frame `v` in world space.
-    #[inline]
-    pub fn to_world(&self, v: Vec3) -> Vec3 {
+    #[inline(always)]
+    pub fn to_world(&self, v: V) -> V {
         self.frame.to_world(v)
     }
 
@@ -139,27 +160,22 @@ impl ShadingFrame {
     /// paths), Veach's adjoint correction |wo·ns|·|wi·ng| / (|wo·ng|·|wi·ns|), which keeps light
     /// tracing consistent with the radiance of camera paths; 1 otherwise and always 1 at a flat
     /// hit. (`wo` is read for importance transport only.)
-    #[inline]
-    pub fn factor(&self, wo: Vec3, wi: Vec3, mode: TransportMode) -> f32 {
-        if !self.smooth {
-            return 1.0;
+    #[inline(always)]
+    pub fn factor(&self, wo: V, wi: V, mode: TransportMode) -> V::Real {
+        let (zero, one) = (V::Real::splat(0.0), V::Real::splat(1.0));
+        if !V::Real::any(self.smooth) {
+            return one;
         }
         let (ns, ng) = (self.frame.n, self.ng);
         let (si, gi) = (wi.dot(ns), wi.dot(ng));
-        if si * gi <= 0.0 {
-            return 0.0;
-        }
-        match mode {
-            TransportMode::Radiance => 1.0,
+        let adjoint = match mode {
+            TransportMode::Radiance => one,
             TransportMode::Importance => {
                 let denominator = (wo.dot(ng) * si).abs();
-                if denominator == 0.0 {
-                    0.0
-                } else {
-                    (wo.dot(ns) * gi).abs() / denominator
-                }
+                V::Real::select(denominator.eq(zero), zero, (wo.dot(ns) * gi).abs() / denominator)
             }
-        }
+        };
+        V::Real::select(self.smooth, V::Real::select((si * gi).le(zero), zero, adjoint), one)
     }
 }
 

@@ -138,20 +138,20 @@ impl Isa {
 /// Defines `$name(isa, args…)`, which runs the `#[inline(always)]` kernel `$body` compiled for
 /// the instruction set `isa` (falling back to the baseline where the CPU lacks it).
 macro_rules! dispatch {
-    ($(#[$doc:meta])* $vis:vis fn $name:ident($($arg:ident: $ty:ty),*) -> $ret:ty => $body:path) => {
+    ($(#[$doc:meta])* $vis:vis fn $name:ident$(<$($lt:lifetime),*>)?($($arg:ident: $ty:ty),*) -> $ret:ty => $body:path) => {
         $(#[$doc])*
         #[allow(clippy::too_many_arguments)]
-        $vis fn $name(isa: $crate::lanes::Isa, $($arg: $ty),*) -> $ret {
+        $vis fn $name$(<$($lt),*>)?(isa: $crate::lanes::Isa, $($arg: $ty),*) -> $ret {
             #[cfg(target_arch = "x86_64")]
             {
                 #[target_feature(enable = "avx512f,avx512dq,avx512bw,avx512vl")]
                 #[allow(clippy::too_many_arguments)]
-                unsafe fn avx512($($arg: $ty),*) -> $ret {
+                unsafe fn avx512$(<$($lt),*>)?($($arg: $ty),*) -> $ret {
                     $body($($arg),*)
                 }
                 #[target_feature(enable = "avx2")]
                 #[allow(clippy::too_many_arguments)]
-                unsafe fn avx2($($arg: $ty),*) -> $ret {
+                unsafe fn avx2$(<$($lt),*>)?($($arg: $ty),*) -> $ret {
                     $body($($arg),*)
                 }
                 if isa.runs_here() {

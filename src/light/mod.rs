@@ -1055,6 +1055,20 @@ impl Light {
         }
     }
 
+    /// The light's kind in words: `point`, `spot`, `directional`, `quad`, `sphere`, `emissive
+    /// object` or `environment`.
+    pub fn kind_name(&self) -> &'static str {
+        match self {
+            Light::Point { .. } => "point",
+            Light::Spot { .. } => "spot",
+            Light::Directional { .. } => "directional",
+            Light::Quad { .. } => "quad",
+            Light::Sphere { .. } => "sphere",
+            Light::Surface { .. } => "emissive object",
+            Light::Environment { .. } => "environment",
+        }
+    }
+
     /// Whether `p` lies strictly inside the light's emitting sphere or cylinder (their centres,
     /// where [`Light::as_point_from`] puts their point stand-ins): a shadow ray towards such a
     /// point reaches the light where it meets its surface.
