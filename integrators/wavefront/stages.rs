@@ -2,9 +2,9 @@
 //! path state of `path` with one lane per path, [`PathState`]`<Vec3x>`, and each path's own
 //! context) go through one round per bounce:
 //! 1. closest hits and their records across lanes ([`LaneScene::closest`],
-//!    [`LaneScene::records`]);
+//!    [`LaneScene::records`]; with moving objects each lane's ray through the BVH at its time);
 //! 2. the vertex across lanes: [`PathState::advance`], the very function the scalar engine
-//!    runs, here over the lanes' numbers with [`LaneWorld`] as its world: the primitives'
+//!    runs, here over the lanes' numbers with [`LaneWorld`] as its world: the hits'
 //!    materials and the lights read from fixed-size tables ([`Table`], whose reads vectorise as
 //!    gathers), each lane drawing its random numbers from its own stream at its own dimension;
 //! 3. the shadow rays across lanes ([`LaneScene::occluded`]), and the light gathered where
@@ -14,8 +14,9 @@
 //! go on are compacted into full chunks. The camera rays are the camera pass's.
 //!
 //! What the tables do not hold (a material, a light or an emitter without a lane form, an
-//! environment, wavelengths, a scene too large for the tables, another sampler's draws) the
-//! world asks of the scalar world ([`OneRay`]) lane by lane, for the lanes that need it: the
+//! environment, wavelengths, more materials than the tables take, the hit records of shapes
+//! the lane kernels do not record, another sampler's draws) the world asks of the scalar world
+//! (`OneRay`) lane by lane, for the lanes that need it: the
 //! same functions the scalar engine calls, so nothing is written twice, and the rest of the
 //! vertex stays across lanes. [`LaneStages::lane_by_lane`] says what a scene sends that way.
 //! Each lane computes what the scalar engine computes, operation for operation: images are the
@@ -609,13 +610,20 @@ impl LaneWorld<'_, '_> {
         let ray = |k: usize| Ray { origin: path.origin.lane(k), dir: path.dir.lane(k), time: path.time.0[k] };
         occupancy.add(live.count());
         let isect = &mut hit.isect;
+        // Through the BVH, 16 rays at once pay for coherent camera rays only; the bounces'
+        // (about 7 octants in 16 lanes) go one by one, the scalar traversal with its record
+        // (docs/performance.md, "The engines").
+        let packet = match &stages.lanes {
+            Ok(lanes) => !lanes.traverses_bvh() || !(live & !path.depth.eq(F32x::ZERO)).any(),
+            Err(_) => false,
+        };
         let hits = match &stages.lanes {
-            Ok(lanes) => {
+            Ok(lanes) if packet => {
                 let tmax = F32x::select(live, F32x::splat(f32::INFINITY), F32x::splat(-1.0));
                 lanes.closest(&rays, &tmax.0)
             }
-            Err(_) => {
-                // Moving objects: each ray through the BVH at its time.
+            _ => {
+                // Each ray through the BVH on its own, at its time.
                 let mut hits =
                     LaneHits { t: [f32::INFINITY; WIDTH], primitive: [0; WIDTH], bary: [None; WIDTH] };
                 for k in lanes_of(live) {
@@ -645,7 +653,7 @@ impl LaneWorld<'_, '_> {
         // The records the lane kernels do not make (or the scalar world reads in full).
         let recorded = if stages.lane_records { scalar } else { found };
         for k in lanes_of(recorded) {
-            if stages.lanes.is_ok() {
+            if packet {
                 isect[k] = Some(scene.record(&ray(k), hits.t[k], hits.primitive[k], hits.bary[k]));
             }
             let i = isect[k].expect("a lane that found a surface has its record");

@@ -301,7 +301,7 @@ impl<'a, 's> PathWorld for LaneWorld<'a, 's> {
         active: Mask,
         ctx: &LaneCtx<'a>,
     ) -> LightDraw<Vec3x> {
-        let (lights, zero) = (&self.stages.lights, F32x::ZERO);
+        let lights = &self.stages.lights;
         let p = hit.records.p;
         // One light is the same in every lane: no gathers.
         let one = lights.count == 1;
@@ -340,7 +340,6 @@ impl<'a, 's> PathWorld for LaneWorld<'a, 's> {
             draw.delta.0[k] = one.delta;
             draw.target.set_lane(k, one.target);
         }
-        let _ = zero;
         draw
     }
 
