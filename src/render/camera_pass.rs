@@ -165,7 +165,8 @@ impl<'a> Pass<'a> {
         let width = sum.len();
         let per_pixel = samples.len().max(1);
         let pixels_per_batch = (WAVEFRONT_BATCH / per_pixel).max(1);
-        let (mut rays, mut ctxs) = (Vec::new(), Vec::new());
+        let batch = pixels_per_batch.min(width) * per_pixel;
+        let (mut rays, mut ctxs) = (Vec::with_capacity(batch), Vec::with_capacity(batch));
         let x0 = self.camera.crop.x;
         for first in (0..width).step_by(pixels_per_batch) {
             let xs = x0 + first as u32..x0 + (first + pixels_per_batch).min(width) as u32;
