@@ -23,6 +23,7 @@
 use crate::image::Image;
 use crate::integrators::Integrator;
 use crate::light::Light;
+use crate::methods::Method;
 use crate::output::exr::{stage_exr_with_notes, ExrMetadata};
 use crate::output::film::{read_render, RenderRead};
 use crate::output::replicas::render_channels;
@@ -191,7 +192,7 @@ pub fn choose_method(scene: &Scene) -> ReferenceChoice {
                 _ => "point light",
             };
             ReferenceChoice {
-                method: "vcm",
+                method: Method::Vcm.name(),
                 why: format!(
                     "{kind} {} meets the specular material `{}`: path tracing misses the caustics \
                      (a {kind} is reached only by shadow rays, which cannot bend through glass or off \
@@ -202,18 +203,18 @@ pub fn choose_method(scene: &Scene) -> ReferenceChoice {
             }
         }
         (Some(_), None) => ReferenceChoice {
-            method: "path",
+            method: Method::Path.name(),
             why: "no specular surface: path tracing is unbiased for the point light".into(),
         },
         (None, _) => ReferenceChoice {
-            method: "path",
+            method: Method::Path.name(),
             why: "no point light: path tracing reaches every light and is unbiased".into(),
         },
     }
 }
 
 /// The methods that may render a reference, in the order a tie goes.
-pub const CANDIDATES: [&str; 3] = ["path", "bpt", "vcm"];
+pub const CANDIDATES: [&str; 3] = [Method::Path.name(), Method::Bpt.name(), Method::Vcm.name()];
 
 /// Why `method` cannot render a correct reference of `scene`: an effect of the scene it does not
 /// simulate, or caustics of a point light through a specular surface that `path` and `bpt`
@@ -230,7 +231,7 @@ pub fn unfit_for_reference(scene: &Scene, method: &dyn Integrator) -> Option<Str
         }
     }
     let rule = choose_method(scene);
-    (rule.method == "vcm" && method.name() != "vcm")
+    (rule.method == Method::Vcm.name() && method.method() != Method::Vcm)
         .then(|| "cannot find the caustics of a point light through a specular surface".to_string())
 }
 

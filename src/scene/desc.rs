@@ -271,7 +271,10 @@ pub const METHOD_TABLES: [&str; crate::methods::NAMES.len()] = crate::methods::N
 pub const MERGING_METHODS: [&str; crate::methods::MERGING_NAMES.len()] = crate::methods::MERGING_NAMES;
 
 /// The methods of the bidirectional engine, which take `max_light_paths`.
-pub const BIDIRECTIONAL_METHODS: [&str; 4] = ["bpt", "ppm", "bpm", "vcm"];
+pub const BIDIRECTIONAL_METHODS: [&str; 4] = {
+    use crate::methods::Method;
+    [Method::Bpt.name(), Method::Ppm.name(), Method::Bpm.name(), Method::Vcm.name()]
+};
 
 /// Whether the method `name` has a maximum depth (`[render.NAME] max_depth`): every method
 /// but `raycast`, which shades the first hit only ([`Method::has_max_depth`]).
@@ -391,8 +394,8 @@ impl RenderDesc {
     /// The cap on light sub-paths per iteration the scene sets for the bidirectional method
     /// `name` in its `[render.NAME]` table.
     pub fn max_light_paths_of(&self, name: &str) -> Option<u32> {
-        match name {
-            "bpt" => self.bpt.max_light_paths,
+        match Method::from_name(name)? {
+            Method::Bpt => self.bpt.max_light_paths,
             _ => self.merge_of(name).and_then(|m| m.max_light_paths),
         }
     }

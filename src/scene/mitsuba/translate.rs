@@ -9,6 +9,7 @@
 
 use super::toml_writer::{number, vector, TomlWriter};
 use super::xml::{Document, Object, Position, Property, Value, XmlError};
+use crate::methods::Method;
 use glam::{DMat3, DMat4, DQuat, DVec3};
 use std::cell::RefCell;
 use std::collections::{HashMap, HashSet};
@@ -595,18 +596,19 @@ impl Translator<'_> {
         render.from(&integrator.position, &integrator.describe());
         let p = Props::of(integrator);
         let method = match integrator.plugin.as_str() {
-            "path" => "path",
+            "path" => Method::Path,
             "volpath" => {
                 self.warn(&integrator.position, "volpath rendered as vitrum's path (no participating media)");
-                "path"
+                Method::Path
             }
-            "bdpt" => "bpt",
-            "ptracer" => "light",
+            "bdpt" => Method::Bpt,
+            "ptracer" => Method::Light,
             other => {
                 self.lacks(integrator, &format!("the integrator `{other}`"))?;
-                "path"
+                Method::Path
             }
-        };
+        }
+        .name();
         let depth = p.integer("max_depth")?.unwrap_or(-1);
         if p.get("rr_depth").is_some() {
             self.warn(
@@ -634,7 +636,8 @@ impl Translator<'_> {
         render.comment(&format!(
             "Mitsuba's max_depth {depth} counts path segments; vitrum's depth counts bounces: {bounces} (Whitted's family {whitted})"
         ));
-        for m in ["path", "light", "bpt", "ppm", "bpm", "vcm"] {
+        let path_like = [Method::Path, Method::Light, Method::Bpt, Method::Ppm, Method::Bpm, Method::Vcm];
+        for m in path_like.map(Method::name) {
             render.table(&format!("render.{m}"));
             render.raw("max_depth", &bounces.to_string());
         }
