@@ -3,6 +3,7 @@
 use glam::{Vec2, Vec3};
 
 use super::{bounds_of, gamma, point_error, try_unit, unit_or, Bounds, Ray, SurfaceHit, MACHINE_EPSILON};
+use crate::lanes::{Mask3, Real, Vector};
 
 /// Per-vertex data of a mesh triangle (OBJ `vt` and `vn`), interpolated at a hit by its
 /// barycentrics. Kept apart from [`Triangle`], which stays small for traversal.
@@ -46,43 +47,149 @@ pub struct Triangle {
 }
 
 /// The per-ray constants of the watertight triangle test: the axis permutation that makes the
-/// dominant direction component z, and the shear that turns the direction into +z.
+/// dominant direction component z, and the shear that turns the direction into +z. For one ray
+/// (`V` = glam's `Vec3`) or one per lane (`V` = [`Vec3x`](crate::lanes::Vec3x)).
 #[derive(Clone, Copy, Debug)]
-pub struct ShearedRay {
-    /// Source axes of the permuted x, y and z.
-    axes: [usize; 3],
+pub struct ShearedRay<V: Vector = Vec3> {
+    /// The dominant axis of the direction, which the permutation makes z ([`Vector::permute`]).
+    axis: V::Axis,
     /// −d_x/d_z, −d_y/d_z and 1/d_z of the permuted direction.
-    shear: Vec3,
-    origin: Vec3,
+    shear: V,
+    origin: V,
+    dir: V,
 }
 
 impl ShearedRay {
     /// The constants for `ray`; `None` for a zero direction.
     #[inline]
     pub fn new(ray: &Ray) -> Option<ShearedRay> {
-        let kz = ray.dir.abs().max_position();
-        if ray.dir[kz] == 0.0 {
-            return None;
-        }
-        let kx = (kz + 1) % 3;
-        let ky = (kx + 1) % 3;
-        let d = ray.dir.to_array();
-        let (dx, dy, dz) = (d[kx], d[ky], d[kz]);
-        Some(ShearedRay {
-            axes: [kx, ky, kz],
-            shear: Vec3::new(-dx / dz, -dy / dz, 1.0 / dz),
-            origin: ray.origin,
-        })
+        let (valid, sheared) = ShearedRay::of(ray.origin, ray.dir);
+        valid.then_some(sheared)
+    }
+}
+
+impl<V: Vector> ShearedRay<V> {
+    /// The constants for the rays from `origin` along `dir`, and where they are valid (not for
+    /// a zero direction).
+    #[inline(always)]
+    pub fn of(origin: V, dir: V) -> (Mask3<V>, ShearedRay<V>) {
+        let axis = dir.abs().max_axis();
+        let d = dir.permute(axis);
+        let (dx, dy, dz) = (d.x(), d.y(), d.z());
+        let shear = V::new(-dx / dz, -dy / dz, V::Real::splat(1.0) / dz);
+        (dz.ne(V::Real::splat(0.0)), ShearedRay { axis, shear, origin, dir })
     }
 
     /// A vertex relative to the origin, permuted and sheared.
-    #[inline]
-    fn transform(&self, v: Vec3) -> Vec3 {
-        let v = (v - self.origin).to_array();
-        let [kx, ky, kz] = self.axes;
-        let (x, y, z) = (v[kx], v[ky], v[kz]);
-        Vec3::new(x + self.shear.x * z, y + self.shear.y * z, z * self.shear.z)
+    #[inline(always)]
+    fn transform(&self, v: V) -> V {
+        let v = (v - self.origin).permute(self.axis);
+        let (x, y, z) = (v.x(), v.y(), v.z());
+        V::new(x + self.shear.x() * z, y + self.shear.y() * z, z * self.shear.z())
     }
+}
+
+/// Where a triangle test hits (one truth value per lane), and there the distances and the
+/// barycentrics `[b0, b1, b2]`.
+pub type TriangleHits<V> = (Mask3<V>, <V as Vector>::Real, [<V as Vector>::Real; 3]);
+
+/// The Woop–Benthin–Wald watertight test of the triangle `p` (counter-clockwise) against `ray`
+/// where `active`, written once for one ray and for lanes (each lane's result is the one-ray
+/// result to the bit; lanes may hold one triangle or one each): where it hits within (0,
+/// `tmax`], the distance (conservatively positive) and barycentrics `[b0, b1, b2]`; `None` where
+/// no lane hits. Points on an edge or vertex count as inside for every triangle sharing it, and
+/// the sign of an edge function depends only on the edge's two (sheared) vertices, so shared
+/// edges never leave a crack.
+#[inline(always)]
+fn watertight<V: Vector>(
+    p: &[V; 3],
+    ray: &ShearedRay<V>,
+    active: Mask3<V>,
+    tmax: V::Real,
+) -> Option<TriangleHits<V>> {
+    let zero = V::Real::splat(0.0);
+    let (a, b, c) = (ray.transform(p[0]), ray.transform(p[1]), ray.transform(p[2]));
+
+    // Edge functions: plain products (no FMA) so that the edge shared by two triangles gets
+    // exactly negated values; exact zeros are re-evaluated in f64, where the products are exact
+    // and only the difference rounds (sign-preserving).
+    let edge = |p: V, q: V| p.x() * q.y() - p.y() * q.x();
+    let (mut e0, mut e1, mut e2) = (edge(b, c), edge(c, a), edge(a, b));
+    let exact_zero = e0.eq(zero) | e1.eq(zero) | e2.eq(zero);
+    if V::Real::any(exact_zero) {
+        let edge64 = |p: V, q: V| V::Real::products_difference_f64(p.x(), q.y(), p.y(), q.x());
+        e0 = V::Real::select(exact_zero, edge64(b, c), e0);
+        e1 = V::Real::select(exact_zero, edge64(c, a), e1);
+        e2 = V::Real::select(exact_zero, edge64(a, b), e2);
+    }
+    // Edge functions of both signs: outside. (The positive ones only looked at where a negative
+    // one is: for one ray, the branches of `||` and `&&`.)
+    let mut hit = active;
+    let negative = e0.lt(zero) | e1.lt(zero) | e2.lt(zero);
+    if V::Real::any(negative) {
+        let positive = e0.gt(zero) | e1.gt(zero) | e2.gt(zero);
+        hit = hit & !(negative & positive);
+        if !V::Real::any(hit) {
+            return None;
+        }
+    }
+    let det = e0 + e1 + e2;
+    hit = hit & det.ne(zero);
+    if !V::Real::any(hit) {
+        return None;
+    }
+    let t_scaled = e0 * a.z() + e1 * b.z() + e2 * c.z();
+    let bound = tmax * det;
+    let outside_negative = det.lt(zero) & (t_scaled.ge(zero) | t_scaled.lt(bound));
+    let outside_positive = det.gt(zero) & (t_scaled.le(zero) | t_scaled.gt(bound));
+    hit = hit & !outside_negative & !outside_positive;
+    if !V::Real::any(hit) {
+        return None;
+    }
+    let inv_det = V::Real::splat(1.0) / det;
+    let mut t = t_scaled * inv_det;
+
+    // pbrt-v4's conservative bound on the error of t: a hit this close may lie behind the
+    // origin. (Products written with γ on the right: the same roundings, as × commutes.)
+    let max_abs = |f: fn(V) -> V::Real| f(a).abs().max(f(b).abs()).max(f(c).abs());
+    let max_zt = max_abs(|v| v.z());
+    let max_xt = max_abs(|v| v.x());
+    let max_yt = max_abs(|v| v.y());
+    let delta_z = max_zt * gamma(3);
+    let delta_x = (max_xt + max_zt) * gamma(5);
+    let delta_y = (max_yt + max_zt) * gamma(5);
+    let delta_e = (max_xt * gamma(2) * max_yt + delta_y * max_xt + delta_x * max_yt) * 2.0;
+    let max_e = e0.abs().max(e1.abs()).max(e2.abs());
+    let delta_t = (max_e * gamma(3) * max_zt + delta_e * max_zt + delta_z * max_e) * 3.0 * inv_det.abs();
+    let near = hit & !t.gt(delta_t);
+    if V::Real::any(near) {
+        t = t.lanes_where(near, |k| {
+            let vertices = [p[0].lane(k), p[1].lane(k), p[2].lane(k)];
+            plane_distance_f64(vertices, ray.origin.lane(k), ray.dir.lane(k)).unwrap_or(0.0)
+        });
+        hit = hit & (!near | t.gt(zero));
+        if !V::Real::any(hit) {
+            return None;
+        }
+    }
+    Some((hit, t, [e0 * inv_det, e1 * inv_det, e2 * inv_det]))
+}
+
+/// The distance along the ray from `origin` along `dir` to the plane of the triangle `p`,
+/// evaluated in f64, when it is positive: for hits within pbrt's error bound δt of the origin.
+/// Rejecting those outright (as pbrt does) loses the neighbouring face of a concave edge to a
+/// ray spawned a hair from the edge, and the ray leaves a closed mesh through it. In f64 the
+/// vertex differences and their products are nearly exact, so the sign of t is right for any
+/// origin farther from the plane than about 1e-15 of the scene's size; a spawned origin is
+/// farther than its hit point's error bound (about 1e-7), so its own triangle stays behind it.
+#[cold]
+fn plane_distance_f64(p: [Vec3; 3], origin: Vec3, dir: Vec3) -> Option<f32> {
+    let [p0, p1, p2] = p.map(|p| p.as_dvec3());
+    let normal = (p1 - p0).cross(p2 - p0);
+    let t = (p0 - origin.as_dvec3()).dot(normal) / dir.as_dvec3().dot(normal);
+    // Not `t > 0.0` alone: a NaN (a ray in the plane) is no hit either; a positive t is at
+    // least the smallest normal float (so 0 can stand for no hit).
+    (t > 0.0).then(|| (t as f32).max(f32::MIN_POSITIVE))
 }
 
 impl Triangle {
@@ -109,81 +216,21 @@ impl Triangle {
         twice_area <= 8.0 * MACHINE_EPSILON * longest || twice_area.is_nan()
     }
 
-    /// Woop–Benthin–Wald watertight test: the hit distance (in (0, `tmax`], conservatively
-    /// positive) and barycentrics `[b0, b1, b2]`. Points on an edge or vertex count as inside
-    /// for every triangle sharing it, and the sign of an edge function depends only on the
-    /// edge's two (sheared) vertices, so shared edges never leave a crack.
+    /// [`watertight`] for one ray: the hit distance (in (0, `tmax`], conservatively positive)
+    /// and barycentrics `[b0, b1, b2]`.
     #[inline]
     fn watertight(&self, ray: &Ray, tmax: f32) -> Option<(f32, [f32; 3])> {
-        self.watertight_sheared(&ShearedRay::new(ray)?, ray, tmax)
+        let (_, t, bary) = watertight(&self.p, &ShearedRay::new(ray)?, true, tmax)?;
+        Some((t, bary))
     }
 
-    /// [`Triangle::watertight`] with the ray's permutation and shear computed once
-    /// ([`ShearedRay`]), as scene queries do for all the triangles a ray meets.
-    #[inline]
-    fn watertight_sheared(&self, sheared: &ShearedRay, ray: &Ray, tmax: f32) -> Option<(f32, [f32; 3])> {
-        // (Not `self.p.map(..)`: that compiles to an out-of-line call.)
-        let (a, b, c) =
-            (sheared.transform(self.p[0]), sheared.transform(self.p[1]), sheared.transform(self.p[2]));
-
-        // Edge functions: plain products (no FMA) so that the edge shared by two triangles gets
-        // exactly negated values; exact zeros are re-evaluated in f64, where the products are
-        // exact and only the difference rounds (sign-preserving).
-        let edge = |p: Vec3, q: Vec3| p.x * q.y - p.y * q.x;
-        let mut e = [edge(b, c), edge(c, a), edge(a, b)];
-        if e.contains(&0.0) {
-            let edge64 =
-                |p: Vec3, q: Vec3| (f64::from(p.x) * f64::from(q.y) - f64::from(p.y) * f64::from(q.x)) as f32;
-            e = [edge64(b, c), edge64(c, a), edge64(a, b)];
-        }
-        let [e0, e1, e2] = e;
-        if (e0 < 0.0 || e1 < 0.0 || e2 < 0.0) && (e0 > 0.0 || e1 > 0.0 || e2 > 0.0) {
-            return None;
-        }
-        let det = e0 + e1 + e2;
-        if det == 0.0 {
-            return None;
-        }
-        let t_scaled = e0 * a.z + e1 * b.z + e2 * c.z;
-        if det < 0.0 && (t_scaled >= 0.0 || t_scaled < tmax * det) {
-            return None;
-        }
-        if det > 0.0 && (t_scaled <= 0.0 || t_scaled > tmax * det) {
-            return None;
-        }
-        let inv_det = 1.0 / det;
-        let t = t_scaled * inv_det;
-
-        // pbrt-v4's conservative bound on the error of t: a hit this close may lie behind the
-        // origin.
-        let max_abs = |f: fn(Vec3) -> f32| f(a).abs().max(f(b).abs()).max(f(c).abs());
-        let max_zt = max_abs(|v| v.z);
-        let max_xt = max_abs(|v| v.x);
-        let max_yt = max_abs(|v| v.y);
-        let delta_z = gamma(3) * max_zt;
-        let delta_x = gamma(5) * (max_xt + max_zt);
-        let delta_y = gamma(5) * (max_yt + max_zt);
-        let delta_e = 2.0 * (gamma(2) * max_xt * max_yt + delta_y * max_xt + delta_x * max_yt);
-        let max_e = e0.abs().max(e1.abs()).max(e2.abs());
-        let delta_t = 3.0 * (gamma(3) * max_e * max_zt + delta_e * max_zt + delta_z * max_e) * inv_det.abs();
-        let t = if t > delta_t { t } else { self.plane_distance_f64(ray)? };
-        Some((t, [e0 * inv_det, e1 * inv_det, e2 * inv_det]))
-    }
-
-    /// The distance along `ray` to the triangle's plane evaluated in f64, when it is positive:
-    /// for hits within pbrt's error bound δt of the origin. Rejecting those outright (as pbrt
-    /// does) loses the neighbouring face of a concave edge to a ray spawned a hair from the
-    /// edge, and the ray leaves a closed mesh through it. In f64 the vertex differences and
-    /// their products are nearly exact, so the sign of t is right for any origin farther from
-    /// the plane than about 1e-15 of the scene's size; a spawned origin is farther than its hit
-    /// point's error bound (about 1e-7), so its own triangle stays behind it.
-    #[cold]
-    fn plane_distance_f64(&self, ray: &Ray) -> Option<f32> {
-        let [p0, p1, p2] = self.p.map(|p| p.as_dvec3());
-        let normal = (p1 - p0).cross(p2 - p0);
-        let t = (p0 - ray.origin.as_dvec3()).dot(normal) / ray.dir.as_dvec3().dot(normal);
-        // Not `t > 0.0` alone: a NaN (a ray in the plane) is no hit either.
-        (t > 0.0).then(|| (t as f32).max(f32::MIN_POSITIVE))
+    /// [`Triangle::hits`] for one ray. Not inlined (as the compiler chose before the test was
+    /// written over lanes): the traversals that call it stay small, and run fewer instructions
+    /// so (measured with callgrind).
+    #[inline(never)]
+    fn hit_within(&self, sheared: &ShearedRay, tmin: f32, tmax: f32) -> Option<(f32, [f32; 3])> {
+        let (_, t, bary) = Triangle::hits(&self.p, sheared, true, tmin, tmax)?;
+        Some((t, bary))
     }
 
     /// Nearest hit distance in the open interval (`tmin`, `tmax`), watertight across shared edges.
@@ -198,17 +245,36 @@ impl Triangle {
         self.hit_sheared(sheared, ray, tmin, tmax).map(|(t, _)| t)
     }
 
-    /// [`Triangle::intersect_sheared`] with the hit's barycentrics, for [`Triangle::surface_at`].
+    /// [`Triangle::intersect_sheared`] with the hit's barycentrics, for [`Triangle::surface_at`]
+    /// (`sheared` holds the ray: `_ray` is its ray).
     #[inline]
     pub fn hit_sheared(
         &self,
         sheared: &ShearedRay,
-        ray: &Ray,
+        _ray: &Ray,
         tmin: f32,
         tmax: f32,
     ) -> Option<(f32, [f32; 3])> {
-        let (t, bary) = self.watertight_sheared(sheared, ray, tmax)?;
-        (t > tmin && t < tmax).then_some((t, bary))
+        self.hit_within(sheared, tmin, tmax)
+    }
+
+    /// The watertight test of the triangle with the vertices `p` (as [`Triangle::vertices`]
+    /// gives them) against `ray` where `active`, written once for one ray (`V` = `Vec3`: what
+    /// [`Triangle::hit_sheared`] runs) and for lanes (`V` = [`Vec3x`](crate::lanes::Vec3x), one
+    /// triangle splatted or one per lane), each lane's result the one-ray result to the bit:
+    /// where it hits within the open interval (`tmin`, `tmax`), the distance and barycentrics;
+    /// `None` where no lane hits.
+    #[inline(always)]
+    pub fn hits<V: Vector>(
+        p: &[V; 3],
+        ray: &ShearedRay<V>,
+        active: Mask3<V>,
+        tmin: V::Real,
+        tmax: V::Real,
+    ) -> Option<TriangleHits<V>> {
+        let (hit, t, bary) = watertight(p, ray, active, tmax)?;
+        let hit = hit & t.gt(tmin) & t.lt(tmax);
+        V::Real::any(hit).then_some((hit, t, bary))
     }
 
     /// Full hit record for the hit at `t` with barycentrics `[b0, b1, b2]` (as
@@ -263,6 +329,7 @@ mod tests {
     use super::*;
     use crate::geometry::spawn_origin;
     use crate::geometry::test_support::{random_point, random_unit, ray, spawned_rays};
+    use crate::lanes::{dispatch, F32x, Isa, Mask, Vec3x, WIDTH};
     use rand::{RngExt, SeedableRng};
     use rand_pcg::Pcg32;
     use std::f64::consts::PI;
@@ -473,6 +540,120 @@ mod tests {
                 next.is_some(),
                 "ray {k} escaped the closed cube through its edge: {spawned:?} from {hit:?}"
             );
+        }
+    }
+
+    /// [`Triangle::hits`] across 16 lanes, each lane's triangle and ray its own.
+    #[inline(always)]
+    #[allow(clippy::needless_range_loop)]
+    fn lane_hits(
+        p: &[[Vec3; 3]; WIDTH],
+        rays: &[Ray; WIDTH],
+        tmax: &[f32; WIDTH],
+    ) -> Option<(Mask, F32x, [F32x; 3])> {
+        let gather = |i: usize| {
+            let mut v = Vec3x::ZERO;
+            for k in 0..WIDTH {
+                v.set_lane(k, p[k][i]);
+            }
+            v
+        };
+        let (mut origin, mut dir) = (Vec3x::ZERO, Vec3x::ZERO);
+        for k in 0..WIDTH {
+            origin.set_lane(k, rays[k].origin);
+            dir.set_lane(k, rays[k].dir);
+        }
+        let (valid, sheared) = ShearedRay::of(origin, dir);
+        Triangle::hits(&[gather(0), gather(1), gather(2)], &sheared, valid, F32x::ZERO, F32x(*tmax))
+    }
+
+    dispatch! {
+        fn hits_across(p: &[[Vec3; 3]; WIDTH], rays: &[Ray; WIDTH], tmax: &[f32; WIDTH]) -> Option<(Mask, F32x, [F32x; 3])> => lane_hits
+    }
+
+    /// One lane's case: a triangle, a ray and its limit, of one of the awkward kinds the
+    /// watertight test branches on.
+    fn awkward_case(rng: &mut Pcg32, sphere: &[Triangle], kind: usize) -> (Triangle, Ray) {
+        let tri = sphere[rng.random_range(0..sphere.len())];
+        match kind {
+            // Through a vertex or an edge's midpoint of a closed mesh: exact-zero edge functions.
+            0 => {
+                let [p0, p1, p2] = tri.p;
+                let target = [p0, p1, 0.5 * (p0 + p1), 0.5 * (p1 + p2)][rng.random_range(0..4)];
+                (tri, Ray::new(Vec3::ZERO, target.normalize()))
+            }
+            // A hair off the plane z = 0 (exactly representable there), grazing into it: hits
+            // within the error bound, decided by the f64 plane distance.
+            1 => {
+                let side = if rng.random::<bool>() { 1.0 } else { -1.0 };
+                let o = Vec3::new(rng.random::<f32>() * 0.5, rng.random::<f32>() * 0.5, side * 1e-9);
+                let d = Vec3::new(rng.random::<f32>() - 0.5, rng.random::<f32>() - 0.5, -side * 0.3);
+                (unit(), Ray::new(o, d.normalize()))
+            }
+            // A zero direction: no hit.
+            2 => (tri, Ray { origin: Vec3::ZERO, dir: Vec3::ZERO, time: 0.0 }),
+            // Equal largest components: glam's choice of the dominant axis.
+            3 => {
+                let d = [[1.0, 1.0, 0.0], [1.0, -1.0, 1.0], [0.0, 1.0, -1.0], [-1.0, 0.0, -1.0]];
+                let d = Vec3::from(d[rng.random_range(0..4)]).normalize();
+                (tri, Ray::new(-d * 0.5 + random_unit(rng) * 0.2, d))
+            }
+            // A random triangle and a ray aimed at a random point of it.
+            _ => {
+                let p0 = random_point(rng, 10.0);
+                let tri = Triangle::new(p0, p0 + random_unit(rng), p0 + random_unit(rng));
+                let (b1, b2) = (rng.random::<f32>(), rng.random::<f32>());
+                let target = (1.0 - b1 - b2) * tri.p[0] + b1 * tri.p[1] + b2 * tri.p[2];
+                let o = target + random_unit(rng) * (0.1 + 5.0 * rng.random::<f32>());
+                (tri, Ray::new(o, (target - o).normalize()))
+            }
+        }
+    }
+
+    #[test]
+    fn the_triangle_test_across_lanes_is_the_one_ray_test_bit_for_bit() {
+        let (_, sphere) = uv_sphere(Vec3::ZERO, 1.0, 12, 24);
+        let mut rng = Pcg32::seed_from_u64(53);
+        for isa in Isa::available() {
+            let (mut hit_count, mut on_edges, mut near) = (0, 0, 0);
+            for batch in 0..2_000 {
+                let cases: [(Triangle, Ray); WIDTH] =
+                    std::array::from_fn(|k| awkward_case(&mut rng, &sphere, (batch + k) % 6));
+                // The limit: none, just at the hit (which the open interval excludes), one ulp
+                // beyond it, or random.
+                let tmax: [f32; WIDTH] = std::array::from_fn(|k| {
+                    let (tri, ray) = &cases[k];
+                    let t = tri.intersect(ray, 0.0, f32::INFINITY).unwrap_or(1.0);
+                    [f32::INFINITY, t, t.next_up(), rng.random::<f32>() * 4.0][rng.random_range(0..4)]
+                });
+                // Each lane its own triangle, then every lane the first lane's triangle.
+                for splat in [false, true] {
+                    let p = std::array::from_fn(|k| cases[if splat { 0 } else { k }].0.p);
+                    let rays = cases.map(|(_, r)| r);
+                    let got = hits_across(isa, &p, &rays, &tmax);
+                    for k in 0..WIDTH {
+                        let tri = Triangle { p: p[k] };
+                        let want = ShearedRay::new(&rays[k])
+                            .and_then(|s| tri.hit_sheared(&s, &rays[k], 0.0, tmax[k]));
+                        let lane = got.filter(|(hit, ..)| hit.0[k]).map(|(_, t, b)| {
+                            (t.0[k].to_bits(), [b[0].0[k], b[1].0[k], b[2].0[k]].map(f32::to_bits))
+                        });
+                        let want_bits = want.map(|(t, b)| (t.to_bits(), b.map(f32::to_bits)));
+                        assert_eq!(
+                            lane, want_bits,
+                            "{isa:?}, lane {k}: {tri:?}, {:?}, tmax {}",
+                            rays[k], tmax[k]
+                        );
+                        if let Some((t, b)) = want {
+                            hit_count += 1;
+                            on_edges += b.contains(&0.0) as usize;
+                            near += (t < 1e-6) as usize;
+                        }
+                    }
+                }
+            }
+            // The awkward kinds were met: hits on edges and vertices, hits within the error bound.
+            assert!(hit_count > 5_000 && on_edges > 1_000 && near > 1_000, "{hit_count} {on_edges} {near}");
         }
     }
 

@@ -88,6 +88,12 @@ pub trait Real:
     /// `(cos x, sin x)` by libm where `active` (so each lane's pair is the one-ray pair to the
     /// bit), 0 elsewhere: lanes that do not need the trigonometry do not pay for it.
     fn cos_sin(self, active: Self::Mask) -> (Self, Self);
+    /// `a·b − c·d` evaluated in f64 (the products exact, only the difference and the final
+    /// conversion round), as an `f32`.
+    fn products_difference_f64(a: Self, b: Self, c: Self, d: Self) -> Self;
+    /// `f(k)` in each lane `k` where `active` (lane 0 for one ray), unchanged elsewhere: a
+    /// one-ray function (a rare, cold case) run lane by lane.
+    fn lanes_where(self, active: Self::Mask, f: impl FnMut(usize) -> f32) -> Self;
 }
 
 /// A 3-vector for one ray (glam's `Vec3`) or one per lane ([`Vec3x`]), with glam's arithmetic
@@ -105,6 +111,9 @@ pub trait Vector:
 {
     /// Its components' number type.
     type Real: Real;
+    /// The dominant axis (one per lane), as [`Vector::max_axis`] gives it and
+    /// [`Vector::permute`] takes it.
+    type Axis: Copy + Debug;
 
     /// The vector `(x, y, z)`.
     fn new(x: Self::Real, y: Self::Real, z: Self::Real) -> Self;
@@ -140,6 +149,13 @@ pub trait Vector:
     fn max_element(self) -> Self::Real;
     /// glam's `exp`, by libm component by component where `active` (unchanged elsewhere).
     fn exp_where(self, active: Mask3<Self>) -> Self;
+    /// Lane `k` (the vector itself for one ray).
+    fn lane(self, k: usize) -> Vec3;
+    /// glam's `max_position`, the axis `kz`.
+    fn max_axis(self) -> Self::Axis;
+    /// The components `(v[kx], v[ky], v[kz])` with `kx = (kz + 1) mod 3` and `ky = (kx + 1) mod 3`
+    /// for the axis `kz`: the dominant axis last, the other two in cyclic order.
+    fn permute(self, kz: Self::Axis) -> Self;
 }
 
 /// The truth values of a [`Vector`]'s numbers.
@@ -240,6 +256,18 @@ impl Real for f32 {
             (0.0, 0.0)
         }
     }
+    #[inline(always)]
+    fn products_difference_f64(a: f32, b: f32, c: f32, d: f32) -> f32 {
+        (f64::from(a) * f64::from(b) - f64::from(c) * f64::from(d)) as f32
+    }
+    #[inline(always)]
+    fn lanes_where(self, active: bool, mut f: impl FnMut(usize) -> f32) -> f32 {
+        if active {
+            f(0)
+        } else {
+            self
+        }
+    }
 }
 
 impl Real for F32x {
@@ -335,6 +363,24 @@ impl Real for F32x {
         }
         (c, s)
     }
+    #[inline(always)]
+    fn products_difference_f64(a: F32x, b: F32x, c: F32x, d: F32x) -> F32x {
+        let mut out = F32x::ZERO;
+        for k in 0..super::WIDTH {
+            out.0[k] = f32::products_difference_f64(a.0[k], b.0[k], c.0[k], d.0[k]);
+        }
+        out
+    }
+    #[inline(always)]
+    fn lanes_where(self, active: Mask, mut f: impl FnMut(usize) -> f32) -> F32x {
+        let mut out = self;
+        for k in 0..super::WIDTH {
+            if active.0[k] {
+                out.0[k] = f(k);
+            }
+        }
+        out
+    }
 }
 
 impl Vector for Vec3 {
@@ -416,6 +462,23 @@ impl Vector for Vec3 {
             self
         }
     }
+    #[inline(always)]
+    fn lane(self, _: usize) -> Vec3 {
+        self
+    }
+    /// The source axes `[kx, ky, kz]` of the permuted components (worked out once).
+    type Axis = [usize; 3];
+    #[inline(always)]
+    fn max_axis(self) -> [usize; 3] {
+        let kz = self.max_position();
+        let kx = (kz + 1) % 3;
+        [kx, (kx + 1) % 3, kz]
+    }
+    #[inline(always)]
+    fn permute(self, [kx, ky, kz]: [usize; 3]) -> Vec3 {
+        let v = self.to_array();
+        Vec3::new(v[kx], v[ky], v[kz])
+    }
 }
 
 impl Vector for Vec3x {
@@ -494,6 +557,27 @@ impl Vector for Vec3x {
             }
         }
         v
+    }
+    #[inline(always)]
+    fn lane(self, k: usize) -> Vec3 {
+        Vec3x::lane(&self, k)
+    }
+    /// Whether the axis is x, and whether it is y (z where neither).
+    type Axis = [Mask; 2];
+    #[inline(always)]
+    fn max_axis(self) -> [Mask; 2] {
+        // glam's comparisons: y wins over x only when larger, z over the larger of the two only
+        // when larger.
+        let y = self.y.gt(self.x);
+        let z = self.z.gt(F32x::select(y, self.y, self.x));
+        [!z & !y, !z & y]
+    }
+    #[inline(always)]
+    fn permute(self, [kx, ky]: [Mask; 2]) -> Vec3x {
+        let (x, y, z) = (self.x, self.y, self.z);
+        // kz = x: (y, z, x); kz = y: (z, x, y); kz = z: (x, y, z).
+        let pick = |if_x: F32x, if_y: F32x, if_z: F32x| F32x::select(kx, if_x, F32x::select(ky, if_y, if_z));
+        Vec3x::new(pick(y, z, x), pick(z, x, y), pick(x, y, z))
     }
 }
 

@@ -189,6 +189,11 @@ impl LaneScene {
                     lanes.disks.push(Entry { shape: **d, primitive, rank });
                     lanes.records.push(plane(d.center, d.normal));
                 }
+                Shape::Triangle(_) => {
+                    let why = "triangle primitives (tested across lanes in the BVH traversal)";
+                    analytic = analytic.and(Err(why.to_string()));
+                    lanes.records.push(RecordShape::default());
+                }
                 other => {
                     analytic = analytic.and(Err(format!(
                         "{} primitives have no lane kernel (each lane runs the scalar test)",
