@@ -203,8 +203,8 @@ struct Tracer<'a> {
 /// Merge chunk buffers into the film in their order; `batch` sends the splats to the film's
 /// sums of the current sample index, and moves on to the next when its last chunk is merged.
 fn merge(film: &mut Film, batch: &mut SampleSplats, chunks: Vec<ChunkSplats>) {
-    for chunk in chunks {
-        batch.add(film, chunk.splats);
+    for mut chunk in chunks {
+        batch.add(film, &mut chunk.splats);
         film.rays += chunk.rays;
         if chunk.ends_sample {
             batch.finish();

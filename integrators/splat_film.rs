@@ -35,6 +35,18 @@ impl SplatBuffer {
         SplatBuffer { splats: Vec::with_capacity(capacity), non_finite: 0 }
     }
 
+    /// Empty the buffer, keeping its room.
+    pub fn clear(&mut self) {
+        self.splats.clear();
+        self.non_finite = 0;
+    }
+
+    /// The bytes the buffer holds (its room, not only what it uses).
+    #[cfg(test)]
+    pub fn bytes_held(&self) -> usize {
+        self.splats.capacity() * std::mem::size_of::<(u32, Vec3)>()
+    }
+
     /// Add `value` to pixel `pixel`.
     pub fn push(&mut self, pixel: u32, value: Vec3) {
         if !value.is_finite() {
@@ -60,12 +72,12 @@ impl SampleSplats {
     }
 
     /// Add the splats of `buffer` (the next chunk of the sample index, in order) to `film`'s
-    /// sums, counting its non-finite splats on `film`.
-    pub fn add(&mut self, film: &mut Film, buffer: SplatBuffer) {
-        for (pixel, value) in buffer.splats {
+    /// sums, counting its non-finite splats on `film`; `buffer` is left empty (its room kept).
+    pub fn add(&mut self, film: &mut Film, buffer: &mut SplatBuffer) {
+        for (pixel, value) in buffer.splats.drain(..) {
             film.add(pixel as usize, self.sample, value.as_dvec3() * self.scale);
         }
-        film.non_finite += buffer.non_finite;
+        film.non_finite += std::mem::take(&mut buffer.non_finite);
     }
 
     /// End the sample index: later splats go to the next one. The caller advances the film's

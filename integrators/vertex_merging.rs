@@ -25,9 +25,15 @@
 //! photon grid over them, the chunks' splats on their way to the film) and one band of camera
 //! estimates ([`CAMERA_BAND_PIXELS`]); the light paths' splats go straight into the film's sums
 //! ([`SampleSplats`]). With `N` capped, none of it grows with the resolution: peak memory about
-//! 310 MB above `path`'s at the default cap on `scenes/cornell-glass.toml` (`docs/performance.md`;
-//! it is the cap times the stored vertices per light path, about 2.5 there, more in closed scenes
-//! of bright walls). The cap is `[render.METHOD] max_light_paths` or `--max-light-paths`.
+//! 310 MB above `path`'s at the default cap on `scenes/cornell-glass.toml` (`docs/performance.md`).
+//! The vertices a light path stores depend on the scene (about 2.6 there, ten or more in a closed
+//! room of bright walls), so a batch of light paths stores at most [`store_budget`] vertices (3 per
+//! path of the cap): an iteration whose paths store more is traced in several batches, after each
+//! of which the camera paths walk again and connect and merge with that batch (emitters hit and
+//! next-event estimation count in the first batch only). The estimate is the same sum, so it stays
+//! unbiased, and [`Integrator::working_memory`] is an upper bound at any scene (444 MiB for the
+//! merging methods at the default cap). The cap is `[render.METHOD] max_light_paths` or
+//! `--max-light-paths`.
 //! Above the cap, camera path `j`
 //! connects to light path `j mod N` (and, for `bpt`, shares its wavelengths and time), merges
 //! with the photons of the `N` paths and the splats are normalised by `N`: every `N` in the
@@ -121,11 +127,11 @@ mod camera_paths;
 mod light_paths;
 mod mis;
 mod photon_grid;
-use light_paths::LightPaths;
+use light_paths::{LightPaths, LightStore};
 use mis::{mis, Mis};
 use photon_grid::PhotonGrid;
 
-/// Light paths per chunk of work (the unit of determinism).
+/// Light paths per chunk of work at most.
 const CHUNK_PATHS: usize = 1 << 12;
 
 /// The default initial merge radius as a fraction of the diameter of the scene's bounding
@@ -141,6 +147,20 @@ pub use crate::params::DEFAULT_MAX_LIGHT_PATHS;
 /// Camera paths traced between two additions to the film: their estimates wait in a buffer of
 /// this many pixels at most, whatever the resolution.
 const CAMERA_BAND_PIXELS: usize = 1 << 18;
+
+/// What an iteration needs beyond the film, kept from one iteration to the next so that its
+/// arrays keep their room (not allocated and faulted in again every iteration).
+#[derive(Default)]
+struct Workspace {
+    /// The stored light paths of the batch.
+    store: LightStore,
+    /// The photon grid over them (merging methods only).
+    grid: Option<PhotonGrid>,
+    /// Batches traced so far (over all iterations).
+    batches: u64,
+    /// The most vertices a batch stored so far.
+    peak_vertices: usize,
+}
 
 /// Hashed into the render's seed for the light sub-paths' streams.
 const LIGHT_STREAM: u64 = 0x6c69_6768_745f_7061; // "light_pa"
@@ -220,28 +240,58 @@ impl Integrator for VertexMerging {
         Progression::Accumulated(self)
     }
 
-    /// The stored light paths of an iteration (their vertices, the photon grid, their splats)
-    /// and the band of camera estimates: bounded by [`MergeParams::max_light_paths`], not by
-    /// the pixel count.
+    /// The stored light paths of a batch (their vertices and the photon grid over them, at most
+    /// [`store_budget`] vertices whatever the scene), the chunks of light paths on their way to
+    /// the store (their vertices and splats) and the band of camera estimates: an upper bound
+    /// at any scene, set by [`MergeParams::max_light_paths`], not by the pixel count.
     fn working_memory(&self, scene: &Scene, opts: &RenderOptions) -> u64 {
         let camera = camera_for(scene, opts.resolution);
         let pixels = camera.width as usize * camera.height as usize;
-        let paths = light_paths_per_iteration(pixels, &opts.params.merging) as u64;
-        // A vertex and what the photon grid (merging methods only) holds for it.
+        let params = &opts.params.merging;
+        let paths = light_paths_per_iteration(pixels, params) as u64;
+        let longest = opts.params.max_depth as u64 + 1;
+        let vertex = std::mem::size_of::<light_paths::LightVertex>() as u64;
+        // The store and, for the merging methods, the photon grid over it.
         let grid = if self.0.merges() { PhotonGrid::BYTES_PER_PHOTON } else { 0 };
-        let vertex = std::mem::size_of::<light_paths::LightVertex>() as u64 + grid;
-        // Its end, its splats (16 bytes each), its vertices.
-        let path = 4 + SPLATS_PER_PATH * 16 + VERTICES_PER_PATH * vertex;
-        paths * path + CAMERA_BAND_PIXELS as u64 * 12
+        let store =
+            store_bound(paths as usize, params, longest as usize) as u64 * (vertex + grid) + paths * 4;
+        // A chunk: its vertices, its path ends and its splats (16 bytes each, one per vertex and
+        // one per path from each pixel of the filter's footprint, twice for the room of a
+        // growing buffer).
+        let chunk_paths = paths.min(CHUNK_PATHS as u64);
+        let chunk_vertices = (CHUNK_VERTICES as u64 + longest).min(chunk_paths * longest);
+        let footprint = (2.0 * camera.filter.radius()).ceil() as u64 + 1;
+        let splats = (chunk_vertices + chunk_paths) * footprint * footprint * 16 * 2;
+        let chunk = chunk_vertices * vertex + chunk_paths * 4 + splats;
+        let chunks = paths.min(light_paths::CHUNKS_PER_GROUP as u64);
+        store + chunks * chunk + CAMERA_BAND_PIXELS as u64 * 12
     }
 }
 
-/// Stored vertices per light path that the memory estimate assumes (measured on
-/// `scenes/cornell-glass.toml`: about 2.6 at the default depth; deeper closed scenes store more).
-const VERTICES_PER_PATH: u64 = 4;
+/// Stored light vertices per light path of the cap that a batch holds at most
+/// ([`store_budget`]): `scenes/cornell-glass.toml` stores about 2.6 per path, so one batch holds
+/// an iteration of it; scenes whose paths store more take more batches, not more memory.
+const VERTICES_PER_PATH: usize = 3;
 
-/// Camera splats per light path that the memory estimate assumes.
-const SPLATS_PER_PATH: u64 = 2;
+/// The most vertices a chunk of light paths stores before it stops (its last path may add up
+/// to the maximum depth more).
+const CHUNK_VERTICES: usize = 1 << 14;
+
+/// The vertex budget of one batch of light paths: [`VERTICES_PER_PATH`] per light path of the
+/// cap (at least of 2¹⁴ paths). An iteration whose paths store more is traced in several
+/// batches; each camera path is walked again for each later batch (the same path: its random
+/// numbers do not depend on the batch) and there connects and merges with that batch's light
+/// paths only, so the estimate is the same sum, still unbiased.
+fn store_budget(params: &MergeParams) -> usize {
+    VERTICES_PER_PATH * (params.max_light_paths.max(1) as usize).max(1 << 14)
+}
+
+/// The most vertices the store of a batch holds, for `paths` light paths of at most `longest`
+/// vertices each: the budget, or a chunk at its bound if that is more (a batch takes at least
+/// one chunk), or all the paths at their longest if that is less.
+fn store_bound(paths: usize, params: &MergeParams, longest: usize) -> usize {
+    store_budget(params).max(CHUNK_VERTICES + longest).min(paths.saturating_mul(longest))
+}
 
 impl Accumulate for VertexMerging {
     fn film(&self, scene: &Scene, opts: &RenderOptions) -> Film {
@@ -261,8 +311,9 @@ impl Accumulate for VertexMerging {
     ) {
         let engine = Engine::new(scene, self, opts);
         let total = samples.len() as u64;
+        let mut work = Workspace::default();
         for (k, s) in samples.enumerate() {
-            engine.iteration(s, film);
+            engine.iteration(s, film, &mut work);
             progress(k as u64 + 1, total);
         }
     }
@@ -471,19 +522,48 @@ impl<'a> Engine<'a> {
         (channels, time)
     }
 
-    /// One iteration: light paths (their splats go to the film), photon grid, then the camera
-    /// paths in bands of rows, each band's estimates added to the film as it is done.
-    fn iteration(&self, s: u32, film: &mut Film) {
+    /// One iteration: its light paths (their splats go to the film) in batches of at most
+    /// [`store_budget`] stored vertices (one batch unless the paths store more than that), and
+    /// after each batch its photon grid and the camera paths ([`Engine::camera_pass`]).
+    fn iteration(&self, s: u32, film: &mut Film, work: &mut Workspace) {
         let k = self.constants(s);
         // A splat is a light path's importance at its pixel over the N light paths:
         // 1 / (pixel area · N), which is 1 / (film area) when N is the pixel count.
         let scale = 1.0 / (self.pixel_area as f64 * self.light_paths as f64);
         let mut splats = SampleSplats::new(s, scale);
-        let store = self.trace_light_paths(s, &k, film, &mut splats);
         let origin = self.scene.bvh_stats.bounds.0;
-        let grid = self.algorithm.merges().then(|| PhotonGrid::build(&store.vertices, k.radius, origin));
-        let light = LightPaths { vertices: &store.vertices, ends: &store.ends, grid: grid.as_ref() };
-        // The camera paths of the crop window's pixels, each on its whole-film pixel's stream.
+        let mut next = 0;
+        let mut first_batch = true;
+        while first_batch || next < self.light_paths {
+            self.trace_light_batch(&mut next, s, &k, film, &mut splats, &mut work.store);
+            let store = &work.store;
+            work.batches += 1;
+            work.peak_vertices = work.peak_vertices.max(store.vertices.len());
+            let grid = self.algorithm.merges().then(|| {
+                let grid = work.grid.get_or_insert_with(PhotonGrid::new);
+                grid.build(&store.vertices, k.radius, origin);
+                &*grid
+            });
+            let light = LightPaths { first: store.first, vertices: &store.vertices, ends: &store.ends, grid };
+            self.camera_pass(s, &k, &light, first_batch, film);
+            first_batch = false;
+        }
+        splats.finish();
+    }
+
+    /// The camera paths of the crop window's pixels with the light paths of a batch (each on
+    /// its whole-film pixel's stream), in bands of rows of at most [`CAMERA_BAND_PIXELS`], each
+    /// band's estimates added to the film as it is done. (Square tiles of 16² pixels, whose
+    /// merges share more grid cells, measured 3–6% slower than rows on
+    /// `scenes/cornell-glass.toml` at 256² and 1024².)
+    fn camera_pass(
+        &self,
+        s: u32,
+        k: &IterationConstants,
+        light: &LightPaths,
+        first_batch: bool,
+        film: &mut Film,
+    ) {
         let crop = self.camera.crop;
         let (w, x0, y0) = (self.camera.width as usize, crop.x as usize, crop.y as usize);
         let (cw, ch) = (crop.width as usize, crop.height as usize);
@@ -497,7 +577,7 @@ impl<'a> Engine<'a> {
                     let mut non_finite = 0;
                     let values = (x0..x0 + cw)
                         .map(|x| {
-                            let l = self.camera_path(y * w + x, s, &k, &light, &mut rays);
+                            let l = self.camera_path(y * w + x, s, k, light, first_batch, &mut rays);
                             if !l.is_finite() {
                                 non_finite += 1;
                             }
@@ -516,7 +596,6 @@ impl<'a> Engine<'a> {
                 }
             }
         }
-        splats.finish();
     }
 
     /// The random walk of a sub-path from `ray`, shared by camera and light sub-paths: at every
@@ -651,4 +730,62 @@ trait WalkVisitor {
 
     /// The strategies at vertex `at` of primitive `primitive`; returns where the walk may go on.
     fn visit(&mut self, path: &mut SubPath, at: &Vertex, primitive: u32) -> Next;
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::load_str;
+
+    /// A closed unit sphere of albedo 0.95 emitting 0.05 (`tests/light_path_batches.rs` renders
+    /// it at 96²): a light path stores about 10 vertices.
+    const BRIGHT_ROOM: &str = r#"
+[camera]
+position = [0.1, 0.2, 0.3]
+look_at = [1.0, 0.0, 0.0]
+fov = 120.0
+resolution = [64, 64]
+[materials.wall]
+type = "diffuse"
+color = 0.95
+emission = 0.05
+[[objects]]
+shape = "sphere"
+center = [0.0, 0.0, 0.0]
+radius = 1.0
+material = "wall"
+"#;
+
+    #[test]
+    fn the_working_memory_bounds_what_a_bright_closed_room_holds() {
+        // At 128² with a cap of 16 384 light paths a batch holds at most 49 152 vertices: an
+        // iteration's paths store about 164 000 and take four batches, and the arrays the engine
+        // holds (their room, not only what they use) stay within the estimate, for a merging
+        // method and for `bpt`.
+        let scene = load_str(BRIGHT_ROOM, "bright room", None).unwrap();
+        for algorithm in [Algorithm::Vcm, Algorithm::Bpt] {
+            let integrator = VertexMerging(algorithm);
+            let mut opts = RenderOptions::for_method(&scene, &integrator, 2);
+            opts.resolution = Some((128, 128));
+            opts.params.merging.max_light_paths = 1 << 14;
+            let engine = Engine::new(&scene, &integrator, &opts);
+            let mut film = integrator.film(&scene, &opts);
+            let mut work = Workspace::default();
+            for s in 0..2 {
+                engine.iteration(s, &mut film, &mut work);
+            }
+            let budget = store_budget(&opts.params.merging);
+            assert_eq!(budget, 49_152);
+            assert!(work.batches >= 6, "{algorithm:?}: {} batches in 2 iterations", work.batches);
+            assert!(
+                work.peak_vertices <= budget,
+                "{algorithm:?}: a batch of {} vertices",
+                work.peak_vertices
+            );
+            let held = work.store.bytes_held() + work.grid.as_ref().map_or(0, PhotonGrid::bytes_held);
+            let estimate = integrator.working_memory(&scene, &opts);
+            println!("{algorithm:?}: {} batches, {held} bytes held, estimate {estimate}", work.batches);
+            assert!(held <= estimate, "{algorithm:?}: {held} bytes held, estimate {estimate}");
+        }
+    }
 }

@@ -118,7 +118,9 @@ fn the_command_line_cap_reaches_the_engine() {
 fn memory_beyond_the_film_does_not_grow_with_the_resolution() {
     // From 1024² on (where the default cap is reached), every method's working memory beyond its
     // film and outputs is the same at any resolution; the bidirectional methods' is set by the
-    // cap (half the cap, half the light paths' memory, the band of camera estimates aside).
+    // cap: the stored light paths' part is linear in it (halving the cap from 2²⁰ to 2¹⁹ saves
+    // twice what halving it again to 2¹⁸ saves), the chunks in flight and the band of camera
+    // estimates aside.
     let scene = load_str(CORNELL, "scene.toml", None).unwrap();
     for integrator in all() {
         let name = integrator.name();
@@ -133,11 +135,28 @@ fn memory_beyond_the_film_does_not_grow_with_the_resolution() {
             assert_eq!(method(side, DEFAULT_MAX_LIGHT_PATHS), at_1024, "{name} at {side}²");
         }
         if ["bpt", "ppm", "bpm", "vcm"].contains(&name) {
-            let band = method(1024, 2) - 2 * (method(1024, 2) - method(1024, 1));
             let half = method(4096, DEFAULT_MAX_LIGHT_PATHS / 2);
-            assert_eq!(half - band, (at_1024 - band) / 2, "{name}: the cap sets the light paths' memory");
+            let quarter = method(4096, DEFAULT_MAX_LIGHT_PATHS / 4);
+            assert!(quarter < half && half < at_1024, "{name}: {quarter}, {half}, {at_1024}");
+            assert_eq!(at_1024 - half, 2 * (half - quarter), "{name}: the cap sets the light paths' memory");
         } else {
             assert_eq!(at_1024, 0, "{name}: no working memory beyond the film");
         }
+    }
+}
+
+#[test]
+fn the_estimate_at_the_default_cap_is_within_512_mib() {
+    // The estimate is an upper bound at any scene (a batch of light paths holds at most 3
+    // vertices per path of the cap, `tests/light_path_batches.rs`): at the default cap and any
+    // resolution, every bidirectional method's working memory is within issue 34's 512 MiB.
+    let scene = load_str(CORNELL, "scene.toml", None).unwrap();
+    for name in ["bpt", "ppm", "bpm", "vcm"] {
+        let integrator = create(name).unwrap();
+        let mut opts = RenderOptions::for_method(&scene, integrator.as_ref(), 1);
+        opts.resolution = Some((4096, 4096));
+        let method = MemoryEstimate::of(&scene, integrator.as_ref(), &opts).method;
+        println!("{name}: {} MiB", method >> 20);
+        assert!(method <= 512 << 20, "{name}: {method} bytes");
     }
 }

@@ -4,7 +4,7 @@
 //! the other strategies.
 
 use super::light_paths::{LightPaths, LightVertex};
-use super::photon_grid::Buckets;
+use super::photon_grid::{Buckets, Found};
 use super::{
     joined, mis, Algorithm, Engine, IterationConstants, Mis, Next, PhotonGrid, SubPath, Vertex, WalkVisitor,
 };
@@ -19,17 +19,25 @@ use glam::{Vec2, Vec3};
 
 impl Engine<'_> {
     /// The radiance camera path `j` (the whole film's pixel `j`) of iteration `s` gathers by its
-    /// own strategies; it connects to light path `j mod N`.
+    /// own strategies with the light paths of the batch `light`; it connects to light path
+    /// `j mod N`. Emitters it hits and next-event estimation count in the first batch only;
+    /// in later ones the path walks again as in the first (its random numbers do not depend
+    /// on the batch) for the connections and merges with their light paths.
     pub(super) fn camera_path(
         &self,
         j: usize,
         s: u32,
         k: &IterationConstants,
         light: &LightPaths,
+        first_batch: bool,
         rays: &mut RayCounts,
     ) -> Vec3 {
         let cam = &self.camera;
         let partner = j % self.light_paths;
+        if !first_batch && light.grid.is_none() && light.of(partner).is_none() {
+            // Nothing of this batch for the path to use.
+            return Vec3::ZERO;
+        }
         let (channels, time) = self.channels_and_time(partner, s);
         let stream = self.replicas.stream(self.seed, s, 0);
         let mut ctx = PathContext::new(Sampler::of_stream(self.sampler, stream, j as u64));
@@ -52,6 +60,7 @@ impl Engine<'_> {
             shadow: ShadowRays { mode: ShadowMode::Opaque, channels, time },
             pick: 1.0 / self.lights.max(1) as f32,
             only_merges: self.algorithm.merges() && !self.algorithm.connects(),
+            first_batch,
             radiance: Vec3::ZERO,
         };
         self.walk(ray, &mut path, k, false, &mut visitor);
@@ -59,7 +68,15 @@ impl Engine<'_> {
         path.ctx.channels.to_rgb(visitor.radiance)
     }
 
-    /// Next-event estimation at a camera vertex, weighted against every other strategy.
+    /// The random numbers of next-event estimation at a camera vertex: the light's index and
+    /// the point on it.
+    fn next_event_draw(&self, path: &mut SubPath) -> (usize, Vec2) {
+        let index = pick_light(self.lights, &mut path.ctx.sampler);
+        (index, path.ctx.sampler.get_2d(Dim::Light))
+    }
+
+    /// Next-event estimation at a camera vertex with the numbers `draw`, weighted against
+    /// every other strategy.
     fn next_event(
         &self,
         at: &Vertex,
@@ -67,9 +84,8 @@ impl Engine<'_> {
         k: &IterationConstants,
         shadow: ShadowRays,
         pick: f32,
+        (index, u): (usize, Vec2),
     ) -> Vec3 {
-        let index = pick_light(self.lights, &mut path.ctx.sampler);
-        let u = path.ctx.sampler.get_2d(Dim::Light);
         let light = &self.scene.lights[index];
         let Some(ls) = light.sample_li(at.hit.p, u) else { return Vec3::ZERO };
         let wi_local = at.frame.to_local(ls.wi);
@@ -174,11 +190,11 @@ impl Engine<'_> {
         k: &IterationConstants,
         vertices: &[LightVertex],
         grid: &PhotonGrid,
-        buckets: &Buckets,
+        (buckets, found): &(Buckets, Found),
     ) -> Vec3 {
         let mut sum = Vec3::ZERO;
         let ppm = self.algorithm == Algorithm::Ppm;
-        grid.query(buckets, |i| {
+        found.visit(grid, buckets, |i| {
             let v = &vertices[i];
             if v.segments + path.segments > self.max_segments {
                 return;
@@ -216,6 +232,9 @@ struct CameraVisitor<'e, 'a> {
     pick: f32,
     /// Whether the method merges without connecting (`ppm`, `bpm`).
     only_merges: bool,
+    /// Whether this is the iteration's first batch of light paths, the one in which emitters
+    /// hit and next-event estimation count.
+    first_batch: bool,
     radiance: Vec3,
 }
 
@@ -242,7 +261,7 @@ impl CameraVisitor<'_, '_> {
 impl WalkVisitor for CameraVisitor<'_, '_> {
     fn escaped(&mut self, path: &mut SubPath, dir: Vec3, absorbed: bool) {
         let e = self.engine;
-        if absorbed || !e.keeps(Strategy::EmitterHit) {
+        if absorbed || !e.keeps(Strategy::EmitterHit) || !self.first_batch {
             return;
         }
         // Without an environment light the background is no light: it is seen with weight 1.
@@ -259,7 +278,7 @@ impl WalkVisitor for CameraVisitor<'_, '_> {
             let emitter = &e.scene.lights[index as usize];
             let (hit, wo) = (&isect.hit, -ray.dir);
             let le = emitter.emitted(hit, wo);
-            if le != Vec3::ZERO && e.keeps(Strategy::EmitterHit) {
+            if le != Vec3::ZERO && e.keeps(Strategy::EmitterHit) && self.first_batch {
                 let weight =
                     self.emitter_weight(path, || emitter.emission_pdfs(ray.origin, hit.p, hit.n, wo));
                 self.radiance += path.beta * path.ctx.channels.colour(le) * weight;
@@ -273,22 +292,29 @@ impl WalkVisitor for CameraVisitor<'_, '_> {
         if at.bsdf.is_delta() {
             return Next::Any;
         }
-        // The merge's buckets, asked for in the cache now and its first photons after next-event
-        // estimation, so that their cache misses overlap the shadow rays (hints only).
-        let merge = light.grid.filter(|_| e.keeps(Strategy::Merge)).map(|grid| {
+        // The merge's buckets, asked for in the cache now, its first photons after next-event
+        // estimation and the vertices of the photons it finds before the connections, so that
+        // their cache misses overlap the shadow rays (hints only).
+        let mut merge = light.grid.filter(|_| e.keeps(Strategy::Merge)).map(|grid| {
             let buckets = grid.buckets(at.hit.p, k.radius);
             grid.prefetch_starts(&buckets);
             (grid, buckets)
         });
+        let mut found = None;
         if e.algorithm.connects() {
             if e.lights > 0 && e.keeps(Strategy::NextEvent) {
-                self.radiance += path.beta * e.next_event(at, path, k, self.shadow, self.pick);
+                let draw = e.next_event_draw(path);
+                if self.first_batch {
+                    self.radiance += path.beta * e.next_event(at, path, k, self.shadow, self.pick, draw);
+                }
             }
-            if let Some((grid, buckets)) = &merge {
-                grid.prefetch_photons(buckets);
+            if let Some((grid, buckets)) = merge.take() {
+                grid.prefetch_photons(&buckets);
+                let ahead = grid.find(&buckets, light.vertices);
+                found = Some((grid, (buckets, ahead)));
             }
-            if e.keeps(Strategy::Connection) {
-                for v in light.of(self.partner) {
+            if let Some(partner) = light.of(self.partner).filter(|_| e.keeps(Strategy::Connection)) {
+                for v in partner {
                     if v.segments + path.segments + 1 > e.max_segments {
                         break;
                     }
@@ -296,11 +322,16 @@ impl WalkVisitor for CameraVisitor<'_, '_> {
                 }
             }
         }
+        if let Some((grid, buckets)) = merge {
+            // Without connections (`ppm`, `bpm`) there is nothing to overlap.
+            let ahead = grid.find(&buckets, light.vertices);
+            found = Some((grid, (buckets, ahead)));
+        }
         if light.grid.is_none() {
             return Next::Any;
         }
-        if let Some((grid, buckets)) = &merge {
-            self.radiance += path.beta * e.merge(at, path, k, light.vertices, grid, buckets);
+        if let Some((grid, merge)) = &found {
+            self.radiance += path.beta * e.merge(at, path, k, light.vertices, grid, merge);
         }
         // Photon mapping merges once: only the specular chain (multiply scattered samples of
         // rough glass included) goes on past a merge.

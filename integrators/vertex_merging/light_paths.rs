@@ -1,11 +1,13 @@
-//! The light sub-paths of an iteration: traced in fixed chunks of [`CHUNK_PATHS`] paths (the
-//! unit of determinism), their non-specular vertices stored path after path ([`LightStore`]),
-//! photons and connection ends both, and their connections to the camera splatted onto the
-//! film as they are made.
+//! The light sub-paths of an iteration: traced in chunks of at most [`CHUNK_PATHS`] paths and
+//! [`CHUNK_VERTICES`] stored vertices, in batches of at most [`store_budget`] stored vertices
+//! ([`LightStore`]: their non-specular vertices path after path, photons and connection ends both),
+//! their connections to the camera splatted onto the film as they are made. Each path has its own
+//! random stream and the chunks join the store in path order, so the result does not depend on
+//! the chunks or the thread count.
 
 use super::{
-    mis, Engine, IterationConstants, Mis, Next, PhotonGrid, SubPath, Vertex, WalkVisitor, CHUNK_PATHS,
-    LIGHT_STREAM,
+    mis, store_bound, store_budget, Engine, IterationConstants, Mis, Next, PhotonGrid, SubPath, Vertex,
+    WalkVisitor, CHUNK_PATHS, CHUNK_VERTICES, LIGHT_STREAM, VERTICES_PER_PATH,
 };
 use crate::bsdf::TransportMode;
 use crate::camera::CameraConnection;
@@ -22,7 +24,7 @@ use rayon::prelude::*;
 use std::ops::Range;
 
 /// Chunks traced in parallel before their vertices join the store.
-const CHUNKS_PER_GROUP: usize = 16;
+pub(super) const CHUNKS_PER_GROUP: usize = 16;
 
 /// A light sub-path vertex on a non-delta surface: a photon and a connection end.
 #[derive(Clone, Copy, Debug)]
@@ -58,9 +60,9 @@ impl LightVertex {
     }
 }
 
-/// What one chunk of light paths made.
+/// What one chunk of light paths made (kept between rounds for the room of its arrays).
 #[derive(Default)]
-struct LightChunk {
+pub(super) struct LightChunk {
     vertices: Vec<LightVertex>,
     /// Per path of the chunk, the end of its vertices in `vertices`.
     ends: Vec<u32>,
@@ -68,61 +70,122 @@ struct LightChunk {
     rays: RayCounts,
 }
 
-/// The stored light sub-paths of an iteration.
+/// The stored light sub-paths of one batch of an iteration: at most
+/// [`store_budget`] vertices, however many the scene's paths store.
+#[derive(Default)]
 pub(super) struct LightStore {
-    /// The vertices of every light path, path after path.
+    /// The index of the batch's first light path in the iteration.
+    pub first: usize,
+    /// The vertices of the batch's light paths, path after path.
     pub vertices: Vec<LightVertex>,
-    /// Per light path, the end of its vertices in `vertices`.
+    /// Per light path of the batch, the end of its vertices in `vertices`.
     pub ends: Vec<u32>,
+    /// The chunks of the round being traced.
+    chunks: Vec<LightChunk>,
 }
 
-/// The light sub-paths of an iteration, as the camera paths see them.
+/// The light sub-paths of a batch, as the camera paths see them.
 pub(super) struct LightPaths<'a> {
-    /// The vertices of every light path, path after path.
+    /// The index of the batch's first light path in the iteration.
+    pub first: usize,
+    /// The vertices of the batch's light paths, path after path.
     pub vertices: &'a [LightVertex],
-    /// Per light path, the end of its vertices in `vertices`.
+    /// Per light path of the batch, the end of its vertices in `vertices`.
     pub ends: &'a [u32],
     /// The photon grid over `vertices` (merging methods only).
     pub grid: Option<&'a PhotonGrid>,
 }
 
+impl LightStore {
+    /// The bytes its arrays and its chunks' arrays hold (their room, not only what they use).
+    #[cfg(test)]
+    pub fn bytes_held(&self) -> u64 {
+        let vertex = std::mem::size_of::<LightVertex>();
+        let chunks: usize = self
+            .chunks
+            .iter()
+            .map(|c| c.vertices.capacity() * vertex + c.ends.capacity() * 4 + c.splats.bytes_held())
+            .sum();
+        (self.vertices.capacity() * vertex + self.ends.capacity() * 4 + chunks) as u64
+    }
+}
+
 impl LightPaths<'_> {
-    /// The vertices of light path `j`, from the light on.
-    pub fn of(&self, j: usize) -> &[LightVertex] {
-        let start = if j == 0 { 0 } else { self.ends[j - 1] as usize };
-        &self.vertices[start..self.ends[j] as usize]
+    /// The vertices of light path `j` of the iteration, from the light on; `None` when the path
+    /// is not in this batch.
+    pub fn of(&self, j: usize) -> Option<&[LightVertex]> {
+        let i = j.checked_sub(self.first).filter(|&i| i < self.ends.len())?;
+        let start = if i == 0 { 0 } else { self.ends[i - 1] as usize };
+        Some(&self.vertices[start..self.ends[i] as usize])
     }
 }
 
 impl Engine<'_> {
-    /// Trace the `N` light paths of iteration `s` in fixed chunks: their splats go to `film`
-    /// (through `splats`, in chunk order), their vertices are kept, path after path.
-    pub(super) fn trace_light_paths(
+    /// Trace the next batch of the `N` light paths of iteration `s`, from path `*next` on, into
+    /// `store`: in rounds of [`CHUNKS_PER_GROUP`] chunks traced in parallel, joined in order,
+    /// until the store would exceed [`store_budget`] vertices or every path is traced.
+    /// Their splats go to `film` (through `splats`, in path order), their vertices stay, path
+    /// after path; `*next` moves past the paths stored. A chunk stops once it holds
+    /// [`CHUNK_VERTICES`] vertices (the chunks after it in its round are traced again in the
+    /// next round), and a round's chunks hold as many paths as fit that many vertices at the
+    /// batch's mean so far, so the chunks on their way to the store stay bounded too. Paths are
+    /// traced from their own streams and joined in order, so neither the chunks nor the thread
+    /// count change a bit of the result.
+    pub(super) fn trace_light_batch(
         &self,
+        next: &mut usize,
         s: u32,
         k: &IterationConstants,
         film: &mut Film,
         splats: &mut SampleSplats,
-    ) -> LightStore {
+        store: &mut LightStore,
+    ) {
         let n = self.light_paths;
-        let starts: Vec<usize> = (0..n).step_by(CHUNK_PATHS).collect();
-        let mut store = LightStore { vertices: Vec::new(), ends: Vec::with_capacity(n) };
-        // A group of chunks at a time, so that the chunks' own copies of their vertices (before
-        // they join the store) hold a group's worth at most.
-        for group in starts.chunks(CHUNKS_PER_GROUP) {
-            let chunks: Vec<LightChunk> = group
-                .par_iter()
-                .map(|&start| self.trace_light_chunk(start..(start + CHUNK_PATHS).min(n), s, k))
-                .collect();
-            for chunk in chunks {
+        let budget = store_budget(&self.params.merging);
+        store.first = *next;
+        store.vertices.clear();
+        store.ends.clear();
+        let bound = store_bound(n, &self.params.merging, self.max_segments as usize);
+        store.ends.reserve_exact(n);
+        while *next < n {
+            // Paths per chunk: the chunk's vertices at 1.5 times the mean per path so far
+            // (VERTICES_PER_PATH before any), within CHUNK_VERTICES.
+            let mean = if store.ends.is_empty() {
+                VERTICES_PER_PATH as f64
+            } else {
+                store.vertices.len() as f64 / store.ends.len() as f64
+            };
+            let size = ((CHUNK_VERTICES as f64 / (1.5 * mean.max(1.0))) as usize).clamp(1, CHUNK_PATHS);
+            let starts: Vec<usize> =
+                (0..CHUNKS_PER_GROUP).map(|i| *next + i * size).take_while(|&a| a < n).collect();
+            if store.chunks.len() < starts.len() {
+                store.chunks.resize_with(starts.len(), LightChunk::default);
+            }
+            let mut chunks = std::mem::take(&mut store.chunks);
+            chunks[..starts.len()]
+                .par_iter_mut()
+                .zip(&starts)
+                .for_each(|(chunk, &a)| self.trace_light_chunk(chunk, a..(a + size).min(n), s, k));
+            for (chunk, &a) in chunks.iter_mut().zip(&starts) {
+                if !store.ends.is_empty() && store.vertices.len() + chunk.vertices.len() > budget {
+                    // The batch is full: this chunk and the rest start the next batch.
+                    store.chunks = chunks;
+                    return;
+                }
                 let base = store.vertices.len() as u32;
                 store.ends.extend(chunk.ends.iter().map(|e| e + base));
+                grow_within(&mut store.vertices, chunk.vertices.len(), bound);
                 store.vertices.extend_from_slice(&chunk.vertices);
-                splats.add(film, chunk.splats);
+                splats.add(film, &mut chunk.splats);
                 film.rays += chunk.rays;
+                *next = a + chunk.ends.len();
+                if *next < (a + size).min(n) {
+                    // The chunk stopped at its vertex bound: the next round starts where it did.
+                    break;
+                }
             }
+            store.chunks = chunks;
         }
-        store
     }
 
     /// The random stream of light path `j` of iteration `s`.
@@ -131,15 +194,23 @@ impl Engine<'_> {
         Sampler::new(self.sampler, stream.seed ^ LIGHT_STREAM, j as u64, stream.index, 0)
     }
 
-    fn trace_light_chunk(&self, paths: Range<usize>, s: u32, k: &IterationConstants) -> LightChunk {
-        let mut out = LightChunk::default();
+    /// Trace the light paths `paths` of iteration `s` into `out` (emptied first), until they
+    /// are traced or `out` holds [`CHUNK_VERTICES`] vertices or more.
+    fn trace_light_chunk(&self, out: &mut LightChunk, paths: Range<usize>, s: u32, k: &IterationConstants) {
+        out.vertices.clear();
+        out.vertices.reserve_exact(CHUNK_VERTICES + self.max_segments as usize);
+        out.ends.clear();
+        out.splats.clear();
+        out.rays = RayCounts::default();
         for j in paths {
+            if out.vertices.len() >= CHUNK_VERTICES {
+                break;
+            }
             if self.lights > 0 {
-                self.trace_light_path(j, s, k, &mut out);
+                self.trace_light_path(j, s, k, out);
             }
             out.ends.push(out.vertices.len() as u32);
         }
-        out
     }
 
     /// Trace light path `j`: store its vertices and splat their connections to the camera.
@@ -224,6 +295,18 @@ impl Engine<'_> {
     ) {
         let target = CameraTarget { scene: self.scene, camera: &self.camera, lens: self.dims.lens };
         target.splat(hit, &mut path.ctx, shadow, &mut out.splats, value);
+    }
+}
+
+/// Make room in `v` for `extra` more elements: by doubling, as a `Vec` grows, but never past
+/// `bound` elements (unless it must hold more), so that the room stays within the memory
+/// estimate. Growing as needed, rather than reserving the bound at once, keeps small renders'
+/// stores small (and in memory the allocator reuses, not fresh pages).
+fn grow_within<T>(v: &mut Vec<T>, extra: usize, bound: usize) {
+    let need = v.len() + extra;
+    if need > v.capacity() {
+        let room = need.max(2 * v.capacity()).min(bound.max(need));
+        v.reserve_exact(room - v.len());
     }
 }
 

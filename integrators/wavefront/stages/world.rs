@@ -50,7 +50,7 @@ pub(crate) struct LaneShadow {
     pub(super) light: [u32; WIDTH],
     /// The distance from which a hit on that light no longer blocks.
     pub(super) reach: F32x,
-    /// The point aimed at, and the path's time (for scenes whose objects move).
+    /// The point aimed at (for scenes whose objects move, traced lane by lane).
     pub(super) target: Vec3x,
     /// The path's time.
     pub(super) time: F32x,
