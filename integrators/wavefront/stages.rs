@@ -107,13 +107,14 @@ struct Materials {
 }
 
 /// What the stages read of a hit's primitive, per primitive: its material, the light it emits
-/// as ([`NONE`] for none), and whether its vertices are the scalar world's (a material or an
-/// emitter the tables do not hold).
+/// as ([`NONE`] for none), whether its vertices are the scalar world's (a material the tables
+/// do not hold), and whether its emission is (an emitter the tables do not hold).
 #[derive(Clone, Debug, Default)]
 struct Primitives {
     material: Vec<u32>,
     light: Vec<u32>,
     scalar: Vec<bool>,
+    emitter_scalar: Vec<bool>,
 }
 
 /// The lights, per light: quads and points in tables, any other light sampled lane by lane.
@@ -283,6 +284,8 @@ pub(crate) struct LaneHit {
     light: [u32; WIDTH],
     /// Lanes whose vertex the scalar world shades.
     scalar: Mask,
+    /// Lanes whose emission it gives (those, and emitters the tables do not hold).
+    scalar_emission: Mask,
     /// The hits as the scalar engine records them, in those lanes and wherever the lane kernels
     /// make no records (stale in the other lanes, never read there).
     isect: [Option<Intersection>; WIDTH],
@@ -299,6 +302,7 @@ impl LaneHit {
         material: [0; WIDTH],
         light: [NONE; WIDTH],
         scalar: Mask::NONE,
+        scalar_emission: Mask::NONE,
         isect: [None; WIDTH],
     };
 }
@@ -426,7 +430,7 @@ impl LaneStages {
             outside: Table3::ZERO,
         };
         let mut primitives = Primitives::default();
-        let mut other_materials = Vec::new();
+        let (mut other_materials, mut other_emitters) = (Vec::new(), Vec::new());
         if tables.is_ok() {
             let mut material_scalar = vec![false; scene.materials.len()];
             for (i, m) in scene.materials.iter().enumerate() {
@@ -479,14 +483,22 @@ impl LaneStages {
                 let emits_from_table =
                     emitter.is_some_and(|l| l < ENTRIES && matches!(scene.lights[l], Light::Quad { .. }));
                 let other_emitter = emitter.is_some() && !emits_from_table;
-                if other_emitter && !material_scalar[prim.material as usize] {
-                    let m = &scene.materials[prim.material as usize];
-                    other_materials.push(format!("`{}` (an emitter without a lane form)", m.name));
+                if other_emitter {
+                    other_emitters.push(format!("`{}`", scene.materials[prim.material as usize].name));
                 }
                 primitives.material.push(prim.material);
                 primitives.light.push(prim.light.unwrap_or(NONE));
-                primitives.scalar.push(material_scalar[prim.material as usize] || other_emitter);
+                primitives.scalar.push(material_scalar[prim.material as usize]);
+                primitives.emitter_scalar.push(other_emitter);
             }
+        }
+        if !other_emitters.is_empty() {
+            other_emitters.sort();
+            other_emitters.dedup();
+            lane_by_lane.push(format!(
+                "the emission of {} (emitters without a lane form)",
+                other_emitters.join(", ")
+            ));
         }
         if !other_materials.is_empty() {
             other_materials.sort();
@@ -636,13 +648,14 @@ impl LaneWorld<'_, '_> {
             }
         };
         let found = live & F32x(hits.t).lt(F32x::splat(f32::INFINITY));
-        let mut scalar = found;
+        let (mut scalar, mut scalar_emission) = (found, found);
         if stages.tables {
             let prims = &stages.primitives;
             for k in lanes_of(found) {
                 let i = hits.primitive[k] as usize;
                 (hit.material[k], hit.light[k], scalar.0[k]) =
                     (prims.material[i], prims.light[i], prims.scalar[i]);
+                scalar_emission.0[k] = prims.scalar[i] || prims.emitter_scalar[i];
             }
         }
         let mut records = match &stages.lanes {
@@ -651,7 +664,7 @@ impl LaneWorld<'_, '_> {
         };
         let mut shading_n = records.n;
         // The records the lane kernels do not make (or the scalar world reads in full).
-        let recorded = if stages.lane_records { scalar } else { found };
+        let recorded = if stages.lane_records { scalar_emission } else { found };
         for k in lanes_of(recorded) {
             if packet {
                 isect[k] = Some(scene.record(&ray(k), hits.t[k], hits.primitive[k], hits.bary[k]));
@@ -662,8 +675,8 @@ impl LaneWorld<'_, '_> {
             records.p_error.0[k] = i.hit.p_error;
             shading_n.set_lane(k, i.hit.shading_n);
         }
-        (hit.live, hit.found, hit.hits, hit.records, hit.shading_n, hit.scalar) =
-            (live, found, hits, records, shading_n, scalar);
+        (hit.live, hit.found, hit.hits, hit.records, hit.shading_n) = (live, found, hits, records, shading_n);
+        (hit.scalar, hit.scalar_emission) = (scalar, scalar_emission);
     }
 
     /// The shadow rays: whether each lane's pending light is visible (true where its shadow ray

@@ -199,7 +199,7 @@ impl<'a, 's> PathWorld for LaneWorld<'a, 's> {
         let (p, n) = (hit.records.p, hit.records.n);
         let lights = &self.stages.lights;
         let (mut emits, mut le, mut pdf_li) = (Mask::NONE, Vec3x::ZERO, F32x::ZERO);
-        let quads = active & !hit.scalar & Mask(std::array::from_fn(|k| hit.light[k] != NONE));
+        let quads = active & !hit.scalar_emission & Mask(std::array::from_fn(|k| hit.light[k] != NONE));
         if quads.any() {
             // Light::emitted of a quad: on its front.
             le = Vec3x::select(quads & n.dot(wo).gt(F32x::ZERO), lights.radiance.at(&hit.light), Vec3x::ZERO);
@@ -209,7 +209,7 @@ impl<'a, 's> PathWorld for LaneWorld<'a, 's> {
             }
         }
         let one_ray = OneRay { scene: self.scene };
-        for k in lanes_of(active & hit.scalar) {
+        for k in lanes_of(active & hit.scalar_emission) {
             let (e, l, pdf) = one_ray.emission(&hit.isect[k], origin.lane(k), wo.lane(k), true, ctx.path(k));
             (emits.0[k], pdf_li.0[k]) = (e, pdf);
             le.set_lane(k, l);
