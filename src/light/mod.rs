@@ -551,6 +551,13 @@ pub fn quad_point<V: Vector>(corner: V, eu: V, ev: V, ux: V::Real, uy: V::Real) 
     corner + eu * ux + ev * uy
 }
 
+/// What an area light that emits `radiance` from its front (normal `n`) sends towards `wo`:
+/// `radiance` where `wo` leaves the front, else nothing. For one point or one per lane.
+#[inline(always)]
+pub fn front_emitted<V: Vector>(n: V, wo: V, radiance: V) -> V {
+    V::select(n.dot(wo).gt(V::Real::splat(0.0)), radiance, V::splat(Vec3::ZERO))
+}
+
 /// The sample of the point `y` (normal `n`) of an area light that emits `radiance` from its
 /// front, sampled with area density `area_pdf`, from `p`: none where `y` is `p`, is seen from
 /// behind, or has no finite positive density.
@@ -1007,11 +1014,7 @@ impl Light {
             Light::Surface { radiance, texture: None, .. } => *radiance,
             Light::Surface { radiance, texture: Some(t), .. } => *radiance * t.eval(at.p, at.uv),
             Light::Quad { radiance, .. } | Light::Sphere { radiance, .. } => {
-                if at.n.dot(wo) > 0.0 {
-                    *radiance
-                } else {
-                    Vec3::ZERO
-                }
+                front_emitted(at.n, wo, *radiance)
             }
         }
     }

@@ -14,7 +14,9 @@ use crate::bsdf::rough_dielectric::smooth_dielectric_sample;
 use crate::bsdf::{BsdfSample, Lambert, Scattering, ShadingFrame, TransportMode};
 use crate::camera::concentric_disk_point;
 use crate::lanes::{sobol_firsts, sobol_pairs, F32x, Mask, Vec3x, WIDTH};
-use crate::light::{area_to_solid_angle, front_area_sample, point_light_sample, quad_point, LightSampleOf};
+use crate::light::{
+    area_to_solid_angle, front_area_sample, front_emitted, point_light_sample, quad_point, LightSampleOf,
+};
 use crate::lighting::ShadowSegment;
 use crate::sampler::Dim;
 use crate::scene::Scene;
@@ -201,8 +203,8 @@ impl<'a, 's> PathWorld for LaneWorld<'a, 's> {
         let (mut emits, mut le, mut pdf_li) = (Mask::NONE, Vec3x::ZERO, F32x::ZERO);
         let quads = active & !hit.scalar_emission & Mask(std::array::from_fn(|k| hit.light[k] != NONE));
         if quads.any() {
-            // Light::emitted of a quad: on its front.
-            le = Vec3x::select(quads & n.dot(wo).gt(F32x::ZERO), lights.radiance.at(&hit.light), Vec3x::ZERO);
+            // Light::emitted of a quad.
+            le = Vec3x::select(quads, front_emitted(n, wo, lights.radiance.at(&hit.light)), Vec3x::ZERO);
             emits = !le.is_zero();
             if emits.any() {
                 pdf_li = area_to_solid_angle(lights.area_pdf.at(&hit.light), origin, p, n);
