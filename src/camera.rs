@@ -202,21 +202,43 @@ impl Camera {
     }
 
     /// The ray through film position `film` (pixel units) from lens sample `lens` in [0,1)²
-    /// (ignored for a pinhole) at time `time`. Thin lens: the ray leaves a point of the lens disk
-    /// (concentric mapping) towards the point of the focal plane the pinhole ray would reach.
-    /// With a near clip plane the ray starts where it crosses that plane ([`Camera::clip`]).
+    /// (ignored for a pinhole) at time `time`: [`Camera::ray_through`] for one ray.
     pub fn generate_ray_lens(&self, film: Vec2, lens: Vec2, time: f32) -> Ray {
-        let pinhole = self.generate_ray(film);
-        let mut ray = if self.has_lens() {
-            let focus = pinhole.dir * (self.focus_distance / pinhole.dir.dot(self.forward));
-            let disk = concentric_disk(lens) * self.aperture;
-            let offset = self.right * disk.x + self.up * disk.y;
-            Ray::new(self.position + offset, (focus - offset).normalize())
+        let (origin, dir) = self.ray_through::<Vec3>(film.x, film.y, lens.x, lens.y, true);
+        Ray { origin, dir, time }
+    }
+
+    /// The origin and unit direction (negative zeros cleared, as [`Ray::new`] clears them) of the
+    /// camera ray through film position (`fx`, `fy`) (pixel units) from lens sample (`lx`, `ly`)
+    /// in [0,1)², for one ray or across lanes (the lens point's trigonometry taken where
+    /// `active`). Thin lens: the ray leaves a point of the lens disk (concentric mapping) towards
+    /// the point of the focal plane the pinhole ray would reach; a pinhole ignores the lens
+    /// sample. With a near clip plane the ray starts where it crosses that plane
+    /// ([`Camera::clip`]).
+    #[inline(always)]
+    pub fn ray_through<V: Vector>(
+        &self,
+        fx: V::Real,
+        fy: V::Real,
+        lx: V::Real,
+        ly: V::Real,
+        active: <V::Real as Real>::Mask,
+    ) -> (V, V) {
+        let zero = V::splat(Vec3::ZERO);
+        let pinhole = self.pinhole_direction::<V>(fx, fy) + zero;
+        let (mut origin, dir) = if self.has_lens() {
+            let focus = pinhole * (V::Real::splat(self.focus_distance) / pinhole.dot(V::splat(self.forward)));
+            let (dx, dy) = concentric_disk_point(lx, ly, active);
+            let offset =
+                V::splat(self.right) * (dx * self.aperture) + V::splat(self.up) * (dy * self.aperture);
+            (V::splat(self.position) + offset, (focus - offset).normalize() + zero)
         } else {
-            pinhole
+            (V::splat(self.position), pinhole)
         };
-        ray.time = time;
-        self.clip(ray)
+        if self.near_clip > 0.0 {
+            origin = origin + dir * (V::Real::splat(self.near_clip) / dir.dot(V::splat(self.forward)));
+        }
+        (origin, dir)
     }
 
     /// The ray through film position `film` in pixel units (x right, y down; (0.5, 0.5) is the

@@ -13,12 +13,14 @@
 //! vectoriser does with plain loops, and the dispatch is three lines.
 
 mod bvh;
+mod camera;
 mod real;
 mod sampler;
 mod scene;
 mod shapes;
 mod wide;
 
+pub use camera::camera_rays;
 pub use real::{Mask3, Real, Vector};
 pub use sampler::{sobol_firsts, sobol_pairs};
 pub use scene::{LaneHits, LaneScene, SurfaceX};

@@ -674,6 +674,10 @@ mod tests {
             .unwrap();
             let (fx, fy) = (u * 40.0, F32x(std::array::from_fn(|k| input[k][5].abs() * 30.0)));
             let pinhole = camera.pinhole_direction::<Vec3x>(fx, fy) + Vec3x::ZERO;
+            let thin_lens = camera.clone().with_lens(0.2, 3.0).with_near_clip(0.5);
+            let lens_v = F32x(std::array::from_fn(|k| input[k][5] * 0.5 + 0.5));
+            let every = Mask([true; WIDTH]);
+            let (lens_origin, lens_dir) = thin_lens.ray_through::<Vec3x>(fx, fy, u, lens_v, every);
             for k in 0..WIDTH {
                 let (va, vb, vraw) = (a.lane(k), b.lane(k), raw.lane(k));
                 let f = Frame::from_normal(va);
@@ -724,6 +728,12 @@ mod tests {
                 assert_eq!(shadow.tmax.0[k].to_bits(), want.tmax.to_bits());
                 let ray = camera.generate_ray(Vec2::new(fx.0[k], fy.0[k]));
                 assert!(same(pinhole.lane(k), ray.dir), "camera ray through ({}, {})", fx.0[k], fy.0[k]);
+                let film = Vec2::new(fx.0[k], fy.0[k]);
+                let ray = thin_lens.generate_ray_lens(film, Vec2::new(u.0[k], lens_v.0[k]), 0.0);
+                assert!(
+                    same(lens_origin.lane(k), ray.origin) && same(lens_dir.lane(k), ray.dir),
+                    "thin lens"
+                );
                 let texture = crate::texture::Texture::Checker { color1: va, color2: vb, size: s.0[k] + 0.1 };
                 assert!(same(albedo.lane(k), texture.eval(vraw, Vec2::ZERO)));
             }

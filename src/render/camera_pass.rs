@@ -4,7 +4,8 @@
 use super::*;
 use crate::camera::Camera;
 use crate::geometry::Ray;
-use crate::sampler::{Dim, Replicas, Sampler, DIM_PURPOSES};
+use crate::lanes::{self, Isa, Lanes, WIDTH};
+use crate::sampler::{Dim, Replicas, SampleStream, Sampler, DIM_PURPOSES};
 use crate::scene::effects::Support;
 use crate::scene::{Effect, Scene, SpectralMode};
 use crate::spectrum::{Channels, Wavelengths};
@@ -72,12 +73,14 @@ pub(super) struct Pass<'a> {
     pub(super) dims: CameraDims,
     /// The engine that traces the camera paths.
     pub(super) engine: EngineChoice,
+    /// The instruction set of the camera's lane kernels.
+    pub(super) isa: Isa,
 }
 
-/// The most camera paths the wavefront engine advances together (whole pixels' samples; at least
-/// one pixel's): enough that batches of 16 stay full as paths end, few enough that their states
-/// stay in the cache.
-pub const WAVEFRONT_BATCH: usize = 1024;
+/// The most camera samples the camera pass starts together (whole pixels' samples; at least one
+/// pixel's), which the wavefront engine advances together: enough that batches of 16 stay full as
+/// paths end, few enough that their states stay in the cache.
+pub const CAMERA_BATCH: usize = 1024;
 
 impl<'a> Pass<'a> {
     /// The camera passes of `integrator`, whose radiance per camera ray is `estimator`, over
@@ -95,6 +98,7 @@ impl<'a> Pass<'a> {
             opts: opts.clone(),
             dims: CameraDims::resolve(scene, integrator, opts.spectral),
             engine: estimator.engine(scene, opts),
+            isa: Isa::detect(),
         }
     }
 
@@ -104,29 +108,71 @@ impl<'a> Pass<'a> {
         Film::new(w, h, 1.0, self.dims.wavelength, self.opts.replicas)
     }
 
-    /// The camera ray of sample `index` (of `total`) of the film's pixel (`x`, `y`), with the
-    /// context of its path: the sample's stream after the camera's dimensions, its channels and
-    /// counters. A single sample per pixel goes through the pixel's centre; more are placed by
-    /// the pixel filter ([`Camera::film_point`]).
-    pub(super) fn start(&self, x: u32, y: u32, index: u32, total: u32) -> (Ray, PathContext) {
-        let pixel = y as u64 * self.camera.width as u64 + x as u64;
-        let stream = self.opts.replicas.stream(self.opts.seed, index, total);
-        let mut sampler = Sampler::of_stream(self.opts.sampler, stream, pixel);
-        let film = if total == 1 {
-            Vec2::new(x as f32, y as f32) + Vec2::splat(0.5)
-        } else {
-            self.camera.film_point(x, y, sampler.get_2d(Dim::Pixel))
-        };
-        let lens = if self.dims.lens { sampler.get_2d(Dim::Lens) } else { Vec2::ZERO };
-        let (open, close) = self.camera.shutter;
-        let time = if self.dims.time { open + (close - open) * sampler.get_1d(Dim::Time) } else { open };
-        let mut ctx = PathContext::new(sampler);
-        if self.dims.wavelength {
-            ctx.channels = Channels::Spectral(Wavelengths::sample(ctx.sampler.get_1d(Dim::Wavelength)));
+    /// The camera rays of the samples `samples` (of `total`) of every pixel of `xs` in row `y`,
+    /// pixel by pixel in sample order, onto `rays`, with the contexts of their paths onto `ctxs`
+    /// (each sample's stream after the camera's dimensions, its channels and counters). The
+    /// camera's dimensions are drawn in one order for every engine: the pixel (the filter places
+    /// the sample, [`Camera::film_point`]; a single sample per pixel goes through the pixel's
+    /// centre and draws none), the lens, the time, the wavelength. Their numbers are drawn and
+    /// their rays made [`WIDTH`] at a time (the sampler's [`lanes::sobol_pairs`], the camera's
+    /// [`lanes::camera_rays`], each lane the one-ray function's bits).
+    fn start_batch(
+        &self,
+        (xs, y): (Range<u32>, u32),
+        samples: Range<u32>,
+        total: u32,
+        rays: &mut Vec<Ray>,
+        ctxs: &mut Vec<PathContext>,
+    ) {
+        let (opts, camera) = (&self.opts, &self.camera);
+        let streams: Vec<SampleStream> =
+            samples.clone().map(|s| opts.replicas.stream(opts.seed, s, total)).collect();
+        let first = ctxs.len();
+        for x in xs.clone() {
+            let pixel = y as u64 * camera.width as u64 + x as u64;
+            ctxs.extend(
+                streams
+                    .iter()
+                    .map(|&stream| PathContext::new(Sampler::of_stream(opts.sampler, stream, pixel))),
+            );
         }
-        let ray = self.camera.generate_ray_lens(film, lens, time);
-        ctx.rays.primary += 1;
-        (ray, ctx)
+        let per_pixel = samples.len();
+        let isa = self.isa;
+        for (c, group) in ctxs[first..].chunks_mut(WIDTH).enumerate() {
+            let pixel = |k: usize| xs.start + ((c * WIDTH + k) / per_pixel) as u32;
+            let active: [bool; WIDTH] = std::array::from_fn(|k| k < group.len());
+            let film: [Lanes; 2] = if total == 1 {
+                let centre = |k: usize, at: u32| if active[k] { at as f32 + 0.5 } else { 0.0 };
+                [std::array::from_fn(|k| centre(k, pixel(k))), [y as f32 + 0.5; WIDTH]]
+            } else {
+                let u = draw_2d(isa, group, Dim::Pixel);
+                let mut film = [[0.0; WIDTH]; 2];
+                for k in 0..group.len() {
+                    let p = camera.film_point(pixel(k), y, Vec2::new(u[0][k], u[1][k]));
+                    (film[0][k], film[1][k]) = (p.x, p.y);
+                }
+                film
+            };
+            let lens = if self.dims.lens { draw_2d(isa, group, Dim::Lens) } else { [[0.0; WIDTH]; 2] };
+            let (open, close) = camera.shutter;
+            let time = if self.dims.time {
+                draw_1d(isa, group, Dim::Time).map(|u| open + (close - open) * u)
+            } else {
+                [open; WIDTH]
+            };
+            if self.dims.wavelength {
+                for ctx in group.iter_mut() {
+                    ctx.channels =
+                        Channels::Spectral(Wavelengths::sample(ctx.sampler.get_1d(Dim::Wavelength)));
+                }
+            }
+            let (origin, dir) = lanes::camera_rays(isa, camera, &film, &lens, &active);
+            for (k, ctx) in group.iter_mut().enumerate() {
+                let at = |v: &[Lanes; 3]| Vec3::new(v[0][k], v[1][k], v[2][k]);
+                rays.push(Ray { origin: at(&origin), dir: at(&dir), time: time[k] });
+                ctx.rays.primary += 1;
+            }
+        }
     }
 
     /// The RGB estimate of a sample whose path (context `ctx`) gathered `radiance`, its rays and
@@ -139,62 +185,11 @@ impl<'a> Pass<'a> {
         ctx.channels.to_rgb(radiance)
     }
 
-    /// One camera sample of pixel (`x`, `y`) by the one-ray engine: its radiance, with its rays
-    /// and sampler requests.
-    pub(super) fn sample(&self, x: u32, y: u32, index: u32, total: u32, row: &mut RowStats) -> Vec3 {
-        let (ray, mut ctx) = self.start(x, y, index, total);
-        let radiance = self.estimator.radiance(self.scene, &self.opts.params, &ray, &mut ctx);
-        self.finish(&ctx, radiance, row)
-    }
-
-    /// Continues the sums of the film's row `y` (`sums`: per pixel of the crop window, the sum
-    /// and the replicas' sums) with the samples `samples` (of `total`) by the batch engine:
-    /// its paths go in batches of at most [`WAVEFRONT_BATCH`] whole pixels' samples, whose
-    /// estimates are added pixel by pixel in sample order, as the one-ray loop adds them.
-    fn wavefront_row(
-        &self,
-        engine: &dyn BatchEngine,
-        y: u32,
-        (sum, replica_sums): (&mut [DVec3], &mut [DVec3]),
-        samples: Range<u32>,
-        total: u32,
-        row: &mut RowStats,
-    ) {
-        let replicas = self.opts.replicas;
-        let r = replicas.count() as usize;
-        let width = sum.len();
-        let per_pixel = samples.len().max(1);
-        let pixels_per_batch = (WAVEFRONT_BATCH / per_pixel).max(1);
-        let batch = pixels_per_batch.min(width) * per_pixel;
-        let (mut rays, mut ctxs) = (Vec::with_capacity(batch), Vec::with_capacity(batch));
-        let x0 = self.camera.crop.x;
-        for first in (0..width).step_by(pixels_per_batch) {
-            let xs = x0 + first as u32..x0 + (first + pixels_per_batch).min(width) as u32;
-            rays.clear();
-            ctxs.clear();
-            for x in xs.clone() {
-                for s in samples.clone() {
-                    let (ray, ctx) = self.start(x, y, s, total);
-                    rays.push(ray);
-                    ctxs.push(ctx);
-                }
-            }
-            let radiance = engine.estimate_rays(self.scene, &self.opts.params, &rays, &mut ctxs);
-            let estimates: Vec<Vec3> =
-                ctxs.iter().zip(radiance).map(|(ctx, l)| self.finish(ctx, l, row)).collect();
-            let first = (xs.start - x0) as usize;
-            let pixels = sum[first..].iter_mut().zip(replica_sums[first * r..].chunks_mut(r));
-            for ((sum, replica_sums), pixel) in pixels.zip(estimates.chunks(samples.len())) {
-                for (&l, s) in pixel.iter().zip(samples.clone()) {
-                    row.add(l, s, replicas, sum, replica_sums);
-                }
-            }
-        }
-    }
-
     /// Continue the sums of the film's row `y` (`sum` per pixel of the crop window,
     /// `replica_sums` per pixel and replica) with the samples `samples` (of `total`, 0 when
-    /// unknown).
+    /// unknown). The camera rays go in batches of at most [`CAMERA_BATCH`] whole pixels' samples
+    /// ([`Pass::start_batch`]) to the engine: the batch engine traces them together, the one-ray
+    /// engine one after the other; their estimates are added pixel by pixel in sample order.
     pub(super) fn row(
         &self,
         y: u32,
@@ -204,17 +199,38 @@ impl<'a> Pass<'a> {
         replica_sums: &mut [DVec3],
     ) -> RowStats {
         let mut row = RowStats { rays: RayCounts::default(), non_finite: 0, requests: [0; DIM_PURPOSES] };
-        if let Some(engine) = &self.engine.wavefront {
-            self.wavefront_row(engine.as_ref(), y, (sum, replica_sums), samples, total, &mut row);
+        if samples.is_empty() {
             return row;
         }
         let replicas = self.opts.replicas;
         let r = replicas.count() as usize;
+        let width = sum.len();
+        let pixels_per_batch = (CAMERA_BATCH / samples.len()).max(1);
+        let batch = pixels_per_batch.min(width) * samples.len();
+        let (mut rays, mut ctxs) = (Vec::with_capacity(batch), Vec::with_capacity(batch));
+        let mut estimates = Vec::with_capacity(batch);
         let x0 = self.camera.crop.x;
-        for (x, (sum, replica_sums)) in sum.iter_mut().zip(replica_sums.chunks_mut(r)).enumerate() {
-            for s in samples.clone() {
-                let l = self.sample(x0 + x as u32, y, s, total, &mut row);
-                row.add(l, s, replicas, sum, replica_sums);
+        for first in (0..width).step_by(pixels_per_batch) {
+            let xs = x0 + first as u32..x0 + (first + pixels_per_batch).min(width) as u32;
+            rays.clear();
+            ctxs.clear();
+            estimates.clear();
+            self.start_batch((xs, y), samples.clone(), total, &mut rays, &mut ctxs);
+            match &self.engine.wavefront {
+                Some(engine) => {
+                    let radiance = engine.estimate_rays(self.scene, &self.opts.params, &rays, &mut ctxs);
+                    estimates.extend(ctxs.iter().zip(radiance).map(|(ctx, l)| self.finish(ctx, l, &mut row)));
+                }
+                None => estimates.extend(rays.iter().zip(&mut ctxs).map(|(ray, ctx)| {
+                    let l = self.estimator.radiance(self.scene, &self.opts.params, ray, ctx);
+                    self.finish(ctx, l, &mut row)
+                })),
+            }
+            let pixels = sum[first..].iter_mut().zip(replica_sums[first * r..].chunks_mut(r));
+            for ((sum, replica_sums), pixel) in pixels.zip(estimates.chunks(samples.len())) {
+                for (&l, s) in pixel.iter().zip(samples.clone()) {
+                    row.add(l, s, replicas, sum, replica_sums);
+                }
             }
         }
         row
@@ -251,6 +267,65 @@ impl<'a> Pass<'a> {
                 *a += b;
             }
         }
+    }
+}
+
+/// The next two-dimensional request for `purpose` of each stream of `ctxs` (at most [`WIDTH`],
+/// the other lanes 0): what each stream's [`Sampler::get_2d`] gives, across lanes for Sobol'
+/// streams ([`lanes::sobol_pairs`]), one stream at a time for the other kinds.
+fn draw_2d(isa: Isa, ctxs: &mut [PathContext], purpose: Dim) -> [Lanes; 2] {
+    let mut u = [[0.0; WIDTH]; 2];
+    match sobol_lanes(ctxs) {
+        Some((keys, reversed, dims)) => {
+            (u[0], u[1]) = lanes::sobol_pairs(isa, &keys, &reversed, &dims);
+            resume(ctxs, &dims, 2, purpose);
+        }
+        None => {
+            for (k, ctx) in ctxs.iter_mut().enumerate() {
+                let v = ctx.sampler.get_2d(purpose);
+                (u[0][k], u[1][k]) = (v.x, v.y);
+            }
+        }
+    }
+    u
+}
+
+/// [`draw_2d`] for a one-dimensional request ([`Sampler::get_1d`], [`lanes::sobol_firsts`]).
+fn draw_1d(isa: Isa, ctxs: &mut [PathContext], purpose: Dim) -> Lanes {
+    match sobol_lanes(ctxs) {
+        Some((keys, reversed, dims)) => {
+            let u = lanes::sobol_firsts(isa, &keys, &reversed, &dims);
+            resume(ctxs, &dims, 1, purpose);
+            u
+        }
+        None => {
+            let mut u = [0.0; WIDTH];
+            for (k, ctx) in ctxs.iter_mut().enumerate() {
+                u[k] = ctx.sampler.get_1d(purpose);
+            }
+            u
+        }
+    }
+}
+
+/// The Sobol' states of the streams of `ctxs` per lane (pixel keys, reversed sample indices,
+/// next dimensions), `None` when they are of another kind.
+fn sobol_lanes(ctxs: &[PathContext]) -> Option<([u64; WIDTH], [u32; WIDTH], [u32; WIDTH])> {
+    let (mut keys, mut reversed, mut dims) = ([0; WIDTH], [0; WIDTH], [0; WIDTH]);
+    for (k, ctx) in ctxs.iter().enumerate() {
+        let state = ctx.sampler.sobol_state()?;
+        (keys[k], reversed[k], dims[k]) = (state.pixel_key, state.reversed_sample, state.dimension);
+    }
+    Some((keys, reversed, dims))
+}
+
+/// Moves each stream of `ctxs` past the `width` dimensions drawn for it across lanes at `dims`,
+/// one request for `purpose`.
+fn resume(ctxs: &mut [PathContext], dims: &[u32; WIDTH], width: u32, purpose: Dim) {
+    let mut requests = [0; DIM_PURPOSES];
+    requests[purpose as usize] = 1;
+    for (ctx, d) in ctxs.iter_mut().zip(dims) {
+        ctx.sampler.resume(d + width, &requests);
     }
 }
 

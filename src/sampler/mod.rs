@@ -255,13 +255,17 @@ impl Sampler {
     /// time-budget renders) or 1 the stream is independent.
     pub fn new(kind: SamplerKind, seed: u64, pixel: u64, sample: u32, samples_per_pixel: u32) -> Sampler {
         let pixel_key = pixel_key(seed, pixel);
-        let sample_key = mix64(pixel_key ^ (sample as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15));
         let mode = match kind {
             SamplerKind::Stratified if samples_per_pixel > 1 => Mode::Stratified,
             SamplerKind::Stratified | SamplerKind::Independent => Mode::Independent,
             SamplerKind::Sobol => Mode::Sobol,
         };
-        let m = (samples_per_pixel as f64).sqrt() as u32;
+        // The jitter's key and the strata's grid serve the hashed kinds only.
+        let sample_key = match mode {
+            Mode::Sobol => 0,
+            _ => mix64(pixel_key ^ (sample as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15)),
+        };
+        let m = if mode == Mode::Stratified { (samples_per_pixel as f64).sqrt() as u32 } else { 0 };
         Sampler {
             pixel_key,
             sample_key,
@@ -277,6 +281,7 @@ impl Sampler {
 
     /// The stream of pixel (or path) `pixel` at `stream` (a sample index placed in its replica
     /// by [`Replicas::stream`]).
+    #[inline]
     pub fn of_stream(kind: SamplerKind, stream: SampleStream, pixel: u64) -> Sampler {
         Sampler::new(kind, stream.seed, pixel, stream.index, stream.count)
     }
