@@ -16,9 +16,9 @@
 mod stages;
 
 use super::{BatchEngine, EngineChoice, PathContext, RenderParams};
-use crate::geometry::Ray;
 use crate::lanes::{Isa, LaneScene, WIDTH};
 use crate::params::EngineOption;
+use crate::render::CameraRays;
 use crate::render::RenderOptions;
 use crate::scene::Scene;
 use glam::Vec3;
@@ -129,13 +129,14 @@ impl Wavefront {
         }
     }
 
-    /// The radiance of every camera ray of `rays`, each with its sample's context (its random
-    /// stream, channels and counters), as [`super::Path`]'s `radiance` gives it one at a time.
+    /// The radiance of every camera sample of `ctxs` (its random stream, channels and counters),
+    /// whose rays are `rays` ([`BatchEngine::estimate_rays`]), as [`super::Path`]'s `radiance`
+    /// gives it one at a time.
     pub fn radiance(
         &self,
         scene: &Scene,
         params: &RenderParams,
-        rays: &[Ray],
+        rays: &[CameraRays],
         ctxs: &mut [PathContext],
         occupancy: &mut StageOccupancy,
     ) -> Vec<Vec3> {
@@ -154,7 +155,7 @@ impl BatchEngine for Wavefront {
         &self,
         scene: &Scene,
         params: &RenderParams,
-        rays: &[Ray],
+        rays: &[CameraRays],
         ctxs: &mut [PathContext],
     ) -> Vec<Vec3> {
         let mut occupancy = StageOccupancy::default();

@@ -34,6 +34,7 @@ use crate::lanes::{dispatch, F32x, Isa, LaneHits, LaneScene, Mask, RayLanes, Sur
 use crate::light::Light;
 use crate::lighting::ShadowRay;
 use crate::material::Bsdf;
+use crate::render::CameraRays;
 use crate::sampler::{Dim, SamplerKind, DIM_PURPOSES};
 use crate::scene::{Intersection, Scene};
 use crate::stats::RayCounts;
@@ -205,18 +206,12 @@ impl LaneContext {
         rays: [[0; WIDTH]; 3],
     };
 
-    /// Lane `k` takes up the stream of `ctx` (where the stream is `sobol`; other streams stay
-    /// in the path's context), with nothing counted yet.
+    /// Lane `k` of an [`EMPTY`](Self::EMPTY) context (nothing counted yet) takes up the stream
+    /// of `ctx` (where the stream is `sobol`; other streams stay in the path's context).
     fn start(&mut self, k: usize, ctx: &PathContext, sobol: bool) {
         if let Some(state) = ctx.sampler.sobol_state().filter(|_| sobol) {
             (self.key[k], self.reversed[k], self.dimension[k]) =
                 (state.pixel_key, state.reversed_sample, state.dimension);
-        }
-        for r in &mut self.requests {
-            r[k] = 0;
-        }
-        for r in &mut self.rays {
-            r[k] = 0;
         }
     }
 
@@ -547,22 +542,26 @@ impl LaneStages {
         &self,
         scene: &Scene,
         params: &RenderParams,
-        rays: &[Ray],
+        rays: &[CameraRays],
         ctxs: &mut [PathContext],
         occupancy: &mut StageOccupancy,
     ) -> Vec<Vec3> {
-        let n = rays.len();
+        let n = ctxs.len();
         let models: Models = Default::default();
         let world = LaneWorld { stages: self, scene, models: &models };
         let mut hit = LaneHit::EMPTY;
         SCRATCH.with_borrow_mut(|scratch| {
             let chunks = &mut scratch.chunks;
             chunks.clear();
-            for (c, (rays, ctxs)) in rays.chunks(WIDTH).zip(ctxs.chunks(WIDTH)).enumerate() {
-                let mut chunk =
-                    PathChunk { path: PathState::fresh(), ctx: LaneContext::EMPTY, slot: [NONE; WIDTH] };
-                for (k, (ray, ctx)) in rays.iter().zip(ctxs).enumerate() {
-                    chunk.path.set_lane(k, &PathState::new(*ray));
+            for (c, (rays, ctxs)) in rays.iter().zip(ctxs.chunks(WIDTH)).enumerate() {
+                let path = PathState {
+                    origin: Vec3x::from_lanes(&rays.rays.origin),
+                    dir: Vec3x::from_lanes(&rays.rays.dir),
+                    time: F32x(rays.time),
+                    ..PathState::fresh()
+                };
+                let mut chunk = PathChunk { path, ctx: LaneContext::EMPTY, slot: [NONE; WIDTH] };
+                for (k, ctx) in ctxs.iter().enumerate() {
                     chunk.ctx.start(k, ctx, self.sobol);
                     chunk.slot[k] = (c * WIDTH + k) as u32;
                 }
@@ -728,40 +727,41 @@ dispatch! {
     /// [`shade_kernel`] compiled for `isa`.
     fn shade<'a, 's>(world: &LaneWorld<'a, 's>, params: &RenderParams, path: &mut PathState<Vec3x>, hit: &LaneHit, ctx: &mut LaneCtx<'a>) -> Step<Vec3x, LaneShadow> => shade_kernel
 }
-/// Packs the live paths of `chunks`, in order, into full chunks at the front (the last one
-/// padded with idle lanes) and drops the rest. Paths only move towards the front, so this
-/// works in place; a full chunk that stays where it is is not touched.
+/// Packs the live paths of `chunks` into full chunks at the front (the last one padded with idle
+/// lanes) and drops the rest: each hole of a front chunk takes a live path from the last chunk
+/// (an empty chunk trades places with the last one whole), so a round moves at most as many
+/// paths as it ended, and a full chunk is not touched. Which lane a path occupies changes
+/// nothing it computes: each lane's arithmetic is its own.
 fn compact(chunks: &mut Vec<PathChunk>) {
-    let (mut to_chunk, mut to_lane) = (0, 0);
-    for from in 0..chunks.len() {
-        if to_lane == 0 && chunks[from].slot.iter().all(|&s| s != NONE) {
-            if to_chunk != from {
-                chunks[to_chunk] = chunks[from];
-            }
-            to_chunk += 1;
+    let live = |c: &PathChunk, k: usize| c.slot[k] != NONE;
+    let mut back = chunks.len();
+    let mut front = 0;
+    loop {
+        while back > 0 && !(0..WIDTH).any(|k| live(&chunks[back - 1], k)) {
+            back -= 1;
+        }
+        while front + 1 < back && (0..WIDTH).all(|k| live(&chunks[front], k)) {
+            front += 1;
+        }
+        if front + 1 >= back {
+            break;
+        }
+        if !(0..WIDTH).any(|k| live(&chunks[front], k)) {
+            chunks.swap(front, back - 1);
             continue;
         }
-        for k in 0..WIDTH {
-            if chunks[from].slot[k] == NONE {
-                continue;
-            }
-            let (path, ctx, slot) =
-                (chunks[from].path.lane(k), chunks[from].ctx.lane(k), chunks[from].slot[k]);
-            let to = &mut chunks[to_chunk];
-            to.path.set_lane(to_lane, &path);
-            to.ctx.set_lane(to_lane, &ctx);
-            to.slot[to_lane] = slot;
-            to_lane += 1;
-            if to_lane == WIDTH {
-                (to_chunk, to_lane) = (to_chunk + 1, 0);
-            }
+        let (head, tail) = chunks.split_at_mut(back - 1);
+        let (to, from) = (&mut head[front], &mut tail[0]);
+        let (to_slots, from_slots) = (to.slot, from.slot);
+        let mut sources = (0..WIDTH).rev().filter(|&k| from_slots[k] != NONE);
+        for hole in (0..WIDTH).filter(|&k| to_slots[k] == NONE) {
+            let Some(k) = sources.next() else { break };
+            to.path.set_lane(hole, &from.path.lane(k));
+            to.ctx.set_lane(hole, &from.ctx.lane(k));
+            (to.slot[hole], from.slot[k]) = (from.slot[k], NONE);
         }
     }
-    if to_lane > 0 {
-        chunks[to_chunk].slot[to_lane..].fill(NONE);
-        to_chunk += 1;
-    }
-    chunks.truncate(to_chunk);
+    chunks.truncate(back);
 }
 
 /// Buffers a thread reuses from one batch of paths to the next (fresh ones cost page faults).

@@ -3,8 +3,7 @@
 
 use super::*;
 use crate::camera::Camera;
-use crate::geometry::Ray;
-use crate::lanes::{self, Isa, Lanes, WIDTH};
+use crate::lanes::{self, Isa, Lanes, RayLanes, WIDTH};
 use crate::sampler::{Dim, Replicas, SampleStream, Sampler, DIM_PURPOSES};
 use crate::scene::effects::Support;
 use crate::scene::{Effect, Scene, SpectralMode};
@@ -109,7 +108,7 @@ impl<'a> Pass<'a> {
     }
 
     /// The camera rays of the samples `samples` (of `total`) of every pixel of `xs` in row `y`,
-    /// pixel by pixel in sample order, onto `rays`, with the contexts of their paths onto `ctxs`
+    /// pixel by pixel in sample order, onto `rays` ([`WIDTH`] to an element), with the contexts of their paths onto `ctxs`
     /// (each sample's stream after the camera's dimensions, its channels and counters). The
     /// camera's dimensions are drawn in one order for every engine: the pixel (the filter places
     /// the sample, [`Camera::film_point`]; a single sample per pixel goes through the pixel's
@@ -121,7 +120,7 @@ impl<'a> Pass<'a> {
         (xs, y): (Range<u32>, u32),
         samples: Range<u32>,
         total: u32,
-        rays: &mut Vec<Ray>,
+        rays: &mut Vec<CameraRays>,
         ctxs: &mut Vec<PathContext>,
     ) {
         let (opts, camera) = (&self.opts, &self.camera);
@@ -167,9 +166,8 @@ impl<'a> Pass<'a> {
                 }
             }
             let (origin, dir) = lanes::camera_rays(isa, camera, &film, &lens, &active);
-            for (k, ctx) in group.iter_mut().enumerate() {
-                let at = |v: &[Lanes; 3]| Vec3::new(v[0][k], v[1][k], v[2][k]);
-                rays.push(Ray { origin: at(&origin), dir: at(&dir), time: time[k] });
+            rays.push(CameraRays { rays: RayLanes { origin, dir }, time });
+            for ctx in group.iter_mut() {
                 ctx.rays.primary += 1;
             }
         }
@@ -207,7 +205,7 @@ impl<'a> Pass<'a> {
         let width = sum.len();
         let pixels_per_batch = (CAMERA_BATCH / samples.len()).max(1);
         let batch = pixels_per_batch.min(width) * samples.len();
-        let (mut rays, mut ctxs) = (Vec::with_capacity(batch), Vec::with_capacity(batch));
+        let (mut rays, mut ctxs) = (Vec::with_capacity(batch.div_ceil(WIDTH)), Vec::with_capacity(batch));
         let mut estimates = Vec::with_capacity(batch);
         let x0 = self.camera.crop.x;
         for first in (0..width).step_by(pixels_per_batch) {
@@ -221,8 +219,9 @@ impl<'a> Pass<'a> {
                     let radiance = engine.estimate_rays(self.scene, &self.opts.params, &rays, &mut ctxs);
                     estimates.extend(ctxs.iter().zip(radiance).map(|(ctx, l)| self.finish(ctx, l, &mut row)));
                 }
-                None => estimates.extend(rays.iter().zip(&mut ctxs).map(|(ray, ctx)| {
-                    let l = self.estimator.radiance(self.scene, &self.opts.params, ray, ctx);
+                None => estimates.extend(ctxs.iter_mut().enumerate().map(|(i, ctx)| {
+                    let ray = rays[i / WIDTH].ray(i % WIDTH);
+                    let l = self.estimator.radiance(self.scene, &self.opts.params, &ray, ctx);
                     self.finish(ctx, l, &mut row)
                 })),
             }

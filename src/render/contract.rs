@@ -7,6 +7,7 @@
 
 use super::*;
 use crate::geometry::Ray;
+use crate::lanes::{Lanes, RayLanes};
 use crate::methods::{Method, MethodInfo};
 use crate::params::RenderParams;
 use crate::sampler::Sampler;
@@ -171,19 +172,44 @@ impl PathContext {
     }
 }
 
+/// [`WIDTH`](crate::lanes::WIDTH) camera rays in structure-of-arrays form, as the camera pass
+/// makes them ([`crate::lanes::camera_rays`]): their origins and directions per axis, and their
+/// times.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct CameraRays {
+    /// Origins and unit directions.
+    pub rays: RayLanes,
+    /// Shutter times.
+    pub time: Lanes,
+}
+
+impl CameraRays {
+    /// Lane `k`'s ray.
+    #[inline]
+    pub fn ray(&self, k: usize) -> Ray {
+        let (o, d) = (&self.rays.origin, &self.rays.dir);
+        Ray {
+            origin: Vec3::new(o[0][k], o[1][k], o[2][k]),
+            dir: Vec3::new(d[0][k], d[1][k], d[2][k]),
+            time: self.time[k],
+        }
+    }
+}
+
 /// An engine that traces many camera samples together (the wavefront engine of `path`), with
 /// the same bits as the method's [`CameraEstimator::radiance`] one sample at a time. Its
 /// statistics are its own: the drivers and the [`Film`] know nothing of them.
 pub trait BatchEngine: Send + Sync + std::fmt::Debug {
     /// How it traces, in one phrase.
     fn describe(&self) -> String;
-    /// The radiance of every camera ray of `rays`, each with its sample's context in `ctxs`, as
-    /// [`CameraEstimator::radiance`] gives it one at a time.
+    /// The radiance of every camera sample of `ctxs` (its context), as
+    /// [`CameraEstimator::radiance`] gives it one at a time; sample `i`'s camera ray is lane
+    /// `i % WIDTH` of `rays[i / WIDTH]`.
     fn estimate_rays(
         &self,
         scene: &Scene,
         params: &RenderParams,
-        rays: &[Ray],
+        rays: &[CameraRays],
         ctxs: &mut [PathContext],
     ) -> Vec<Vec3>;
 }
