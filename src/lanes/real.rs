@@ -85,9 +85,6 @@ pub trait Real:
     fn mask(v: bool) -> Self::Mask;
     /// Whether `m` holds (in any lane): what guards work that only some lanes need.
     fn any(m: Self::Mask) -> bool;
-    /// `(cos x, sin x)` by libm where `active` (so each lane's pair is the one-ray pair to the
-    /// bit), 0 elsewhere: lanes that do not need the trigonometry do not pay for it.
-    fn cos_sin(self, active: Self::Mask) -> (Self, Self);
     /// `a·b − c·d` evaluated in f64 (the products exact, only the difference and the final
     /// conversion round), as an `f32`.
     fn products_difference_f64(a: Self, b: Self, c: Self, d: Self) -> Self;
@@ -249,14 +246,6 @@ impl Real for f32 {
         m
     }
     #[inline(always)]
-    fn cos_sin(self, active: bool) -> (f32, f32) {
-        if active {
-            (self.cos(), self.sin())
-        } else {
-            (0.0, 0.0)
-        }
-    }
-    #[inline(always)]
     fn products_difference_f64(a: f32, b: f32, c: f32, d: f32) -> f32 {
         (f64::from(a) * f64::from(b) - f64::from(c) * f64::from(d)) as f32
     }
@@ -352,16 +341,6 @@ impl Real for F32x {
     #[inline(always)]
     fn any(m: Mask) -> bool {
         m.any()
-    }
-    #[inline(always)]
-    fn cos_sin(self, active: Mask) -> (F32x, F32x) {
-        let (mut c, mut s) = (F32x::splat(0.0), F32x::splat(0.0));
-        for k in 0..super::WIDTH {
-            if active.0[k] {
-                (c.0[k], s.0[k]) = (self.0[k].cos(), self.0[k].sin());
-            }
-        }
-        (c, s)
     }
     #[inline(always)]
     fn products_difference_f64(a: F32x, b: F32x, c: F32x, d: F32x) -> F32x {
@@ -589,7 +568,7 @@ mod tests {
     use super::*;
     use crate::bsdf::rough_dielectric::smooth_dielectric_sample;
     use crate::bsdf::{Frame, Lambert, RoughDielectric, TransportMode, TrowbridgeReitz};
-    use crate::camera::concentric_polar;
+    use crate::camera::{concentric_disk_point, concentric_polar};
     use crate::geometry::SurfaceHit;
     use crate::light::area_to_solid_angle;
     use crate::lighting::{ShadowRay, ShadowSegment};
@@ -653,8 +632,9 @@ mod tests {
             let fresnel = fresnel_dielectric(b.z, s * 2.0);
             let (refracts, refracted) = refraction(b, a, s + 0.5);
             let (glass_ok, glass) = smooth_dielectric_sample(s * 2.0 + 0.5, b, u, TransportMode::Radiance);
-            let (centre, radius, theta) =
-                concentric_polar(u, F32x(std::array::from_fn(|k| input[k][5] * 0.5 + 0.5)));
+            let v = F32x(std::array::from_fn(|k| input[k][5] * 0.5 + 0.5));
+            let (centre, wide, radius, angle) = concentric_polar(u, v);
+            let disk = concentric_disk_point(u, v);
             // One-sided in every other lane.
             let one_sided = Mask(std::array::from_fn(|k| k % 2 == 1));
             let diffuse = Lambert { albedo: raw, one_sided };
@@ -676,8 +656,7 @@ mod tests {
             let pinhole = camera.pinhole_direction::<Vec3x>(fx, fy) + Vec3x::ZERO;
             let thin_lens = camera.clone().with_lens(0.2, 3.0).with_near_clip(0.5);
             let lens_v = F32x(std::array::from_fn(|k| input[k][5] * 0.5 + 0.5));
-            let every = Mask([true; WIDTH]);
-            let (lens_origin, lens_dir) = thin_lens.ray_through::<Vec3x>(fx, fy, u, lens_v, every);
+            let (lens_origin, lens_dir) = thin_lens.ray_through::<Vec3x>(fx, fy, u, lens_v);
             for k in 0..WIDTH {
                 let (va, vb, vraw) = (a.lane(k), b.lane(k), raw.lane(k));
                 let f = Frame::from_normal(va);
@@ -703,9 +682,11 @@ mod tests {
                     );
                     assert_eq!(glass.is_transmission.0[k], g.is_transmission);
                 }
-                let (c, r, t) = concentric_polar(u.0[k], input[k][5] * 0.5 + 0.5);
-                assert_eq!(centre.0[k], c);
-                assert!(c || (radius.0[k].to_bits(), theta.0[k].to_bits()) == (r.to_bits(), t.to_bits()));
+                let (c, w, r, t) = concentric_polar(u.0[k], v.0[k]);
+                assert_eq!((centre.0[k], wide.0[k]), (c, w));
+                assert!(c || (radius.0[k].to_bits(), angle.0[k].to_bits()) == (r.to_bits(), t.to_bits()));
+                let (x, y) = concentric_disk_point(u.0[k], v.0[k]);
+                assert_eq!((disk.0 .0[k].to_bits(), disk.1 .0[k].to_bits()), (x.to_bits(), y.to_bits()));
                 let l = Lambert { albedo: vraw, one_sided: k % 2 == 1 };
                 assert!(same(eval.lane(k), l.eval(va, vb)));
                 assert_eq!(pdf.0[k].to_bits(), l.pdf(va, vb).to_bits());

@@ -165,7 +165,7 @@ impl<'a> Pass<'a> {
                         Channels::Spectral(Wavelengths::sample(ctx.sampler.get_1d(Dim::Wavelength)));
                 }
             }
-            let (origin, dir) = lanes::camera_rays(isa, camera, &film, &lens, &active);
+            let (origin, dir) = lanes::camera_rays(isa, camera, &film, &lens);
             rays.push(CameraRays { rays: RayLanes { origin, dir }, time });
             for ctx in group.iter_mut() {
                 ctx.rays.primary += 1;

@@ -508,7 +508,7 @@ impl VertexBsdf<Vec3x> for LaneBsdf<'_, '_> {
         }
         if diffuse.any() {
             // Lambert::sample.
-            let (dx, dy) = concentric_disk_point(ux, uy, diffuse);
+            let (dx, dy) = concentric_disk_point(ux, uy);
             let (diffuse_ok, d) = self.lambert.disk_sample(wo, dx, dy);
             ok = ok | (diffuse & diffuse_ok);
             s = BsdfSample::select(diffuse, &d, &s);
