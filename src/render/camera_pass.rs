@@ -108,8 +108,10 @@ impl<'a> Pass<'a> {
     }
 
     /// The camera rays of the samples `samples` (of `total`) of every pixel of `xs` in row `y`,
-    /// pixel by pixel in sample order, onto `rays` ([`WIDTH`] to an element), with the contexts of their paths onto `ctxs`
-    /// (each sample's stream after the camera's dimensions, its channels and counters). The
+    /// pixel by pixel in sample order, into `rays` ([`WIDTH`] to an element), with the contexts
+    /// of their paths into `ctxs` (each sample's stream after the camera's dimensions, its
+    /// channels and counters); both are cleared first, so that sample `i` is lane `i % WIDTH`
+    /// of `rays[i / WIDTH]`. The
     /// camera's dimensions are drawn in one order for every engine: the pixel (the filter places
     /// the sample, [`Camera::film_point`]; a single sample per pixel goes through the pixel's
     /// centre and draws none), the lens, the time, the wavelength. Their numbers are drawn and
@@ -126,7 +128,8 @@ impl<'a> Pass<'a> {
         let (opts, camera) = (&self.opts, &self.camera);
         let streams: Vec<SampleStream> =
             samples.clone().map(|s| opts.replicas.stream(opts.seed, s, total)).collect();
-        let first = ctxs.len();
+        rays.clear();
+        ctxs.clear();
         for x in xs.clone() {
             let pixel = y as u64 * camera.width as u64 + x as u64;
             ctxs.extend(
@@ -137,7 +140,7 @@ impl<'a> Pass<'a> {
         }
         let per_pixel = samples.len();
         let isa = self.isa;
-        for (c, group) in ctxs[first..].chunks_mut(WIDTH).enumerate() {
+        for (c, group) in ctxs.chunks_mut(WIDTH).enumerate() {
             let pixel = |k: usize| xs.start + ((c * WIDTH + k) / per_pixel) as u32;
             let active: [bool; WIDTH] = std::array::from_fn(|k| k < group.len());
             let film: [Lanes; 2] = if total == 1 {
@@ -210,8 +213,6 @@ impl<'a> Pass<'a> {
         let x0 = self.camera.crop.x;
         for first in (0..width).step_by(pixels_per_batch) {
             let xs = x0 + first as u32..x0 + (first + pixels_per_batch).min(width) as u32;
-            rays.clear();
-            ctxs.clear();
             estimates.clear();
             self.start_batch((xs, y), samples.clone(), total, &mut rays, &mut ctxs);
             match &self.engine.wavefront {
