@@ -90,13 +90,15 @@
 //! lands between sample indices: the image of the `k` indices done is, bit for bit, a plain
 //! `k`-sample render.
 
+use super::shadow_queue::{shadow_lanes, Shadows};
 use super::splat_film::{CameraTarget, SampleSplats, SplatBuffer};
 use super::{pick_light, sample_bsdf, Integrator, Method, PathContext, RenderParams, ROULETTE_DEPTH};
 use crate::bsdf::{Scattering, ShadingFrame, TransportMode};
 use crate::camera::Camera;
 use crate::geometry::{spawn_origin, SurfaceHit};
+use crate::lanes::LaneScene;
 use crate::light::SceneSphere;
-use crate::lighting::{crossing, ShadowMode, ShadowRays};
+use crate::lighting::crossing;
 use crate::render::{camera_for, Accumulate, CameraDims, Film, Progression, RenderOptions};
 use crate::sampler::{Dim, Replicas, Sampler, SamplerKind};
 use crate::scene::effects::Support;
@@ -198,6 +200,8 @@ struct Tracer<'a> {
     lights: usize,
     /// Where paths from the environment start.
     sphere: SceneSphere,
+    /// The scene's lane form for the shadow rays, if they are tested across lanes.
+    lanes: Option<LaneScene>,
 }
 
 /// Merge chunk buffers into the film in their order; `batch` sends the splats to the film's
@@ -226,7 +230,13 @@ impl<'a> Tracer<'a> {
             replicas: opts.replicas,
             lights: scene.lights.len(),
             sphere: scene.bounding_sphere(),
+            lanes: shadow_lanes(scene, &opts.params),
         }
+    }
+
+    /// How the shadow rays towards the camera are tested.
+    fn shadows(&self) -> Shadows<'_> {
+        Shadows::new(self.scene, self.lanes.as_ref())
     }
 }
 
@@ -287,6 +297,7 @@ impl Tracer<'_> {
         for index in paths {
             self.trace_path(index, &mut out);
         }
+        out.splats.settle(&self.shadows(), true);
         out
     }
 
@@ -327,12 +338,11 @@ impl Tracer<'_> {
         let u_point = ctx.sampler.get_2d(Dim::Light);
         let u_dir = ctx.sampler.get_2d(Dim::Light);
         let Some(emission) = light.emit(1.0 / n as f32, side, u_point, u_dir, &self.sphere) else { return };
-        let shadow = ShadowRays { mode: ShadowMode::Opaque, channels: ctx.channels, time };
 
         // Vertex 0: the emission point of an area light, seen directly.
         if let Some((origin, inv_pdf)) = emission.origin {
             let channels = ctx.channels;
-            self.connect(&origin, &mut ctx, shadow, out, |wc| {
+            self.connect(&origin, &mut ctx, time, out, |wc| {
                 channels.colour(light.emitted(&origin, wc)) * (wc.dot(origin.n).abs() * inv_pdf)
             });
         }
@@ -368,7 +378,7 @@ impl Tracer<'_> {
                     let (a, b) = (ctx.sampler.get_1d(Dim::Other), ctx.sampler.get_1d(Dim::Other));
                     Pcg32::seed_from_u64(u64::from(a.to_bits()) << 32 | u64::from(b.to_bits()))
                 });
-                self.connect(&hit, &mut ctx, shadow, out, |wc| {
+                self.connect(&hit, &mut ctx, time, out, |wc| {
                     let wc_local = frame.to_local(wc);
                     let mut f = bsdf.eval(wo_local, wc_local, TransportMode::Importance);
                     if let Some(rng) = walk.as_mut() {
@@ -418,18 +428,19 @@ impl Tracer<'_> {
         out.rays += ctx.rays;
     }
 
-    /// Connect the vertex `hit` to the camera: `value(wc)` is the vertex's weight towards the
-    /// unit direction `wc` to the camera (β·f·|cos|, or L_e·|cos|/pdf for an emission point);
-    /// when the camera sees the vertex, its splat goes to the pixel it projects to.
+    /// Connect the vertex `hit` to the camera at time `time`: `value(wc)` is the vertex's
+    /// weight towards the unit direction `wc` to the camera (β·f·|cos|, or L_e·|cos|/pdf for an
+    /// emission point); when the camera sees the vertex, its splat goes to the pixel it
+    /// projects to.
     fn connect(
         &self,
         hit: &SurfaceHit,
         ctx: &mut PathContext,
-        shadow: ShadowRays,
+        time: f32,
         out: &mut ChunkSplats,
         value: impl FnOnce(Vec3) -> Vec3,
     ) {
-        let target = CameraTarget { scene: self.scene, camera: &self.camera, lens: self.dims.lens };
-        target.splat(hit, ctx, shadow, &mut out.splats, |_, c| value(-c.dir));
+        let target = CameraTarget { camera: &self.camera, lens: self.dims.lens, shadows: self.shadows() };
+        target.splat(hit, ctx, time, &mut out.splats, |_, c| value(-c.dir));
     }
 }

@@ -6,6 +6,7 @@ mod distributed;
 mod light;
 mod path;
 mod raycast;
+mod shadow_queue;
 mod splat_film;
 mod ssaa;
 mod vertex_merging;

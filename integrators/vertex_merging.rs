@@ -31,7 +31,7 @@
 //! path of the cap): an iteration whose paths store more is traced in several batches, after each
 //! of which the camera paths walk again and connect and merge with that batch (emitters hit and
 //! next-event estimation count in the first batch only). The estimate is the same sum, so it stays
-//! unbiased, and [`Integrator::working_memory`] is an upper bound at any scene (444 MiB for the
+//! unbiased, and [`Integrator::working_memory`] is an upper bound at any scene (470 MiB for the
 //! merging methods at the default cap). The cap is `[render.METHOD] max_light_paths` or
 //! `--max-light-paths`.
 //! Above the cap, camera path `j`
@@ -103,6 +103,7 @@
 //! Without an environment light the background colour is no light: rays that escape see it with
 //! weight 1.
 
+use super::shadow_queue::{shadow_lanes, Shadows};
 use super::splat_film::SampleSplats;
 use super::{
     sample_bsdf, Integrator, MergeParams, Method, PathContext, RenderParams, Strategy, ROULETTE_DEPTH,
@@ -110,6 +111,7 @@ use super::{
 use crate::bsdf::{Scattering, ShadingFrame, TransportMode};
 use crate::camera::Camera;
 use crate::geometry::{spawn_origin, Ray, SurfaceHit};
+use crate::lanes::{LaneScene, RayLanes, WIDTH};
 use crate::light::SceneSphere;
 use crate::lighting::crossing;
 use crate::render::{camera_for, Accumulate, CameraDims, Film, Progression, RenderOptions};
@@ -127,6 +129,7 @@ mod camera_paths;
 mod light_paths;
 mod mis;
 mod photon_grid;
+use camera_paths::CameraRow;
 use light_paths::{LightPaths, LightStore};
 use mis::{mis, Mis};
 use photon_grid::PhotonGrid;
@@ -264,7 +267,8 @@ impl Integrator for VertexMerging {
         let splats = (chunk_vertices + chunk_paths) * footprint * footprint * 16 * 2;
         let chunk = chunk_vertices * vertex + chunk_paths * 4 + splats;
         let chunks = paths.min(light_paths::CHUNKS_PER_GROUP as u64);
-        store + chunks * chunk + CAMERA_BAND_PIXELS as u64 * 12
+        // The band's estimates, and the rows being traced (their sums and the terms they wait).
+        store + chunks * chunk + CAMERA_BAND_PIXELS as u64 * (12 + camera_paths::ROW_BYTES_PER_PIXEL)
     }
 }
 
@@ -454,6 +458,9 @@ struct Engine<'a> {
     radius0: f32,
     /// The one strategy rendered alone, unweighted (`None`: all, weighted).
     only: Option<Strategy>,
+    /// The scene's lane form, where shadow rays are tested and camera paths walk across lanes
+    /// ([`shadow_lanes`]).
+    lanes: Option<LaneScene>,
 }
 
 impl<'a> Engine<'a> {
@@ -477,7 +484,13 @@ impl<'a> Engine<'a> {
             light_paths: light_paths_per_iteration(pixels, &opts.params.merging),
             radius0: initial_radius(scene, &opts.params.merging, opts.resolution),
             only: opts.params.merging.only,
+            lanes: shadow_lanes(scene, &opts.params),
         }
+    }
+
+    /// How the shadow rays are tested: across lanes, or one by one.
+    fn shadows(&self) -> Shadows<'_> {
+        Shadows::new(self.scene, self.lanes.as_ref())
     }
 
     /// Whether the render includes strategy `s`.
@@ -573,18 +586,9 @@ impl<'a> Engine<'a> {
                 .into_par_iter()
                 .map(|row| {
                     let y = y0 + row;
-                    let mut rays = RayCounts::default();
-                    let mut non_finite = 0;
-                    let values = (x0..x0 + cw)
-                        .map(|x| {
-                            let l = self.camera_path(y * w + x, s, k, light, first_batch, &mut rays);
-                            if !l.is_finite() {
-                                non_finite += 1;
-                            }
-                            l
-                        })
-                        .collect();
-                    (values, rays, non_finite)
+                    let mut out = CameraRow::new(cw, self.shadows());
+                    self.camera_paths(y * w + x0, cw, s, k, light, first_batch, &mut out);
+                    out.finish()
                 })
                 .collect();
             for (i, (values, rays, non_finite)) in rows.into_iter().enumerate() {
@@ -600,99 +604,165 @@ impl<'a> Engine<'a> {
 
     /// The random walk of a sub-path from `ray`, shared by camera and light sub-paths: at every
     /// surface it reaches, the MIS update of the arrival, `visitor`'s strategies, then a BSDF
-    /// sample, the absorption of the medium it enters and Russian roulette. `from_infinity`: the
-    /// first segment comes from the environment (its density has no distance to convert by).
+    /// sample, the absorption of the medium it enters and Russian roulette ([`Engine::step`]).
+    /// `from_infinity`: the first segment comes from the environment (its density has no
+    /// distance to convert by).
     fn walk(
         &self,
-        mut ray: Ray,
+        ray: Ray,
         path: &mut SubPath,
         k: &IterationConstants,
         from_infinity: bool,
         visitor: &mut impl WalkVisitor,
     ) {
-        let scene = self.scene;
-        let mut absorption = Vec3::ZERO;
+        let mut walk = Walk { ray, absorption: Vec3::ZERO, from_infinity };
         loop {
-            let Some(isect) = scene.intersect(&ray, f32::INFINITY) else {
-                visitor.escaped(path, ray.dir, absorption != Vec3::ZERO);
-                break;
-            };
-            let hit = &isect.hit;
-            if absorption != Vec3::ZERO {
-                let a = (-absorption * hit.t).exp();
-                path.beta *= a;
-                path.throughput *= a;
-            }
-            let cos_in = hit.n.dot(ray.dir).abs();
-            if from_infinity && path.segments == 1 {
-                path.mis.arrive_from_infinity(cos_in);
-            } else if path.segments == 1 && path.start_offset > 0.0 {
-                path.mis.arrive(hit.t + path.start_offset, cos_in);
-            } else {
-                path.mis.arrive(hit.t, cos_in);
-            }
-            if !visitor.reached(path, &ray, &isect) {
+            let isect = self.scene.intersect(&walk.ray, f32::INFINITY);
+            if !self.step(&mut walk, path, k, visitor, isect) {
                 break;
             }
-            let material = scene.material_of(isect.primitive);
-            let bsdf = Scattering::at(material, hit.p, hit.uv, &path.ctx.channels);
-            path.beta *= path.ctx.end_secondaries_at(&material.bsdf, &bsdf);
-            let wo = -ray.dir;
-            let frame = ShadingFrame::at(hit, wo);
-            let at = Vertex { hit, bsdf: &bsdf, frame: &frame, wo, wo_local: frame.to_local(wo) };
-            let next = visitor.visit(path, &at, isect.primitive);
-            if next == Next::Stop {
-                break;
+        }
+    }
+
+    /// The walks of up to [`WIDTH`] sub-paths side by side: their closest hits found 16 at a
+    /// time by `lanes` (a scene whose every primitive is tested across lanes), then
+    /// `step(i, walk, path, hit)` ([`Engine::step`] with walk `i`'s visitor) for each walk
+    /// still going, until none is. Each walk takes the steps of [`Engine::walk`], with the same
+    /// hits to the bit ([`LaneScene::closest`] and [`Scene::record`]).
+    fn walk_lanes(
+        &self,
+        lanes: &LaneScene,
+        walks: &mut [Walk],
+        paths: &mut [SubPath],
+        mut step: impl FnMut(usize, &mut Walk, &mut SubPath, Option<Intersection>) -> bool,
+    ) {
+        let scene = self.scene;
+        let mut live = [false; WIDTH];
+        live[..walks.len().min(WIDTH)].fill(true);
+        while live.iter().any(|&l| l) {
+            let mut rays = RayLanes::default();
+            let mut tmax = [-1.0; WIDTH];
+            for i in (0..walks.len()).filter(|&i| live[i]) {
+                let ray = &walks[i].ray;
+                for axis in 0..3 {
+                    (rays.origin[axis][i], rays.dir[axis][i]) = (ray.origin[axis], ray.dir[axis]);
+                }
+                tmax[i] = f32::INFINITY;
             }
-            let Some(smp) = sample_bsdf(&bsdf, at.wo_local, path.mode, &mut path.ctx.sampler) else {
-                break;
-            };
-            if smp.pdf <= 0.0 || smp.f == Vec3::ZERO {
-                break;
-            }
-            let evaluable = smp.is_evaluable();
-            if next == Next::SpecularOnly && evaluable {
-                break;
-            }
-            let wi = frame.to_world(smp.wi);
-            let shading = frame.factor(wo, wi, path.mode);
-            if shading == 0.0 {
-                break;
-            }
-            let cos_out = smp.wi.z.abs();
-            let rev = if evaluable { bsdf.pdf(smp.wi, at.wo_local) } else { 0.0 };
-            path.scatter(k, cos_out, smp.pdf, rev, evaluable);
-            let step = smp.f
-                * (cos_out / smp.pdf)
-                * path.ctx.secondaries_after(&material.bsdf, &smp, at.wo_local)
-                * shading;
-            path.beta *= step;
-            path.throughput *= step;
-            if let Some(c) = crossing(&material.bsdf, ray.dir, hit.n, path.ctx.channels.hero()) {
-                let medium = if smp.is_transmission { c.transmitted } else { c.incident };
-                absorption = path.ctx.channels.colour(medium.absorption);
-            }
-            if smp.is_transmission {
-                path.eta_scale *= smp.eta * smp.eta;
-                path.ctx.rays.refracted += 1;
-            } else {
-                path.ctx.rays.reflected += 1;
-            }
-            ray = ray.spawn(spawn_origin(hit, wi), wi);
-            path.segments += 1;
-            if path.segments > ROULETTE_DEPTH + 1 {
-                let rr = path.survival();
-                if rr < 1.0 {
-                    let q = (1.0 - rr).max(0.0);
-                    if path.ctx.sampler.get_1d(Dim::Other) < q {
-                        break;
-                    }
-                    path.beta /= 1.0 - q;
-                    path.throughput /= 1.0 - q;
+            let found = lanes.closest(&rays, &tmax);
+            for i in 0..walks.len() {
+                if live[i] {
+                    let hit = (found.t[i] < f32::INFINITY)
+                        .then(|| scene.record(&walks[i].ray, found.t[i], found.primitive[i], found.bary[i]));
+                    live[i] = step(i, &mut walks[i], &mut paths[i], hit);
                 }
             }
         }
     }
+
+    /// One step of a sub-path's walk ([`Engine::walk`]): at `isect`, the surface its ray
+    /// reaches (`None`: it leaves the scene), the MIS update of the arrival, `visitor`'s
+    /// strategies, then a BSDF sample, the absorption of the medium it enters and Russian
+    /// roulette, leaving the next ray in `walk`. False where the walk ends.
+    fn step(
+        &self,
+        walk: &mut Walk,
+        path: &mut SubPath,
+        k: &IterationConstants,
+        visitor: &mut impl WalkVisitor,
+        isect: Option<Intersection>,
+    ) -> bool {
+        let scene = self.scene;
+        let ray = walk.ray;
+        let Some(isect) = isect else {
+            visitor.escaped(path, ray.dir, walk.absorption != Vec3::ZERO);
+            return false;
+        };
+        let hit = &isect.hit;
+        if walk.absorption != Vec3::ZERO {
+            let a = (-walk.absorption * hit.t).exp();
+            path.beta *= a;
+            path.throughput *= a;
+        }
+        let cos_in = hit.n.dot(ray.dir).abs();
+        if walk.from_infinity && path.segments == 1 {
+            path.mis.arrive_from_infinity(cos_in);
+        } else if path.segments == 1 && path.start_offset > 0.0 {
+            path.mis.arrive(hit.t + path.start_offset, cos_in);
+        } else {
+            path.mis.arrive(hit.t, cos_in);
+        }
+        if !visitor.reached(path, &ray, &isect) {
+            return false;
+        }
+        let material = scene.material_of(isect.primitive);
+        let bsdf = Scattering::at(material, hit.p, hit.uv, &path.ctx.channels);
+        path.beta *= path.ctx.end_secondaries_at(&material.bsdf, &bsdf);
+        let wo = -ray.dir;
+        let frame = ShadingFrame::at(hit, wo);
+        let at = Vertex { hit, bsdf: &bsdf, frame: &frame, wo, wo_local: frame.to_local(wo) };
+        let next = visitor.visit(path, &at, isect.primitive);
+        if next == Next::Stop {
+            return false;
+        }
+        let Some(smp) = sample_bsdf(&bsdf, at.wo_local, path.mode, &mut path.ctx.sampler) else {
+            return false;
+        };
+        if smp.pdf <= 0.0 || smp.f == Vec3::ZERO {
+            return false;
+        }
+        let evaluable = smp.is_evaluable();
+        if next == Next::SpecularOnly && evaluable {
+            return false;
+        }
+        let wi = frame.to_world(smp.wi);
+        let shading = frame.factor(wo, wi, path.mode);
+        if shading == 0.0 {
+            return false;
+        }
+        let cos_out = smp.wi.z.abs();
+        let rev = if evaluable { bsdf.pdf(smp.wi, at.wo_local) } else { 0.0 };
+        path.scatter(k, cos_out, smp.pdf, rev, evaluable);
+        let step = smp.f
+            * (cos_out / smp.pdf)
+            * path.ctx.secondaries_after(&material.bsdf, &smp, at.wo_local)
+            * shading;
+        path.beta *= step;
+        path.throughput *= step;
+        if let Some(c) = crossing(&material.bsdf, ray.dir, hit.n, path.ctx.channels.hero()) {
+            let medium = if smp.is_transmission { c.transmitted } else { c.incident };
+            walk.absorption = path.ctx.channels.colour(medium.absorption);
+        }
+        if smp.is_transmission {
+            path.eta_scale *= smp.eta * smp.eta;
+            path.ctx.rays.refracted += 1;
+        } else {
+            path.ctx.rays.reflected += 1;
+        }
+        walk.ray = ray.spawn(spawn_origin(hit, wi), wi);
+        path.segments += 1;
+        if path.segments > ROULETTE_DEPTH + 1 {
+            let rr = path.survival();
+            if rr < 1.0 {
+                let q = (1.0 - rr).max(0.0);
+                if path.ctx.sampler.get_1d(Dim::Other) < q {
+                    return false;
+                }
+                path.beta /= 1.0 - q;
+                path.throughput /= 1.0 - q;
+            }
+        }
+        true
+    }
+}
+
+/// Where a sub-path's walk is between two surfaces: the ray it follows, the absorption of the
+/// medium it is in, and whether its first segment came from the environment.
+#[derive(Clone, Copy)]
+struct Walk {
+    ray: Ray,
+    absorption: Vec3,
+    from_infinity: bool,
 }
 
 /// A sub-path vertex being shaded.

@@ -203,10 +203,7 @@ impl ShadowRay {
     /// distance `t >= reach` does not block, any other hit does. What the lanes' occlusion test
     /// ([`crate::lanes::LaneScene::occluded`]) takes instead of [`blocks`](Self::blocks).
     pub fn reach(&self, scene: &Scene) -> f32 {
-        match self.light {
-            Some(l) if scene.lights[l as usize].encloses(self.target) => f32::NEG_INFINITY,
-            _ => self.remaining * (1.0 - 1e-3),
-        }
+        shadow_reach(scene, self.light, self.target, self.remaining)
     }
 
     /// Whether a hit on `primitive` at distance `t` (below [`tmax`](Self::tmax)) blocks the ray.
@@ -221,6 +218,17 @@ impl ShadowRay {
     #[inline]
     pub fn blocked(&self, scene: &Scene) -> bool {
         scene.occluded(&self.ray, self.tmax, |primitive, t| self.blocks(scene, primitive, t))
+    }
+}
+
+/// [`ShadowRay::reach`] of a ray aimed at `target` on light `light` from `remaining` away: the
+/// distance from which a hit on that light no longer blocks it (−∞ where the target lies inside
+/// the light).
+#[inline]
+pub(crate) fn shadow_reach(scene: &Scene, light: Option<u32>, target: Vec3, remaining: f32) -> f32 {
+    match light {
+        Some(l) if scene.lights[l as usize].encloses(target) => f32::NEG_INFINITY,
+        _ => remaining * (1.0 - 1e-3),
     }
 }
 

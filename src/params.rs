@@ -14,7 +14,8 @@ pub struct RenderParams {
     pub ssaa: SsaaParams,
     /// Settings of the methods that merge photons (`ppm`, `bpm`, `vcm`).
     pub merging: MergeParams,
-    /// Which engine traces a method that has more than one (`path`: wavefront or scalar).
+    /// Which engine traces a method that has more than one (`path`: wavefront or scalar;
+    /// `Scalar` also makes `light` and the bidirectional methods trace one ray at a time).
     pub engine: EngineOption,
 }
 

@@ -15,7 +15,6 @@ use crate::geometry::SurfaceHit;
 use crate::integrators::splat_film::{CameraTarget, SampleSplats, SplatBuffer};
 use crate::integrators::{pick_light, PathContext, Strategy};
 use crate::light::Light;
-use crate::lighting::{ShadowMode, ShadowRays};
 use crate::render::Film;
 use crate::sampler::{Dim, Sampler};
 use crate::stats::RayCounts;
@@ -211,6 +210,7 @@ impl Engine<'_> {
             }
             out.ends.push(out.vertices.len() as u32);
         }
+        out.splats.settle(&self.shadows(), true);
     }
 
     /// Trace light path `j`: store its vertices and splat their connections to the camera.
@@ -226,14 +226,13 @@ impl Engine<'_> {
         let Some(e) = light.emit(1.0 / n as f32, side, u_point, u_dir, &self.sphere) else { return };
         let mis = Mis::light(k, e.pdf_emit, e.pdf_direct, e.cos_light, e.delta);
         let mut path = SubPath::new(ctx, TransportMode::Importance, channels.colour(e.beta), mis);
-        let shadow = ShadowRays { mode: ShadowMode::Opaque, channels, time };
         if let (Some(Strategy::CameraSplat), Some((origin, inv_pdf))) = (self.only, e.origin) {
-            self.splat_emission_point(light, &origin, inv_pdf, &mut path, shadow, out);
+            self.splat_emission_point(light, &origin, inv_pdf, &mut path, time, out);
         }
         let mut ray = e.ray;
         ray.time = time;
         path.ctx.rays.primary += 1;
-        self.walk(ray, &mut path, k, e.infinite, &mut LightVisitor { engine: self, k, shadow, out });
+        self.walk(ray, &mut path, k, e.infinite, &mut LightVisitor { engine: self, k, time, out });
         out.rays += path.ctx.rays;
     }
     /// Splat the emission point `origin` of an area light seen directly (`inv_pdf`: one over
@@ -245,10 +244,10 @@ impl Engine<'_> {
         origin: &SurfaceHit,
         inv_pdf: f32,
         path: &mut SubPath,
-        shadow: ShadowRays,
+        time: f32,
         out: &mut LightChunk,
     ) {
-        self.splat(origin, path, shadow, out, |ctx, c| {
+        self.splat(origin, path, time, out, |ctx, c| {
             let le = light.emitted(origin, -c.dir) * (c.dir.dot(origin.n).abs() * inv_pdf);
             ctx.channels.colour(le)
         });
@@ -260,11 +259,11 @@ impl Engine<'_> {
         at: &Vertex,
         path: &mut SubPath,
         k: &IterationConstants,
-        shadow: ShadowRays,
+        time: f32,
         out: &mut LightChunk,
     ) {
         let (beta, light_mis) = (path.beta, path.mis);
-        self.splat(at.hit, path, shadow, out, |_, c| {
+        self.splat(at.hit, path, time, out, |_, c| {
             let wc_local = at.frame.to_local(-c.dir);
             let e = at.bsdf.evaluate(at.wo_local, wc_local, TransportMode::Importance);
             if e.f == Vec3::ZERO {
@@ -283,18 +282,18 @@ impl Engine<'_> {
         });
     }
 
-    /// Connect the light-path point `hit` to the camera and splat `value(context, connection)`
-    /// ([`CameraTarget::splat`]).
+    /// Connect the light-path point `hit` to the camera at time `time` and splat
+    /// `value(context, connection)` ([`CameraTarget::splat`]).
     fn splat(
         &self,
         hit: &SurfaceHit,
         path: &mut SubPath,
-        shadow: ShadowRays,
+        time: f32,
         out: &mut LightChunk,
         value: impl FnOnce(&PathContext, &CameraConnection) -> Vec3,
     ) {
-        let target = CameraTarget { scene: self.scene, camera: &self.camera, lens: self.dims.lens };
-        target.splat(hit, &mut path.ctx, shadow, &mut out.splats, value);
+        let target = CameraTarget { camera: &self.camera, lens: self.dims.lens, shadows: self.shadows() };
+        target.splat(hit, &mut path.ctx, time, &mut out.splats, value);
     }
 }
 
@@ -317,8 +316,8 @@ struct LightVisitor<'e, 'a> {
     engine: &'e Engine<'a>,
     /// The iteration's MIS constants.
     k: &'e IterationConstants,
-    /// How shadow rays of the path are traced.
-    shadow: ShadowRays,
+    /// The path's time (its shadow rays').
+    time: f32,
     /// Where the path's vertices, splats and rays go.
     out: &'e mut LightChunk,
 }
@@ -341,7 +340,7 @@ impl WalkVisitor for LightVisitor<'_, '_> {
                 hero_only: path.ctx.hero_only,
             });
             if e.algorithm.connects() && e.keeps(Strategy::CameraSplat) && path.segments < e.max_segments {
-                e.connect_to_camera(at, path, self.k, self.shadow, self.out);
+                e.connect_to_camera(at, path, self.k, self.time, self.out);
             }
         }
         // A light sub-path leaves at least one segment of the full path to the camera.

@@ -127,7 +127,8 @@ pub struct RenderArgs {
     pub shard: Option<crate::parts::Shard>,
     /// Engine of `path`: auto (the wavefront engine where it supports the scene, else one ray at
     /// a time), wavefront (always; scenes without a lane form traverse the BVH one ray per
-    /// lane), scalar (one ray at a time: the reference implementation).
+    /// lane), scalar (one ray at a time: the reference implementation; for `light` and the
+    /// bidirectional methods too, which otherwise trace rays 16 at a time where they can).
     #[arg(long, value_parser = ["auto", "wavefront", "scalar"])]
     pub engine: Option<String>,
     /// Require the variance channels: refuse a render that cannot have them (a fixed pattern,
