@@ -342,3 +342,70 @@ impl DimensionRequests {
         self.0[purpose as usize]
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::Ray;
+    use crate::pixel_filter::{FilterKind, PixelFilter};
+    use crate::sampler::SamplerKind;
+
+    /// Every camera ray of a batch is the one-ray camera's ([`Camera::generate_ray_lens`]) from
+    /// the sample's own stream drawn one request at a time (the pixel placed by the filter, the
+    /// lens, the time), and leaves the stream after those requests: for every sampler kind, with
+    /// a thin lens, a shutter, a near clip plane and a Gaussian filter, in batches that end
+    /// mid-chunk.
+    #[test]
+    fn batched_camera_rays_are_the_one_ray_cameras() {
+        let scene = crate::scene::load_default();
+        let path = crate::integrators::create("path").unwrap();
+        for kind in [SamplerKind::Sobol, SamplerKind::Stratified, SamplerKind::Independent] {
+            for (samples, total) in [(0..5, 5), (3..7, 9), (0..1, 1), (2..4, 0)] {
+                let mut opts = RenderOptions::from_scene(&scene, total.max(1));
+                opts.resolution = Some((11, 7));
+                opts.sampler = kind;
+                let mut pass = Pass::new(&scene, path.as_ref(), path.camera().unwrap(), &opts);
+                pass.camera = pass
+                    .camera
+                    .clone()
+                    .with_lens(0.2, 2.5)
+                    .with_shutter(0.25, 0.75)
+                    .with_near_clip(0.3)
+                    .with_filter(PixelFilter::new(FilterKind::Gaussian { stddev: 0.5 }));
+                pass.dims = CameraDims { lens: true, time: true, wavelength: false };
+                let (mut rays, mut ctxs) = (Vec::new(), Vec::new());
+                let (xs, y) = (2..9, 4);
+                pass.start_batch((xs.clone(), y), samples.clone(), total, &mut rays, &mut ctxs);
+                assert_eq!(ctxs.len(), xs.len() * samples.len());
+                assert_eq!(rays.len(), ctxs.len().div_ceil(WIDTH));
+                let one_by_one = xs.flat_map(|x| samples.clone().map(move |s| (x, s)));
+                for (i, (x, s)) in one_by_one.enumerate() {
+                    let stream = opts.replicas.stream(opts.seed, s, total);
+                    let mut sampler = Sampler::of_stream(kind, stream, (y * pass.camera.width + x) as u64);
+                    let film = if total == 1 {
+                        Vec2::new(x as f32 + 0.5, y as f32 + 0.5)
+                    } else {
+                        pass.camera.film_point(x, y, sampler.get_2d(Dim::Pixel))
+                    };
+                    let lens = sampler.get_2d(Dim::Lens);
+                    let time = 0.25 + 0.5 * sampler.get_1d(Dim::Time);
+                    let want = pass.camera.generate_ray_lens(film, lens, time);
+                    let got = rays[i / WIDTH].ray(i % WIDTH);
+                    let bits =
+                        |r: &Ray| (r.origin.to_array().map(f32::to_bits), r.dir.to_array().map(f32::to_bits));
+                    assert_eq!(bits(&got), bits(&want), "{kind:?}, pixel ({x}, {y}), sample {s} of {total}");
+                    assert_eq!(got.time.to_bits(), want.time.to_bits());
+                    let ctx = &mut ctxs[i];
+                    assert_eq!(ctx.rays.primary, 1);
+                    for d in ALL_DIMS {
+                        assert_eq!(ctx.sampler.requests(d), sampler.requests(d), "{d:?}");
+                    }
+                    assert_eq!(
+                        ctx.sampler.get_1d(Dim::Other).to_bits(),
+                        sampler.get_1d(Dim::Other).to_bits()
+                    );
+                }
+            }
+        }
+    }
+}
