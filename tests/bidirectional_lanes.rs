@@ -54,31 +54,12 @@ fn lanes_and_one_ray_at_a_time_give_the_same_bits() {
 #[test]
 fn light_paths_cut_at_a_chunks_vertex_bound_give_the_same_bits() {
     // A closed room of bright walls: a light path stores about 10 vertices, so the first round's
-    // chunks (sized for 3 per path) stop at their vertex bound partway through a group of 16
-    // paths walking side by side, and an iteration takes several batches. The paths after the
-    // cut are dropped and traced again in the next round: the same bits as one by one.
-    let toml = r#"
-[camera]
-position = [0.1, 0.2, 0.3]
-look_at = [1.0, 0.0, 0.0]
-fov = 120.0
-resolution = [96, 96]
-[render.vcm]
-radius = 0.03
-max_light_paths = 9216
-[render.bpt]
-max_light_paths = 9216
-[materials.wall]
-type = "diffuse"
-color = 0.95
-emission = 0.05
-[[objects]]
-shape = "sphere"
-center = [0.0, 0.0, 0.0]
-radius = 1.0
-material = "wall"
-"#;
-    let scene = vitrum::scene::load_str(toml, "bright room", None).unwrap();
+    // chunks (sized for 3 per path) stop at their vertex bound partway through their paths, and
+    // an iteration takes several batches, whose camera paths walk again 16 side by side. The
+    // paths after the cut are dropped and traced again in the next round: the same bits as one
+    // ray at a time.
+    let toml = common::bright_room(96, 9216);
+    let scene = vitrum::scene::load_str(&toml, "bright room", None).unwrap();
     for method in ["bpt", "vcm"] {
         let integrator = create(method).unwrap();
         let [scalar, lanes] = [EngineOption::Scalar, EngineOption::Auto].map(|engine| {

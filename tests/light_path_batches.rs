@@ -2,6 +2,8 @@
 //! walls): the bidirectional engine traces each iteration's light paths in several batches of
 //! bounded memory, and the estimate stays unbiased and independent of the thread count.
 
+mod common;
+
 use std::process::Command;
 use vitrum::integrators::create;
 use vitrum::output::exr::read_exr;
@@ -15,42 +17,12 @@ const SIDE: u32 = 96;
 /// The cap on light paths per iteration: 9216, the pixel count.
 const CAP: u32 = SIDE * SIDE;
 
-/// The inside of a closed unit sphere of albedo 0.95 emitting 0.05, seen from near its centre:
-/// radiance 0.05 / (1 − 0.95) = 1 everywhere. A light path stores about 10 vertices (measured:
-/// 42 000 for 4096 paths), so the 9216 paths of an iteration store about 94 000, more than a
-/// batch holds at the cap of 9216 paths (49 152: 3 per path of the cap, at least of 2¹⁴ paths). A uniform
-/// field carries no kernel bias on the sphere (its part within r of a point has the area π r²);
-/// `vcm` merges within 0.03.
-fn bright_room() -> String {
-    format!(
-        r#"
-[camera]
-position = [0.1, 0.2, 0.3]
-look_at = [1.0, 0.0, 0.0]
-fov = 120.0
-resolution = [{SIDE}, {SIDE}]
-[render.bpt]
-max_light_paths = {CAP}
-[render.ppm]
-max_light_paths = {CAP}
-[render.vcm]
-radius = 0.03
-max_light_paths = {CAP}
-[materials.wall]
-type = "diffuse"
-color = 0.95
-emission = 0.05
-[[objects]]
-shape = "sphere"
-center = [0.0, 0.0, 0.0]
-radius = 1.0
-material = "wall"
-"#
-    )
-}
-
+/// The closed bright room ([`common::bright_room`]). A light path stores about 10 vertices
+/// (measured: 42 000 for 4096 paths), so the 9216 paths of an iteration store about 94 000, more
+/// than a batch holds at the cap of 9216 paths (49 152: 3 per path of the cap, at least of 2¹⁴
+/// paths).
 fn scene() -> Scene {
-    load_str(&bright_room(), "bright room", None).unwrap()
+    load_str(&common::bright_room(SIDE, CAP), "bright room", None).unwrap()
 }
 
 #[test]
@@ -94,7 +66,7 @@ fn a_bright_closed_room_takes_several_batches_and_stays_unbiased() {
 fn batches_are_independent_of_the_thread_count() {
     let dir = tempfile::tempdir().unwrap();
     let scene = dir.path().join("room.toml");
-    std::fs::write(&scene, bright_room()).unwrap();
+    std::fs::write(&scene, common::bright_room(SIDE, CAP)).unwrap();
     for method in ["vcm", "ppm"] {
         let render = |threads: &str| {
             let out_file = dir.path().join(format!("{method}-{threads}.exr"));
