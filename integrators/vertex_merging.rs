@@ -807,24 +807,8 @@ mod tests {
     use super::*;
     use crate::scene::load_str;
 
-    /// A closed unit sphere of albedo 0.95 emitting 0.05 (`tests/light_path_batches.rs` renders
-    /// it at 96²): a light path stores about 10 vertices.
-    const BRIGHT_ROOM: &str = r#"
-[camera]
-position = [0.1, 0.2, 0.3]
-look_at = [1.0, 0.0, 0.0]
-fov = 120.0
-resolution = [64, 64]
-[materials.wall]
-type = "diffuse"
-color = 0.95
-emission = 0.05
-[[objects]]
-shape = "sphere"
-center = [0.0, 0.0, 0.0]
-radius = 1.0
-material = "wall"
-"#;
+    /// The closed bright room of the integration tests: a light path stores about 10 vertices.
+    const BRIGHT_ROOM: &str = include_str!("../tests/data/bright-room.toml");
 
     #[test]
     fn the_working_memory_bounds_what_a_bright_closed_room_holds() {

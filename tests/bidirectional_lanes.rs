@@ -58,8 +58,7 @@ fn light_paths_cut_at_a_chunks_vertex_bound_give_the_same_bits() {
     // an iteration takes several batches, whose camera paths walk again 16 side by side. The
     // paths after the cut are dropped and traced again in the next round: the same bits as one
     // ray at a time.
-    let toml = common::bright_room(96, 9216);
-    let scene = vitrum::scene::load_str(&toml, "bright room", None).unwrap();
+    let scene = vitrum::scene::load_str(common::BRIGHT_ROOM, "bright room", None).unwrap();
     for method in ["bpt", "vcm"] {
         let integrator = create(method).unwrap();
         let [scalar, lanes] = [EngineOption::Scalar, EngineOption::Auto].map(|engine| {

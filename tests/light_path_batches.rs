@@ -11,18 +11,18 @@ use vitrum::render::{render, RenderOptions};
 use vitrum::sampler::SamplerKind;
 use vitrum::scene::{load_str, Scene};
 
-/// Pixels per side: 96² light paths per iteration.
+/// Pixels per side of the bright room: 96² light paths per iteration.
 const SIDE: u32 = 96;
 
-/// The cap on light paths per iteration: 9216, the pixel count.
+/// The bright room's cap on light paths per iteration: 9216, the pixel count.
 const CAP: u32 = SIDE * SIDE;
 
-/// The closed bright room ([`common::bright_room`]). A light path stores about 10 vertices
+/// The closed bright room ([`common::BRIGHT_ROOM`]). A light path stores about 10 vertices
 /// (measured: 42 000 for 4096 paths), so the 9216 paths of an iteration store about 94 000, more
 /// than a batch holds at the cap of 9216 paths (49 152: 3 per path of the cap, at least of 2¹⁴
 /// paths).
 fn scene() -> Scene {
-    load_str(&common::bright_room(SIDE, CAP), "bright room", None).unwrap()
+    load_str(common::BRIGHT_ROOM, "bright room", None).unwrap()
 }
 
 #[test]
@@ -66,7 +66,7 @@ fn a_bright_closed_room_takes_several_batches_and_stays_unbiased() {
 fn batches_are_independent_of_the_thread_count() {
     let dir = tempfile::tempdir().unwrap();
     let scene = dir.path().join("room.toml");
-    std::fs::write(&scene, common::bright_room(SIDE, CAP)).unwrap();
+    std::fs::write(&scene, common::BRIGHT_ROOM).unwrap();
     for method in ["vcm", "ppm"] {
         let render = |threads: &str| {
             let out_file = dir.path().join(format!("{method}-{threads}.exr"));

@@ -294,35 +294,6 @@ pub fn block_chi2(a: &(Image, Image), b: &(Image, Image)) -> (f64, usize) {
     (chi2, blocks)
 }
 
-/// The inside of a closed unit sphere of albedo 0.95 emitting 0.05, seen from near its centre on a
-/// `side`² film: radiance 0.05 / (1 − 0.95) = 1 everywhere, and light paths of about 10 stored
-/// vertices (more than the bidirectional engine's batches hold per path). `bpt`, `ppm` and `vcm`
-/// trace at most `cap` light paths per iteration; `vcm` merges within 0.03 (a uniform field carries
-/// no kernel bias on the sphere: its part within r of a point has the area π r²).
-pub fn bright_room(side: u32, cap: u32) -> String {
-    format!(
-        r#"
-[camera]
-position = [0.1, 0.2, 0.3]
-look_at = [1.0, 0.0, 0.0]
-fov = 120.0
-resolution = [{side}, {side}]
-[render.bpt]
-max_light_paths = {cap}
-[render.ppm]
-max_light_paths = {cap}
-[render.vcm]
-radius = 0.03
-max_light_paths = {cap}
-[materials.wall]
-type = "diffuse"
-color = 0.95
-emission = 0.05
-[[objects]]
-shape = "sphere"
-center = [0.0, 0.0, 0.0]
-radius = 1.0
-material = "wall"
-"#
-    )
-}
+/// The closed bright room of `tests/data/bright-room.toml` (its comment says what it is): 96²
+/// pixels, at most 9216 light paths per iteration.
+pub const BRIGHT_ROOM: &str = include_str!("../data/bright-room.toml");
