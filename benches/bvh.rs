@@ -10,7 +10,7 @@
 //! estimates into tables. One thread: the queries are what a render thread does. Because this
 //! machine's speed drifts over a run, the ratios vitrum ÷ obvhs are also measured side by side in
 //! alternating pairs after each mesh's criterion measurements (the `bvh-ratio:` lines, the
-//! figures the README quotes). For the analytic scenes, a `traversal-choice:` line compares the
+//! figures docs/performance.md quotes). For the analytic scenes, a `traversal-choice:` line compares the
 //! BVH closest-hit query with testing every primitive in turn, one ray at a time (the loop a
 //! wavefront engine would run over many rays at once; issue 20's "measure and decide").
 

@@ -183,9 +183,9 @@ pub(super) fn choose(scene: &Scene, opts: &RenderOptions) -> EngineChoice {
             format!("{primitives} primitives, {hits}, every vertex across lanes"),
         );
     }
-    // The tables hold the materials: ahead of the scalar engine on every shipped scene but one
-    // (0.96 to 1.45 of its instructions, docs/performance.md, "The engines"), even where some
-    // vertices or the hit records go lane by lane.
+    // The tables hold the materials: ahead of the scalar engine on every shipped scene measured
+    // (1.02 to 1.94 times fewer instructions, docs/performance.md, "`path`: the engines, scene
+    // by scene"), even where some vertices or the hit records go lane by lane.
     if engine.stages.has_tables() {
         return EngineChoice::wavefront(
             engine,

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Tables of criterion results for the README's Performance section (no dependencies).
+"""Tables of criterion results for docs/performance.md (no dependencies).
 
     python3 scripts/perf/bench_table.py [TARGET_DIR]
 
@@ -91,7 +91,9 @@ def bvh_tables():
 def integrator_tables():
     groups = [g for g in subdirs() if g.startswith("samples_")]
     if groups:
-        methods = ["raycast", "whitted", "ssaa", "distributed", "path", "light"]
+        order = ["raycast", "whitted", "ssaa", "distributed", "path", "light", "bpt", "ppm", "bpm", "vcm"]
+        found = {m for g in groups for m in subdirs(g)}
+        methods = [m for m in order if m in found] + sorted(found - set(order))
         print("| scene | " + " | ".join(f"{m} (Msamples/s)" for m in methods) + " |")
         print("|---|" + "--:|" * len(methods))
         for g in groups:
