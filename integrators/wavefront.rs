@@ -165,6 +165,15 @@ impl BatchEngine for Wavefront {
     }
 }
 
+/// The most primitives for which `--engine auto` runs the wavefront engine. Measured on the
+/// grey diffuse terrains of `benches/cost_growth.rs` under a point light (callgrind, AVX2
+/// kernels, `vitrum render terrain.toml -i path --engine E --resolution 128x128 --spp 8
+/// --threads 1`, less loading and the EXR), the wavefront engine's instructions over the scalar
+/// engine's: 0.96 at 968 triangles, 1.02 at 10,082, 1.07 at 29,768, 1.19 at 100,352: the
+/// bounces' one-ray traversal from the lanes, and the triangles' hit records lane by lane, cost
+/// more than the lane stages save once the traversal dominates.
+const LARGE_SCENE: usize = 4096;
+
 /// Which engine `path` runs on `scene` under `opts.params.engine`, and why.
 pub(super) fn choose(scene: &Scene, opts: &RenderOptions) -> EngineChoice {
     if opts.params.engine == EngineOption::Scalar {
@@ -176,6 +185,12 @@ pub(super) fn choose(scene: &Scene, opts: &RenderOptions) -> EngineChoice {
     }
     let lane_by_lane = engine.stages.lane_by_lane().join("; ");
     let primitives = scene.primitives.len();
+    if primitives > LARGE_SCENE {
+        return EngineChoice::scalar(format!(
+            "{primitives} primitives: through a BVH of more than {LARGE_SCENE} the wavefront engine \
+             measured slower than one ray at a time"
+        ));
+    }
     let hits = engine.hit_method();
     if lane_by_lane.is_empty() {
         return EngineChoice::wavefront(
