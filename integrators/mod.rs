@@ -5,6 +5,7 @@
 mod distributed;
 mod light;
 mod path;
+mod pssmlt;
 mod raycast;
 mod shadow_queue;
 mod splat_film;
@@ -14,7 +15,7 @@ mod wavefront;
 mod whitted;
 
 pub use crate::methods::Method;
-pub use crate::params::{EngineOption, MergeParams, RenderParams, SsaaParams, Strategy};
+pub use crate::params::{EngineOption, MergeParams, MetropolisParams, RenderParams, SsaaParams, Strategy};
 pub use crate::render::{
     Accumulate, BatchEngine, CameraEstimator, EngineChoice, FixedImage, Integrator, PathContext, Progression,
 };
@@ -23,6 +24,7 @@ pub use light::LightTracer;
 #[cfg(test)]
 pub(crate) use path::power_heuristic;
 pub use path::{Path, DEFAULT_PATH_DEPTH};
+pub use pssmlt::Pssmlt;
 pub use raycast::RayCast;
 pub use ssaa::Ssaa;
 pub use vertex_merging::{
@@ -140,6 +142,7 @@ pub fn build(method: Method) -> Box<dyn Integrator> {
         Method::Ppm => Box::new(VertexMerging(Algorithm::Ppm)),
         Method::Bpm => Box::new(VertexMerging(Algorithm::Bpm)),
         Method::Vcm => Box::new(VertexMerging(Algorithm::Vcm)),
+        Method::Pssmlt => Box::new(Pssmlt),
     }
 }
 
@@ -268,6 +271,7 @@ mod tests {
                 ("ppm", "accumulated"),
                 ("bpm", "accumulated"),
                 ("vcm", "accumulated"),
+                ("pssmlt", "accumulated"),
             ]
         );
         // Only camera estimators answer per camera ray; the others have the one-ray engine.

@@ -38,6 +38,13 @@ impl SplatBuffer {
         SplatBuffer { splats: Vec::with_capacity(capacity), ..Default::default() }
     }
 
+    /// Add `value` to pixel `pixel` with no shadow ray to wait for (a splat whose visibility
+    /// is already known: a Metropolis sample's camera ray).
+    pub fn add_visible(&mut self, pixel: u32, value: Vec3) {
+        debug_assert!(self.pending.is_empty(), "unshadowed splats are not mixed with waiting ones");
+        push(&mut self.splats, &mut self.non_finite, pixel, value);
+    }
+
     /// Empty the buffer, keeping its room.
     pub fn clear(&mut self) {
         debug_assert!(self.pending.is_empty(), "a buffer's splats are settled before it is emptied");
@@ -156,14 +163,21 @@ impl CameraTarget<'_> {
         let ticket = out.pending.ray(&self.shadows, hit, c.start, None, time, &mut ctx.rays);
         // dω = |cos_v| dA / d² and dA_film = dω / cos³θ (a visible ray's transmittance is 1).
         let splat = ctx.channels.to_rgb(v) / (c.dist2 * c.cos * c.cos * c.cos);
-        let crop = camera.crop;
-        camera.filter.splat_weights(c.film, camera.width, camera.height, |x, y, weight| {
-            if let Some(pixel) = crop.index(x, y) {
-                out.add(pixel, if weight == 1.0 { splat } else { splat * weight }, ticket);
-            }
-        });
+        film_splats(camera, c.film, splat, |pixel, v| out.add(pixel, v, ticket));
         if out.pending.full() {
             out.settle(&self.shadows, false);
         }
     }
+}
+
+/// Share `value`, which lands on the film point `film` (pixel units), among the pixels of the
+/// camera's crop window whose filter footprint covers it: `add(pixel, value · weight)` with that
+/// pixel's normalised filter weight ([`crate::pixel_filter::PixelFilter::splat_weights`]).
+pub(crate) fn film_splats(camera: &Camera, film: glam::Vec2, value: Vec3, mut add: impl FnMut(u32, Vec3)) {
+    let crop = camera.crop;
+    camera.filter.splat_weights(film, camera.width, camera.height, |x, y, weight| {
+        if let Some(pixel) = crop.index(x, y) {
+            add(pixel, if weight == 1.0 { value } else { value * weight });
+        }
+    });
 }

@@ -27,6 +27,8 @@ pub enum Method {
     Bpm,
     /// Vertex connection and merging.
     Vcm,
+    /// Primary-sample-space Metropolis light transport over path tracing.
+    Pssmlt,
 }
 
 /// What a method's `[render.METHOD]` table takes.
@@ -41,6 +43,8 @@ pub enum Settings {
     /// `max_depth` and the merge radius (`radius`, `radius_alpha`, ...): the methods that merge
     /// photons.
     Merging,
+    /// `max_depth` and the Metropolis settings (`large_step`, `sigma`, `bootstrap`, `chains`).
+    Metropolis,
 }
 
 /// One row of the table of methods.
@@ -73,7 +77,7 @@ pub const DEFAULT_PATH_DEPTH: u32 = MAX_DEPTH;
 pub const DEFAULT_RECURSION_DEPTH: u32 = 5;
 
 /// Every method, in the order of [`Method`].
-pub const METHODS: [MethodInfo; 10] = [
+pub const METHODS: [MethodInfo; 11] = [
     MethodInfo {
         method: Method::RayCast,
         name: "raycast",
@@ -143,6 +147,13 @@ pub const METHODS: [MethodInfo; 10] = [
         description: "vertex connection and merging: bpt plus merging, MIS over both; every light path",
         default_max_depth: DEFAULT_PATH_DEPTH,
         settings: Settings::Merging,
+    },
+    MethodInfo {
+        method: Method::Pssmlt,
+        name: "pssmlt",
+        description: "primary-sample-space Metropolis (Kelemen 2002) over path: chains mutate path's random numbers",
+        default_max_depth: DEFAULT_PATH_DEPTH,
+        settings: Settings::Metropolis,
     },
 ];
 

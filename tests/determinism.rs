@@ -96,3 +96,11 @@ fn vertex_connection_and_merging_is_independent_of_the_thread_count() {
         assert_thread_count_invariant(None, &["-i", method, "--spp", "3", "--seed", "4"]);
     }
 }
+
+#[test]
+fn metropolis_is_independent_of_the_thread_count() {
+    // Bootstraps and chains in parallel, several sample indices at once, splats in chain order;
+    // a scene with depth of field (the lens dimensions of the primary sample vector).
+    let scene = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/depth-of-field.toml"));
+    assert_thread_count_invariant(Some(scene), &["-i", "pssmlt", "--spp", "3", "--seed", "4"]);
+}

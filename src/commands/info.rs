@@ -64,6 +64,13 @@ pub fn run(args: &InfoArgs) -> Result<(), CliError> {
                     entry["radius_from"] = json!(if m.radius.is_some() { "scene" } else { "default" });
                     entry["radius_alpha"] = json!(m.alpha);
                 }
+                if i.method() == crate::methods::Method::Pssmlt {
+                    let m = &scene.settings.metropolis;
+                    entry["large_step"] = json!(m.large_step);
+                    entry["sigma"] = json!(m.sigma);
+                    entry["bootstrap"] = json!(m.bootstrap);
+                    entry["chains"] = json!(m.chains);
+                }
                 (i.name().to_string(), entry)
             })
             .collect();
@@ -146,6 +153,13 @@ pub fn run(args: &InfoArgs) -> Result<(), CliError> {
                 "default: a fraction of the scene's size, scaled to the pixel footprint over 256² pixels"
             };
             print!(", radius {r0:.4e} ({from}), radius alpha {}", m.alpha);
+        }
+        if i.method() == crate::methods::Method::Pssmlt {
+            let m = &settings.metropolis;
+            print!(
+                ", large step {}, sigma {}, {} bootstrap samples and {} chains per sample index",
+                m.large_step, m.sigma, m.bootstrap, m.chains
+            );
         }
         println!();
     }

@@ -11,6 +11,8 @@
 //! | `sampler` | `sobol`, `stratified`, `independent` | every method |
 //! | `radius` | the initial merge radius, > 0 (scene units) | `ppm`, `bpm`, `vcm` |
 //! | `radius_alpha` | the radius schedule's α, in (0, 1] | `ppm`, `bpm`, `vcm` |
+//! | `large_step` | the probability of a large step, in (0, 1] | `pssmlt` |
+//! | `sigma` | the deviation of a small step, in (0, 1] | `pssmlt` |
 //!
 //! A label may not repeat: `-i vcm,vcm` is refused, `-i vcm,vcm[radius=0.002]` is two columns.
 
@@ -30,6 +32,10 @@ pub enum Setting {
     Radius(f32),
     /// The merge radius schedule's α.
     RadiusAlpha(f32),
+    /// The Metropolis methods' probability of a large step.
+    LargeStep(f32),
+    /// The Metropolis methods' deviation of a small step.
+    Sigma(f32),
 }
 
 /// A method of an `-i` list with its settings and label.
@@ -56,6 +62,8 @@ impl MethodSpec {
                 Setting::Sampler(k) => opts.sampler = k,
                 Setting::Radius(r) => opts.params.merging.radius = Some(r),
                 Setting::RadiusAlpha(a) => opts.params.merging.alpha = a,
+                Setting::LargeStep(p) => opts.params.metropolis.large_step = p,
+                Setting::Sigma(s) => opts.params.metropolis.sigma = s,
             }
         }
     }
@@ -135,7 +143,20 @@ fn setting(item: &str, method: &dyn Integrator, key: &str, value: &str) -> Resul
                 Err(bad(format!("radius_alpha={value}: a number in (0, 1]")))
             }
         }
-        _ => Err(bad(format!("unknown setting `{key}`; known: max_depth, sampler, radius, radius_alpha"))),
+        "large_step" | "sigma" if method.method() != crate::methods::Method::Pssmlt => {
+            Err(bad(format!("{key}: only the Metropolis method (pssmlt) has large and small steps")))
+        }
+        "large_step" | "sigma" => {
+            let v = number("a number in (0, 1]")?;
+            match (v > 0.0 && v <= 1.0, key) {
+                (true, "large_step") => Ok(Setting::LargeStep(v)),
+                (true, _) => Ok(Setting::Sigma(v)),
+                (false, _) => Err(bad(format!("{key}={value}: a number in (0, 1]"))),
+            }
+        }
+        _ => Err(bad(format!(
+            "unknown setting `{key}`; known: max_depth, sampler, radius, radius_alpha, large_step, sigma"
+        ))),
     }
 }
 
@@ -205,6 +226,11 @@ mod tests {
         let mut opts = RenderOptions::for_method(&scene, specs[2].integrator.as_ref(), 4);
         specs[2].apply(&mut opts);
         assert_eq!((opts.params.max_depth, opts.sampler), (8, SamplerKind::Independent));
+        let mlt = parse_methods("pssmlt[large_step=0.5,sigma=0.02]").unwrap();
+        assert_eq!(mlt[0].settings, [Setting::LargeStep(0.5), Setting::Sigma(0.02)]);
+        let mut opts = RenderOptions::for_method(&scene, mlt[0].integrator.as_ref(), 4);
+        mlt[0].apply(&mut opts);
+        assert_eq!((opts.params.metropolis.large_step, opts.params.metropolis.sigma), (0.5, 0.02));
     }
 
     #[test]
@@ -214,6 +240,9 @@ mod tests {
             ("path[radius=0.1]", "only the merging methods"),
             ("vcm[radius=-1]", "positive"),
             ("vcm[radius_alpha=1.5]", "(0, 1]"),
+            ("path[large_step=0.5]", "only the Metropolis method"),
+            ("pssmlt[large_step=0]", "(0, 1]"),
+            ("pssmlt[sigma=-0.1]", "(0, 1]"),
             ("path[max_depth=9999]", "0 to"),
             ("path[sampler=halton]", "sobol"),
             ("path[speed=2]", "unknown setting"),

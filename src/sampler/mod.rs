@@ -18,10 +18,14 @@
 //!   square and Latin-hypercube strata otherwise. It needs the sample count in advance.
 //! - `independent`: uniform random numbers.
 //!
+//! A fourth stream serves Metropolis light transport ([`Sampler::primary`]): its numbers are
+//! those of a Markov chain's primary sample vector ([`primary`]), which the chain mutates.
+//!
 //! Every request names its purpose ([`Dim`]); the sampler counts requests per purpose so tests
 //! can prove that a scene without depth of field, motion or dispersion never draws lens, time or
 //! wavelength numbers.
 
+pub mod primary;
 pub mod sobol;
 
 use glam::Vec2;
@@ -189,6 +193,8 @@ enum Mode {
     Independent,
     Stratified,
     Sobol,
+    /// The numbers of this thread's Markov chain ([`primary::with_primary`]).
+    Primary,
 }
 
 /// Lowbias32 (Wellons): a fast, well-mixed 32-bit hash.
@@ -286,6 +292,23 @@ impl Sampler {
         Sampler::new(kind, stream.seed, pixel, stream.index, stream.count)
     }
 
+    /// The stream of a Metropolis chain's primary sample vector: request `d` (1D, or 2D at `d`
+    /// and `d + 1`) reads dimension `d` of the vector that [`primary::with_primary`] installs
+    /// on this thread, mutated as the chain's current proposal asks.
+    pub fn primary() -> Sampler {
+        Sampler {
+            pixel_key: 0,
+            sample_key: 0,
+            sample: 0,
+            reversed_sample: 0,
+            samples_per_pixel: 0,
+            mode: Mode::Primary,
+            grid_side: 0,
+            dimension: 0,
+            requests: [0; DIM_PURPOSES],
+        }
+    }
+
     /// An independent stream (used where no stratification applies, e.g. tests).
     pub fn independent(seed: u64, pixel: u64, sample: u32) -> Sampler {
         Sampler::new(SamplerKind::Independent, seed, pixel, sample, 0)
@@ -316,6 +339,7 @@ impl Sampler {
                 ((self.stratum(d, n) as f32 + self.jitter(d)) / n as f32).min(ONE_MINUS_EPSILON)
             }
             Mode::Sobol => sobol_first(self.pixel_key, self.reversed_sample, d),
+            Mode::Primary => primary::draw(d),
         }
     }
 
@@ -345,6 +369,7 @@ impl Sampler {
                 let (x, y) = sobol_pair(self.pixel_key, self.reversed_sample, d);
                 Vec2::new(x, y)
             }
+            Mode::Primary => Vec2::new(primary::draw(d), primary::draw(d + 1)),
         }
     }
 

@@ -3,8 +3,9 @@
 use super::bodies::{self, BodySurface, Interface, Liquid};
 use super::desc::{
     ColorSpaceDesc, CropDesc, DistributionDesc, FilterDesc, IorDesc, LightDesc, LiquidDesc, MaterialDesc,
-    PhongDesc, PixelFilterDesc, Rgb, SceneDesc, ShapeDesc, SmoothNormals, TextureDesc, TransformDesc,
-    Vec3Desc, WrapDesc, BIDIRECTIONAL_METHODS, IOR_TABLE_ERROR, LIQUIDS, METHOD_TABLES, MOVED_MAX_DEPTH,
+    MetropolisDesc, PhongDesc, PixelFilterDesc, Rgb, SceneDesc, ShapeDesc, SmoothNormals, TextureDesc,
+    TransformDesc, Vec3Desc, WrapDesc, BIDIRECTIONAL_METHODS, IOR_TABLE_ERROR, LIQUIDS, METHOD_TABLES,
+    MOVED_MAX_DEPTH,
 };
 use super::effects::{Effect, Effects};
 use super::mesh::MeshPlacement;
@@ -22,7 +23,7 @@ use crate::geometry::{
 };
 use crate::light::{AffineEmitter, EmitterMesh, EmitterShape, EnvironmentMap, Light, SpotBeam, Strength};
 use crate::material::{Bsdf, Material, Medium, Phong, Texture};
-use crate::params::{MergeParams, SsaaParams};
+use crate::params::{MergeParams, MetropolisParams, SsaaParams};
 use crate::pixel_filter::{FilterKind, PixelFilter, DEFAULT_GAUSSIAN_STDDEV, DEFAULT_TENT_RADIUS};
 use crate::sampler::SamplerKind;
 use crate::texture::{ColorSpace, Filter, ImageMap, ImageTexture, Wrap};
@@ -989,10 +990,12 @@ impl Compiler<'_> {
             return Err(self.err(&q.key("levels"), format!("must be in 0..=6 (got {})", r.ssaa.levels)));
         }
         let threshold = self.non_negative(&q.key("threshold"), r.ssaa.threshold)?;
+        let metropolis = self.metropolis(&path.key("pssmlt"), &r.pssmlt)?;
         Ok(RenderSettings {
             spectral,
             sampler,
             ssaa: SsaaParams { adaptive, grid: r.ssaa.grid, levels: r.ssaa.levels, threshold },
+            metropolis,
             integrator: r.integrator.clone(),
             spp: r.spp,
             max_depths,
@@ -1003,6 +1006,40 @@ impl Compiler<'_> {
             reflectance: r.reflectance,
             exposure: r.exposure,
         })
+    }
+
+    /// The Metropolis settings of the table `m` at `at` (`[render.pssmlt]`), the defaults where
+    /// a field is absent.
+    fn metropolis(&self, at: &FieldPath, m: &MetropolisDesc) -> Result<MetropolisParams, SceneError> {
+        let mut params = MetropolisParams::default();
+        if let Some(p) = m.large_step {
+            if !(p > 0.0 && p <= 1.0) {
+                let msg =
+                    format!("must be in (0, 1]: the probability that a proposal is a large step (got {p})");
+                return Err(self.err(&at.key("large_step"), msg));
+            }
+            params.large_step = p;
+        }
+        if let Some(sigma) = m.sigma {
+            if !(sigma > 0.0 && sigma <= 1.0) {
+                let msg = format!(
+                    "must be in (0, 1]: the deviation of a small step in primary sample space (got {sigma})"
+                );
+                return Err(self.err(&at.key("sigma"), msg));
+            }
+            params.sigma = sigma;
+        }
+        for (key, value, field) in
+            [("bootstrap", m.bootstrap, &mut params.bootstrap), ("chains", m.chains, &mut params.chains)]
+        {
+            if let Some(n) = value {
+                if n == 0 {
+                    return Err(self.err(&at.key(key), "must be at least 1 (got 0)"));
+                }
+                *field = n;
+            }
+        }
+        Ok(params)
     }
 
     fn roughness(&self, path: &FieldPath, r: f32) -> Result<f32, SceneError> {

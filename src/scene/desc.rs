@@ -254,13 +254,16 @@ pub struct RenderDesc {
     /// `[render.vcm]`: vertex connection and merging.
     #[serde(default)]
     pub vcm: MergeDesc,
+    /// `[render.pssmlt]`: primary-sample-space Metropolis light transport.
+    #[serde(default)]
+    pub pssmlt: MetropolisDesc,
 }
 
 /// The message for a `max_depth` in `[render]`, which no longer applies to every method.
 pub const MOVED_MAX_DEPTH: &str = "a depth is set per method, e.g. `[render.whitted] max_depth = 5` \
      (likewise [render.ssaa], [render.distributed], [render.path], [render.light], [render.bpt], \
-     [render.ppm], [render.bpm], [render.vcm]); without one each method uses its own default (5; 256 \
-     for path, light and the bidirectional methods)";
+     [render.ppm], [render.bpm], [render.vcm], [render.pssmlt]); without one each method uses its own default \
+     (5; 256 for path, light, pssmlt and the bidirectional methods)";
 
 /// The methods with a `[render.METHOD]` table, in the order `vitrum integrators` lists them:
 /// every method of the table of methods ([`crate::methods::NAMES`]).
@@ -312,6 +315,28 @@ pub struct MergeDesc {
     /// The most light sub-paths an iteration traces (at least 1); default 2²⁰.
     #[serde(default)]
     pub max_light_paths: Option<u32>,
+}
+
+/// The table of `pssmlt`: its depth and its Metropolis settings
+/// ([`crate::params::MetropolisParams`], whose defaults apply where a field is absent).
+#[derive(Clone, Copy, Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MetropolisDesc {
+    /// Maximum number of scattering events of a path; default the method's own.
+    #[serde(default)]
+    pub max_depth: Option<u32>,
+    /// Probability in (0, 1] that a proposal is a large step; default 0.3.
+    #[serde(default)]
+    pub large_step: Option<f32>,
+    /// Standard deviation of a small step, in (0, 1]; default 0.01.
+    #[serde(default)]
+    pub sigma: Option<f32>,
+    /// Bootstrap samples per sample index (at least 1); default 4096.
+    #[serde(default)]
+    pub bootstrap: Option<u32>,
+    /// Markov chains per sample index (at least 1); default 64.
+    #[serde(default)]
+    pub chains: Option<u32>,
 }
 
 /// The table of `bpt`: its depth and the cap on light sub-paths per iteration.
@@ -413,6 +438,7 @@ impl RenderDesc {
             Method::Ppm => self.ppm.max_depth,
             Method::Bpm => self.bpm.max_depth,
             Method::Vcm => self.vcm.max_depth,
+            Method::Pssmlt => self.pssmlt.max_depth,
         }
     }
 }
@@ -440,6 +466,7 @@ impl Default for RenderDesc {
             ppm: MergeDesc::default(),
             bpm: MergeDesc::default(),
             vcm: MergeDesc::default(),
+            pssmlt: MetropolisDesc::default(),
         }
     }
 }
@@ -1217,16 +1244,18 @@ mod tests {
             assert!(MOVED_MAX_DEPTH.contains(&format!("[render.{}]", m.name)), "{}", m.name);
         }
         assert!(!MOVED_MAX_DEPTH.contains("[render.raycast]"), "raycast has no depth");
-        // "(5; 256 for path, light and the bidirectional methods)": the two defaults of the table.
+        // "(5; 256 for path, light, pssmlt and the bidirectional methods)": the two defaults of the
+        // table.
         let mut defaults: Vec<u32> = depths.iter().map(|m| m.default_max_depth).collect();
         defaults.dedup();
         assert_eq!(defaults.len(), 2, "{defaults:?}");
         let (low, high) = (defaults[0], defaults[1]);
         assert!(MOVED_MAX_DEPTH
-            .contains(&format!("({low}; {high} for path, light and the bidirectional methods)")));
+            .contains(&format!("({low}; {high} for path, light, pssmlt and the bidirectional methods)")));
         for m in &depths {
             let bidirectional = matches!(m.settings, crate::methods::Settings::Merging) || m.name == "bpt";
-            let expected = if m.name == "path" || m.name == "light" || bidirectional { high } else { low };
+            let path_like = ["path", "light", "pssmlt"].contains(&m.name);
+            let expected = if path_like || bidirectional { high } else { low };
             assert_eq!(m.default_max_depth, expected, "{}", m.name);
         }
     }
@@ -1236,13 +1265,13 @@ mod tests {
         let mut render: RenderDesc = toml::from_str(
             "[whitted]\nmax_depth = 1\n[ssaa]\nmax_depth = 2\n[distributed]\nmax_depth = 3\n[path]\nmax_depth = 4\n\
              [light]\nmax_depth = 5\n[bpt]\nmax_depth = 6\n[ppm]\nmax_depth = 7\n[bpm]\nmax_depth = 8\n\
-             [vcm]\nmax_depth = 9\n",
+             [vcm]\nmax_depth = 9\n[pssmlt]\nmax_depth = 10\n",
         )
         .unwrap();
         let read: Vec<Option<u32>> = METHODS.iter().map(|m| render.max_depth_of(m.name)).collect();
         assert_eq!(
             read,
-            [None, Some(1), Some(2), Some(3), Some(4), Some(5), Some(6), Some(7), Some(8), Some(9)]
+            [None, Some(1), Some(2), Some(3), Some(4), Some(5), Some(6), Some(7), Some(8), Some(9), Some(10)]
         );
         render.vcm.radius = Some(0.5);
         for m in METHODS {

@@ -22,7 +22,7 @@ use crate::geometry::{Ray, Shape, SurfaceHit, VertexAttributes};
 use crate::light::{Light, SceneSphere};
 use crate::material::Material;
 use crate::methods::Method;
-use crate::params::{MergeParams, RenderParams, SsaaParams};
+use crate::params::{MergeParams, MetropolisParams, RenderParams, SsaaParams};
 use crate::sampler::SamplerKind;
 use glam::{Vec3, Vec3A};
 use obvhs::cwbvh::CwBvh;
@@ -104,6 +104,8 @@ pub struct RenderSettings {
     pub sampler: SamplerKind,
     /// Settings of the supersampling integrator.
     pub ssaa: SsaaParams,
+    /// Settings of the Metropolis methods (`[render.pssmlt]`).
+    pub metropolis: MetropolisParams,
 }
 
 impl RenderSettings {
@@ -121,6 +123,7 @@ impl RenderSettings {
             reflectance: self.reflectance,
             ssaa: self.ssaa,
             merging: self.merging.get(method.name()).copied().unwrap_or_default(),
+            metropolis: self.metropolis,
             engine: crate::params::EngineOption::Auto,
         }
     }
