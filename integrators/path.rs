@@ -11,9 +11,11 @@
 //! BSDF sampling and never weighted by MIS. Russian roulette starts after
 //! three bounces and uses the path weight with the η² radiance scaling of refraction undone, so
 //! light inside glass is not killed early. Media absorb by Beer–Lambert's law. In spectral mode
-//! the path carries three wavelengths (see [`crate::spectrum`]); the first time it refracts
-//! through dispersive glass (or meets rough dispersive glass) it ends the secondary ones and goes
-//! on with the hero wavelength alone ([`PathContext::secondaries_after`]).
+//! the path carries three wavelengths (see [`crate::spectrum`]); where smooth dispersive glass
+//! parts them it splits into one branch per wavelength, run one after the other
+//! ([`PathContext::split_wavelengths`]); rough dispersive glass ends the secondary ones and the
+//! hero goes on alone. What the camera ray sees directly is added in RGB
+//! ([`PathContext::radiance_seen`]).
 
 use super::{light_index, Integrator, PathContext, RenderParams};
 use super::{CameraEstimator, EngineChoice, Method, Progression};
@@ -26,9 +28,12 @@ use crate::render::RenderOptions;
 use crate::sampler::Dim;
 use crate::scene::effects::Support;
 use crate::scene::{Effect, Intersection, Scene};
+use crate::spectrum::{Channels, HERO_WAVELENGTHS};
 use glam::Vec3;
 
 use super::ROULETTE_DEPTH;
+use crate::render::Branch;
+pub(crate) use crate::render::PathState;
 
 pub use crate::methods::DEFAULT_PATH_DEPTH;
 
@@ -121,6 +126,8 @@ pub(crate) trait PathWorld {
     /// The radiance of the environment along `dir` (leaving the scene), in the path's channels,
     /// weighted against next-event estimation of the environment light (`light_pick`: the
     /// probability of choosing one light) unless `skip_mis`; the plain background without one.
+    /// Where the camera ray itself escapes (`seen`) in spectral mode, the background goes to the
+    /// context in RGB instead ([`PathContext::seen_rgb`]) and the radiance returned is 0.
     #[allow(clippy::too_many_arguments)]
     fn escaped(
         &self,
@@ -128,18 +135,22 @@ pub(crate) trait PathWorld {
         skip_mis: Mask3<Self::V>,
         bsdf_pdf: Self::R,
         light_pick: Self::R,
+        seen: Mask3<Self::V>,
         active: Mask3<Self::V>,
-        ctx: &Self::Context,
+        ctx: &mut Self::Context,
     ) -> Self::V;
     /// The hit's emission towards `wo` (where it is not zero), in the path's channels, and the
     /// solid-angle density with which the light's sampling would have reached it from `origin`.
+    /// Where the camera ray itself hit it (`seen`) in spectral mode, the emission goes to the
+    /// context in RGB instead ([`PathContext::seen_rgb`]) and none is returned.
     fn emission(
         &self,
         hit: &Self::Hit,
         origin: Self::V,
         wo: Self::V,
+        seen: Mask3<Self::V>,
         active: Mask3<Self::V>,
-        ctx: &Self::Context,
+        ctx: &mut Self::Context,
     ) -> (Mask3<Self::V>, Self::V, Self::R);
     /// The hit's scattering model, and the factor the path's throughput takes there before
     /// anything is sampled (a spectral path ending its secondary wavelengths; 1 otherwise).
@@ -174,16 +185,31 @@ pub(crate) trait PathWorld {
         active: Mask3<Self::V>,
         ctx: &mut Self::Context,
     ) -> Self::Shadow;
-    /// The factor a spectral path's throughput takes after the BSDF sample `s` (its secondary
-    /// wavelengths at a dispersive interface; 1 otherwise).
-    fn secondaries_after(
+    /// The factor a spectral path's throughput takes after the BSDF sample `s` of its lead
+    /// wavelength, drawn with the numbers `uc` and `u` from `path` (the state at the vertex,
+    /// not yet updated): where smooth dispersive glass parts the wavelengths, the lead's
+    /// channel alone, every other wavelength set aside in the context as a branch of its own
+    /// ([`PathContext::split_wavelengths`]); 1 otherwise.
+    #[allow(clippy::too_many_arguments)]
+    fn split_wavelengths(
         &self,
         hit: &Self::Hit,
         s: &BsdfSample<Self::V>,
         wo_local: Self::V,
+        uc: Self::R,
+        u: (Self::R, Self::R),
+        path: &PathState<Self::V>,
         active: Mask3<Self::V>,
         ctx: &mut Self::Context,
     ) -> Self::V;
+    /// Where a path has `ended`, the next branch its context holds put in its place in `path`
+    /// (the radiance gathered kept): the paths that go on with one.
+    fn resume(
+        &self,
+        path: &mut PathState<Self::V>,
+        ended: Mask3<Self::V>,
+        ctx: &mut Self::Context,
+    ) -> Mask3<Self::V>;
     /// Where the hit is a dielectric interface, the absorption of the medium the scattered ray
     /// travels in (the one it stays in when reflected, enters when transmitted); elsewhere the
     /// medium does not change.
@@ -239,36 +265,6 @@ pub(crate) struct LightDraw<V: Vector> {
     pub delta: Mask3<V>,
     /// The shadow ray's target.
     pub target: V,
-}
-
-/// One camera path in flight, or one per lane: everything `path` carries from one vertex to the
-/// next. The scalar engine ([`Path::radiance`]) advances one path at a time; the wavefront
-/// engine (`integrators/wavefront.rs`) advances many, asking the scene for their closest hits
-/// and their shadow rays across lanes, and shading them one at a time or, where the scene allows,
-/// 16 at a time. All of them run the same [`PathState::advance`], so they estimate the same image
-/// with the same random numbers.
-#[derive(Clone, Copy, Debug)]
-pub(crate) struct PathState<V: Vector = Vec3> {
-    /// The origin of the ray to trace next.
-    pub origin: V,
-    /// Its direction.
-    pub dir: V,
-    /// Its time (moving objects).
-    pub time: V::Real,
-    /// Radiance gathered so far.
-    pub l: V,
-    /// Throughput from the camera to the ray's origin.
-    pub beta: V,
-    /// Product of η² over the refractions so far (undone for Russian roulette).
-    pub eta_scale: V::Real,
-    /// Whether the last scattering was not evaluable (delta or multiple): no MIS on what it hits.
-    pub skip_mis: Mask3<V>,
-    /// The density of the last BSDF sample (for MIS against next-event estimation).
-    pub bsdf_pdf: V::Real,
-    /// Absorption coefficient of the medium the ray travels in.
-    pub absorption: V,
-    /// Bounces so far (a whole number).
-    pub depth: V::Real,
 }
 
 /// A light sample waiting for its shadow ray: whose contribution counts when nothing blocks it.
@@ -338,8 +334,28 @@ impl<V: Vector> PathState<V> {
     /// numbers are drawn in this order: a light choice (with several lights) and a point on the
     /// light where the vertex is not a delta, a lobe choice where the model chooses one, the
     /// direction pair, and a roulette number where roulette plays.
+    ///
+    /// A spectral path that smooth dispersive glass splits into branches, one per wavelength
+    /// ([`PathContext::split_wavelengths`]), goes on with the next branch where this one ends.
     #[inline(always)]
     pub fn advance<W: PathWorld<V = V, R = V::Real>>(
+        &mut self,
+        world: &W,
+        params: &RenderParams,
+        hit: &W::Hit,
+        ctx: &mut W::Context,
+    ) -> Step<V, W::Shadow> {
+        let mut step = self.vertex(world, params, hit, ctx);
+        let ended = world.live(hit) & !step.goes_on;
+        if V::Real::any(ended) {
+            step.goes_on = step.goes_on | world.resume(self, ended, ctx);
+        }
+        step
+    }
+
+    /// [`advance`](Self::advance) but for the branches: one vertex of the branch in flight.
+    #[inline(always)]
+    fn vertex<W: PathWorld<V = V, R = V::Real>>(
         &mut self,
         world: &W,
         params: &RenderParams,
@@ -358,8 +374,10 @@ impl<V: Vector> PathState<V> {
         };
         // A ray that leaves the scene outside any medium sees the environment.
         let escapes = !found & world.live(hit) & self.absorption.is_zero();
+        // What the camera ray itself sees (its throughput is 1).
+        let seen = self.depth.eq(zero);
         if V::Real::any(escapes) {
-            let le = world.escaped(self.dir, self.skip_mis, self.bsdf_pdf, light_pick, escapes, ctx);
+            let le = world.escaped(self.dir, self.skip_mis, self.bsdf_pdf, light_pick, seen, escapes, ctx);
             self.l = V::select(escapes, self.l + self.beta * le, self.l);
         }
         if !V::Real::any(found) {
@@ -372,7 +390,7 @@ impl<V: Vector> PathState<V> {
         }
         let wo = -self.dir;
         // Emission reached by BSDF sampling (or seen directly), weighted against NEE.
-        let (emits, le, pdf_li) = world.emission(hit, self.origin, wo, found, ctx);
+        let (emits, le, pdf_li) = world.emission(hit, self.origin, wo, seen, found, ctx);
         let emits = emits & found;
         if V::Real::any(emits) {
             let w = V::Real::select(self.skip_mis, one, power_heuristic(self.bsdf_pdf, light_pick * pdf_li));
@@ -419,7 +437,7 @@ impl<V: Vector> PathState<V> {
         if !V::Real::any(scatters) {
             return step;
         }
-        let secondaries = world.secondaries_after(hit, &s, wo_local, scatters, ctx);
+        let secondaries = world.split_wavelengths(hit, &s, wo_local, uc, u, self, scatters, ctx);
         let beta = self.beta * (s.f * (s.wi.z().abs() / s.pdf) * secondaries * shading);
         let (crosses, absorption) = world.medium_after(hit, self.dir, s.is_transmission, scatters, ctx);
         let eta_scale = V::Real::select(s.is_transmission, self.eta_scale * (s.eta * s.eta), self.eta_scale);
@@ -524,18 +542,20 @@ impl<'a> PathWorld for OneRay<'a> {
         skip_mis: bool,
         bsdf_pdf: f32,
         light_pick: f32,
+        seen: bool,
         _: bool,
-        ctx: &PathContext,
+        ctx: &mut PathContext,
     ) -> Vec3 {
         let scene = self.scene;
-        ctx.channels.colour(match scene.environment_light() {
+        let rgb = match scene.environment_light() {
             Some(i) if !skip_mis => {
                 let env = &scene.lights[i];
                 env.environment_radiance(dir)
                     * power_heuristic(bsdf_pdf, light_pick * env.environment_pdf(dir))
             }
             _ => scene.background(dir),
-        })
+        };
+        ctx.radiance_seen(rgb, seen)
     }
 
     #[inline]
@@ -544,19 +564,20 @@ impl<'a> PathWorld for OneRay<'a> {
         hit: &Self::Hit,
         origin: Vec3,
         wo: Vec3,
+        seen: bool,
         _: bool,
-        ctx: &PathContext,
+        ctx: &mut PathContext,
     ) -> (bool, Vec3, f32) {
         let isect = surface(hit);
         let Some(index) = self.scene.light_of(isect.primitive) else {
             return (false, Vec3::ZERO, 0.0);
         };
         let light = &self.scene.lights[index as usize];
-        let le = light.emitted(&isect.hit, wo);
+        let le = ctx.radiance_seen(light.emitted(&isect.hit, wo), seen);
         if le == Vec3::ZERO {
             return (false, le, 0.0);
         }
-        (true, ctx.channels.colour(le), light.pdf_li(origin, isect.hit.p, isect.hit.n))
+        (true, le, light.pdf_li(origin, isect.hit.p, isect.hit.n))
     }
 
     #[inline(always)]
@@ -630,15 +651,30 @@ impl<'a> PathWorld for OneRay<'a> {
     }
 
     #[inline]
-    fn secondaries_after(
+    fn split_wavelengths(
         &self,
         hit: &Self::Hit,
         s: &BsdfSample,
         wo_local: Vec3,
+        uc: f32,
+        u: (f32, f32),
+        path: &PathState,
         _: bool,
         ctx: &mut PathContext,
     ) -> Vec3 {
-        ctx.secondaries_after(&self.scene.material_of(surface(hit).primitive).bsdf, s, wo_local)
+        let replay = ctx.sampler.dimension();
+        ctx.split_wavelengths(self.scene, surface(hit), s, wo_local, (uc, u), path, replay)
+    }
+
+    #[inline]
+    fn resume(&self, path: &mut PathState, ended: bool, ctx: &mut PathContext) -> bool {
+        match ended.then(|| ctx.resume_branch(path)).flatten() {
+            Some(replay) => {
+                ctx.sampler.replay_from(replay);
+                true
+            }
+            None => false,
+        }
     }
 
     #[inline]
@@ -650,15 +686,7 @@ impl<'a> PathWorld for OneRay<'a> {
         _: bool,
         ctx: &PathContext,
     ) -> (bool, Vec3) {
-        let isect = surface(hit);
-        let bsdf = &self.scene.material_of(isect.primitive).bsdf;
-        match crossing(bsdf, dir, isect.hit.n, ctx.channels.hero()) {
-            Some(c) => {
-                let medium = if transmitted { c.transmitted } else { c.incident };
-                (true, ctx.channels.colour(medium.absorption))
-            }
-            None => (false, Vec3::ZERO),
-        }
+        medium_after(self.scene, surface(hit), dir, transmitted, &ctx.channels)
     }
 
     #[inline]
@@ -670,6 +698,143 @@ impl<'a> PathWorld for OneRay<'a> {
                 ctx.rays.refracted += 1;
             }
         }
+    }
+}
+
+/// Where `isect` is a dielectric interface, the absorption (in `channels`, the interface's
+/// indices at their hero wavelength) of the medium a ray along `dir` scatters into: the one it
+/// stays in when reflected, enters when `transmitted`. Elsewhere the medium does not change.
+#[inline]
+fn medium_after(
+    scene: &Scene,
+    isect: &Intersection,
+    dir: Vec3,
+    transmitted: bool,
+    channels: &Channels,
+) -> (bool, Vec3) {
+    let bsdf = &scene.material_of(isect.primitive).bsdf;
+    match crossing(bsdf, dir, isect.hit.n, channels.hero()) {
+        Some(c) => {
+            let medium = if transmitted { c.transmitted } else { c.incident };
+            (true, channels.colour(medium.absorption))
+        }
+        None => (false, Vec3::ZERO),
+    }
+}
+
+impl PathContext {
+    /// Wavelength splitting at smooth dispersive glass (`isect`), for `path`: the factor the
+    /// throughput of `path` (its state at the vertex, not yet updated) takes after `s`, the
+    /// sample of its lead wavelength drawn with the numbers `u` = (lobe choice, pair) for the
+    /// direction `wo` (local frame). Each wavelength chooses reflection or refraction by its own
+    /// Fresnel reflectance with the same number (its own sample of the interface at its own
+    /// index). Where all three reflect they go on together, along the one mirror direction, each
+    /// with its own weight (1). Otherwise the wavelengths part: the path goes on with the lead's
+    /// channel alone (factor 1 there, 0 in the others), and every other wavelength becomes a
+    /// branch of its own (its channel's throughput, direction, origin, medium, η² and MIS
+    /// state), set aside in [`pending`](Self::pending), to run when the path ends; its ray is
+    /// counted now. Every channel is then its own unbiased estimate (no weight 3). A path
+    /// already down to one wavelength, an RGB path, and any other interface: 1.
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn split_wavelengths(
+        &mut self,
+        scene: &Scene,
+        isect: &Intersection,
+        s: &BsdfSample,
+        wo_local: Vec3,
+        (uc, u): (f32, (f32, f32)),
+        path: &PathState,
+        replay: u32,
+    ) -> Vec3 {
+        let material = scene.material_of(isect.primitive);
+        let Channels::Spectral(w) = self.channels else {
+            return Vec3::ONE;
+        };
+        if self.hero_only || !material.bsdf.is_dispersive() || !s.is_specular {
+            return Vec3::ONE;
+        }
+        if self.hero_alone {
+            return self.secondaries_after(&material.bsdf, s, wo_local);
+        }
+        let lead = w.lead();
+        let at = |channel: usize| Channels::Spectral(w.led_by(channel));
+        let samples: [Option<BsdfSample>; HERO_WAVELENGTHS] = std::array::from_fn(|i| {
+            if i == lead {
+                return Some(*s);
+            }
+            let model = Scattering::at(material, isect.hit.p, isect.hit.uv, &at(i));
+            model.sample(wo_local, uc, u.into(), TransportMode::Radiance)
+        });
+        if samples.iter().all(|x| x.is_some_and(|x| !x.is_transmission)) {
+            // All reflect, each with probability and weight its own F: on together.
+            return Vec3::ONE;
+        }
+        let wo = -path.dir;
+        let frame = ShadingFrame::at(&isect.hit, wo);
+        let n = isect.hit.n;
+        for (i, si) in samples.iter().enumerate() {
+            let Some(si) = si.filter(|_| i != lead) else { continue };
+            let wi = frame.to_world(si.wi);
+            let shading = frame.factor(wo, wi, TransportMode::Radiance);
+            if si.pdf <= 0.0 || si.f == Vec3::ZERO || shading == 0.0 {
+                continue;
+            }
+            let channel = Vec3::from_array(std::array::from_fn(|c| if c == i { 1.0 } else { 0.0 }));
+            let (crosses, absorption) = medium_after(scene, isect, path.dir, si.is_transmission, &at(i));
+            let branch = PathState {
+                origin: offset_origin(isect.hit.p, n, isect.hit.p_error, wi),
+                dir: wi,
+                time: path.time,
+                l: Vec3::ZERO,
+                beta: path.beta * (si.f * (si.wi.z.abs() / si.pdf) * channel * shading),
+                eta_scale: if si.is_transmission {
+                    path.eta_scale * (si.eta * si.eta)
+                } else {
+                    path.eta_scale
+                },
+                skip_mis: !si.is_evaluable(),
+                bsdf_pdf: si.pdf,
+                absorption: if crosses { absorption } else { path.absorption },
+                depth: path.depth + 1.0,
+            };
+            if wi.dot(n) * wo.dot(n) > 0.0 {
+                self.rays.reflected += 1;
+            } else {
+                self.rays.refracted += 1;
+            }
+            self.pending.push(Branch { channel: i, state: branch, replay });
+        }
+        self.hero_only = true;
+        Vec3::from_array(std::array::from_fn(|c| if c == lead { 1.0 } else { 0.0 }))
+    }
+}
+
+impl PathContext {
+    /// The RGB radiance `rgb` a path meets, in its channels; but where the camera ray itself
+    /// meets it (`seen`) in spectral mode, added to [`seen_rgb`](Self::seen_rgb) in RGB and 0
+    /// returned. The expectation over the wavelengths of the spectral estimate of light seen
+    /// directly is its RGB exactly (the upsampling keeps every RGB under the colour weights:
+    /// [`crate::spectrum`]), so adding the RGB removes its colour noise and changes nothing else.
+    #[inline]
+    pub(crate) fn radiance_seen(&mut self, rgb: Vec3, seen: bool) -> Vec3 {
+        if seen && self.channels.is_spectral() {
+            self.seen_rgb += rgb;
+            return Vec3::ZERO;
+        }
+        self.channels.colour(rgb)
+    }
+
+    /// Puts the next branch waiting (if one does) in the place of `path`, which has ended: its
+    /// state, the radiance gathered kept, and its wavelength the one indices are taken at. The
+    /// dimension of the random stream it replays from, which the caller sets.
+    #[inline]
+    pub(crate) fn resume_branch(&mut self, path: &mut PathState) -> Option<u32> {
+        let branch = self.pending.pop()?;
+        if let Channels::Spectral(w) = self.channels {
+            self.channels = Channels::Spectral(w.led_by(branch.channel));
+        }
+        *path = PathState { l: path.l, ..branch.state };
+        Some(branch.replay)
     }
 }
 
@@ -725,3 +890,6 @@ impl VertexFrame<Vec3> for ShadingFrame {
         ShadingFrame::factor(self, wo, wi, TransportMode::Radiance)
     }
 }
+
+#[cfg(test)]
+mod tests;

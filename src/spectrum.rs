@@ -19,7 +19,7 @@
 //!   against 0.31 with pbrt-v4's density, 3.0 for the hero alone and 4.2 for the single
 //!   wavelength of vitrum's first spectral mode (‖w‖^0.5 gives 0.035, (Σ|w_c|)^0.7 0.049). On
 //!   `path` over `soft-shadows` the three wavelengths cost 1.06× the variance of RGB mode at equal
-//!   samples (README, "Spectral rendering").
+//!   samples, the light seen directly added in RGB (README, "Spectral rendering").
 //! - **Back to RGB** ([`Wavelengths::to_rgb`]): a spectral radiance L at λ₁, λ₂, λ₃ becomes
 //!   RGB = Σᵢ L(λᵢ) w(λᵢ) / (3 p(λᵢ)), an unbiased estimate of ∫ L(λ) w(λ) dλ.
 //!   w(λ) ([`rgb_weight`]) is the linear-sRGB colour of monochromatic light (CIE 1931 2°
@@ -40,17 +40,30 @@
 //!   Jakob and Hanika's (2019) sigmoid spectra are smoother for saturated colours but need a
 //!   precomputed coefficient table per colour and are not linear; linearity lets a path
 //!   project each colour with one 3×3 product at its wavelengths.
-//! - **Dispersion** ([`HERO_ONLY`]): where a path refracts through a dispersive interface, the
-//!   directions of the three wavelengths part. vitrum then ends the two secondary wavelengths
-//!   and carries the hero alone with weight 3, as pbrt-v4 does (`TerminateSecondary`); with
-//!   smooth glass a hero MIS (Wilkie et al.) would weight them by a zero density anyway. Unlike
-//!   pbrt-v4, `path` and `light` keep all three where smooth dispersive glass *reflects* (one
-//!   direction for every wavelength), each weighted by its own Fresnel reflectance over the
-//!   hero's, which chose the reflection; rough dispersive glass, whose value feeds next-event
-//!   estimation at the hero's index, ends them on contact, and so do the deterministic
-//!   recursions (`whitted`, `distributed`), which follow both branches at once. What a path
-//!   gathered before keeps all three, so only light that crossed dispersive glass pays the
-//!   colour noise of a single wavelength (3.0 per channel on white, against 0.033).
+//! - **Dispersion**: where a path refracts through a dispersive interface, the directions of
+//!   the three wavelengths part. `path` splits it there (smooth glass): each wavelength chooses
+//!   reflection or refraction by its own Fresnel reflectance with the same random number and
+//!   follows its own direction; if all three reflect they go on together, otherwise each goes on
+//!   as a branch of its own, carrying its channel alone with weight 1, its indices taken at its
+//!   wavelength ([`Wavelengths::led_by`]). The branches set aside run after the one in flight
+//!   and replay its random numbers from the split, so the three paths stay close and their
+//!   colours correlated; every channel is its own unbiased estimate and [`Wavelengths::to_rgb`]
+//!   is unchanged. Hero-wavelength MIS (Wilkie et al. 2014) would not help there: at a smooth
+//!   interface the other wavelengths' densities of the hero's direction are zero, so it reduces
+//!   to ending them. Elsewhere a path ends the two secondary wavelengths and carries the hero
+//!   alone with weight 3 ([`HERO_ONLY`], as pbrt-v4's `TerminateSecondary`): `path` at rough
+//!   dispersive glass (whose value feeds next-event estimation at one index), `light` and the
+//!   bidirectional methods where smooth glass refracts (where it reflects they keep all three,
+//!   each weighted by its Fresnel reflectance over the hero's), and the deterministic recursions
+//!   (`whitted`, `distributed`), which follow both branches at once. On `glass-of-water` the
+//!   variance at equal samples went from 2.46× RGB mode's (the hero alone) to 1.89× by splitting
+//!   (README, "Spectral rendering").
+//! - **Light seen directly**: what a camera ray itself meets (an emitter, the background) is
+//!   added in RGB (`PathContext::seen_rgb`), because the expectation of its spectral estimate
+//!   over the wavelengths is its RGB exactly (the basis keeps every RGB under the colour
+//!   weights): its colour noise, the larger part of spectral mode's cost where a light is in
+//!   view, is gone and nothing else changes (`glass-of-water` 1.89× → 1.19×, `soft-shadows`
+//!   1.39× → 1.06×).
 
 use glam::{DMat3, DVec3, Vec3};
 use std::sync::OnceLock;
@@ -226,6 +239,9 @@ pub fn basis(lambda: f32) -> Vec3 {
 pub struct Wavelengths {
     /// The wavelengths in nm; the first is the hero.
     pub lambda: [f32; HERO_WAVELENGTHS],
+    /// The channel whose wavelength refractive indices are taken at: 0 (the hero), but in a
+    /// branch of a path split at dispersive glass the one wavelength the branch carries.
+    lead: usize,
     /// Row i: the basis spectra at wavelength i (a colour's spectral value there is its dot product).
     basis: [Vec3; HERO_WAVELENGTHS],
     /// w(λᵢ) / (3 p(λᵢ)): the RGB that wavelength i's radiance stands for.
@@ -246,13 +262,29 @@ impl Wavelengths {
             weights: lambda.map(|l| {
                 rgb_weight(l) / (HERO_WAVELENGTHS as f32 * wavelength_pdf(l).max(f32::MIN_POSITIVE))
             }),
+            lead: 0,
         }
     }
 
-    /// The hero wavelength (refractive indices are taken there).
+    /// The wavelength refractive indices are taken at: the hero, or in a branch of a split path
+    /// the branch's own ([`led_by`](Self::led_by)).
     #[inline]
     pub fn hero(&self) -> f32 {
-        self.lambda[0]
+        self.lambda[self.lead]
+    }
+
+    /// The same wavelengths with indices taken at channel `channel`'s (below
+    /// [`HERO_WAVELENGTHS`]); the channels, their colours and [`to_rgb`](Self::to_rgb) unchanged.
+    #[inline]
+    pub fn led_by(self, channel: usize) -> Wavelengths {
+        debug_assert!(channel < HERO_WAVELENGTHS);
+        Wavelengths { lead: channel, ..self }
+    }
+
+    /// The channel whose wavelength [`hero`](Self::hero) is.
+    #[inline]
+    pub fn lead(&self) -> usize {
+        self.lead
     }
 
     /// The spectrum of the RGB colour `rgb` at the three wavelengths.

@@ -1,9 +1,10 @@
 //! Hero-wavelength spectral transport (`src/spectrum.rs`) end to end, with `path`:
 //! - on a scene without dispersion (`soft-shadows`), spectral mode estimates the RGB image (8×8
 //!   blocks agree at the noise floor) and costs little: its variance at equal samples is at most
-//!   1.6× RGB mode's (measured 1.11× here, 1.06× at 160×160: README "Spectral rendering");
-//! - a white furnace around a glass of water with dispersive indices stays white: the secondary
-//!   wavelengths ended at the glass leave the hero alone, unbiased.
+//!   1.6× RGB mode's (README "Spectral rendering": 1.06× at 160×160);
+//! - a white furnace around a glass of water with dispersive indices stays white: the
+//!   wavelengths split at the glass, each along its own path, stay unbiased (and the background
+//!   the camera sees directly, added in RGB, is exactly white).
 //!
 //! Both use two independent renders per mode (seeds 1 and 2), so no reference is needed: the mean
 //! of a pair estimates the image; the renders' own per-pixel variances (from all their samples;
@@ -129,18 +130,49 @@ fn a_white_furnace_around_a_dispersive_glass_of_water_stays_white() {
     let [a, b] = [1, 2].map(|seed| render_path(&scene, size, spp, seed, SpectralMode::Auto));
     assert!(a.spectral && b.spectral, "a dispersive scene renders spectrally by default");
     let pair = Pair::new(&a, &b);
-    // Every 8×8 block (16 × 3 channels) and the whole image at 1 within 4.5 standard errors.
-    let mut all = (DVec3::ZERO, DVec3::ZERO);
-    for (m, v) in pair.blocks(8) {
+    // RGB mode on the same scene (indices at n_d), seeds 3 and 4: the white it reaches. It is not
+    // quite 1: RGB mode loses 0.035% of the image and 0.14% in the worst block (2048 spp: 0.9986,
+    // z 17 against 1; path's depth limit of 256, or rays lost between the glass's touching
+    // surfaces, not established), and spectral mode loses the same.
+    let [c, d] = [3, 4].map(|seed| render_path(&scene, size, spp, seed, SpectralMode::Off));
+    let rgb = Pair::new(&c, &d);
+    // Every 8×8 block (16 × 3 channels) and the whole image as white as RGB mode's within 4.5
+    // standard errors of their difference; a block that sees only the white background directly
+    // (added in RGB, without noise) at 1 to rounding.
+    let (mut all, mut all_rgb) = ((DVec3::ZERO, DVec3::ZERO), (DVec3::ZERO, DVec3::ZERO));
+    for ((m, v), (mr, vr)) in pair.blocks(8).into_iter().zip(rgb.blocks(8)) {
         for c in 0..3 {
-            let z = (m[c] - 1.0) / v[c].sqrt();
-            assert!(z.abs() < 4.5, "block channel {c}: {} (z = {z:.2})", m[c]);
+            if v[c] == 0.0 {
+                assert!((m[c] - 1.0).abs() < 1e-6, "noiseless block channel {c}: {}", m[c]);
+                continue;
+            }
+            let z = (m[c] - mr[c]) / (v[c] + vr[c]).sqrt();
+            assert!(z.abs() < 4.5, "block channel {c}: {} against RGB {} (z = {z:.2})", m[c], mr[c]);
         }
         all = (all.0 + m / 16.0, all.1 + v / 256.0);
+        all_rgb = (all_rgb.0 + mr / 16.0, all_rgb.1 + vr / 256.0);
     }
-    let z = (all.0 - DVec3::ONE) / all.1.map(f64::sqrt);
-    eprintln!("dispersive furnace: mean {}, z {z}", all.0);
-    assert!(z.abs().max_element() < 4.5, "mean {} (z = {z})", all.0);
-    // The glass is there: single wavelengths past it carry colour noise, white only on average.
+    let z = (all.0 - all_rgb.0) / (all.1 + all_rgb.1).map(f64::sqrt);
+    eprintln!("dispersive furnace: mean {}, RGB mode {}, z {z}", all.0, all_rgb.0);
+    assert!(z.abs().max_element() < 4.5, "mean {} against RGB {} (z = {z})", all.0, all_rgb.0);
+    // The glass is there: wavelengths split past it carry colour noise, white only on average.
     assert!(pair.render_variance() > 0.0);
+}
+
+#[test]
+fn dispersive_glass_of_water_costs_little_more_than_rgb_mode() {
+    // Issue 35's bound at 160×160 (README "Spectral rendering": 1.19×, over seeds 1 to 8 pairs
+    // 1.12–1.23×; 2.46× with the hero alone), here at 80×80: measured 1.12× for seeds 1 and 2,
+    // 1.11–1.14× over seeds 1 to 8 in pairs.
+    let scene = scene::load(&scenes_dir().join("glass-of-water.toml")).unwrap();
+    assert!(scene.effects.names().contains("dispersion"));
+    let (size, spp) = (80, 64);
+    let renders = |mode| {
+        let [a, b] = [1, 2].map(|seed| render_path(&scene, size, spp, seed, mode));
+        Pair::new(&a, &b)
+    };
+    let (spectral, rgb) = (renders(SpectralMode::On), renders(SpectralMode::Off));
+    let ratio = spectral.render_variance() / rgb.render_variance();
+    eprintln!("glass-of-water, path {size}x{size} {spp} spp: spectral/RGB variance {ratio:.3}");
+    assert!(ratio < 1.3, "spectral mode costs {ratio:.2}× the variance of RGB mode");
 }

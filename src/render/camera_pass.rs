@@ -183,7 +183,7 @@ impl<'a> Pass<'a> {
         for (total, d) in row.requests.iter_mut().zip(ALL_DIMS) {
             *total += ctx.sampler.requests(d) as u64;
         }
-        ctx.channels.to_rgb(radiance)
+        ctx.rgb(radiance)
     }
 
     /// Continue the sums of the film's row `y` (`sum` per pixel of the crop window,

@@ -161,14 +161,39 @@ pub struct PathContext {
     pub rays: RayCounts,
     /// What the channels of the sample's radiance hold: RGB, or its wavelengths.
     pub channels: Channels,
-    /// Whether the path has ended its secondary wavelengths (at a dispersive interface).
+    /// Whether the path has ended its secondary wavelengths (at a dispersive interface), or
+    /// carries one wavelength alone (a branch of a `path` split there).
     pub hero_only: bool,
+    /// The branches of a `path` split at smooth dispersive glass that wait for the one in
+    /// flight to end (one wavelength each).
+    pub(crate) pending: super::PendingBranches,
+    /// Whether `path` keeps the hero alone at smooth dispersive refraction instead of
+    /// splitting the wavelengths (the estimator before splitting, kept to compare against).
+    pub(crate) hero_alone: bool,
+    /// In spectral mode, what the camera ray itself sees (an emitter, the background), in RGB:
+    /// added to the RGB estimate of the channels ([`PathContext::rgb`]).
+    pub seen_rgb: Vec3,
 }
 
 impl PathContext {
     /// A context for the given stream, in RGB mode.
     pub fn new(sampler: Sampler) -> PathContext {
-        PathContext { sampler, rays: RayCounts::default(), channels: Channels::Rgb, hero_only: false }
+        PathContext {
+            sampler,
+            rays: RayCounts::default(),
+            channels: Channels::Rgb,
+            hero_only: false,
+            pending: Default::default(),
+            hero_alone: false,
+            seen_rgb: Vec3::ZERO,
+        }
+    }
+
+    /// The RGB estimate of a sample whose channels hold `radiance`: its channels in RGB, plus
+    /// what the camera ray saw in RGB ([`seen_rgb`](Self::seen_rgb)).
+    #[inline]
+    pub fn rgb(&self, radiance: Vec3) -> Vec3 {
+        self.channels.to_rgb(radiance) + self.seen_rgb
     }
 }
 

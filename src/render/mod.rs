@@ -70,6 +70,7 @@ mod camera_pass;
 mod contract;
 mod drivers;
 mod film;
+mod path_state;
 mod progressive;
 mod replicas;
 
@@ -77,6 +78,7 @@ pub use camera_pass::*;
 pub use contract::*;
 pub use drivers::*;
 pub use film::*;
+pub(crate) use path_state::{Branch, PathState, PendingBranches};
 pub use progressive::*;
 pub use replicas::*;
 

@@ -385,6 +385,19 @@ impl Sampler {
         }
     }
 
+    /// The next dimension the stream draws.
+    #[inline]
+    pub fn dimension(&self) -> u32 {
+        self.dimension
+    }
+
+    /// Draws again from `dimension` on (one it has passed): the numbers it drew from there, in
+    /// the same order (a branch of a path that replays the numbers of another).
+    #[inline]
+    pub fn replay_from(&mut self, dimension: u32) {
+        self.dimension = dimension;
+    }
+
     /// The Sobol' stream's state, what its numbers across lanes depend on
     /// ([`crate::lanes::sobol_pairs`]); `None` for the other kinds.
     pub fn sobol_state(&self) -> Option<SobolState> {

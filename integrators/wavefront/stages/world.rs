@@ -6,7 +6,7 @@
 #![allow(clippy::needless_range_loop)]
 
 use super::super::super::path::{
-    light_draw, no_sample, LightDraw, OneRay, PathWorld, VertexBsdf, VertexFrame,
+    light_draw, no_sample, LightDraw, OneRay, PathState, PathWorld, VertexBsdf, VertexFrame,
 };
 use super::super::super::{light_index, PathContext};
 use super::{LaneContext, LaneHit, LaneStages, Table, Table3, NONE};
@@ -171,20 +171,20 @@ impl<'a, 's> PathWorld for LaneWorld<'a, 's> {
         skip_mis: Mask,
         bsdf_pdf: F32x,
         light_pick: F32x,
+        seen: Mask,
         active: Mask,
-        ctx: &LaneCtx<'a>,
+        ctx: &mut LaneCtx<'a>,
     ) -> Vec3x {
         if let Some(background) = self.stages.background {
+            // RGB: nothing seen goes to the context.
             return Vec3x::splat(background);
         }
         let mut le = Vec3x::ZERO;
         let one_ray = OneRay { scene: self.scene };
         for k in lanes_of(active) {
-            let path = ctx.path(k);
-            le.set_lane(
-                k,
-                one_ray.escaped(dir.lane(k), skip_mis.0[k], bsdf_pdf.0[k], light_pick.0[k], true, path),
-            );
+            let (d, pdf, pick) = (dir.lane(k), bsdf_pdf.0[k], light_pick.0[k]);
+            let l = one_ray.escaped(d, skip_mis.0[k], pdf, pick, seen.0[k], true, ctx.path_mut(k));
+            le.set_lane(k, l);
         }
         le
     }
@@ -195,8 +195,9 @@ impl<'a, 's> PathWorld for LaneWorld<'a, 's> {
         hit: &LaneHit,
         origin: Vec3x,
         wo: Vec3x,
+        seen: Mask,
         active: Mask,
-        ctx: &LaneCtx<'a>,
+        ctx: &mut LaneCtx<'a>,
     ) -> (Mask, Vec3x, F32x) {
         let (p, n) = (hit.records.p, hit.records.n);
         let lights = &self.stages.lights;
@@ -212,7 +213,8 @@ impl<'a, 's> PathWorld for LaneWorld<'a, 's> {
         }
         let one_ray = OneRay { scene: self.scene };
         for k in lanes_of(active & hit.scalar_emission) {
-            let (e, l, pdf) = one_ray.emission(&hit.isect[k], origin.lane(k), wo.lane(k), true, ctx.path(k));
+            let (o, w, seen) = (origin.lane(k), wo.lane(k), seen.0[k]);
+            let (e, l, pdf) = one_ray.emission(&hit.isect[k], o, w, seen, true, ctx.path_mut(k));
             (emits.0[k], pdf_li.0[k]) = (e, pdf);
             le.set_lane(k, l);
         }
@@ -389,11 +391,14 @@ impl<'a, 's> PathWorld for LaneWorld<'a, 's> {
     }
 
     #[inline(always)]
-    fn secondaries_after(
+    fn split_wavelengths(
         &self,
         hit: &LaneHit,
         s: &BsdfSample<Vec3x>,
         wo_local: Vec3x,
+        uc: F32x,
+        (ux, uy): (F32x, F32x),
+        path: &PathState<Vec3x>,
         active: Mask,
         ctx: &mut LaneCtx<'a>,
     ) -> Vec3x {
@@ -402,18 +407,44 @@ impl<'a, 's> PathWorld for LaneWorld<'a, 's> {
         }
         // Without tables every lane is the scalar world's (wavelengths among the reasons).
         let mut factor = Vec3x::ONE;
-        let one_ray = OneRay { scene: self.scene };
         for k in lanes_of(active & hit.scalar) {
-            let f = one_ray.secondaries_after(
-                &hit.isect[k],
+            // The lane's stream where it is Sobol', the path's own otherwise.
+            let replay =
+                if self.stages.sobol { ctx.lanes.dimension[k] } else { ctx.path(k).sampler.dimension() };
+            let f = ctx.path_mut(k).split_wavelengths(
+                self.scene,
+                hit.isect[k].as_ref().expect("a lane that scatters found a surface"),
                 &sample_lane(s, k),
                 wo_local.lane(k),
-                true,
-                ctx.path_mut(k),
+                (uc.0[k], (ux.0[k], uy.0[k])),
+                &path.lane(k),
+                replay,
             );
             factor.set_lane(k, f);
         }
         factor
+    }
+
+    #[inline(always)]
+    fn resume(&self, path: &mut PathState<Vec3x>, ended: Mask, ctx: &mut LaneCtx<'a>) -> Mask {
+        let mut resumed = Mask::NONE;
+        if self.stages.tables {
+            // RGB: no path splits.
+            return resumed;
+        }
+        for k in lanes_of(ended) {
+            let mut one = path.lane(k);
+            if let Some(replay) = ctx.path_mut(k).resume_branch(&mut one) {
+                if self.stages.sobol {
+                    ctx.lanes.dimension[k] = replay;
+                } else {
+                    ctx.path_mut(k).sampler.replay_from(replay);
+                }
+                path.set_lane(k, &one);
+                resumed.0[k] = true;
+            }
+        }
+        resumed
     }
 
     #[inline(always)]
