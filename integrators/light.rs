@@ -156,8 +156,7 @@ impl Accumulate for LightTracer {
     /// A film whose pixel estimate is the splat sum over `spp · A` (see the module documentation).
     fn film(&self, scene: &Scene, opts: &RenderOptions) -> Film {
         let tracer = Tracer::new(scene, self, opts);
-        let (w, h) = (tracer.camera.crop.width as usize, tracer.camera.crop.height as usize);
-        Film::new(w, h, tracer.camera.film_area() as f64, tracer.dims.wavelength, opts.replicas)
+        Film::of_crop(&tracer.camera, tracer.camera.film_area() as f64, tracer.dims.wavelength, opts.replicas)
     }
 
     /// Sample index `s` is the `w·h` light paths `s·w·h .. (s+1)·w·h`; their splats are one

@@ -121,8 +121,7 @@ impl Accumulate for Pssmlt {
     /// A film whose pixel estimate is the mean over sample indices of each run's splats.
     fn film(&self, scene: &Scene, opts: &RenderOptions) -> Film {
         let run = Run::new(scene, self, opts);
-        let (w, h) = (run.camera.crop.width as usize, run.camera.crop.height as usize);
-        Film::new(w, h, 1.0, run.dims.wavelength, opts.replicas)
+        Film::of_crop(&run.camera, 1.0, run.dims.wavelength, opts.replicas)
     }
 
     /// Sample index `s` is one Metropolis run of as many mutations as the crop window has

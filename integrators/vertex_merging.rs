@@ -300,8 +300,7 @@ fn store_bound(paths: usize, params: &MergeParams, longest: usize) -> usize {
 impl Accumulate for VertexMerging {
     fn film(&self, scene: &Scene, opts: &RenderOptions) -> Film {
         let engine = Engine::new(scene, self, opts);
-        let (w, h) = (engine.camera.crop.width as usize, engine.camera.crop.height as usize);
-        Film::new(w, h, 1.0, engine.dims.wavelength, opts.replicas)
+        Film::of_crop(&engine.camera, 1.0, engine.dims.wavelength, opts.replicas)
     }
 
     /// Each sample index is one iteration: its light paths, its photon grid, its camera paths.

@@ -103,8 +103,7 @@ impl<'a> Pass<'a> {
 
     /// An empty film of the size of the camera's crop window.
     pub(super) fn film(&self) -> Film {
-        let (w, h) = (self.camera.crop.width as usize, self.camera.crop.height as usize);
-        Film::new(w, h, 1.0, self.dims.wavelength, self.opts.replicas)
+        Film::of_crop(&self.camera, 1.0, self.dims.wavelength, self.opts.replicas)
     }
 
     /// The camera rays of the samples `samples` (of `total`) of every pixel of `xs` in row `y`,

@@ -45,6 +45,11 @@ pub struct Film {
 }
 
 impl Film {
+    /// An empty film of the size of `camera`'s crop window ([`Film::new`]'s other arguments).
+    pub fn of_crop(camera: &crate::camera::Camera, norm: f64, spectral: bool, replicas: Replicas) -> Film {
+        Film::new(camera.crop.width as usize, camera.crop.height as usize, norm, spectral, replicas)
+    }
+
     /// An empty film of `width × height` pixels whose sample indices split into `replicas`.
     pub fn new(width: usize, height: usize, norm: f64, spectral: bool, replicas: Replicas) -> Film {
         let r = replicas.count() as usize;
