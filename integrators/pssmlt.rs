@@ -372,7 +372,9 @@ impl<'a> Run<'a> {
             let ray = camera.generate_ray_lens(film, lens, time);
             ctx.rays.primary += 1;
             let l = Path.radiance(self.scene, self.params, &ray, &mut ctx);
-            (film, ctx.channels.to_rgb(l), ctx.rays)
+            // In RGB, with what the camera ray itself saw (an emitter, the background): in
+            // spectral mode `path` leaves that in the context ([`PathContext::rgb`]).
+            (film, ctx.rgb(l), ctx.rays)
         });
         *rays += traced;
         let f = if l.is_finite() {

@@ -15,7 +15,7 @@ use vitrum::integrators::{create, Pssmlt};
 use vitrum::render::{render, Accumulate, RenderOptions, RenderOutput};
 use vitrum::sampler::primary::{with_primary, PrimarySamples};
 use vitrum::sampler::{Dim, Replicas, Sampler, SamplerKind};
-use vitrum::scene::{load, load_str, Scene};
+use vitrum::scene::{load, load_str, Scene, SpectralMode};
 
 /// A render of `scene` by `method` at `size`² pixels with `spp` samples in `replicas` replicas.
 fn render_replicas(
@@ -26,8 +26,22 @@ fn render_replicas(
     replicas: u32,
     seed: u64,
 ) -> RenderOutput {
+    render_replicas_in(scene, method, size, spp, replicas, seed, SpectralMode::Auto)
+}
+
+/// [`render_replicas`] with the spectral mode `spectral`.
+fn render_replicas_in(
+    scene: &Scene,
+    method: &str,
+    size: u32,
+    spp: u32,
+    replicas: u32,
+    seed: u64,
+    spectral: SpectralMode,
+) -> RenderOutput {
     let integrator = create(method).unwrap();
     let mut opts = RenderOptions::for_method(scene, integrator.as_ref(), spp);
+    opts.spectral = spectral;
     opts.resolution = Some((size, size));
     opts.replicas = Replicas::new(replicas).unwrap();
     opts.sampler = SamplerKind::Independent;
@@ -76,8 +90,14 @@ fn z(a: (f64, f64), b: (f64, f64)) -> f64 {
 /// (χ² of their z, 16 degrees of freedom, below its 99.9% quantile 39.25) and the image mean
 /// (within 4 standard errors; the means of 64 and 32 replicas are close to normal).
 fn assert_agrees_with_path(scene: &Scene, what: &str) {
-    let mlt = render_replicas(scene, "pssmlt", 32, 64, 64, 1);
-    let path = render_replicas(scene, "path", 32, 256, 32, 2);
+    assert_agrees_with_path_in(scene, what, SpectralMode::Auto);
+}
+
+/// [`assert_agrees_with_path`] with both rendered in the spectral mode `spectral`.
+fn assert_agrees_with_path_in(scene: &Scene, what: &str, spectral: SpectralMode) {
+    let mlt = render_replicas_in(scene, "pssmlt", 32, 64, 64, 1, spectral);
+    let path = render_replicas_in(scene, "path", 32, 256, 32, 2, spectral);
+    assert_eq!(mlt.spectral, spectral == SpectralMode::On, "{what}: the mode asked for");
     let (a, b) = (blocks(&mlt, 8), blocks(&path, 8));
     let chi2: f64 = a[..16].iter().zip(&b[..16]).map(|(x, y)| z(*x, *y).powi(2)).sum();
     let image = z(a[16], b[16]);
@@ -107,6 +127,12 @@ fn root() -> &'static Path {
 #[test]
 fn agrees_with_path_on_a_diffuse_box() {
     assert_agrees_with_path(&diffuse_box(), "diffuse box");
+}
+
+/// In spectral mode too, the light seen directly included (which `path` hands over in RGB).
+#[test]
+fn agrees_with_path_in_spectral_mode_where_the_light_is_seen() {
+    assert_agrees_with_path_in(&diffuse_box(), "diffuse box, spectral", SpectralMode::On);
 }
 
 #[test]

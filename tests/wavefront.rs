@@ -3,6 +3,8 @@
 //! renders, closed forms through the stages that run across lanes, thread-count invariance, and
 //! what the engine choice says and refuses.
 
+#[path = "../benches/common/mod.rs"]
+mod bench_common;
 mod common;
 
 use common::{block_chi2, toml_files};
@@ -305,58 +307,22 @@ fn the_engine_is_chosen_by_what_the_scene_calls_for_and_says_why() {
 
 /// Beyond 4,096 primitives `auto` keeps the scalar engine (the BVH's traversal dominates, where
 /// the wavefront engine measured slower); `--engine wavefront` still runs it, with the same bits.
+/// The scenes are the terrains `integrators/wavefront.rs` measured the threshold on.
 #[test]
 fn auto_keeps_one_ray_at_a_time_for_large_meshes() {
     let dir = tempfile::tempdir().unwrap();
-    // A grid of n × n squares, two triangles each, under a quad light.
-    let grid = |n: usize| {
-        let mut obj = String::new();
-        for j in 0..=n {
-            for i in 0..=n {
-                let (x, z) = (2.0 * i as f32 / n as f32 - 1.0, 2.0 * j as f32 / n as f32 - 1.0);
-                obj += &format!("v {x} {} {z}\n", 0.1 * (7.0 * x).sin() * (5.0 * z).cos());
-            }
-        }
-        for j in 0..n {
-            for i in 0..n {
-                let a = j * (n + 1) + i + 1;
-                let (b, c, d) = (a + 1, a + n + 1, a + n + 2);
-                obj += &format!("f {a} {c} {b}\nf {b} {c} {d}\n");
-            }
-        }
-        std::fs::write(dir.path().join(format!("grid{n}.obj")), obj).unwrap();
-        load_str(
-            &format!(
-                r#"
-[camera]
-position = [0.0, 2.0, 3.0]
-look_at = [0.0, 0.0, 0.0]
-[materials.grey]
-type = "diffuse"
-color = 0.5
-[[objects]]
-shape = "mesh"
-file = "grid{n}.obj"
-material = "grey"
-[[lights]]
-type = "quad"
-corner = [-0.5, 3.0, -0.5]
-u = [1.0, 0.0, 0.0]
-v = [0.0, 0.0, 1.0]
-radiance = 5.0
-"#
-            ),
-            "grid.toml",
-            Some(dir.path()),
-        )
-        .unwrap()
+    let terrain = |triangles: usize| {
+        let sub = dir.path().join(triangles.to_string());
+        std::fs::create_dir(&sub).unwrap();
+        let (vertices, faces) = bench_common::terrain(triangles);
+        load(&bench_common::write_terrain_scene(&sub, &vertices, &faces)).unwrap()
     };
-    // 2·45² = 4,050 triangles and the light: still the wavefront engine; 2·46² = 4,232: scalar.
-    let small = describe(&grid(45), EngineOption::Auto);
+    // 2·45² = 4,050 triangles: still the wavefront engine; 2·46² = 4,232: scalar.
+    let small = describe(&terrain(4050), EngineOption::Auto);
     assert!(small.starts_with("wavefront ("), "{small}");
-    let large = grid(46);
+    let large = terrain(4232);
     let auto = describe(&large, EngineOption::Auto);
-    assert!(auto.starts_with("scalar: 4233 primitives: through a BVH of more than 4096"), "{auto}");
+    assert!(auto.starts_with("scalar: 4232 primitives: through a BVH of more than 4096"), "{auto}");
     assert!(describe(&large, EngineOption::Wavefront).starts_with("wavefront ("));
     let images: Vec<_> = [EngineOption::Auto, EngineOption::Wavefront]
         .map(|engine| {

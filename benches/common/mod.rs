@@ -1,4 +1,4 @@
-//! What the benchmarks share: procedural terrains of any triangle count, paired timing, and the
+//! What the benchmarks (and `tests/wavefront.rs`, for its terrains) share: procedural terrains of any triangle count, paired timing, and the
 //! closest hit by testing every primitive in turn.
 #![allow(dead_code)] // each benchmark uses a subset
 
