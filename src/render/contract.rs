@@ -78,7 +78,9 @@ const ONE_RAY: &str = "one ray at a time: only `path` has a wavefront engine";
 
 /// A method that estimates the radiance arriving along each camera ray.
 pub trait CameraEstimator: Sync {
-    /// Radiance arriving at the camera along `ray`, with the sample's context `ctx`.
+    /// Radiance arriving at the camera along `ray`, with the sample's context `ctx`, in the
+    /// context's channels: its RGB estimate is [`PathContext::rgb`] of it (in spectral mode a
+    /// method may leave part of it in the context, in RGB: [`PathContext::seen_rgb`]).
     fn radiance(&self, scene: &Scene, params: &RenderParams, ray: &Ray, ctx: &mut PathContext) -> Vec3;
     /// Which engine traces `scene` under `opts` ([`RenderParams::engine`]), and why; the
     /// default is one ray at a time.
