@@ -4,6 +4,7 @@
 
 mod distributed;
 mod light;
+mod mnee;
 mod path;
 mod pssmlt;
 mod raycast;
@@ -21,6 +22,7 @@ pub use crate::render::{
 };
 pub use distributed::Distributed;
 pub use light::LightTracer;
+pub use mnee::Mnee;
 #[cfg(test)]
 pub(crate) use path::power_heuristic;
 pub use path::{Path, DEFAULT_PATH_DEPTH};
@@ -143,6 +145,7 @@ pub fn build(method: Method) -> Box<dyn Integrator> {
         Method::Bpm => Box::new(VertexMerging(Algorithm::Bpm)),
         Method::Vcm => Box::new(VertexMerging(Algorithm::Vcm)),
         Method::Pssmlt => Box::new(Pssmlt),
+        Method::Mnee => Box::new(Mnee),
     }
 }
 

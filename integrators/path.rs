@@ -24,6 +24,7 @@ use crate::geometry::{offset_origin, Ray};
 use crate::lanes::{Mask3, Real, Vector};
 use crate::light::LightSampleOf;
 use crate::lighting::{crossing, ShadowRay};
+use crate::params::{ManifoldParams, Seeding};
 use crate::render::RenderOptions;
 use crate::sampler::Dim;
 use crate::scene::effects::Support;
@@ -117,6 +118,8 @@ pub(crate) trait PathWorld {
 
     /// Lights in the scene.
     fn light_count(&self) -> usize;
+    /// Whether the scene has smooth glass for manifold next-event estimation to chain through.
+    fn has_casters(&self) -> bool;
     /// Which paths are there (idle lanes are not).
     fn live(&self, hit: &Self::Hit) -> Mask3<Self::V>;
     /// Where the ray found a surface.
@@ -223,6 +226,25 @@ pub(crate) trait PathWorld {
     ) -> (Mask3<Self::V>, Self::V);
     /// Counts a scattered ray, reflected or refracted, where `active`.
     fn count_scattered(ctx: &mut Self::Context, reflected: Mask3<Self::V>, active: Mask3<Self::V>);
+    /// Manifold next-event estimation ([`crate::manifold::sample`]) from the hit to `light`,
+    /// with the numbers `u` (the light's point) and `u_seed` (the solver's seeds), at the
+    /// path's `time`, where `active`: where a chain through glass is found, the direction
+    /// towards it and its radiance over its density (the light's choice left out), in the
+    /// path's channels. Its segments count as shadow rays.
+    #[allow(clippy::too_many_arguments)]
+    fn manifold(
+        &self,
+        hit: &Self::Hit,
+        light: Self::Light,
+        u: (Self::R, Self::R),
+        u_seed: Self::R,
+        settings: &ManifoldParams,
+        time: Self::R,
+        active: Mask3<Self::V>,
+        ctx: &mut Self::Context,
+    ) -> (Mask3<Self::V>, Self::V, Self::V);
+    /// Where the hit is smooth glass that manifold chains cross ([`crate::manifold::is_caster`]).
+    fn is_caster(&self, hit: &Self::Hit, active: Mask3<Self::V>) -> Mask3<Self::V>;
 }
 
 /// A scattering model at a vertex, for one ray or per lane (radiance transport).
@@ -319,6 +341,7 @@ impl<V: Vector> PathState<V> {
             bsdf_pdf: zero,
             absorption: origin,
             depth: zero,
+            chain: V::Real::splat(-1.0),
         }
     }
 
@@ -351,6 +374,34 @@ impl<V: Vector> PathState<V> {
             step.goes_on = step.goes_on | world.resume(self, ended, ctx);
         }
         step
+    }
+
+    /// The manifold chain counter ([`PathState::chain`]) after the BSDF sample `s` at the hit,
+    /// where `active`: 0 where the manifold strategy ran (`starts`) and `s` is an evaluable lobe
+    /// (which the strategy's BSDF value covers); one more where the path turns at smooth glass
+    /// as the strategy's chains do (any turn for SMS; refraction or total internal reflection
+    /// for the straight seeds), up to `max_chain`; −1 otherwise.
+    #[inline(always)]
+    fn chain_after<W: PathWorld<V = V, R = V::Real>>(
+        &self,
+        world: &W,
+        hit: &W::Hit,
+        s: &BsdfSample<V>,
+        starts: Mask3<V>,
+        settings: &ManifoldParams,
+        active: Mask3<V>,
+    ) -> V::Real {
+        let (zero, one) = (V::Real::splat(0.0), V::Real::splat(1.0));
+        let starts = starts & s.is_evaluable();
+        let follows = active & !starts & self.chain.ge(zero) & s.is_specular;
+        let mut turn = if V::Real::any(follows) { world.is_caster(hit, follows) & follows } else { follows };
+        if settings.seeding == Seeding::Straight {
+            turn = turn & (s.is_transmission | s.pdf.ge(one));
+        }
+        let next = self.chain + one;
+        let next = V::Real::select(turn & next.le(V::Real::splat(settings.max_chain as f32)), next, -one);
+        let next = V::Real::select(starts, zero, next);
+        V::Real::select(active, next, self.chain)
     }
 
     /// [`advance`](Self::advance) but for the branches: one vertex of the branch in flight.
@@ -393,7 +444,13 @@ impl<V: Vector> PathState<V> {
         let (emits, le, pdf_li) = world.emission(hit, self.origin, wo, seen, found, ctx);
         let emits = emits & found;
         if V::Real::any(emits) {
-            let w = V::Real::select(self.skip_mis, one, power_heuristic(self.bsdf_pdf, light_pick * pdf_li));
+            let mut w =
+                V::Real::select(self.skip_mis, one, power_heuristic(self.bsdf_pdf, light_pick * pdf_li));
+            if params.manifold.is_some() {
+                // A chain through glass from the last non-delta vertex: manifold next-event
+                // estimation's (the two partition such paths).
+                w = V::Real::select(self.chain.ge(one), zero, w);
+            }
             self.l = V::select(emits, self.l + self.beta * le * w, self.l);
         }
         let scatters = found & self.depth.lt(V::Real::splat(params.max_depth as f32));
@@ -426,6 +483,30 @@ impl<V: Vector> PathState<V> {
             step.light =
                 PendingLight { pending, shadow, beta: self.beta, value: f * ls.radiance * (w / pdf) };
         }
+        // Manifold next-event estimation: one uniformly chosen light, reached through glass.
+        let chains_start = match &params.manifold {
+            Some(settings) if world.has_casters() => {
+                let mnee = scatters & !bsdf.is_delta() & V::Real::mask(lights > 0);
+                if V::Real::any(mnee) {
+                    let choice = if lights > 1 { world.draw_1d(ctx, Dim::Light, mnee) } else { zero };
+                    let light = world.light_at(choice);
+                    let u = world.draw_2d(ctx, Dim::Light, mnee);
+                    let u_seed = world.draw_1d(ctx, Dim::Other, mnee);
+                    let (found, wi, radiance) =
+                        world.manifold(hit, light, u, u_seed, settings, self.time, mnee, ctx);
+                    let found = found & mnee;
+                    if V::Real::any(found) {
+                        let wi_local = frame.to_local(wi);
+                        let f =
+                            bsdf.eval(wo_local, wi_local) * (wi_local.z().abs() * frame.factor(vzero, wi));
+                        let value = self.beta * f * radiance * (one / light_pick);
+                        self.l = V::select(found, self.l + value, self.l);
+                    }
+                }
+                mnee
+            }
+            _ => none,
+        };
         // The BSDF sample that makes the next ray.
         let uc = world.draw_1d(ctx, Dim::Bsdf, scatters & bsdf.chooses_lobe());
         let u = world.draw_2d(ctx, Dim::Bsdf, scatters);
@@ -436,6 +517,9 @@ impl<V: Vector> PathState<V> {
         scatters = scatters & shading.ne(zero);
         if !V::Real::any(scatters) {
             return step;
+        }
+        if let Some(settings) = &params.manifold {
+            self.chain = self.chain_after(world, hit, &s, chains_start, settings, scatters);
         }
         let secondaries = world.split_wavelengths(hit, &s, wo_local, uc, u, self, scatters, ctx);
         let beta = self.beta * (s.f * (s.wi.z().abs() / s.pdf) * secondaries * shading);
@@ -517,6 +601,11 @@ impl<'a> PathWorld for OneRay<'a> {
     #[inline]
     fn light_count(&self) -> usize {
         self.scene.lights.len()
+    }
+
+    #[inline]
+    fn has_casters(&self) -> bool {
+        !self.scene.casters().is_empty()
     }
 
     #[inline]
@@ -690,6 +779,30 @@ impl<'a> PathWorld for OneRay<'a> {
     }
 
     #[inline]
+    fn manifold(
+        &self,
+        hit: &Self::Hit,
+        light: usize,
+        u: (f32, f32),
+        u_seed: f32,
+        settings: &ManifoldParams,
+        time: f32,
+        active: bool,
+        ctx: &mut PathContext,
+    ) -> (bool, Vec3, Vec3) {
+        if !active {
+            return (false, Vec3::ZERO, Vec3::ZERO);
+        }
+        let h = &surface(hit).hit;
+        manifold_draw(self.scene, h.p, h.n, time, light, u, u_seed, settings, ctx)
+    }
+
+    #[inline]
+    fn is_caster(&self, hit: &Self::Hit, active: bool) -> bool {
+        active && crate::manifold::is_caster(&self.scene.material_of(surface(hit).primitive).bsdf)
+    }
+
+    #[inline]
     fn count_scattered(ctx: &mut PathContext, reflected: bool, active: bool) {
         if active {
             if reflected {
@@ -698,6 +811,42 @@ impl<'a> PathWorld for OneRay<'a> {
                 ctx.rays.refracted += 1;
             }
         }
+    }
+}
+
+/// Manifold next-event estimation from the point `p` (geometric normal `n`) at `time` to light
+/// `light` with the numbers `u` and `u_seed`, in the channels of `ctx`, its segments counted as
+/// shadow rays: where a chain is found, the direction towards it and its radiance over its
+/// density. For one ray or for one lane.
+#[allow(clippy::too_many_arguments)]
+#[inline]
+pub(crate) fn manifold_draw(
+    scene: &Scene,
+    p: Vec3,
+    n: Vec3,
+    time: f32,
+    light: usize,
+    u: (f32, f32),
+    u_seed: f32,
+    settings: &ManifoldParams,
+    ctx: &mut PathContext,
+) -> (bool, Vec3, Vec3) {
+    let x = crate::manifold::Receiver { p, n, time };
+    let (channels, hero_only) = (ctx.channels, ctx.hero_only);
+    let found = crate::manifold::sample(
+        scene,
+        &x,
+        light,
+        u.into(),
+        u_seed,
+        settings,
+        &channels,
+        hero_only,
+        &mut ctx.rays.shadow,
+    );
+    match found {
+        Some(m) => (true, m.wi, m.radiance),
+        None => (false, Vec3::ZERO, Vec3::ZERO),
     }
 }
 
@@ -796,6 +945,7 @@ impl PathContext {
                 bsdf_pdf: si.pdf,
                 absorption: if crosses { absorption } else { path.absorption },
                 depth: path.depth + 1.0,
+                chain: path.chain,
             };
             if wi.dot(n) * wo.dot(n) > 0.0 {
                 self.rays.reflected += 1;

@@ -19,6 +19,7 @@ pub mod interrupt;
 pub mod lanes;
 pub mod light;
 pub mod lighting;
+pub mod manifold;
 pub mod material;
 pub mod memory;
 pub mod methods;

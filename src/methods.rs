@@ -29,6 +29,8 @@ pub enum Method {
     Vcm,
     /// Primary-sample-space Metropolis light transport over path tracing.
     Pssmlt,
+    /// Path tracing with manifold next-event estimation through glass.
+    Mnee,
 }
 
 /// What a method's `[render.METHOD]` table takes.
@@ -45,6 +47,8 @@ pub enum Settings {
     Merging,
     /// `max_depth` and the Metropolis settings (`large_step`, `sigma`, `bootstrap`, `chains`).
     Metropolis,
+    /// `max_depth` and the manifold settings (`seeding`, `max_chain`, `max_trials`).
+    Manifold,
 }
 
 /// One row of the table of methods.
@@ -77,7 +81,7 @@ pub const DEFAULT_PATH_DEPTH: u32 = MAX_DEPTH;
 pub const DEFAULT_RECURSION_DEPTH: u32 = 5;
 
 /// Every method, in the order of [`Method`].
-pub const METHODS: [MethodInfo; 11] = [
+pub const METHODS: [MethodInfo; 12] = [
     MethodInfo {
         method: Method::RayCast,
         name: "raycast",
@@ -154,6 +158,13 @@ pub const METHODS: [MethodInfo; 11] = [
         description: "primary-sample-space Metropolis (Kelemen 2002) over path: chains mutate path's random numbers",
         default_max_depth: DEFAULT_PATH_DEPTH,
         settings: Settings::Metropolis,
+    },
+    MethodInfo {
+        method: Method::Mnee,
+        name: "mnee",
+        description: "path with manifold next-event estimation: Newton-solved chains through glass to lights",
+        default_max_depth: DEFAULT_PATH_DEPTH,
+        settings: Settings::Manifold,
     },
 ];
 

@@ -16,6 +16,9 @@ pub struct RenderParams {
     pub merging: MergeParams,
     /// Settings of the Metropolis methods (`pssmlt`).
     pub metropolis: MetropolisParams,
+    /// Manifold next-event estimation (`mnee`): on with these settings, off (`None`) for every
+    /// other method.
+    pub manifold: Option<ManifoldParams>,
     /// Which engine traces a method that has more than one (`path`: wavefront or scalar;
     /// `Scalar` also makes `light` and the bidirectional methods trace one ray at a time).
     pub engine: EngineOption,
@@ -58,6 +61,7 @@ impl RenderParams {
             ssaa: SsaaParams::default(),
             merging: MergeParams::default(),
             metropolis: MetropolisParams::default(),
+            manifold: None,
             engine: EngineOption::Auto,
         }
     }
@@ -188,6 +192,65 @@ impl Default for MetropolisParams {
             sigma: MetropolisParams::DEFAULT_SIGMA,
             bootstrap: MetropolisParams::DEFAULT_BOOTSTRAP,
             chains: MetropolisParams::DEFAULT_CHAINS,
+        }
+    }
+}
+
+/// How manifold next-event estimation seeds its chains ([`crate::manifold`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Seeding {
+    /// Manifold next-event estimation (Hanika et al. 2015), the default: the straight line to
+    /// the light, refractions only, one solve: cheap and noiseless, biased where several chains
+    /// exist or a chain reflects.
+    #[default]
+    Straight,
+    /// Specular manifold sampling (Zeltner et al. 2020): random seeds, and the reciprocal of
+    /// the chance to find a chain estimated by Bernoulli trials: unbiased in principle up to
+    /// `max_trials`, but measured biased low in one test (see [`crate::manifold`]).
+    Sms,
+}
+
+impl Seeding {
+    /// Every seeding with its name in scene files and variants.
+    pub const NAMES: [(&'static str, Seeding); 2] = [("straight", Seeding::Straight), ("sms", Seeding::Sms)];
+
+    /// The seeding called `name`.
+    pub fn from_name(name: &str) -> Option<Seeding> {
+        Seeding::NAMES.iter().find(|(n, _)| *n == name).map(|&(_, s)| s)
+    }
+
+    /// Its name.
+    pub fn name(self) -> &'static str {
+        Seeding::NAMES.iter().find(|(_, s)| *s == self).map_or("straight", |(n, _)| n)
+    }
+}
+
+/// Settings of manifold next-event estimation (`mnee`, `[render.mnee]`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ManifoldParams {
+    /// How chains are seeded.
+    pub seeding: Seeding,
+    /// The most smooth dielectric interfaces a chain crosses or reflects at (1 to 16).
+    pub max_chain: u32,
+    /// The most seeds (the first included) an SMS estimate of `1/p` draws; a count that reaches
+    /// it is cut there (at least 1; 1 makes SMS the biased estimate of one found chain).
+    pub max_trials: u32,
+}
+
+impl ManifoldParams {
+    /// The default longest chain: a glass of water seen from the side (glass, water, glass,
+    /// air and back) with room to spare.
+    pub const DEFAULT_MAX_CHAIN: u32 = 8;
+    /// The default cap on SMS's trials.
+    pub const DEFAULT_MAX_TRIALS: u32 = 256;
+}
+
+impl Default for ManifoldParams {
+    fn default() -> ManifoldParams {
+        ManifoldParams {
+            seeding: Seeding::default(),
+            max_chain: ManifoldParams::DEFAULT_MAX_CHAIN,
+            max_trials: ManifoldParams::DEFAULT_MAX_TRIALS,
         }
     }
 }

@@ -317,6 +317,7 @@ impl PathState<Vec3x> {
             bsdf_pdf: self.bsdf_pdf.0[k],
             absorption: self.absorption.lane(k),
             depth: self.depth.0[k],
+            chain: self.chain.0[k],
         }
     }
 
@@ -333,6 +334,7 @@ impl PathState<Vec3x> {
         self.bsdf_pdf.0[k] = path.bsdf_pdf;
         self.absorption.set_lane(k, path.absorption);
         self.depth.0[k] = path.depth;
+        self.chain.0[k] = path.chain;
     }
 }
 

@@ -71,6 +71,13 @@ pub fn run(args: &InfoArgs) -> Result<(), CliError> {
                     entry["bootstrap"] = json!(m.bootstrap);
                     entry["chains"] = json!(m.chains);
                 }
+                if i.method() == crate::methods::Method::Mnee {
+                    let m = &scene.settings.manifold;
+                    entry["seeding"] = json!(m.seeding.name());
+                    entry["max_chain"] = json!(m.max_chain);
+                    entry["max_trials"] = json!(m.max_trials);
+                    entry["casters"] = json!(scene.casters().len());
+                }
                 (i.name().to_string(), entry)
             })
             .collect();
@@ -159,6 +166,16 @@ pub fn run(args: &InfoArgs) -> Result<(), CliError> {
             print!(
                 ", large step {}, sigma {}, {} bootstrap samples and {} chains per sample index",
                 m.large_step, m.sigma, m.bootstrap, m.chains
+            );
+        }
+        if i.method() == crate::methods::Method::Mnee {
+            let m = &settings.manifold;
+            print!(
+                ", {} seeds, chains of at most {} glass interfaces, at most {} trials, {} glass object(s) to chain through",
+                m.seeding.name(),
+                m.max_chain,
+                m.max_trials,
+                scene.casters().len()
             );
         }
         println!();

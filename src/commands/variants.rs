@@ -13,11 +13,15 @@
 //! | `radius_alpha` | the radius schedule's α, in (0, 1] | `ppm`, `bpm`, `vcm` |
 //! | `large_step` | the probability of a large step, in (0, 1] | `pssmlt` |
 //! | `sigma` | the deviation of a small step, in (0, 1] | `pssmlt` |
+//! | `seeding` | `sms` (unbiased) or `straight` (MNEE) | `mnee` |
+//! | `max_chain` | the most glass interfaces of a chain, 1 to 16 | `mnee` |
+//! | `max_trials` | the cap on SMS's trials, at least 1 | `mnee` |
 //!
 //! A label may not repeat: `-i vcm,vcm` is refused, `-i vcm,vcm[radius=0.002]` is two columns.
 
 use super::support::{integrator_named, CliError};
 use crate::integrators::Integrator;
+use crate::params::Seeding;
 use crate::render::RenderOptions;
 use crate::sampler::SamplerKind;
 
@@ -36,6 +40,12 @@ pub enum Setting {
     LargeStep(f32),
     /// The Metropolis methods' deviation of a small step.
     Sigma(f32),
+    /// How manifold next-event estimation seeds its chains.
+    Seeding(Seeding),
+    /// The most glass interfaces of a manifold chain.
+    MaxChain(u32),
+    /// The cap on specular manifold sampling's trials.
+    MaxTrials(u32),
 }
 
 /// A method of an `-i` list with its settings and label.
@@ -64,6 +74,13 @@ impl MethodSpec {
                 Setting::RadiusAlpha(a) => opts.params.merging.alpha = a,
                 Setting::LargeStep(p) => opts.params.metropolis.large_step = p,
                 Setting::Sigma(s) => opts.params.metropolis.sigma = s,
+                Setting::Seeding(s) => opts.params.manifold.get_or_insert_with(Default::default).seeding = s,
+                Setting::MaxChain(n) => {
+                    opts.params.manifold.get_or_insert_with(Default::default).max_chain = n
+                }
+                Setting::MaxTrials(n) => {
+                    opts.params.manifold.get_or_insert_with(Default::default).max_trials = n
+                }
             }
         }
     }
@@ -154,8 +171,29 @@ fn setting(item: &str, method: &dyn Integrator, key: &str, value: &str) -> Resul
                 (false, _) => Err(bad(format!("{key}={value}: a number in (0, 1]"))),
             }
         }
+        "seeding" | "max_chain" | "max_trials" if method.method() != crate::methods::Method::Mnee => {
+            Err(bad(format!("{key}: only manifold next-event estimation (mnee) solves chains through glass")))
+        }
+        "seeding" => Seeding::from_name(value)
+            .map(Setting::Seeding)
+            .ok_or_else(|| bad(format!("seeding={value}: one of sms, straight"))),
+        "max_chain" => value
+            .parse::<u32>()
+            .ok()
+            .filter(|n| (1..=crate::manifold::MAX_CHAIN as u32).contains(n))
+            .map(Setting::MaxChain)
+            .ok_or_else(|| {
+                bad(format!("max_chain={value}: a whole number from 1 to {}", crate::manifold::MAX_CHAIN))
+            }),
+        "max_trials" => value
+            .parse::<u32>()
+            .ok()
+            .filter(|n| *n >= 1)
+            .map(Setting::MaxTrials)
+            .ok_or_else(|| bad(format!("max_trials={value}: a whole number, at least 1"))),
         _ => Err(bad(format!(
-            "unknown setting `{key}`; known: max_depth, sampler, radius, radius_alpha, large_step, sigma"
+            "unknown setting `{key}`; known: max_depth, sampler, radius, radius_alpha, large_step, sigma, \
+             seeding, max_chain, max_trials"
         ))),
     }
 }

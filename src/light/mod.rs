@@ -881,35 +881,63 @@ impl Light {
                     infinite: true,
                 })
             }
-            Light::Quad { corner, u, v, normal, radiance } => {
-                let p = corner + u_point.x * u + u_point.y * v;
-                let hit = emitter_point(
-                    p,
-                    normal,
-                    Vec2::ZERO,
-                    point_error(p, (u.abs() + v.abs()).max_element(), 8),
-                );
-                let area = u.cross(v).length();
+            Light::Quad { radiance, .. } => {
+                let (hit, area) = self.area_point(u_point)?;
                 area_emission(hit, area, 1.0 / area, radiance, None, u_dir, p_light)
             }
-            Light::Sphere { center, radius, radiance } => {
-                let n = uniform_sphere(u_point);
-                let p = center + radius * n;
-                let hit = emitter_point(p, n, Vec2::ZERO, point_error(p, radius, 8));
+            Light::Sphere { radius, radiance, .. } => {
+                let (hit, area) = self.area_point(u_point)?;
                 // Next-event estimation samples the hemisphere facing the shading point, which
                 // every emitted ray's next vertex is in.
                 let direct = 1.0 / (2.0 * PI * radius * radius);
-                area_emission(hit, 4.0 * PI * radius * radius, direct, radiance, None, u_dir, p_light)
+                area_emission(hit, area, direct, radiance, None, u_dir, p_light)
             }
-            Light::Surface { ref shape, ref texture, one_sided, .. } => {
-                let (p, n) = shape.sample(u_point);
-                let uv = if texture.is_some() { shape.uv_at(u_point, p, n) } else { Vec2::ZERO };
-                let hit = emitter_point(p, n, uv, point_error(p, shape.extent(), 8));
-                let area = shape.point_area(n);
-                let radiance = self.emitted(&hit, n);
+            Light::Surface { one_sided, .. } => {
+                let (hit, area) = self.area_point(u_point)?;
+                let radiance = self.emitted(&hit, hit.n);
                 let side = (!one_sided).then_some(side);
                 area_emission(hit, area, 1.0 / area, radiance, side, u_dir, p_light)
             }
+        }
+    }
+
+    /// A point of an area light uniformly distributed over its whole surface (both hemispheres
+    /// of a sphere), as an emitter hit (its outward normal, texture coordinates and error
+    /// bound), with the light's area: the reciprocal of the point's area density. `None` for
+    /// delta lights and the environment. Light paths start there ([`Light::emit`]), and manifold
+    /// next-event estimation connects through glass from there ([`crate::manifold`]).
+    pub fn area_point(&self, u_point: Vec2) -> Option<(SurfaceHit, f32)> {
+        match *self {
+            Light::Quad { corner, u, v, normal, .. } => {
+                let p = corner + u_point.x * u + u_point.y * v;
+                let error = point_error(p, (u.abs() + v.abs()).max_element(), 8);
+                Some((emitter_point(p, normal, Vec2::ZERO, error), u.cross(v).length()))
+            }
+            Light::Sphere { center, radius, .. } => {
+                let n = uniform_sphere(u_point);
+                let p = center + radius * n;
+                let hit = emitter_point(p, n, Vec2::ZERO, point_error(p, radius, 8));
+                Some((hit, 4.0 * PI * radius * radius))
+            }
+            Light::Surface { ref shape, ref texture, .. } => {
+                let (p, n) = shape.sample(u_point);
+                let uv = if texture.is_some() { shape.uv_at(u_point, p, n) } else { Vec2::ZERO };
+                Some((emitter_point(p, n, uv, point_error(p, shape.extent(), 8)), shape.point_area(n)))
+            }
+            Light::Point { .. }
+            | Light::Spot { .. }
+            | Light::Directional { .. }
+            | Light::Environment { .. } => None,
+        }
+    }
+
+    /// The radiant intensity (W/sr) of a point or spot light towards the unit direction `dir`;
+    /// zero for every other light.
+    pub fn intensity_towards(&self, dir: Vec3) -> Vec3 {
+        match self {
+            Light::Point { intensity, .. } => *intensity,
+            Light::Spot { direction, intensity, beam, .. } => *intensity * beam.falloff(dir.dot(*direction)),
+            _ => Vec3::ZERO,
         }
     }
 
@@ -1094,13 +1122,10 @@ impl Light {
     /// alone when it emits on one side.
     pub fn as_point_from(&self, p: Vec3) -> PointIllumination {
         match self {
-            Light::Point { position, intensity } => {
-                PointIllumination { position: *position, intensity: *intensity }
-            }
-            Light::Spot { position, direction, intensity, beam } => {
-                let cos = (p - *position).normalize_or_zero().dot(*direction);
-                PointIllumination { position: *position, intensity: *intensity * beam.falloff(cos) }
-            }
+            Light::Point { position, .. } | Light::Spot { position, .. } => PointIllumination {
+                position: *position,
+                intensity: self.intensity_towards((p - *position).normalize_or_zero()),
+            },
             Light::Directional { direction, irradiance } => {
                 let distance = DIRECTIONAL_STAND_IN * (1.0 + p.abs().max_element());
                 PointIllumination {

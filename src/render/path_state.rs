@@ -36,6 +36,12 @@ pub(crate) struct PathState<V: Vector = Vec3> {
     pub absorption: V,
     /// Bounces so far (a whole number).
     pub depth: V::Real,
+    /// For manifold next-event estimation (`mnee`): the smooth glass interfaces the path has
+    /// crossed or reflected at since the last vertex where the manifold strategy ran and BSDF
+    /// sampling took an evaluable lobe, as long as every turn is one the strategy finds and
+    /// there are at most its `max_chain`; −1 otherwise (and always without the strategy).
+    /// An area light such a chain reaches is the strategy's, not BSDF sampling's.
+    pub chain: V::Real,
 }
 
 /// The branches of a spectral camera path that smooth dispersive glass split, waiting for the

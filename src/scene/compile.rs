@@ -2,10 +2,10 @@
 
 use super::bodies::{self, BodySurface, Interface, Liquid};
 use super::desc::{
-    ColorSpaceDesc, CropDesc, DistributionDesc, FilterDesc, IorDesc, LightDesc, LiquidDesc, MaterialDesc,
-    MetropolisDesc, PhongDesc, PixelFilterDesc, Rgb, SceneDesc, ShapeDesc, SmoothNormals, TextureDesc,
-    TransformDesc, Vec3Desc, WrapDesc, BIDIRECTIONAL_METHODS, IOR_TABLE_ERROR, LIQUIDS, METHOD_TABLES,
-    MOVED_MAX_DEPTH,
+    ColorSpaceDesc, CropDesc, DistributionDesc, FilterDesc, IorDesc, LightDesc, LiquidDesc, ManifoldDesc,
+    MaterialDesc, MetropolisDesc, PhongDesc, PixelFilterDesc, Rgb, SceneDesc, ShapeDesc, SmoothNormals,
+    TextureDesc, TransformDesc, Vec3Desc, WrapDesc, BIDIRECTIONAL_METHODS, IOR_TABLE_ERROR, LIQUIDS,
+    METHOD_TABLES, MOVED_MAX_DEPTH,
 };
 use super::effects::{Effect, Effects};
 use super::mesh::MeshPlacement;
@@ -23,7 +23,7 @@ use crate::geometry::{
 };
 use crate::light::{AffineEmitter, EmitterMesh, EmitterShape, EnvironmentMap, Light, SpotBeam, Strength};
 use crate::material::{Bsdf, Material, Medium, Phong, Texture};
-use crate::params::{MergeParams, MetropolisParams, SsaaParams};
+use crate::params::{ManifoldParams, MergeParams, MetropolisParams, Seeding, SsaaParams};
 use crate::pixel_filter::{FilterKind, PixelFilter, DEFAULT_GAUSSIAN_STDDEV, DEFAULT_TENT_RADIUS};
 use crate::sampler::SamplerKind;
 use crate::texture::{ColorSpace, Filter, ImageMap, ImageTexture, Wrap};
@@ -754,7 +754,9 @@ impl Compiler<'_> {
         }
         let has_motion = primitives.iter().any(|p| p.velocity.is_some());
         let reads_surface_uv = reads_surface_uv(&materials, &lights);
+        let casters = casters(&primitives, &materials, objects.len(), camera.shutter);
         Ok(Scene {
+            casters,
             primitives,
             materials,
             lights,
@@ -991,7 +993,9 @@ impl Compiler<'_> {
         }
         let threshold = self.non_negative(&q.key("threshold"), r.ssaa.threshold)?;
         let metropolis = self.metropolis(&path.key("pssmlt"), &r.pssmlt)?;
+        let manifold = self.manifold(&path.key("mnee"), &r.mnee)?;
         Ok(RenderSettings {
+            manifold,
             spectral,
             sampler,
             ssaa: SsaaParams { adaptive, grid: r.ssaa.grid, levels: r.ssaa.levels, threshold },
@@ -1038,6 +1042,31 @@ impl Compiler<'_> {
                 }
                 *field = n;
             }
+        }
+        Ok(params)
+    }
+
+    /// The manifold settings of the table `m` at `at` (`[render.mnee]`), the defaults where a
+    /// field is absent.
+    fn manifold(&self, at: &FieldPath, m: &ManifoldDesc) -> Result<ManifoldParams, SceneError> {
+        let mut params = ManifoldParams::default();
+        if let Some(name) = &m.seeding {
+            params.seeding = Seeding::from_name(name).ok_or_else(|| {
+                self.err(&at.key("seeding"), format!("`{name}` is not one of sms, straight"))
+            })?;
+        }
+        if let Some(n) = m.max_chain {
+            if !(1..=crate::manifold::MAX_CHAIN as u32).contains(&n) {
+                let msg = format!("must be in 1..={} (got {n})", crate::manifold::MAX_CHAIN);
+                return Err(self.err(&at.key("max_chain"), msg));
+            }
+            params.max_chain = n;
+        }
+        if let Some(n) = m.max_trials {
+            if n == 0 {
+                return Err(self.err(&at.key("max_trials"), "must be at least 1 (got 0)"));
+            }
+            params.max_trials = n;
         }
         Ok(params)
     }
@@ -2237,6 +2266,33 @@ fn cwbvh_depth(bvh: &obvhs::cwbvh::CwBvh) -> usize {
         }
     }
     depth
+}
+
+/// The smooth dielectric objects of a scene, each with the bounding sphere of its smooth
+/// dielectric primitives over the shutter interval: where manifold next-event estimation seeds
+/// its chains ([`crate::manifold`]). In the order of the objects.
+fn casters(
+    primitives: &[Primitive],
+    materials: &[Material],
+    objects: usize,
+    shutter: (f32, f32),
+) -> Vec<crate::manifold::Caster> {
+    let mut bounds: Vec<Option<Bounds>> = vec![None; objects];
+    for p in primitives {
+        if crate::manifold::is_caster(&materials[p.material as usize].bsdf) {
+            let b = p.bounds_over(shutter);
+            let slot = &mut bounds[p.object as usize];
+            *slot = Some(slot.map_or(b, |s| Bounds { min: s.min.min(b.min), max: s.max.max(b.max) }));
+        }
+    }
+    bounds
+        .into_iter()
+        .flatten()
+        .map(|b| {
+            let centre = (b.min + b.max) * 0.5;
+            crate::manifold::Caster { centre, radius: (b.max - b.min).length() * 0.5 }
+        })
+        .collect()
 }
 
 #[cfg(test)]

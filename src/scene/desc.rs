@@ -257,13 +257,16 @@ pub struct RenderDesc {
     /// `[render.pssmlt]`: primary-sample-space Metropolis light transport.
     #[serde(default)]
     pub pssmlt: MetropolisDesc,
+    /// `[render.mnee]`: path tracing with manifold next-event estimation.
+    #[serde(default)]
+    pub mnee: ManifoldDesc,
 }
 
 /// The message for a `max_depth` in `[render]`, which no longer applies to every method.
 pub const MOVED_MAX_DEPTH: &str = "a depth is set per method, e.g. `[render.whitted] max_depth = 5` \
      (likewise [render.ssaa], [render.distributed], [render.path], [render.light], [render.bpt], \
-     [render.ppm], [render.bpm], [render.vcm], [render.pssmlt]); without one each method uses its own default \
-     (5; 256 for path, light, pssmlt and the bidirectional methods)";
+     [render.ppm], [render.bpm], [render.vcm], [render.pssmlt], [render.mnee]); without one each method uses its own \
+     default (5; 256 for path, light, pssmlt, mnee and the bidirectional methods)";
 
 /// The methods with a `[render.METHOD]` table, in the order `vitrum integrators` lists them:
 /// every method of the table of methods ([`crate::methods::NAMES`]).
@@ -337,6 +340,25 @@ pub struct MetropolisDesc {
     /// Markov chains per sample index (at least 1); default 64.
     #[serde(default)]
     pub chains: Option<u32>,
+}
+
+/// The table of `mnee`: its depth and its manifold settings
+/// ([`crate::params::ManifoldParams`], whose defaults apply where a field is absent).
+#[derive(Clone, Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ManifoldDesc {
+    /// Maximum number of scattering events of a path; default the method's own.
+    #[serde(default)]
+    pub max_depth: Option<u32>,
+    /// `straight` (MNEE, the default) or `sms` (specular manifold sampling).
+    #[serde(default)]
+    pub seeding: Option<String>,
+    /// The most smooth dielectric interfaces of a chain, 1 to 16; default 8.
+    #[serde(default)]
+    pub max_chain: Option<u32>,
+    /// The cap on SMS's trials (at least 1); default 256.
+    #[serde(default)]
+    pub max_trials: Option<u32>,
 }
 
 /// The table of `bpt`: its depth and the cap on light sub-paths per iteration.
@@ -439,6 +461,7 @@ impl RenderDesc {
             Method::Bpm => self.bpm.max_depth,
             Method::Vcm => self.vcm.max_depth,
             Method::Pssmlt => self.pssmlt.max_depth,
+            Method::Mnee => self.mnee.max_depth,
         }
     }
 }
@@ -467,6 +490,7 @@ impl Default for RenderDesc {
             bpm: MergeDesc::default(),
             vcm: MergeDesc::default(),
             pssmlt: MetropolisDesc::default(),
+            mnee: ManifoldDesc::default(),
         }
     }
 }

@@ -22,7 +22,7 @@ use crate::geometry::{Ray, Shape, SurfaceHit, VertexAttributes};
 use crate::light::{Light, SceneSphere};
 use crate::material::Material;
 use crate::methods::Method;
-use crate::params::{MergeParams, MetropolisParams, RenderParams, SsaaParams};
+use crate::params::{ManifoldParams, MergeParams, MetropolisParams, RenderParams, SsaaParams};
 use crate::sampler::SamplerKind;
 use glam::{Vec3, Vec3A};
 use obvhs::cwbvh::CwBvh;
@@ -106,6 +106,8 @@ pub struct RenderSettings {
     pub ssaa: SsaaParams,
     /// Settings of the Metropolis methods (`[render.pssmlt]`).
     pub metropolis: MetropolisParams,
+    /// Settings of manifold next-event estimation (`[render.mnee]`).
+    pub manifold: ManifoldParams,
 }
 
 impl RenderSettings {
@@ -124,6 +126,7 @@ impl RenderSettings {
             ssaa: self.ssaa,
             merging: self.merging.get(method.name()).copied().unwrap_or_default(),
             metropolis: self.metropolis,
+            manifold: (method == Method::Mnee).then_some(self.manifold),
             engine: crate::params::EngineOption::Auto,
         }
     }
@@ -240,6 +243,8 @@ pub struct Scene {
     pub bvh_stats: BvhStats,
     /// Warnings found while compiling (degenerate triangles skipped, …).
     pub warnings: Vec<String>,
+    /// The smooth dielectric objects manifold next-event estimation seeds towards.
+    casters: Vec<crate::manifold::Caster>,
     bvh: CwBvh,
     /// The vertex attributes (uv, shading normals) of mesh triangles that have them.
     attributes: Vec<VertexAttributes>,
@@ -408,6 +413,12 @@ impl Scene {
     pub fn vertex_attributes(&self, primitive: u32) -> Option<&VertexAttributes> {
         let a = *self.attribute_index.get(primitive as usize)?;
         (a != NO_ATTRIBUTES).then(|| &self.attributes[a as usize])
+    }
+
+    /// The smooth dielectric objects (bounding spheres) manifold next-event estimation seeds
+    /// its chains towards; empty in a scene without smooth glass.
+    pub fn casters(&self) -> &[crate::manifold::Caster] {
+        &self.casters
     }
 
     /// The material of a primitive.

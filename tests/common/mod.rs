@@ -10,6 +10,7 @@ use vitrum::scene::{load_str, Scene};
 
 pub mod browser;
 pub mod oversized;
+pub mod replicas;
 pub mod system;
 
 /// A render of `scene` by `integrator` with the given options.

@@ -6,7 +6,7 @@
 #![allow(clippy::needless_range_loop)]
 
 use super::super::super::path::{
-    light_draw, no_sample, LightDraw, OneRay, PathState, PathWorld, VertexBsdf, VertexFrame,
+    light_draw, manifold_draw, no_sample, LightDraw, OneRay, PathState, PathWorld, VertexBsdf, VertexFrame,
 };
 use super::super::super::{light_index, PathContext};
 use super::{LaneContext, LaneHit, LaneStages, Table, Table3, NONE};
@@ -18,6 +18,7 @@ use crate::light::{
     area_to_solid_angle, front_area_sample, front_emitted, point_light_sample, quad_point, LightSampleOf,
 };
 use crate::lighting::ShadowSegment;
+use crate::params::ManifoldParams;
 use crate::sampler::Dim;
 use crate::scene::Scene;
 use crate::texture::checker;
@@ -147,6 +148,11 @@ impl<'a, 's> PathWorld for LaneWorld<'a, 's> {
     #[inline(always)]
     fn light_count(&self) -> usize {
         self.stages.lights.count
+    }
+
+    #[inline(always)]
+    fn has_casters(&self) -> bool {
+        !self.scene.casters().is_empty()
     }
 
     #[inline(always)]
@@ -483,6 +489,50 @@ impl<'a, 's> PathWorld for LaneWorld<'a, 's> {
             ctx.lanes.rays[1][k] += (active.0[k] & reflected.0[k]) as u32;
             ctx.lanes.rays[2][k] += (active.0[k] & !reflected.0[k]) as u32;
         }
+    }
+
+    // Manifold next-event estimation is a sequence of traced chains per vertex: lane by lane.
+    #[inline]
+    fn manifold(
+        &self,
+        hit: &LaneHit,
+        l: [u32; WIDTH],
+        (ux, uy): (F32x, F32x),
+        u_seed: F32x,
+        settings: &ManifoldParams,
+        time: F32x,
+        active: Mask,
+        ctx: &mut LaneCtx<'a>,
+    ) -> (Mask, Vec3x, Vec3x) {
+        let (mut found, mut wi, mut radiance) = (Mask::NONE, Vec3x::ZERO, Vec3x::ZERO);
+        for k in lanes_of(active) {
+            let (p, n) = (hit.records.p.lane(k), hit.records.n.lane(k));
+            let (f, w, r) = manifold_draw(
+                self.scene,
+                p,
+                n,
+                time.0[k],
+                l[k] as usize,
+                (ux.0[k], uy.0[k]),
+                u_seed.0[k],
+                settings,
+                ctx.path_mut(k),
+            );
+            found.0[k] = f;
+            wi.set_lane(k, w);
+            radiance.set_lane(k, r);
+        }
+        (found, wi, radiance)
+    }
+
+    #[inline]
+    fn is_caster(&self, hit: &LaneHit, active: Mask) -> Mask {
+        let mut caster = Mask::NONE;
+        for k in lanes_of(active) {
+            let material = self.scene.material_of(hit.hits.primitive[k]);
+            caster.0[k] = crate::manifold::is_caster(&material.bsdf);
+        }
+        caster
     }
 }
 
