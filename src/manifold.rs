@@ -70,7 +70,7 @@ use rand_pcg::Pcg32;
 pub const MAX_CHAIN: usize = 16;
 
 /// Newton iterations before a solve gives up.
-const MAX_ITERATIONS: usize = 24;
+const MAX_ITERATIONS: usize = 16;
 
 /// Halvings of a Newton step before a solve gives up.
 const MAX_HALVINGS: usize = 10;
