@@ -73,22 +73,39 @@ impl CameraEstimator for Path {
         camera_ray: &Ray,
         ctx: &mut PathContext,
     ) -> Vec3 {
-        let world = OneRay { scene };
-        let mut path = PathState::new(*camera_ray);
-        loop {
-            let isect = scene.intersect(&path.ray(), f32::INFINITY);
-            let step = path.advance(&world, params, &isect, ctx);
-            if step.light.pending {
-                path.resolve(&step.light, step.light.shadow.is_none_or(|s| !s.blocked(scene)));
-            }
-            if !step.goes_on {
-                return path.l;
-            }
+        // The sample's mode, once: RGB paths are traced without wavelength splitting's work.
+        if ctx.channels.is_spectral() {
+            trace::<true>(scene, params, camera_ray, ctx)
+        } else {
+            trace::<false>(scene, params, camera_ray, ctx)
         }
     }
 
     fn engine(&self, scene: &Scene, opts: &RenderOptions) -> EngineChoice {
         super::wavefront::choose(scene, opts)
+    }
+}
+
+/// The radiance `path` estimates along `camera_ray` with the scalar engine, the channels of
+/// `ctx` spectral where `SPECTRAL` ([`PathState::advance`]).
+#[inline(always)]
+fn trace<const SPECTRAL: bool>(
+    scene: &Scene,
+    params: &RenderParams,
+    camera_ray: &Ray,
+    ctx: &mut PathContext,
+) -> Vec3 {
+    let world = OneRay { scene };
+    let mut path = PathState::new(*camera_ray);
+    loop {
+        let isect = scene.intersect(&path.ray(), f32::INFINITY);
+        let step = path.advance::<SPECTRAL, _>(&world, params, &isect, ctx);
+        if step.light.pending {
+            path.resolve(&step.light, step.light.shadow.is_none_or(|s| !s.blocked(scene)));
+        }
+        if !step.goes_on {
+            return path.l;
+        }
     }
 }
 
@@ -360,18 +377,23 @@ impl<V: Vector> PathState<V> {
     ///
     /// A spectral path that smooth dispersive glass splits into branches, one per wavelength
     /// ([`PathContext::split_wavelengths`]), goes on with the next branch where this one ends.
+    /// `SPECTRAL` says whether the paths' channels are wavelengths, a mode fixed for a whole
+    /// render: an RGB path (`false`) compiles without the wavelengths' work (the split, the
+    /// branches, the light seen directly in RGB), so RGB renders pay nothing for it.
     #[inline(always)]
-    pub fn advance<W: PathWorld<V = V, R = V::Real>>(
+    pub fn advance<const SPECTRAL: bool, W: PathWorld<V = V, R = V::Real>>(
         &mut self,
         world: &W,
         params: &RenderParams,
         hit: &W::Hit,
         ctx: &mut W::Context,
     ) -> Step<V, W::Shadow> {
-        let mut step = self.vertex(world, params, hit, ctx);
-        let ended = world.live(hit) & !step.goes_on;
-        if V::Real::any(ended) {
-            step.goes_on = step.goes_on | world.resume(self, ended, ctx);
+        let mut step = self.vertex::<SPECTRAL, W>(world, params, hit, ctx);
+        if SPECTRAL {
+            let ended = world.live(hit) & !step.goes_on;
+            if V::Real::any(ended) {
+                step.goes_on = step.goes_on | world.resume(self, ended, ctx);
+            }
         }
         step
     }
@@ -406,7 +428,7 @@ impl<V: Vector> PathState<V> {
 
     /// [`advance`](Self::advance) but for the branches: one vertex of the branch in flight.
     #[inline(always)]
-    fn vertex<W: PathWorld<V = V, R = V::Real>>(
+    fn vertex<const SPECTRAL: bool, W: PathWorld<V = V, R = V::Real>>(
         &mut self,
         world: &W,
         params: &RenderParams,
@@ -425,8 +447,9 @@ impl<V: Vector> PathState<V> {
         };
         // A ray that leaves the scene outside any medium sees the environment.
         let escapes = !found & world.live(hit) & self.absorption.is_zero();
-        // What the camera ray itself sees (its throughput is 1).
-        let seen = self.depth.eq(zero);
+        // What the camera ray itself sees (its throughput is 1), set aside in RGB by a spectral
+        // path only.
+        let seen = if SPECTRAL { self.depth.eq(zero) } else { none };
         if V::Real::any(escapes) {
             let le = world.escaped(self.dir, self.skip_mis, self.bsdf_pdf, light_pick, seen, escapes, ctx);
             self.l = V::select(escapes, self.l + self.beta * le, self.l);
@@ -521,8 +544,11 @@ impl<V: Vector> PathState<V> {
         if let Some(settings) = &params.manifold {
             self.chain = self.chain_after(world, hit, &s, chains_start, settings, scatters);
         }
-        let secondaries = world.split_wavelengths(hit, &s, wo_local, uc, u, self, scatters, ctx);
-        let beta = self.beta * (s.f * (s.wi.z().abs() / s.pdf) * secondaries * shading);
+        let mut beta = s.f * (s.wi.z().abs() / s.pdf);
+        if SPECTRAL {
+            beta = beta * world.split_wavelengths(hit, &s, wo_local, uc, u, self, scatters, ctx);
+        }
+        let beta = self.beta * (beta * shading);
         let (crosses, absorption) = world.medium_after(hit, self.dir, s.is_transmission, scatters, ctx);
         let eta_scale = V::Real::select(s.is_transmission, self.eta_scale * (s.eta * s.eta), self.eta_scale);
         W::count_scattered(ctx, (wi.dot(n) * wo.dot(n)).gt(zero), scatters);
@@ -564,7 +590,7 @@ pub(crate) struct OneRay<'a> {
 
 /// Light `light` of `scene` sampled from the point `p` with the numbers `u`, its radiance in
 /// the channels of `ctx`: next-event estimation's light sample, for one ray or for one lane.
-#[inline]
+#[inline(always)]
 pub(crate) fn light_draw(
     scene: &Scene,
     p: Vec3,
@@ -624,7 +650,7 @@ impl<'a> PathWorld for OneRay<'a> {
         (h.t, h.p, h.n, h.p_error)
     }
 
-    #[inline]
+    #[inline(always)]
     fn escaped(
         &self,
         dir: Vec3,
@@ -647,7 +673,7 @@ impl<'a> PathWorld for OneRay<'a> {
         ctx.radiance_seen(rgb, seen)
     }
 
-    #[inline]
+    #[inline(always)]
     fn emission(
         &self,
         hit: &Self::Hit,
@@ -706,7 +732,7 @@ impl<'a> PathWorld for OneRay<'a> {
         light_index(u, self.scene.lights.len())
     }
 
-    #[inline]
+    #[inline(always)]
     fn sample_light(
         &self,
         hit: &Self::Hit,
@@ -723,7 +749,7 @@ impl<'a> PathWorld for OneRay<'a> {
         None
     }
 
-    #[inline]
+    #[inline(always)]
     fn shadow(
         &self,
         hit: &Self::Hit,
@@ -766,7 +792,7 @@ impl<'a> PathWorld for OneRay<'a> {
         }
     }
 
-    #[inline]
+    #[inline(always)]
     fn medium_after(
         &self,
         hit: &Self::Hit,
@@ -853,7 +879,7 @@ pub(crate) fn manifold_draw(
 /// Where `isect` is a dielectric interface, the absorption (in `channels`, the interface's
 /// indices at their hero wavelength) of the medium a ray along `dir` scatters into: the one it
 /// stays in when reflected, enters when `transmitted`. Elsewhere the medium does not change.
-#[inline]
+#[inline(always)]
 fn medium_after(
     scene: &Scene,
     isect: &Intersection,

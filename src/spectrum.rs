@@ -241,7 +241,7 @@ pub struct Wavelengths {
     pub lambda: [f32; HERO_WAVELENGTHS],
     /// The channel whose wavelength refractive indices are taken at: 0 (the hero), but in a
     /// branch of a path split at dispersive glass the one wavelength the branch carries.
-    lead: usize,
+    lead: u8,
     /// Row i: the basis spectra at wavelength i (a colour's spectral value there is its dot product).
     basis: [Vec3; HERO_WAVELENGTHS],
     /// w(λᵢ) / (3 p(λᵢ)): the RGB that wavelength i's radiance stands for.
@@ -270,7 +270,7 @@ impl Wavelengths {
     /// the branch's own ([`led_by`](Self::led_by)).
     #[inline]
     pub fn hero(&self) -> f32 {
-        self.lambda[self.lead]
+        self.lambda[self.lead as usize]
     }
 
     /// The same wavelengths with indices taken at channel `channel`'s (below
@@ -278,13 +278,13 @@ impl Wavelengths {
     #[inline]
     pub fn led_by(self, channel: usize) -> Wavelengths {
         debug_assert!(channel < HERO_WAVELENGTHS);
-        Wavelengths { lead: channel, ..self }
+        Wavelengths { lead: channel as u8, ..self }
     }
 
     /// The channel whose wavelength [`hero`](Self::hero) is.
     #[inline]
     pub fn lead(&self) -> usize {
-        self.lead
+        self.lead as usize
     }
 
     /// The spectrum of the RGB colour `rgb` at the three wavelengths.

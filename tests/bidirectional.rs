@@ -4,8 +4,8 @@
 mod common;
 
 use common::{
-    block_chi2, closed_sphere, glass_furnace, image_mean_and_error, render_opts, render_with_variance,
-    toml_files,
+    block_chi2, closed_sphere, glass_furnace, hollow_spheres_with_a_quad_light, image_mean_and_error,
+    render_opts, render_with_variance, toml_files,
 };
 use vitrum::image::Image;
 use vitrum::render::RenderOptions;
@@ -108,12 +108,7 @@ fn bpt_and_vcm_match_path_where_path_is_unbiased() {
     // The 8×8 block means of each agree with a `path` render in their standard errors: χ² over
     // the 16 blocks below its 99.99% quantile (about 42), so a real bias of a few percent fails.
     // hollow-spheres (glass shells with swapped indices inside) with its point light replaced by
-    // a quad light of the same power (6 W/sr ≈ π·0.36·L / π, so L = 6/0.36).
-    let hollow = std::fs::read_to_string("scenes/hollow-spheres.toml").unwrap().replace(
-        "type = \"point\"\nposition = [0.0, 1.9, 0.0]\nintensity = 6.0",
-        "type = \"quad\"\ncorner = [-0.3, 1.98, -0.3]\nu = [0.6, 0.0, 0.0]\nv = [0.0, 0.0, 0.6]\nradiance = 16.67",
-    );
-    assert!(hollow.contains("type = \"quad\""), "the point light of hollow-spheres.toml moved");
+    // a quad light of the same power (`common::hollow_spheres_with_a_quad_light`).
     // depth-of-field (a thin lens) likewise: the light connects to sampled lens points.
     let lens = std::fs::read_to_string("scenes/depth-of-field.toml").unwrap().replace(
         "type = \"point\"\nposition = [0.0, 1.8, 0.0]\nintensity = 5.0",
@@ -122,7 +117,7 @@ fn bpt_and_vcm_match_path_where_path_is_unbiased() {
     assert!(lens.contains("type = \"quad\""), "the point light of depth-of-field.toml moved");
     let scenes = [
         ("soft-shadows", load(std::path::Path::new("scenes/soft-shadows.toml")).unwrap()),
-        ("hollow-spheres with a quad light", load_str(&hollow, "hollow-quad.toml", None).unwrap()),
+        ("hollow-spheres with a quad light", hollow_spheres_with_a_quad_light()),
         ("depth-of-field with a quad light", load_str(&lens, "lens-quad.toml", None).unwrap()),
     ];
     for (name, scene) in &scenes {

@@ -1,12 +1,16 @@
 //! `pssmlt` (primary-sample-space Metropolis over `path`): its primary sample vector's mutations,
-//! its agreement with `path` on a diffuse scene and on `cornell-glass`, its determinism, and its
-//! settings.
+//! its agreement with `path` on a diffuse scene and on `cornell-glass`, with `vcm` on
+//! `hollow-spheres` (lit by a quad: see there why not by its point light) and on the glass slab
+//! (and with the slab's closed form), its determinism, and its settings. `tests/hard_cases.rs`
+//! renders every hard case with it, every pixel finite.
 //!
 //! Statistics: every render keeps R independent replicas (one Metropolis run or more each, see
 //! `integrators/pssmlt.rs`), and the error of a block mean or of the image mean is the spread of
 //! the replicas' values, never a sum of per-pixel variances (the splats of one run are
 //! correlated across pixels). Tolerances are stated in standard errors of the difference between
 //! the two methods.
+
+mod common;
 
 use glam::DVec3;
 use std::path::Path;
@@ -86,31 +90,34 @@ fn z(a: (f64, f64), b: (f64, f64)) -> f64 {
     (a.0 - b.0) / (a.1 + b.1).sqrt().max(1e-12)
 }
 
-/// `pssmlt` against `path` on `scene` at 32² pixels: the 16 blocks of 8×8 pixels together
-/// (χ² of their z, 16 degrees of freedom, below its 99.9% quantile 39.25) and the image mean
-/// (within 4 standard errors; the means of 64 and 32 replicas are close to normal).
+/// `pssmlt` against `path` on `scene` at 32² pixels ([`assert_agrees_with`]).
 fn assert_agrees_with_path(scene: &Scene, what: &str) {
-    assert_agrees_with_path_in(scene, what, SpectralMode::Auto);
+    assert_agrees_with(scene, what, "path", SpectralMode::Auto);
 }
 
-/// [`assert_agrees_with_path`] with both rendered in the spectral mode `spectral`.
-fn assert_agrees_with_path_in(scene: &Scene, what: &str, spectral: SpectralMode) {
+/// `pssmlt` against `reference` (`path`, or `vcm` where light reaches the camera by paths
+/// `path` samples too) on `scene` at 32² pixels, both rendered in the spectral mode `spectral`:
+/// the 16 blocks of 8×8 pixels together (χ² of their z, 16 degrees of freedom, below its 99.9%
+/// quantile 39.25) and the image mean (within 4 standard errors; the means of 64 and 32
+/// replicas are close to normal). The image means and their standard errors are returned.
+fn assert_agrees_with(scene: &Scene, what: &str, reference: &str, spectral: SpectralMode) -> [(f64, f64); 2] {
     let mlt = render_replicas_in(scene, "pssmlt", 32, 64, 64, 1, spectral);
-    let path = render_replicas_in(scene, "path", 32, 256, 32, 2, spectral);
+    let other = render_replicas_in(scene, reference, 32, 256, 32, 2, spectral);
     assert_eq!(mlt.spectral, spectral == SpectralMode::On, "{what}: the mode asked for");
-    let (a, b) = (blocks(&mlt, 8), blocks(&path, 8));
+    let (a, b) = (blocks(&mlt, 8), blocks(&other, 8));
     let chi2: f64 = a[..16].iter().zip(&b[..16]).map(|(x, y)| z(*x, *y).powi(2)).sum();
     let image = z(a[16], b[16]);
     eprintln!(
-        "{what}: pssmlt {:.5} ± {:.5}, path {:.5} ± {:.5}, z {image:.2}; 16 blocks χ² {chi2:.1}",
+        "{what}: pssmlt {:.5} ± {:.5}, {reference} {:.5} ± {:.5}, z {image:.2}; 16 blocks χ² {chi2:.1}",
         a[16].0,
         a[16].1.sqrt(),
         b[16].0,
         b[16].1.sqrt()
     );
     assert!(a[16].0 > 0.01, "{what}: a black image proves nothing");
-    assert!(image.abs() <= 4.0, "{what}: image mean {image:.2} standard errors from path's");
+    assert!(image.abs() <= 4.0, "{what}: image mean {image:.2} standard errors from {reference}'s");
     assert!(chi2 <= 39.25, "{what}: block χ² {chi2:.1} above the 99.9% quantile of χ²(16)");
+    [a[16], b[16]]
 }
 
 /// `scenes/soft-shadows.toml` with its glass made white diffuse: a diffuse box lit by a quad.
@@ -132,13 +139,71 @@ fn agrees_with_path_on_a_diffuse_box() {
 /// In spectral mode too, the light seen directly included (which `path` hands over in RGB).
 #[test]
 fn agrees_with_path_in_spectral_mode_where_the_light_is_seen() {
-    assert_agrees_with_path_in(&diffuse_box(), "diffuse box, spectral", SpectralMode::On);
+    assert_agrees_with(&diffuse_box(), "diffuse box, spectral", "path", SpectralMode::On);
 }
 
 #[test]
 fn agrees_with_path_on_cornell_glass() {
     let scene = load(&root().join("scenes/cornell-glass.toml")).unwrap();
     assert_agrees_with_path(&scene, "cornell-glass");
+}
+
+/// Against a `vcm` reference on `hollow-spheres` (two hollow glass shells in the Cornell box:
+/// light refracted through four surfaces) with its point light replaced by a quad light of the
+/// same power (`common::hollow_spheres_with_a_quad_light`). The scene's own point light cannot
+/// be compared: its caustics under the shells, which `vcm` renders, are invisible to `pssmlt`,
+/// whose chains explore `path`'s samples (no shadow ray bends through glass, no BSDF sample hits
+/// a point), so the two estimate different images there (see `integrators/pssmlt.rs`, "What it
+/// cannot do"; measured once at this test's settings with the point light: image mean 0.930 ±
+/// 0.009 against `vcm`'s 0.952 ± 0.003, z −2.4, too little light for these renders to tell
+/// apart reliably, which is why that comparison would prove nothing either way).
+#[test]
+fn agrees_with_vcm_on_hollow_spheres_lit_by_a_quad() {
+    assert_agrees_with(
+        &common::hollow_spheres_with_a_quad_light(),
+        "hollow-spheres, quad light",
+        "vcm",
+        SpectralMode::Auto,
+    );
+}
+
+/// Against a `vcm` reference and the closed form on the glass slab (`common::glass_slab`: a
+/// diffuse quad emitter of radiance (2, 1, 0.5) seen through a clear slab of index 1.5; its
+/// light is an area light, which `path`'s samples reach through the slab). At normal incidence
+/// the slab passes L·(1−R)/(1+R), R = 0.04, each face reflecting R: the grey mean of the
+/// channels is then 7/6·(0.96/1.04) = 1.0769. The camera's rays meet the slab up to 7.1° off the
+/// normal (a 10° field of view, its corners), where the slab passes a little less; the image
+/// mean must lie within 4 standard errors of the range between the two.
+#[test]
+fn agrees_with_vcm_and_the_closed_form_on_the_glass_slab() {
+    let scene = load_str(&common::glass_slab(1.5, [0.0; 3]), "slab", None).unwrap();
+    let [mlt, _] = assert_agrees_with(&scene, "glass slab", "vcm", SpectralMode::Auto);
+    let grey = (2.0 + 1.0 + 0.5) / 3.0;
+    let passes = |r: f64| grey * (1.0 - r) / (1.0 + r);
+    let r0 = ((1.5f64 - 1.0) / (1.5 + 1.0)).powi(2);
+    // The corner ray's angle: half the diagonal of a square 10° field of view.
+    let half = (5.0f64).to_radians().tan();
+    let corner = (half * std::f64::consts::SQRT_2).atan();
+    let r_corner = vitrum::optics::fresnel_dielectric(corner.cos() as f32, 1.5) as f64;
+    assert!(r_corner > r0 && r_corner < r0 * 1.01, "R at the corners {r_corner}");
+    let (high, low) = (passes(r0), passes(r_corner));
+    let error = mlt.1.sqrt();
+    let off = if mlt.0 > high {
+        (mlt.0 - high) / error
+    } else if mlt.0 < low {
+        (low - mlt.0) / error
+    } else {
+        0.0
+    };
+    eprintln!(
+        "glass slab: pssmlt {:.5} ± {error:.5}, closed form {low:.5}–{high:.5}: {off:.2} standard errors outside",
+        mlt.0
+    );
+    assert!(
+        off <= 4.0,
+        "glass slab: pssmlt {:.5} is {off:.2} standard errors outside [{low:.5}, {high:.5}]",
+        mlt.0
+    );
 }
 
 #[test]

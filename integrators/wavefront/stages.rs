@@ -158,6 +158,9 @@ pub struct LaneStages {
     /// Whether the sampler is Sobol' (each lane's stream kept across lanes), else each lane
     /// draws from its own sampler.
     sobol: bool,
+    /// Whether the paths' channels are wavelengths: the shading kernel is chosen by it once
+    /// per batch, so RGB paths run without the wavelengths' work.
+    spectral: bool,
     /// What goes lane by lane through the scalar world, in words.
     lane_by_lane: Vec<String>,
 }
@@ -516,6 +519,7 @@ impl LaneStages {
             lights,
             background,
             sobol,
+            spectral,
             lane_by_lane,
         }
     }
@@ -570,9 +574,11 @@ impl LaneStages {
                 chunks.push(chunk);
             }
             let mut estimates = vec![Vec3::ZERO; n];
+            // The mode, once for the batch.
+            let round = if self.spectral { LaneWorld::round::<true> } else { LaneWorld::round::<false> };
             while !chunks.is_empty() {
                 for chunk in chunks.iter_mut() {
-                    let ended = world.round(params, chunk, ctxs, &mut hit, occupancy);
+                    let ended = round(&world, params, chunk, ctxs, &mut hit, occupancy);
                     for k in 0..WIDTH {
                         if ended.0[k] {
                             let slot = chunk.slot[k] as usize;
@@ -591,8 +597,9 @@ impl LaneStages {
 
 impl LaneWorld<'_, '_> {
     /// One bounce of the 16 paths of `chunk` (their contexts in `ctxs` at their slots), their
-    /// hits found into `hit`: the lanes whose path ends.
-    fn round(
+    /// hits found into `hit`: the lanes whose path ends. `SPECTRAL`: the stages' mode
+    /// ([`LaneStages::spectral`]), fixed for the render.
+    fn round<const SPECTRAL: bool>(
         &self,
         params: &RenderParams,
         chunk: &mut PathChunk,
@@ -603,6 +610,7 @@ impl LaneWorld<'_, '_> {
         let live = Mask(std::array::from_fn(|k| chunk.slot[k] != NONE));
         self.closest_hits(&chunk.path, live, hit, &mut occupancy.closest);
         let mut ctx = LaneCtx { lanes: &mut chunk.ctx, paths: ctxs, slot: chunk.slot };
+        let shade = if SPECTRAL { shade_spectral } else { shade_rgb };
         let step = shade(self.stages.isa(), self, params, &mut chunk.path, hit, &mut ctx);
         let visible = self.shadow_rays(&step.light.shadow, &mut occupancy.shadow);
         chunk.path.resolve(&step.light, visible);
@@ -713,21 +721,27 @@ impl LaneWorld<'_, '_> {
     }
 }
 
-/// The vertex of every lane of `path` ([`PathState::advance`] in the world of the lanes).
+/// The vertex of every lane of `path` ([`PathState::advance`] in the world of the lanes), the
+/// paths' channels wavelengths where `SPECTRAL`.
 #[inline(always)]
-fn shade_kernel<'a, 's>(
+fn shade_kernel<'a, 's, const SPECTRAL: bool>(
     world: &LaneWorld<'a, 's>,
     params: &RenderParams,
     path: &mut PathState<Vec3x>,
     hit: &LaneHit,
     ctx: &mut LaneCtx<'a>,
 ) -> Step<Vec3x, LaneShadow> {
-    path.advance(world, params, hit, ctx)
+    path.advance::<SPECTRAL, _>(world, params, hit, ctx)
 }
 
 dispatch! {
-    /// [`shade_kernel`] compiled for `isa`.
-    fn shade<'a, 's>(world: &LaneWorld<'a, 's>, params: &RenderParams, path: &mut PathState<Vec3x>, hit: &LaneHit, ctx: &mut LaneCtx<'a>) -> Step<Vec3x, LaneShadow> => shade_kernel
+    /// [`shade_kernel`] of RGB paths compiled for `isa`.
+    fn shade_rgb<'a, 's>(world: &LaneWorld<'a, 's>, params: &RenderParams, path: &mut PathState<Vec3x>, hit: &LaneHit, ctx: &mut LaneCtx<'a>) -> Step<Vec3x, LaneShadow> => shade_kernel::<false>
+}
+
+dispatch! {
+    /// [`shade_kernel`] of spectral paths compiled for `isa`.
+    fn shade_spectral<'a, 's>(world: &LaneWorld<'a, 's>, params: &RenderParams, path: &mut PathState<Vec3x>, hit: &LaneHit, ctx: &mut LaneCtx<'a>) -> Step<Vec3x, LaneShadow> => shade_kernel::<true>
 }
 /// Packs the live paths of `chunks` into full chunks at the front (the last one padded with idle
 /// lanes) and drops the rest: each hole of a front chunk takes a live path from the last chunk

@@ -155,7 +155,12 @@ impl dyn Integrator + '_ {
 }
 
 /// The state of one camera sample while its path is traced.
+///
+/// Its fields are laid out in this order (`repr(C)`) so that the branches a spectral path
+/// sets aside come last: a context is made for every camera sample without writing them, and
+/// an RGB render, which never reads them, pays nothing for them.
 #[derive(Clone, Debug)]
+#[repr(C)]
 pub struct PathContext {
     /// The sample's random stream.
     pub sampler: Sampler,
@@ -166,15 +171,15 @@ pub struct PathContext {
     /// Whether the path has ended its secondary wavelengths (at a dispersive interface), or
     /// carries one wavelength alone (a branch of a `path` split there).
     pub hero_only: bool,
-    /// The branches of a `path` split at smooth dispersive glass that wait for the one in
-    /// flight to end (one wavelength each).
-    pub(crate) pending: super::PendingBranches,
     /// Whether `path` keeps the hero alone at smooth dispersive refraction instead of
     /// splitting the wavelengths (the estimator before splitting, kept to compare against).
     pub(crate) hero_alone: bool,
     /// In spectral mode, what the camera ray itself sees (an emitter, the background), in RGB:
     /// added to the RGB estimate of the channels ([`PathContext::rgb`]).
     pub seen_rgb: Vec3,
+    /// The branches of a `path` split at smooth dispersive glass that wait for the one in
+    /// flight to end (one wavelength each). Last: see above.
+    pub(crate) pending: super::PendingBranches,
 }
 
 impl PathContext {
@@ -195,7 +200,11 @@ impl PathContext {
     /// what the camera ray saw in RGB ([`seen_rgb`](Self::seen_rgb)).
     #[inline]
     pub fn rgb(&self, radiance: Vec3) -> Vec3 {
-        self.channels.to_rgb(radiance) + self.seen_rgb
+        match &self.channels {
+            // Nothing is set aside in RGB mode.
+            Channels::Rgb => radiance,
+            Channels::Spectral(w) => w.to_rgb(radiance) + self.seen_rgb,
+        }
     }
 }
 

@@ -49,12 +49,13 @@ pub(crate) struct PathState<V: Vector = Vec3> {
 /// carries and its state where it leaves the glass. The live branches share out the
 /// [`HERO_WAVELENGTHS`] channels, so at most two wait.
 #[derive(Clone, Copy)]
+#[repr(C)]
 pub(crate) struct PendingBranches {
+    /// How many wait (first, so that a new context writes it without touching the branches).
+    count: u8,
     /// The branches, the first `count` of them set (the others never read: a camera sample's
     /// context is made without writing them, so RGB renders, which never split, pay nothing).
     branches: [MaybeUninit<Branch>; HERO_WAVELENGTHS - 1],
-    /// How many wait.
-    count: u8,
 }
 
 impl std::fmt::Debug for PendingBranches {

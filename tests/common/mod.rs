@@ -198,6 +198,21 @@ radiance = [2.0, 1.0, 0.5]
     )
 }
 
+/// `scenes/hollow-spheres.toml` (two hollow glass spheres in the Cornell box) with its point
+/// light replaced by a quad light of the same power (6 W/sr ≈ π·0.36·L / π, so L = 6/0.36): the
+/// variant on which `path`, and the methods built on its samples, see the caustics of the shells
+/// (a point light's are invisible to them: no shadow ray bends through glass, and no BSDF sample
+/// hits a point).
+pub fn hollow_spheres_with_a_quad_light() -> Scene {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/hollow-spheres.toml");
+    let text = std::fs::read_to_string(&path).unwrap().replace(
+        "type = \"point\"\nposition = [0.0, 1.9, 0.0]\nintensity = 6.0",
+        "type = \"quad\"\ncorner = [-0.3, 1.98, -0.3]\nu = [0.6, 0.0, 0.0]\nv = [0.0, 0.0, 0.6]\nradiance = 16.67",
+    );
+    assert!(text.contains("type = \"quad\""), "the point light of hollow-spheres.toml moved");
+    load_str(&text, "hollow-quad.toml", None).unwrap()
+}
+
 /// The `.toml` files directly in `dir`, sorted.
 pub fn toml_files(dir: &std::path::Path) -> Vec<std::path::PathBuf> {
     let mut files: Vec<_> = std::fs::read_dir(dir)
