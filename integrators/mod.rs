@@ -4,6 +4,8 @@
 
 mod distributed;
 mod light;
+mod metropolis;
+mod mmlt;
 mod mnee;
 mod path;
 mod pssmlt;
@@ -22,6 +24,7 @@ pub use crate::render::{
 };
 pub use distributed::Distributed;
 pub use light::LightTracer;
+pub use mmlt::Mmlt;
 pub use mnee::Mnee;
 #[cfg(test)]
 pub(crate) use path::power_heuristic;
@@ -145,6 +148,7 @@ pub fn build(method: Method) -> Box<dyn Integrator> {
         Method::Bpm => Box::new(VertexMerging(Algorithm::Bpm)),
         Method::Vcm => Box::new(VertexMerging(Algorithm::Vcm)),
         Method::Pssmlt => Box::new(Pssmlt),
+        Method::Mmlt => Box::new(Mmlt),
         Method::Mnee => Box::new(Mnee),
     }
 }
@@ -275,6 +279,8 @@ mod tests {
                 ("bpm", "accumulated"),
                 ("vcm", "accumulated"),
                 ("pssmlt", "accumulated"),
+                ("mmlt", "accumulated"),
+                ("mnee", "camera"),
             ]
         );
         // Only camera estimators answer per camera ray; the others have the one-ray engine.

@@ -64,29 +64,29 @@
 //!
 //! # Determinism
 //! The random numbers of bootstrap sample `i` and chain `c` of sample index `s` are a pure
-//! function of (seed of `s`'s replica, `s`'s index within it, `i` or `c`) ([`Replicas::stream`],
+//! function of (seed of `s`'s replica, `s`'s index within it, `i` or `c`) (`Replicas::stream`,
 //! [`PrimarySamples`]). Bootstraps and chains run in parallel, the chains in rounds of
-//! [`SEGMENT`] mutations (so the splat buffers' memory does not grow with the resolution), and
+//! [`SEGMENT`](super::metropolis::SEGMENT) mutations (so the splat buffers' memory does not grow with the resolution), and
 //! each round's splats are added to the film in (sample index, chain) order, so the image is
 //! bit-identical at any thread count.
+//!
+//! The driver (bootstrap, chains, splats, rounds) is [`super::metropolis`], shared with `mmlt`;
+//! this module is its target: `path`'s camera sample at a primary sample vector, one stratum.
 
+use super::metropolis::{film_region, Contribution, Metropolis, Target};
 use super::path::Path;
-use super::splat_film::{film_splats, SampleSplats, SplatBuffer};
 use super::{CameraEstimator, Integrator, Method, PathContext};
 use crate::camera::Camera;
-use crate::metrics::LUMA;
-use crate::params::{MetropolisParams, RenderParams};
+use crate::params::RenderParams;
 use crate::render::{camera_for, Accumulate, CameraDims, Film, Progression, RenderOptions};
 use crate::sampler::primary::{with_primary, PrimarySamples};
-use crate::sampler::{pixel_key, Dim, Replicas, Sampler};
+use crate::sampler::{Dim, Sampler};
 use crate::scene::effects::Support;
 use crate::scene::{Effect, Scene};
 use crate::spectrum::{Channels, Wavelengths};
 use crate::stats::RayCounts;
-use glam::{Vec2, Vec3};
-use rayon::prelude::*;
+use glam::Vec2;
 use std::ops::Range;
-use std::sync::atomic::{AtomicU64, Ordering};
 
 /// Primary-sample-space Metropolis light transport over `path`.
 pub struct Pssmlt;
@@ -105,15 +105,10 @@ impl Integrator for Pssmlt {
         Progression::Accumulated(self)
     }
 
+    /// The chains in flight and the bootstraps ([`Metropolis::working_memory`]).
     fn working_memory(&self, scene: &Scene, opts: &RenderOptions) -> u64 {
         let run = Run::new(scene, self, opts);
-        // The chains in flight: each a segment's splats (two per mutation, a pixel index and an
-        // RGB value each, 16 bytes with padding, over the filter's footprint) and its vector;
-        // and the bootstraps' importances. None of it grows with the resolution.
-        let footprint = (2.0 * run.camera.filter.radius()).ceil().max(1.0) as u64;
-        let chains = run.group() as u64 * run.settings.chains as u64;
-        let bootstrap = run.group() as u64 * run.settings.bootstrap as u64 * 16;
-        chains * (SEGMENT * 2 * 16 * footprint * footprint + 4096) + bootstrap
+        run.metropolis(opts).working_memory()
     }
 }
 
@@ -134,231 +129,52 @@ impl Accumulate for Pssmlt {
         film: &mut Film,
         progress: &(dyn Fn(u64, u64) + Sync),
     ) {
-        Run::new(scene, self, opts).add(samples, film, progress);
+        let run = Run::new(scene, self, opts);
+        run.metropolis(opts).add(samples, film, progress);
     }
 }
 
-/// One evaluation of the path tracer at a primary sample vector.
-#[derive(Clone, Copy, Debug)]
-struct Contribution {
-    /// The film point (pixel units).
-    film: Vec2,
-    /// The RGB radiance.
-    l: Vec3,
-    /// The importance `Y(|L|)`; 0 for a non-finite radiance.
-    f: f32,
-}
-
-/// Mutations a chain makes per round: the unit of the splat buffers, which bounds their memory
-/// whatever the resolution.
-const SEGMENT: u64 = 4096;
-
-/// The splats of one segment of a chain, in the order it made them.
-struct ChainSplats {
-    splats: SplatBuffer,
-    rays: RayCounts,
-    non_finite: u64,
-}
-
-/// A chain between rounds: its primary sample vector, its current state and what is left.
-struct Chain {
-    /// The sample index whose run it belongs to.
-    sample: u32,
-    /// The run's normalisation.
-    b: f64,
-    state: PrimarySamples,
-    current: Contribution,
-    /// Mutations still to make.
-    remaining: u64,
-}
-
-/// Everything fixed during a render.
+/// Everything fixed during a render: `path`'s camera samples over the film region.
 struct Run<'a> {
     scene: &'a Scene,
     params: &'a RenderParams,
-    settings: MetropolisParams,
     camera: Camera,
     dims: CameraDims,
-    seed: u64,
-    replicas: Replicas,
     /// Corner and size (pixel units) of the film region the film points cover.
     origin: Vec2,
     size: Vec2,
-    /// Mutations per sample index: the pixels of the crop window.
-    mutations: u64,
 }
 
 impl<'a> Run<'a> {
     fn new(scene: &'a Scene, integrator: &Pssmlt, opts: &'a RenderOptions) -> Run<'a> {
         let camera = camera_for(scene, opts.resolution);
-        let (crop, r) = (camera.crop, camera.filter.radius());
-        // Film points that reach a crop pixel: the window widened by the filter's reach beyond
-        // a pixel's own square (none for the box), clamped to the film.
-        let reach = (r - 0.5).max(0.0);
-        let lo = Vec2::new(crop.x as f32 - reach, crop.y as f32 - reach).max(Vec2::ZERO);
-        let hi = Vec2::new((crop.x + crop.width) as f32 + reach, (crop.y + crop.height) as f32 + reach)
-            .min(Vec2::new(camera.width as f32, camera.height as f32));
+        let (origin, size) = film_region(&camera);
         Run {
             scene,
             params: &opts.params,
-            settings: opts.params.metropolis,
             dims: CameraDims::resolve(scene, integrator, opts.spectral),
-            mutations: crop.pixels() as u64,
             camera,
-            seed: opts.seed,
-            replicas: opts.replicas,
-            origin: lo,
-            size: hi - lo,
+            origin,
+            size,
         }
     }
 
-    /// Sample indices run together: enough chains to keep every thread busy.
-    fn group(&self) -> usize {
-        (4 * rayon::current_num_threads()).div_ceil(self.settings.chains as usize).max(1)
+    /// The Metropolis runs over this target.
+    fn metropolis(&self, opts: &RenderOptions) -> Metropolis<'_, Self> {
+        Metropolis::new(self, &self.camera, opts.params.metropolis, opts, self.size)
     }
+}
 
-    /// The key of the numbers of sample index `s`'s bootstrap sample `i` (`chain` false) or
-    /// chain `i` (`chain` true): a pure function of (seed, s, i).
-    fn key(&self, s: u32, chain: bool, i: u32) -> u64 {
-        let stream = self.replicas.stream(self.seed, s, 0);
-        pixel_key(pixel_key(stream.seed, stream.index as u64), 2 * i as u64 + chain as u64)
-    }
-
-    /// A chain's numbers keyed `start` for its first state and `chain` for its mutations.
-    fn state(&self, start: u64, chain: u64) -> PrimarySamples {
-        let m = &self.settings;
-        PrimarySamples::new(start, chain, m.sigma as f64, m.large_step as f64)
-    }
-
-    /// Run the sample indices `samples` and add their splats to `film`. A few sample indices
-    /// run at a time ([`Run::group`]); their chains advance in rounds of [`SEGMENT`] mutations,
-    /// all in parallel, and each round's splats join the film in (sample index, chain) order.
-    fn add(&self, samples: Range<u32>, film: &mut Film, progress: &(dyn Fn(u64, u64) + Sync)) {
-        let total = samples.len() as u64 * self.mutations;
-        let done = AtomicU64::new(0);
-        // Each chain's splats carry b/F; a run's N mutations cover the region of area A.
-        let scale = self.size.x as f64 * self.size.y as f64 / self.mutations as f64;
-        let all: Vec<u32> = samples.collect();
-        for group in all.chunks(self.group()) {
-            let started: Vec<(RayCounts, Vec<Chain>)> = group
-                .par_iter()
-                .map(|&s| {
-                    let (b, cumulative, mut rays) = self.bootstrap(s);
-                    let chains = (0..self.settings.chains)
-                        .filter_map(|c| self.start_chain(s, c, b, &cumulative, &mut rays))
-                        .collect();
-                    (rays, chains)
-                })
-                .collect();
-            let mut chains = Vec::new();
-            for (rays, c) in started {
-                film.rays += rays;
-                chains.extend(c);
-            }
-            while chains.iter().any(|c| c.remaining > 0) {
-                let round: Vec<ChainSplats> = chains
-                    .par_iter_mut()
-                    .map(|chain| {
-                        let n = chain.remaining.min(SEGMENT);
-                        let out = self.advance(chain, n);
-                        progress(done.fetch_add(n, Ordering::Relaxed) + n, total);
-                        out
-                    })
-                    .collect();
-                for (chain, mut out) in chains.iter().zip(round) {
-                    SampleSplats::new(chain.sample, scale).add(film, &mut out.splats);
-                    film.rays += out.rays;
-                    film.non_finite += out.non_finite;
-                }
-            }
-        }
-    }
-
-    /// Sample index `s`'s bootstrap: the normalisation `b` (the mean importance of its uniform
-    /// samples), the cumulative importance of its samples (where chains start) and its rays.
-    fn bootstrap(&self, s: u32) -> (f64, Vec<f64>, RayCounts) {
-        let n = self.settings.bootstrap;
-        let evaluated: Vec<(f32, RayCounts)> = (0..n)
-            .into_par_iter()
-            .map(|i| {
-                let mut rays = RayCounts::default();
-                let f = self.evaluate(&mut self.state(self.key(s, false, i), 0), &mut rays).f;
-                (f, rays)
-            })
-            .collect();
-        let mut cumulative = Vec::with_capacity(n as usize);
-        let (mut sum, mut rays) = (0.0f64, RayCounts::default());
-        for (f, r) in evaluated {
-            sum += f as f64;
-            cumulative.push(sum);
-            rays += r;
-        }
-        (sum / n as f64, cumulative, rays)
-    }
-
-    /// Chain `c` of sample index `s` with normalisation `b`, started from a bootstrap sample
-    /// chosen ∝ its importance (`cumulative`), to make `N/chains` mutations; `None` when the run
-    /// found no light (or the chain has no mutation).
-    fn start_chain(&self, s: u32, c: u32, b: f64, cumulative: &[f64], rays: &mut RayCounts) -> Option<Chain> {
-        let chains = self.settings.chains as u64;
-        let n = (c as u64 + 1) * self.mutations / chains - c as u64 * self.mutations / chains;
-        let total = cumulative.last().copied().unwrap_or(0.0);
-        if !(b > 0.0 && total > 0.0) || n == 0 {
-            return None;
-        }
-        let key = self.key(s, true, c);
-        let u = Sampler::independent(key, 0, 0).get_1d(Dim::Other) as f64 * total;
-        let start = cumulative.partition_point(|&w| w <= u).min(cumulative.len() - 1) as u32;
-        let mut state = self.state(self.key(s, false, start), key);
-        let current = self.evaluate(&mut state, rays);
-        debug_assert!(current.f > 0.0, "a chain starts from a sample with light");
-        Some(Chain { sample: s, b, state, current, remaining: n })
-    }
-
-    /// The next `n` mutations of `chain`: their splats, weighted by the acceptance probability
-    /// (the proposal's) and its complement (the current state's).
-    fn advance(&self, chain: &mut Chain, n: u64) -> ChainSplats {
-        let mut out = ChainSplats {
-            splats: SplatBuffer::with_capacity(2 * n as usize),
-            rays: RayCounts::default(),
-            non_finite: 0,
-        };
-        let b = chain.b;
-        for _ in 0..n {
-            let state = &mut chain.state;
-            state.start_iteration();
-            let proposed = self.evaluate(state, &mut out.rays);
-            if !proposed.l.is_finite() {
-                out.non_finite += 1;
-            }
-            let a = (proposed.f / chain.current.f).min(1.0);
-            if a > 0.0 {
-                self.splat(&proposed, a as f64 * b, &mut out.splats);
-            }
-            if a < 1.0 {
-                self.splat(&chain.current, (1.0 - a) as f64 * b, &mut out.splats);
-            }
-            if state.accept_draw() < a as f64 {
-                state.accept();
-                chain.current = proposed;
-            } else {
-                state.reject();
-            }
-        }
-        chain.remaining -= n;
-        out
-    }
-
-    /// Splat `weight · L / F` of `sample` into the pixels its film point reaches.
-    fn splat(&self, sample: &Contribution, weight: f64, out: &mut SplatBuffer) {
-        let value = sample.l * (weight / sample.f as f64) as f32;
-        film_splats(&self.camera, sample.film, value, |pixel, v| out.add_visible(pixel, v));
+impl Target for Run<'_> {
+    /// One: `path`'s samples.
+    fn strata(&self) -> u32 {
+        1
     }
 
     /// The camera sample of `state`'s current numbers and `path`'s radiance along it, its rays
     /// counted in `rays`. The camera's numbers are drawn in the camera pass's order: the film
     /// point, the lens, the time, the wavelength.
-    fn evaluate(&self, state: &mut PrimarySamples, rays: &mut RayCounts) -> Contribution {
+    fn evaluate(&self, state: &mut PrimarySamples, _stratum: u32, rays: &mut RayCounts) -> Contribution {
         let (camera, dims) = (&self.camera, self.dims);
         let (film, l, traced) = with_primary(state, || {
             let mut ctx = PathContext::new(Sampler::primary());
@@ -377,11 +193,6 @@ impl<'a> Run<'a> {
             (film, ctx.rgb(l), ctx.rays)
         });
         *rays += traced;
-        let f = if l.is_finite() {
-            (LUMA[0] * l.x.abs() as f64 + LUMA[1] * l.y.abs() as f64 + LUMA[2] * l.z.abs() as f64) as f32
-        } else {
-            0.0
-        };
-        Contribution { film, l, f }
+        Contribution::new(film, l)
     }
 }

@@ -153,20 +153,35 @@ impl CameraTarget<'_> {
         out: &mut SplatBuffer,
         value: impl FnOnce(&PathContext, &CameraConnection) -> Vec3,
     ) {
-        let camera = self.camera;
-        let lens = if self.lens { camera.lens_point(ctx.sampler.get_2d(Dim::Lens)) } else { camera.position };
-        let Some(c) = camera.connection(hit.p, lens) else { return };
-        let v = value(ctx, &c);
-        if v == Vec3::ZERO {
-            return;
-        }
+        let Some((c, splat)) = self.project(hit, ctx, value) else { return };
         let ticket = out.pending.ray(&self.shadows, hit, c.start, None, time, &mut ctx.rays);
-        // dω = |cos_v| dA / d² and dA_film = dω / cos³θ (a visible ray's transmittance is 1).
-        let splat = ctx.channels.to_rgb(v) / (c.dist2 * c.cos * c.cos * c.cos);
-        film_splats(camera, c.film, splat, |pixel, v| out.add(pixel, v, ticket));
+        film_splats(self.camera, c.film, splat, |pixel, v| out.add(pixel, v, ticket));
         if out.pending.full() {
             out.settle(&self.shadows, false);
         }
+    }
+
+    /// The connection of the light-path point `hit` to the camera (a lens point drawn from
+    /// `ctx` with a thin lens) and its splat in RGB, `value(ctx, connection)` times the
+    /// pinhole's importance, where the shadow ray from `hit` to the connection's start still
+    /// decides whether it counts ([`CameraTarget::splat`]); `None` where the point cannot reach
+    /// the film or its value is zero.
+    pub fn project(
+        &self,
+        hit: &SurfaceHit,
+        ctx: &mut PathContext,
+        value: impl FnOnce(&PathContext, &CameraConnection) -> Vec3,
+    ) -> Option<(CameraConnection, Vec3)> {
+        let camera = self.camera;
+        let lens = if self.lens { camera.lens_point(ctx.sampler.get_2d(Dim::Lens)) } else { camera.position };
+        let c = camera.connection(hit.p, lens)?;
+        let v = value(ctx, &c);
+        if v == Vec3::ZERO {
+            return None;
+        }
+        // dω = |cos_v| dA / d² and dA_film = dω / cos³θ (a visible ray's transmittance is 1).
+        let splat = ctx.channels.to_rgb(v) / (c.dist2 * c.cos * c.cos * c.cos);
+        Some((c, splat))
     }
 }
 

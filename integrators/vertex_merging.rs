@@ -128,11 +128,14 @@ use std::ops::Range;
 mod camera_paths;
 mod light_paths;
 mod mis;
+mod multiplexed;
 mod photon_grid;
 use camera_paths::CameraRow;
 use light_paths::{LightPaths, LightStore};
 use mis::{mis, Mis};
 use photon_grid::PhotonGrid;
+
+pub(crate) use multiplexed::Multiplexed;
 
 /// Light paths per chunk of work at most.
 const CHUNK_PATHS: usize = 1 << 12;
@@ -460,6 +463,9 @@ struct Engine<'a> {
     /// The scene's lane form, where shadow rays are tested and camera paths walk across lanes
     /// ([`shadow_lanes`]).
     lanes: Option<LaneScene>,
+    /// Whether sub-paths play Russian roulette (multiplexed MLT's sub-paths of a given length
+    /// do not).
+    roulette: bool,
 }
 
 impl<'a> Engine<'a> {
@@ -484,6 +490,7 @@ impl<'a> Engine<'a> {
             radius0: initial_radius(scene, &opts.params.merging, opts.resolution),
             only: opts.params.merging.only,
             lanes: shadow_lanes(scene, &opts.params),
+            roulette: true,
         }
     }
 
@@ -740,7 +747,7 @@ impl<'a> Engine<'a> {
         }
         walk.ray = ray.spawn(spawn_origin(hit, wi), wi);
         path.segments += 1;
-        if path.segments > ROULETTE_DEPTH + 1 {
+        if self.roulette && path.segments > ROULETTE_DEPTH + 1 {
             let rr = path.survival();
             if rr < 1.0 {
                 let q = (1.0 - rr).max(0.0);

@@ -28,6 +28,9 @@ use vitrum::scene::{self, Scene};
 /// Every integrator, in the order `vitrum integrators` lists them.
 const ALL: [&str; 6] = ["raycast", "whitted", "ssaa", "distributed", "path", "light"];
 
+/// The Metropolis methods checked for finite renders of every hard scene.
+const METROPOLIS: [&str; 1] = ["mmlt"];
+
 // ---------------------------------------------------------------------------------------------
 // Loading scenes and their variants
 // ---------------------------------------------------------------------------------------------
@@ -341,6 +344,11 @@ fn every_hard_scene_is_documented_and_renders_finite_with_every_integrator() {
         // the checks below are about what each case shows, which it shows as `path` does.
         for integrator in ALL.into_iter().chain(["pssmlt"]) {
             let out = render_with(&scene, integrator, (12, 12), spp_for(integrator, 2), 1);
+            assert_eq!(out.image.pixels.len(), 144);
+        }
+        // Multiplexed Metropolis over the bidirectional strategies: finite too.
+        for integrator in METROPOLIS {
+            let out = render_with(&scene, integrator, (12, 12), 2, 1);
             assert_eq!(out.image.pixels.len(), 144);
         }
     }

@@ -139,7 +139,7 @@ fn memory_beyond_the_film_does_not_grow_with_the_resolution() {
             let quarter = method(4096, DEFAULT_MAX_LIGHT_PATHS / 4);
             assert!(quarter < half && half < at_1024, "{name}: {quarter}, {half}, {at_1024}");
             assert_eq!(at_1024 - half, 2 * (half - quarter), "{name}: the cap sets the light paths' memory");
-        } else if name == "pssmlt" {
+        } else if name == "pssmlt" || name == "mmlt" {
             // Its chains' segments of splats and its bootstraps: set by its settings alone.
             assert!(at_1024 > 0, "{name}: its chains in flight hold memory");
         } else {

@@ -10,12 +10,12 @@
 
 mod common;
 
-use common::replicas::{blocks, render_replicas_with, z};
+use common::replicas::{blocks, render_replicas, z};
 use std::path::Path;
 use vitrum::integrators::create;
 use vitrum::params::{EngineOption, ManifoldParams, Seeding};
 use vitrum::render::{render, RenderOptions, RenderOutput};
-use vitrum::scene::{load, load_str, Scene, SpectralMode};
+use vitrum::scene::{load, load_str, Scene};
 
 fn root() -> &'static Path {
     Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -23,7 +23,8 @@ fn root() -> &'static Path {
 
 /// `mnee` with `seeding` on `scene`: (size, spp, replicas, seed).
 fn mnee(scene: &Scene, seeding: Seeding, run: (u32, u32, u32, u64)) -> RenderOutput {
-    render_replicas_with(scene, "mnee", run, SpectralMode::Auto, |o| {
+    let (size, spp, replicas, seed) = run;
+    render_replicas(scene, "mnee", (size, size), spp, replicas, seed, |o| {
         o.params.manifold = Some(ManifoldParams { seeding, ..ManifoldParams::default() })
     })
 }
@@ -118,7 +119,7 @@ fn the_slab_caustic_of_a_point_light_has_its_closed_form() {
 /// errors).
 fn assert_sms_agrees_with_vcm(scene: &Scene, what: &str) {
     let ours = mnee(scene, Seeding::Sms, (32, 64, 16, 1));
-    let vcm = render_replicas_with(scene, "vcm", (32, 256, 16, 2), SpectralMode::Auto, |_| {});
+    let vcm = render_replicas(scene, "vcm", (32, 32), 256, 16, 2, |_| {});
     let (a, b) = (blocks(&ours, 8), blocks(&vcm, 8));
     let chi2: f64 = a[..16].iter().zip(&b[..16]).map(|(x, y)| z(*x, *y).powi(2)).sum();
     let image = z(a[16], b[16]);
@@ -194,7 +195,7 @@ radiance = 40.0
 fn the_manifold_strategy_and_bsdf_sampling_partition_an_area_lights_caustic() {
     let scene = small_light_over_a_glass_ball();
     let ours = mnee(&scene, Seeding::Straight, (32, 32, 16, 5));
-    let path = render_replicas_with(&scene, "path", (32, 512, 16, 6), SpectralMode::Auto, |_| {});
+    let path = render_replicas(&scene, "path", (32, 32), 512, 16, 6, |_| {});
     let (a, b) = (blocks(&ours, 8), blocks(&path, 8));
     let chi2: f64 = a[..16].iter().zip(&b[..16]).map(|(x, y)| z(*x, *y).powi(2)).sum();
     let image = z(a[16], b[16]);

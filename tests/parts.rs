@@ -65,12 +65,13 @@ fn resume_after_sigkill_at_any_moment_equals_the_uninterrupted_render() {
     // The bidirectional methods at fewer samples (an iteration costs more) and fewer kills.
     let all_fractions = [0.05, 0.2, 0.35, 0.5, 0.65, 0.8, 0.95];
     let few_fractions = [0.15, 0.35, 0.55, 0.75];
-    let cases: [(&str, u32, &[f64]); 5] = [
+    let cases: [(&str, u32, &[f64]); 6] = [
         ("path", 160, &all_fractions),
         ("light", 160, &all_fractions),
         ("vcm", 40, &few_fractions),
         ("ppm", 40, &few_fractions),
         ("pssmlt", 40, &few_fractions),
+        ("mmlt", 40, &few_fractions),
     ];
     for (method, samples, fractions) in cases {
         let dir = tempfile::tempdir().unwrap();
@@ -136,7 +137,7 @@ fn max_relative_difference(a: &Image, b: &Image) -> f64 {
 fn shards_rendered_by_parallel_processes_merge_into_the_single_render() {
     let _serial = serial();
     let binary = env!("CARGO_BIN_EXE_vitrum");
-    for method in ["path", "light", "vcm", "ppm", "pssmlt"] {
+    for method in ["path", "light", "vcm", "ppm", "pssmlt", "mmlt"] {
         let dir = tempfile::tempdir().unwrap();
         let dir = dir.path();
         // 10 samples in 4 shards: 2, 3, 2, 3 samples (uneven, so the weights matter).

@@ -205,6 +205,22 @@ impl Engine<'_> {
         let (x, y) = ((j % cam.width as usize) as u32, (j / cam.width as usize) as u32);
         let film = cam.film_point(x, y, ctx.sampler.get_2d(Dim::Pixel));
         let lens = if self.dims.lens { ctx.sampler.get_2d(Dim::Lens) } else { Vec2::ZERO };
+        let (walk, path) = self.camera_subpath(ctx, film, lens, time);
+        Some((walk, path, CameraLane { partner, time, slot: slot as u32 }))
+    }
+
+    /// A camera sub-path through the film point `film` (pixel units) from the lens point
+    /// `lens` at time `time`, drawing its numbers from `ctx`: its first ray and its state,
+    /// its density that of a film point uniform in its pixel (per light path of the
+    /// iteration's `N`).
+    pub(super) fn camera_subpath(
+        &self,
+        mut ctx: PathContext,
+        film: Vec2,
+        lens: Vec2,
+        time: f32,
+    ) -> (Walk, SubPath) {
+        let cam = &self.camera;
         let ray = cam.generate_ray_lens(film, lens, time);
         ctx.rays.primary += 1;
         let cos = ray.dir.dot(cam.forward);
@@ -212,21 +228,20 @@ impl Engine<'_> {
         let mis = Mis::camera(self.light_paths as f32, camera_pdf_w);
         let mut path = SubPath::new(ctx, TransportMode::Radiance, Vec3::ONE, mis);
         path.start_offset = cam.near_clip / cos;
-        let walk = Walk { ray, absorption: Vec3::ZERO, from_infinity: false };
-        Some((walk, path, CameraLane { partner, time, slot: slot as u32 }))
+        (Walk { ray, absorption: Vec3::ZERO, from_infinity: false }, path)
     }
 
-    /// The random numbers of next-event estimation at a camera vertex: the light's index and
-    /// the point on it.
-    fn next_event_draw(&self, path: &mut SubPath) -> (usize, Vec2) {
-        let index = pick_light(self.lights, &mut path.ctx.sampler);
-        (index, path.ctx.sampler.get_2d(Dim::Light))
+    /// The random numbers of next-event estimation at a camera vertex, from `sampler`: the
+    /// light's index and the point on it.
+    pub(super) fn next_event_draw(&self, sampler: &mut Sampler) -> (usize, Vec2) {
+        let index = pick_light(self.lights, sampler);
+        (index, sampler.get_2d(Dim::Light))
     }
 
     /// Next-event estimation at a camera vertex with the numbers `draw`, weighted against
     /// every other strategy: its value where the light's point is visible, that point and
     /// the light.
-    fn next_event(
+    pub(super) fn next_event(
         &self,
         at: &Vertex,
         path: &SubPath,
@@ -276,7 +291,13 @@ impl Engine<'_> {
 
     /// The connection of a camera vertex to light vertex `v`, weighted: its value where the
     /// two see each other, and the point the shadow ray aims at.
-    fn connect(&self, at: &Vertex, path: &SubPath, v: &LightVertex, k: &IterationConstants) -> Shadowed {
+    pub(super) fn connect(
+        &self,
+        at: &Vertex,
+        path: &SubPath,
+        v: &LightVertex,
+        k: &IterationConstants,
+    ) -> Shadowed {
         let d = v.p - at.hit.p;
         let dist2 = d.length_squared();
         if !(dist2 > 0.0 && dist2.is_finite()) {
@@ -420,12 +441,26 @@ struct CameraVisitor<'e, 'a, 's> {
 }
 
 impl CameraVisitor<'_, '_, '_> {
-    /// The weight of emission found by the camera path itself; `densities` gives the
-    /// emitter's (emission, direct) densities of the arrival.
+    /// The weight of emission found by the camera path itself ([`Engine::emitter_weight`]).
     fn emitter_weight(&self, path: &SubPath, densities: impl FnOnce() -> (f32, f32)) -> f32 {
-        if path.segments == 1 || self.engine.only.is_some() {
+        self.engine.emitter_weight(path, self.pick, self.only_merges, densities)
+    }
+}
+
+impl Engine<'_> {
+    /// The weight of emission found by the camera path itself, a light picked with
+    /// probability `pick`; `only_merges` for the methods that merge without connecting;
+    /// `densities` gives the emitter's (emission, direct) densities of the arrival.
+    pub(super) fn emitter_weight(
+        &self,
+        path: &SubPath,
+        pick: f32,
+        only_merges: bool,
+        densities: impl FnOnce() -> (f32, f32),
+    ) -> f32 {
+        if path.segments == 1 || self.only.is_some() {
             1.0
-        } else if self.only_merges {
+        } else if only_merges {
             // Merging's paths: only a specular chain reaches an emitter by itself.
             if path.specular_path {
                 1.0
@@ -434,7 +469,7 @@ impl CameraVisitor<'_, '_, '_> {
             }
         } else {
             let (emit, direct) = densities();
-            mis::emitter_hit(&path.mis, self.pick * direct, self.pick * emit)
+            mis::emitter_hit(&path.mis, pick * direct, pick * emit)
         }
     }
 }
@@ -484,7 +519,7 @@ impl WalkVisitor for CameraVisitor<'_, '_, '_> {
         let mut found = None;
         if e.algorithm.connects() {
             if e.lights > 0 && e.keeps(Strategy::NextEvent) {
-                let draw = e.next_event_draw(path);
+                let draw = e.next_event_draw(&mut path.ctx.sampler);
                 if self.first_batch {
                     let term = e.next_event(at, path, k, self.pick, draw);
                     self.row.add_shadowed(self.slot, path.beta, term, at.hit, self.time, &mut path.ctx.rays);

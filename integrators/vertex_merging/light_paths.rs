@@ -14,7 +14,7 @@ use crate::camera::CameraConnection;
 use crate::geometry::SurfaceHit;
 use crate::integrators::splat_film::{CameraTarget, SampleSplats, SplatBuffer};
 use crate::integrators::{pick_light, PathContext, Strategy};
-use crate::light::Light;
+use crate::light::{Emission, Light};
 use crate::render::Film;
 use crate::sampler::{Dim, Sampler};
 use crate::stats::RayCounts;
@@ -53,6 +53,23 @@ pub(super) struct LightVertex {
 }
 
 impl LightVertex {
+    /// The vertex of the light sub-path `path` at `at` on primitive `primitive`.
+    pub(super) fn at(at: &Vertex, path: &SubPath, primitive: u32) -> LightVertex {
+        LightVertex {
+            p: at.hit.p,
+            n: at.hit.n,
+            uv: at.hit.uv,
+            ns: at.hit.shading_n,
+            p_error: at.hit.p_error,
+            wo: at.wo,
+            beta: path.beta,
+            mis: path.mis,
+            segments: path.segments,
+            primitive,
+            hero_only: path.ctx.hero_only,
+        }
+    }
+
     /// The surface point of the vertex.
     pub(super) fn hit(&self) -> SurfaceHit {
         SurfaceHit { t: 0.0, p: self.p, n: self.n, shading_n: self.ns, uv: self.uv, p_error: self.p_error }
@@ -218,14 +235,7 @@ impl Engine<'_> {
         let (channels, time) = self.channels_and_time(j, s);
         let mut ctx = PathContext::new(self.light_sampler(j, s));
         ctx.channels = channels;
-        let n = self.lights;
-        let light = &self.scene.lights[pick_light(n, &mut ctx.sampler)];
-        let side = ctx.sampler.get_1d(Dim::Light);
-        let u_point = ctx.sampler.get_2d(Dim::Light);
-        let u_dir = ctx.sampler.get_2d(Dim::Light);
-        let Some(e) = light.emit(1.0 / n as f32, side, u_point, u_dir, &self.sphere) else { return };
-        let mis = Mis::light(k, e.pdf_emit, e.pdf_direct, e.cos_light, e.delta);
-        let mut path = SubPath::new(ctx, TransportMode::Importance, channels.colour(e.beta), mis);
+        let Some((light, e, mut path)) = self.light_subpath(ctx, k) else { return };
         if let (Some(Strategy::CameraSplat), Some((origin, inv_pdf))) = (self.only, e.origin) {
             self.splat_emission_point(light, &origin, inv_pdf, &mut path, time, out);
         }
@@ -234,6 +244,25 @@ impl Engine<'_> {
         path.ctx.rays.primary += 1;
         self.walk(ray, &mut path, k, e.infinite, &mut LightVisitor { engine: self, k, time, out });
         out.rays += path.ctx.rays;
+    }
+
+    /// A light sub-path drawing its numbers from `ctx` (its channels set): the light picked,
+    /// its emission (the first ray, without the time) and the path's state; `None` where the
+    /// light emits nothing there.
+    pub(super) fn light_subpath(
+        &self,
+        mut ctx: PathContext,
+        k: &IterationConstants,
+    ) -> Option<(&Light, Emission, SubPath)> {
+        let n = self.lights;
+        let light = &self.scene.lights[pick_light(n, &mut ctx.sampler)];
+        let side = ctx.sampler.get_1d(Dim::Light);
+        let u_point = ctx.sampler.get_2d(Dim::Light);
+        let u_dir = ctx.sampler.get_2d(Dim::Light);
+        let e = light.emit(1.0 / n as f32, side, u_point, u_dir, &self.sphere)?;
+        let mis = Mis::light(k, e.pdf_emit, e.pdf_direct, e.cos_light, e.delta);
+        let beta = ctx.channels.colour(e.beta);
+        Some((light, e, SubPath::new(ctx, TransportMode::Importance, beta, mis)))
     }
     /// Splat the emission point `origin` of an area light seen directly (`inv_pdf`: one over
     /// its density): only when light tracing's strategy is rendered alone, which is then all of
@@ -263,23 +292,31 @@ impl Engine<'_> {
         out: &mut LightChunk,
     ) {
         let (beta, light_mis) = (path.beta, path.mis);
-        self.splat(at.hit, path, time, out, |_, c| {
-            let wc_local = at.frame.to_local(-c.dir);
-            let e = at.bsdf.evaluate(at.wo_local, wc_local, TransportMode::Importance);
-            if e.f == Vec3::ZERO {
-                return Vec3::ZERO;
-            }
-            let cos_v = wc_local.z.abs();
-            // Density of this point per unit area as the camera samples it (one sample per pixel).
-            let camera_pdf_a = cos_v / (self.pixel_area * c.dist2 * c.cos * c.cos * c.cos);
-            let weight = self.weighted(mis::camera_splat(
-                &light_mis,
-                k,
-                camera_pdf_a / self.light_paths as f32,
-                e.pdf_rev,
-            ));
-            beta * e.f * (weight * cos_v * at.frame.factor(at.wo, -c.dir, TransportMode::Importance))
-        });
+        self.splat(at.hit, path, time, out, |_, c| self.camera_splat_value(at, beta, &light_mis, k, c));
+    }
+
+    /// The value light tracing's strategy gives the connection `c` of the light vertex `at`
+    /// (path weight `beta`, MIS state `light_mis`) to the camera, weighted, before the
+    /// pinhole's importance ([`CameraTarget::splat`]).
+    pub(super) fn camera_splat_value(
+        &self,
+        at: &Vertex,
+        beta: Vec3,
+        light_mis: &Mis,
+        k: &IterationConstants,
+        c: &CameraConnection,
+    ) -> Vec3 {
+        let wc_local = at.frame.to_local(-c.dir);
+        let e = at.bsdf.evaluate(at.wo_local, wc_local, TransportMode::Importance);
+        if e.f == Vec3::ZERO {
+            return Vec3::ZERO;
+        }
+        let cos_v = wc_local.z.abs();
+        // Density of this point per unit area as the camera samples it (one sample per pixel).
+        let camera_pdf_a = cos_v / (self.pixel_area * c.dist2 * c.cos * c.cos * c.cos);
+        let weight =
+            self.weighted(mis::camera_splat(light_mis, k, camera_pdf_a / self.light_paths as f32, e.pdf_rev));
+        beta * e.f * (weight * cos_v * at.frame.factor(at.wo, -c.dir, TransportMode::Importance))
     }
 
     /// Connect the light-path point `hit` to the camera at time `time` and splat
@@ -326,19 +363,7 @@ impl WalkVisitor for LightVisitor<'_, '_> {
     fn visit(&mut self, path: &mut SubPath, at: &Vertex, primitive: u32) -> Next {
         let e = self.engine;
         if !at.bsdf.is_delta() {
-            self.out.vertices.push(LightVertex {
-                p: at.hit.p,
-                n: at.hit.n,
-                uv: at.hit.uv,
-                ns: at.hit.shading_n,
-                p_error: at.hit.p_error,
-                wo: at.wo,
-                beta: path.beta,
-                mis: path.mis,
-                segments: path.segments,
-                primitive,
-                hero_only: path.ctx.hero_only,
-            });
+            self.out.vertices.push(LightVertex::at(at, path, primitive));
             if e.algorithm.connects() && e.keeps(Strategy::CameraSplat) && path.segments < e.max_segments {
                 e.connect_to_camera(at, path, self.k, self.time, self.out);
             }

@@ -64,8 +64,7 @@ pub fn run(args: &InfoArgs) -> Result<(), CliError> {
                     entry["radius_from"] = json!(if m.radius.is_some() { "scene" } else { "default" });
                     entry["radius_alpha"] = json!(m.alpha);
                 }
-                if i.method() == crate::methods::Method::Pssmlt {
-                    let m = &scene.settings.metropolis;
+                if let Some(m) = scene.settings.metropolis.get(i.name()) {
                     entry["large_step"] = json!(m.large_step);
                     entry["sigma"] = json!(m.sigma);
                     entry["bootstrap"] = json!(m.bootstrap);
@@ -161,8 +160,7 @@ pub fn run(args: &InfoArgs) -> Result<(), CliError> {
             };
             print!(", radius {r0:.4e} ({from}), radius alpha {}", m.alpha);
         }
-        if i.method() == crate::methods::Method::Pssmlt {
-            let m = &settings.metropolis;
+        if let Some(m) = settings.metropolis.get(i.name()) {
             print!(
                 ", large step {}, sigma {}, {} bootstrap samples and {} chains per sample index",
                 m.large_step, m.sigma, m.bootstrap, m.chains

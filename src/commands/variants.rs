@@ -11,8 +11,8 @@
 //! | `sampler` | `sobol`, `stratified`, `independent` | every method |
 //! | `radius` | the initial merge radius, > 0 (scene units) | `ppm`, `bpm`, `vcm` |
 //! | `radius_alpha` | the radius schedule's α, in (0, 1] | `ppm`, `bpm`, `vcm` |
-//! | `large_step` | the probability of a large step, in (0, 1] | `pssmlt` |
-//! | `sigma` | the deviation of a small step, in (0, 1] | `pssmlt` |
+//! | `large_step` | the probability of a large step, in (0, 1] | `pssmlt`, `mmlt` |
+//! | `sigma` | the deviation of a small step, in (0, 1] | `pssmlt`, `mmlt` |
 //! | `seeding` | `sms` (unbiased) or `straight` (MNEE) | `mnee` |
 //! | `max_chain` | the most glass interfaces of a chain, 1 to 16 | `mnee` |
 //! | `max_trials` | the cap on SMS's trials, at least 1 | `mnee` |
@@ -160,8 +160,10 @@ fn setting(item: &str, method: &dyn Integrator, key: &str, value: &str) -> Resul
                 Err(bad(format!("radius_alpha={value}: a number in (0, 1]")))
             }
         }
-        "large_step" | "sigma" if method.method() != crate::methods::Method::Pssmlt => {
-            Err(bad(format!("{key}: only the Metropolis method (pssmlt) has large and small steps")))
+        "large_step" | "sigma"
+            if !matches!(method.method(), crate::methods::Method::Pssmlt | crate::methods::Method::Mmlt) =>
+        {
+            Err(bad(format!("{key}: only the Metropolis methods (pssmlt, mmlt) have large and small steps")))
         }
         "large_step" | "sigma" => {
             let v = number("a number in (0, 1]")?;
@@ -269,6 +271,10 @@ mod tests {
         let mut opts = RenderOptions::for_method(&scene, mlt[0].integrator.as_ref(), 4);
         mlt[0].apply(&mut opts);
         assert_eq!((opts.params.metropolis.large_step, opts.params.metropolis.sigma), (0.5, 0.02));
+        let mmlt = parse_methods("mmlt[large_step=0.4,sigma=0.03]").unwrap();
+        let mut opts = RenderOptions::from_scene(&crate::scene::load_default(), 1);
+        mmlt[0].apply(&mut opts);
+        assert_eq!((opts.params.metropolis.large_step, opts.params.metropolis.sigma), (0.4, 0.03));
     }
 
     #[test]
@@ -278,7 +284,8 @@ mod tests {
             ("path[radius=0.1]", "only the merging methods"),
             ("vcm[radius=-1]", "positive"),
             ("vcm[radius_alpha=1.5]", "(0, 1]"),
-            ("path[large_step=0.5]", "only the Metropolis method"),
+            ("path[large_step=0.5]", "only the Metropolis methods"),
+            ("mmlt[sigma=2]", "(0, 1]"),
             ("pssmlt[large_step=0]", "(0, 1]"),
             ("pssmlt[sigma=-0.1]", "(0, 1]"),
             ("path[max_depth=9999]", "0 to"),

@@ -193,8 +193,15 @@ enum Mode {
     Independent,
     Stratified,
     Sobol,
-    /// The numbers of this thread's Markov chain ([`primary::with_primary`]).
-    Primary,
+    /// The numbers of this thread's Markov chain ([`primary::with_primary`]): request `d`
+    /// reads the vector's dimension `d · streams + stream` (one of `streams` interleaved
+    /// streams, as pbrt-v4's `MLTSampler` keeps the camera's, the light's and the
+    /// connection's numbers apart).
+    /// (Bytes, so that the mode stays within the sampler's padding.)
+    Primary {
+        stream: u8,
+        streams: u8,
+    },
 }
 
 /// Lowbias32 (Wellons): a fast, well-mixed 32-bit hash.
@@ -296,13 +303,23 @@ impl Sampler {
     /// and `d + 1`) reads dimension `d` of the vector that [`primary::with_primary`] installs
     /// on this thread, mutated as the chain's current proposal asks.
     pub fn primary() -> Sampler {
+        Sampler::primary_stream(0, 1)
+    }
+
+    /// Stream `stream` of `streams` (> `stream`) interleaved in a Metropolis chain's primary
+    /// sample vector: its request `d` reads dimension `d · streams + stream`, so the streams
+    /// draw disjoint numbers and each stream's numbers do not move when another draws more
+    /// (multiplexed MLT's camera, light and connection streams). `primary_stream(0, 1)` is
+    /// [`Sampler::primary`].
+    pub fn primary_stream(stream: u32, streams: u32) -> Sampler {
+        debug_assert!(stream < streams && streams <= u8::MAX as u32, "stream {stream} of {streams}");
         Sampler {
             pixel_key: 0,
             sample_key: 0,
             sample: 0,
             reversed_sample: 0,
             samples_per_pixel: 0,
-            mode: Mode::Primary,
+            mode: Mode::Primary { stream: stream as u8, streams: streams as u8 },
             grid_side: 0,
             dimension: 0,
             requests: [0; DIM_PURPOSES],
@@ -339,7 +356,7 @@ impl Sampler {
                 ((self.stratum(d, n) as f32 + self.jitter(d)) / n as f32).min(ONE_MINUS_EPSILON)
             }
             Mode::Sobol => sobol_first(self.pixel_key, self.reversed_sample, d),
-            Mode::Primary => primary::draw(d),
+            Mode::Primary { stream, streams } => primary::draw(d * streams as u32 + stream as u32),
         }
     }
 
@@ -369,7 +386,10 @@ impl Sampler {
                 let (x, y) = sobol_pair(self.pixel_key, self.reversed_sample, d);
                 Vec2::new(x, y)
             }
-            Mode::Primary => Vec2::new(primary::draw(d), primary::draw(d + 1)),
+            Mode::Primary { stream, streams } => {
+                let (k, n) = (stream as u32, streams as u32);
+                Vec2::new(primary::draw(d * n + k), primary::draw((d + 1) * n + k))
+            }
         }
     }
 

@@ -992,7 +992,12 @@ impl Compiler<'_> {
             return Err(self.err(&q.key("levels"), format!("must be in 0..=6 (got {})", r.ssaa.levels)));
         }
         let threshold = self.non_negative(&q.key("threshold"), r.ssaa.threshold)?;
-        let metropolis = self.metropolis(&path.key("pssmlt"), &r.pssmlt)?;
+        let mut metropolis = BTreeMap::new();
+        for (method, table) in
+            [(crate::methods::Method::Pssmlt, &r.pssmlt), (crate::methods::Method::Mmlt, &r.mmlt)]
+        {
+            metropolis.insert(method.name().to_string(), self.metropolis(&path.key(method.name()), table)?);
+        }
         let manifold = self.manifold(&path.key("mnee"), &r.mnee)?;
         Ok(RenderSettings {
             manifold,
@@ -1012,7 +1017,7 @@ impl Compiler<'_> {
         })
     }
 
-    /// The Metropolis settings of the table `m` at `at` (`[render.pssmlt]`), the defaults where
+    /// The Metropolis settings of the table `m` at `at` (`[render.pssmlt]`, `[render.mmlt]`), the defaults where
     /// a field is absent.
     fn metropolis(&self, at: &FieldPath, m: &MetropolisDesc) -> Result<MetropolisParams, SceneError> {
         let mut params = MetropolisParams::default();

@@ -257,6 +257,9 @@ pub struct RenderDesc {
     /// `[render.pssmlt]`: primary-sample-space Metropolis light transport.
     #[serde(default)]
     pub pssmlt: MetropolisDesc,
+    /// `[render.mmlt]`: multiplexed Metropolis light transport.
+    #[serde(default)]
+    pub mmlt: MetropolisDesc,
     /// `[render.mnee]`: path tracing with manifold next-event estimation.
     #[serde(default)]
     pub mnee: ManifoldDesc,
@@ -265,8 +268,8 @@ pub struct RenderDesc {
 /// The message for a `max_depth` in `[render]`, which no longer applies to every method.
 pub const MOVED_MAX_DEPTH: &str = "a depth is set per method, e.g. `[render.whitted] max_depth = 5` \
      (likewise [render.ssaa], [render.distributed], [render.path], [render.light], [render.bpt], \
-     [render.ppm], [render.bpm], [render.vcm], [render.pssmlt], [render.mnee]); without one each method uses its own \
-     default (5; 256 for path, light, pssmlt, mnee and the bidirectional methods)";
+     [render.ppm], [render.bpm], [render.vcm], [render.pssmlt], [render.mmlt], [render.mnee]); without one each \
+     method uses its own default (5; 16 for mmlt; 256 for path, light, pssmlt, mnee and the bidirectional methods)";
 
 /// The methods with a `[render.METHOD]` table, in the order `vitrum integrators` lists them:
 /// every method of the table of methods ([`crate::methods::NAMES`]).
@@ -461,6 +464,7 @@ impl RenderDesc {
             Method::Bpm => self.bpm.max_depth,
             Method::Vcm => self.vcm.max_depth,
             Method::Pssmlt => self.pssmlt.max_depth,
+            Method::Mmlt => self.mmlt.max_depth,
             Method::Mnee => self.mnee.max_depth,
         }
     }
@@ -490,6 +494,7 @@ impl Default for RenderDesc {
             bpm: MergeDesc::default(),
             vcm: MergeDesc::default(),
             pssmlt: MetropolisDesc::default(),
+            mmlt: MetropolisDesc::default(),
             mnee: ManifoldDesc::default(),
         }
     }
@@ -1270,16 +1275,25 @@ mod tests {
         assert!(!MOVED_MAX_DEPTH.contains("[render.raycast]"), "raycast has no depth");
         // "(5; 256 for path, light, pssmlt and the bidirectional methods)": the two defaults of the
         // table.
-        let mut defaults: Vec<u32> = depths.iter().map(|m| m.default_max_depth).collect();
+        let mut defaults: Vec<u32> =
+            depths.iter().filter(|m| m.name != "mmlt").map(|m| m.default_max_depth).collect();
         defaults.dedup();
         assert_eq!(defaults.len(), 2, "{defaults:?}");
         let (low, high) = (defaults[0], defaults[1]);
-        assert!(MOVED_MAX_DEPTH
-            .contains(&format!("({low}; {high} for path, light, pssmlt and the bidirectional methods)")));
+        let mmlt = crate::methods::DEFAULT_MMLT_DEPTH;
+        assert!(MOVED_MAX_DEPTH.contains(&format!(
+            "({low}; {mmlt} for mmlt; {high} for path, light, pssmlt, mnee and the bidirectional methods)"
+        )));
         for m in &depths {
             let bidirectional = matches!(m.settings, crate::methods::Settings::Merging) || m.name == "bpt";
-            let path_like = ["path", "light", "pssmlt"].contains(&m.name);
-            let expected = if path_like || bidirectional { high } else { low };
+            let path_like = ["path", "light", "pssmlt", "mnee"].contains(&m.name);
+            let expected = if m.name == "mmlt" {
+                mmlt
+            } else if path_like || bidirectional {
+                high
+            } else {
+                low
+            };
             assert_eq!(m.default_max_depth, expected, "{}", m.name);
         }
     }
@@ -1289,13 +1303,27 @@ mod tests {
         let mut render: RenderDesc = toml::from_str(
             "[whitted]\nmax_depth = 1\n[ssaa]\nmax_depth = 2\n[distributed]\nmax_depth = 3\n[path]\nmax_depth = 4\n\
              [light]\nmax_depth = 5\n[bpt]\nmax_depth = 6\n[ppm]\nmax_depth = 7\n[bpm]\nmax_depth = 8\n\
-             [vcm]\nmax_depth = 9\n[pssmlt]\nmax_depth = 10\n",
+             [vcm]\nmax_depth = 9\n[pssmlt]\nmax_depth = 10\n[mmlt]\nmax_depth = 11\n[mnee]\nmax_depth = 12\n",
         )
         .unwrap();
         let read: Vec<Option<u32>> = METHODS.iter().map(|m| render.max_depth_of(m.name)).collect();
         assert_eq!(
             read,
-            [None, Some(1), Some(2), Some(3), Some(4), Some(5), Some(6), Some(7), Some(8), Some(9), Some(10)]
+            [
+                None,
+                Some(1),
+                Some(2),
+                Some(3),
+                Some(4),
+                Some(5),
+                Some(6),
+                Some(7),
+                Some(8),
+                Some(9),
+                Some(10),
+                Some(11),
+                Some(12)
+            ]
         );
         render.vcm.radius = Some(0.5);
         for m in METHODS {

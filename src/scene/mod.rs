@@ -104,8 +104,9 @@ pub struct RenderSettings {
     pub sampler: SamplerKind,
     /// Settings of the supersampling integrator.
     pub ssaa: SsaaParams,
-    /// Settings of the Metropolis methods (`[render.pssmlt]`).
-    pub metropolis: MetropolisParams,
+    /// Settings of the Metropolis methods by name (`[render.pssmlt]`, `[render.mmlt]`; the
+    /// defaults where a table is absent).
+    pub metropolis: BTreeMap<String, MetropolisParams>,
     /// Settings of manifold next-event estimation (`[render.mnee]`).
     pub manifold: ManifoldParams,
 }
@@ -125,7 +126,7 @@ impl RenderSettings {
             reflectance: self.reflectance,
             ssaa: self.ssaa,
             merging: self.merging.get(method.name()).copied().unwrap_or_default(),
-            metropolis: self.metropolis,
+            metropolis: self.metropolis.get(method.name()).copied().unwrap_or_default(),
             manifold: (method == Method::Mnee).then_some(self.manifold),
             engine: crate::params::EngineOption::Auto,
         }

@@ -1,32 +1,31 @@
-//! Renders kept in independent replicas, and the statistics of their block means: the error of
-//! a block or image mean is the spread of the replicas' values, never a sum of per-pixel
-//! variances (the splats of one Metropolis run, or one light path's, are correlated across
-//! pixels).
+//! Renders kept in independent replicas and the statistics of their block means: the error of a
+//! block mean, or of the image mean, is the spread of the replicas' values, never a sum of
+//! per-pixel variances (the splats of one Metropolis run are correlated across pixels).
 
 use glam::DVec3;
 use vitrum::integrators::create;
 use vitrum::render::{render, RenderOptions, RenderOutput};
 use vitrum::sampler::{Replicas, SamplerKind};
-use vitrum::scene::{Scene, SpectralMode};
+use vitrum::scene::Scene;
 
-/// A render of `scene` by `method` (a registered name) at `size`² pixels with `spp` samples in
-/// `replicas` replicas, independent sampling, with `adjust` applied to the method's options;
-/// every sample must be finite.
-pub fn render_replicas_with(
+/// A render of `scene` by `method` at `size`² pixels with `spp` samples in `replicas` replicas,
+/// seed `seed`, independent sampling, its options changed by `edit` last; every sample finite.
+pub fn render_replicas(
     scene: &Scene,
     method: &str,
-    (size, spp, replicas, seed): (u32, u32, u32, u64),
-    spectral: SpectralMode,
-    adjust: impl FnOnce(&mut RenderOptions),
+    size: (u32, u32),
+    spp: u32,
+    replicas: u32,
+    seed: u64,
+    edit: impl FnOnce(&mut RenderOptions),
 ) -> RenderOutput {
     let integrator = create(method).unwrap();
     let mut opts = RenderOptions::for_method(scene, integrator.as_ref(), spp);
-    opts.spectral = spectral;
-    opts.resolution = Some((size, size));
+    opts.resolution = Some(size);
     opts.replicas = Replicas::new(replicas).unwrap();
     opts.sampler = SamplerKind::Independent;
     opts.seed = seed;
-    adjust(&mut opts);
+    edit(&mut opts);
     let out = render(scene, integrator.as_ref(), &opts, &|_, _| {});
     assert_eq!(out.non_finite_samples, 0, "{method}: non-finite samples");
     assert_eq!(out.spp, spp);
@@ -42,7 +41,11 @@ pub fn blocks(out: &RenderOutput, block: usize) -> Vec<(f64, f64)> {
     let mut regions: Vec<Vec<usize>> = Vec::new();
     for by in (0..h).step_by(block) {
         for bx in (0..w).step_by(block) {
-            regions.push((by..by + block).flat_map(|y| (bx..bx + block).map(move |x| y * w + x)).collect());
+            regions.push(
+                (by..(by + block).min(h))
+                    .flat_map(|y| (bx..(bx + block).min(w)).map(move |x| y * w + x))
+                    .collect(),
+            );
         }
     }
     regions.push((0..w * h).collect());
