@@ -203,24 +203,6 @@ fn renders_are_bit_identical_at_any_thread_count_and_in_any_split() {
     }
 }
 
-/// `vitrum render -i mmlt` of the Cornell scene with `table` appended: its exit code, stderr and
-/// the table's last line.
-fn render_with_table(table: &str) -> (Option<i32>, String, usize) {
-    let dir = tempfile::tempdir().unwrap();
-    let text = std::fs::read_to_string(root().join("scenes/cornell-glass.toml")).unwrap() + "\n" + table;
-    let line = text.lines().count();
-    let scene = dir.path().join("scene.toml");
-    std::fs::write(&scene, text).unwrap();
-    let out = Command::new(env!("CARGO_BIN_EXE_vitrum"))
-        .arg("render")
-        .arg(&scene)
-        .args(["-i", "mmlt", "--spp", "1", "--resolution", "8x8", "--quiet", "-o"])
-        .arg(dir.path().join("out.exr"))
-        .output()
-        .unwrap();
-    (out.status.code(), String::from_utf8_lossy(&out.stderr).into_owned(), line)
-}
-
 #[test]
 fn bad_settings_exit_2_naming_file_line_and_field() {
     for (line, field) in [
@@ -231,14 +213,14 @@ fn bad_settings_exit_2_naming_file_line_and_field() {
         ("chains = 0", "chains"),
         ("max_depth = 300", "max_depth"),
     ] {
-        let (code, err, last) = render_with_table(&format!("[render.mmlt]\n{line}"));
+        let (code, err, last) = common::render_cornell_with_table("mmlt", &format!("[render.mmlt]\n{line}"));
         assert_eq!(code, Some(2), "{line}: {err}");
         assert!(!err.contains("panicked"), "{line}: {err}");
         assert!(err.contains(&format!("scene.toml:{last}:")), "{line}: no line {last} in {err}");
         assert!(err.contains(&format!("render.mmlt.{field}")), "{line}: {err}");
     }
     let good = "[render.mmlt]\nlarge_step = 1.0\nsigma = 0.05\nbootstrap = 16\nchains = 4\nmax_depth = 3";
-    let (code, err, _) = render_with_table(good);
+    let (code, err, _) = common::render_cornell_with_table("mmlt", good);
     assert_eq!(code, Some(0), "good settings: {err}");
     // `vitrum info --json` shows the settings the scene sets, apart from `pssmlt`'s.
     let dir = tempfile::tempdir().unwrap();

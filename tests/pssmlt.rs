@@ -383,23 +383,6 @@ fn a_rejected_proposal_restores_every_value_exactly_and_chains_are_pure_function
     assert_ne!(draws(10), draws(11));
 }
 
-/// `vitrum render` of the Cornell scene with `table` appended: its exit code and stderr.
-fn render_with_table(table: &str) -> (Option<i32>, String, usize) {
-    let dir = tempfile::tempdir().unwrap();
-    let text = std::fs::read_to_string(root().join("scenes/cornell-glass.toml")).unwrap() + "\n" + table;
-    let line = text.lines().count();
-    let scene = dir.path().join("scene.toml");
-    std::fs::write(&scene, text).unwrap();
-    let out = Command::new(env!("CARGO_BIN_EXE_vitrum"))
-        .arg("render")
-        .arg(&scene)
-        .args(["-i", "pssmlt", "--spp", "1", "--resolution", "8x8", "--quiet", "-o"])
-        .arg(dir.path().join("out.exr"))
-        .output()
-        .unwrap();
-    (out.status.code(), String::from_utf8_lossy(&out.stderr).into_owned(), line)
-}
-
 #[test]
 fn bad_settings_exit_2_naming_file_line_and_field() {
     for (line, field) in [
@@ -410,14 +393,15 @@ fn bad_settings_exit_2_naming_file_line_and_field() {
         ("bootstrap = 0", "bootstrap"),
         ("chains = 0", "chains"),
     ] {
-        let (code, err, last) = render_with_table(&format!("[render.pssmlt]\n{line}"));
+        let (code, err, last) =
+            common::render_cornell_with_table("pssmlt", &format!("[render.pssmlt]\n{line}"));
         assert_eq!(code, Some(2), "{line}: {err}");
         assert!(!err.contains("panicked"), "{line}: {err}");
         assert!(err.contains(&format!("scene.toml:{last}:")), "{line}: no line {last} in {err}");
         assert!(err.contains(&format!("render.pssmlt.{field}")), "{line}: {err}");
     }
     let good = "[render.pssmlt]\nlarge_step = 1.0\nsigma = 0.05\nbootstrap = 16\nchains = 4";
-    let (code, err, _) = render_with_table(good);
+    let (code, err, _) = common::render_cornell_with_table("pssmlt", good);
     assert_eq!(code, Some(0), "good settings: {err}");
     // `vitrum info --json` shows the settings the scene sets.
     let dir = tempfile::tempdir().unwrap();

@@ -313,3 +313,23 @@ pub fn block_chi2(a: &(Image, Image), b: &(Image, Image)) -> (f64, usize) {
 /// The closed bright room of `tests/data/bright-room.toml` (its comment says what it is): 96²
 /// pixels, at most 9216 light paths per iteration.
 pub const BRIGHT_ROOM: &str = include_str!("../data/bright-room.toml");
+
+/// `vitrum render -i METHOD` (1 spp, 8×8) of `scenes/cornell-glass.toml` with `table` appended:
+/// its exit code, its stderr and the number of the text's last line (where a bad value of the
+/// appended table is reported).
+pub fn render_cornell_with_table(method: &str, table: &str) -> (Option<i32>, String, usize) {
+    let dir = tempfile::tempdir().unwrap();
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    let text = std::fs::read_to_string(root.join("scenes/cornell-glass.toml")).unwrap() + "\n" + table;
+    let line = text.lines().count();
+    let scene = dir.path().join("scene.toml");
+    std::fs::write(&scene, text).unwrap();
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_vitrum"))
+        .arg("render")
+        .arg(&scene)
+        .args(["-i", method, "--spp", "1", "--resolution", "8x8", "--quiet", "-o"])
+        .arg(dir.path().join("out.exr"))
+        .output()
+        .unwrap();
+    (out.status.code(), String::from_utf8_lossy(&out.stderr).into_owned(), line)
+}
