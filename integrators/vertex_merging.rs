@@ -472,12 +472,34 @@ impl<'a> Engine<'a> {
     fn new(scene: &'a Scene, integrator: &VertexMerging, opts: &'a RenderOptions) -> Engine<'a> {
         let camera = camera_for(scene, opts.resolution);
         let pixels = camera.width as usize * camera.height as usize;
+        let dims = CameraDims::resolve(scene, integrator, opts.spectral);
+        Engine {
+            light_paths: light_paths_per_iteration(pixels, &opts.params.merging),
+            radius0: initial_radius(scene, &opts.params.merging, opts.resolution),
+            only: opts.params.merging.only,
+            lanes: shadow_lanes(scene, &opts.params),
+            ..Engine::one_ray(scene, opts, integrator.0, camera, dims)
+        }
+    }
+
+    /// The engine of `algorithm` for `scene` seen by `camera`, with `opts`'s depth, sampler,
+    /// seed and replicas: one light path per iteration, no merging radius, shadow rays one at a
+    /// time, Russian roulette on. [`Engine::new`] and `mmlt`'s engine
+    /// ([`multiplexed::Multiplexed`]) set what they change.
+    pub(super) fn one_ray(
+        scene: &'a Scene,
+        opts: &'a RenderOptions,
+        algorithm: Algorithm,
+        camera: Camera,
+        dims: CameraDims,
+    ) -> Engine<'a> {
+        let pixels = camera.width as usize * camera.height as usize;
         Engine {
             scene,
             params: &opts.params,
-            algorithm: integrator.0,
+            algorithm,
             pixel_area: camera.film_area() / pixels as f32,
-            dims: CameraDims::resolve(scene, integrator, opts.spectral),
+            dims,
             camera,
             sampler: opts.sampler,
             seed: opts.seed,
@@ -486,10 +508,10 @@ impl<'a> Engine<'a> {
             environment: scene.environment_light(),
             sphere: scene.bounding_sphere(),
             max_segments: opts.params.max_depth.saturating_add(1),
-            light_paths: light_paths_per_iteration(pixels, &opts.params.merging),
-            radius0: initial_radius(scene, &opts.params.merging, opts.resolution),
-            only: opts.params.merging.only,
-            lanes: shadow_lanes(scene, &opts.params),
+            light_paths: 1,
+            radius0: 0.0,
+            only: None,
+            lanes: None,
             roulette: true,
         }
     }

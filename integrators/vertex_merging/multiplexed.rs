@@ -67,26 +67,10 @@ impl<'a> Multiplexed<'a> {
         dims: CameraDims,
         region: f64,
     ) -> Self {
-        let pixels = camera.width as usize * camera.height as usize;
         let engine = Engine {
-            scene,
-            params: &opts.params,
-            algorithm: Algorithm::Bpt,
-            pixel_area: camera.film_area() / pixels as f32,
-            dims,
-            camera,
-            sampler: opts.sampler,
-            seed: opts.seed,
-            replicas: opts.replicas,
-            lights: scene.lights.len(),
-            environment: scene.environment_light(),
-            sphere: scene.bounding_sphere(),
-            max_segments: opts.params.max_depth.saturating_add(1),
             light_paths: (region.round() as usize).max(1),
-            radius0: 0.0,
-            only: None,
-            lanes: None,
             roulette: false,
+            ..Engine::one_ray(scene, opts, Algorithm::Bpt, camera, dims)
         };
         let k = engine.constants(0);
         Multiplexed { engine, k }
