@@ -250,6 +250,12 @@ impl Method {
         !matches!(self.info().settings, Settings::None)
     }
 
+    /// Whether its depth counts recursion levels that gather light at their last hit (Whitted's
+    /// family: `whitted`, `ssaa`, `distributed`) rather than the bounces of a path.
+    pub const fn recursive(self) -> bool {
+        matches!(self, Method::Whitted | Method::Ssaa | Method::Distributed)
+    }
+
     /// Whether it merges photons, and so takes a merge radius.
     pub const fn merges(self) -> bool {
         matches!(self.info().settings, Settings::Merging)

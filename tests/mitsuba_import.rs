@@ -70,7 +70,12 @@ fn the_toml_that_import_writes_renders_the_same_bits_as_the_xml() {
     assert!(toml.starts_with("# Imported by vitrum"), "{toml}");
     // The defaults of the file: 4 samples, 24x16, Mitsuba's max_depth 8 = 7 bounces.
     assert!(toml.contains("spp = 4") && toml.contains("resolution = [24, 16]"), "{toml}");
-    assert!(toml.contains("[render.path]\nmax_depth = 7"), "{toml}");
+    // The file's depth binds every method that has one: 7 bounces, or 6 recursion levels.
+    for m in vitrum::methods::Method::ALL.into_iter().filter(|m| m.has_max_depth()) {
+        let depth = if m.recursive() { 6 } else { 7 };
+        let table = format!("[render.{}]\nmax_depth = {depth}", m.name());
+        assert!(toml.contains(&table), "{table}: {toml}");
+    }
     let xml = render(dir.path(), "small.xml", &[]);
     let imported = render(dir.path(), "small.toml", &[]);
     assert_eq!(xml, imported, "the XML and its TOML are one scene");

@@ -636,14 +636,12 @@ impl Translator<'_> {
         render.comment(&format!(
             "Mitsuba's max_depth {depth} counts path segments; vitrum's depth counts bounces: {bounces} (Whitted's family {whitted})"
         ));
-        let path_like = [Method::Path, Method::Light, Method::Bpt, Method::Ppm, Method::Bpm, Method::Vcm];
-        for m in path_like.map(Method::name) {
-            render.table(&format!("render.{m}"));
-            render.raw("max_depth", &bounces.to_string());
-        }
-        for m in ["whitted", "ssaa", "distributed"] {
-            render.table(&format!("render.{m}"));
-            render.raw("max_depth", &whitted.to_string());
+        // Every method with a depth, the path-like ones first (the order of the tables written).
+        let with_depth = Method::ALL.into_iter().filter(|m| m.has_max_depth());
+        for m in with_depth.clone().filter(|m| !m.recursive()).chain(with_depth.filter(|m| m.recursive())) {
+            render.table(&format!("render.{}", m.name()));
+            let depth = if m.recursive() { whitted } else { bounces };
+            render.raw("max_depth", &depth.to_string());
         }
         p.finish(self)
     }
