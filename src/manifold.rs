@@ -104,16 +104,18 @@ pub fn is_caster(bsdf: &Bsdf) -> bool {
     matches!(bsdf, Bsdf::Dielectric { .. }) && bsdf.is_specular()
 }
 
-/// One interface of a chain: the primitive, and whether the chain reflects there.
+/// One interface of a chain: the object, and whether the chain reflects there.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 struct Turn {
-    primitive: u32,
+    /// The object turned at ([`Scene::object_of`]): a mesh is one interface, so a Newton step
+    /// may move across its triangles.
+    object: u32,
     reflects: bool,
 }
 
 /// How a traced chain turns at its interfaces.
 enum Turns<'a> {
-    /// As a solved chain did, at the same primitives.
+    /// As a solved chain did, at the same objects.
     Fixed(&'a [Turn]),
     /// Refraction, reflection only under total internal reflection (MNEE's seed).
     Refract,
@@ -376,7 +378,7 @@ impl Solver<'_> {
             let s = match turns {
                 Turns::Fixed(fixed) => {
                     let turn = fixed.get(shot.len)?;
-                    if turn.primitive != isect.primitive {
+                    if turn.object != scene.object_of(isect.primitive) {
                         return None;
                     }
                     sample(if turn.reflects { 0.0 } else { 1.0 })?
@@ -404,7 +406,8 @@ impl Solver<'_> {
             let medium = if s.is_transmission { c.transmitted } else { c.incident };
             absorption = Some(self.channels.colour(medium.absorption));
             shot.dispersive |= material.bsdf.is_dispersive();
-            shot.turns[shot.len] = Turn { primitive: isect.primitive, reflects: !s.is_transmission };
+            shot.turns[shot.len] =
+                Turn { object: scene.object_of(isect.primitive), reflects: !s.is_transmission };
             shot.len += 1;
             ray = Ray { origin: offset_origin(h.p, h.n, h.p_error, wi), dir: wi, time: ray.time };
         }

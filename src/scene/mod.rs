@@ -428,6 +428,12 @@ impl Scene {
         &self.materials[self.primitives[primitive as usize].material as usize]
     }
 
+    /// The object of the scene file a primitive belongs to (a mesh's triangles share one).
+    #[inline]
+    pub fn object_of(&self, primitive: u32) -> u32 {
+        self.primitives[primitive as usize].object
+    }
+
     /// The light a primitive emits for, if it is an emitter.
     #[inline]
     pub fn light_of(&self, primitive: u32) -> Option<u32> {
