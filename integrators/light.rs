@@ -51,6 +51,17 @@
 //! lossless glass stays 1 and light inside glass is not killed early: no `η²` correction is
 //! needed, unlike the radiance throughput of `path`.
 //!
+//! # Dispersion
+//! In spectral mode a path carries three wavelengths (`crate::spectrum`). Where smooth dispersive
+//! glass parts them, the path splits as `path`'s does, by the same decision
+//! ([`PathContext::part_wavelengths`], in importance mode): each wavelength samples the interface
+//! at its own index with the same numbers; if all three reflect they go on together, otherwise
+//! the path goes on with its lead wavelength's channel alone and every other wavelength becomes
+//! a branch ([`LightWalk`], its channel's throughput, ray and medium), set aside and run when the
+//! walk in flight ends, replaying its random numbers from the split. Each channel is then its own
+//! unbiased estimate, with weight 1. Rough dispersive glass ends the secondary wavelengths and the
+//! hero goes on alone with weight 3 ([`PathContext::end_secondaries_at`]).
+//!
 //! # What light tracing cannot see
 //! - **Specular surfaces seen directly.** A smooth mirror or smooth glass scatters only into delta
 //!   directions, so a vertex on it can never be connected to the camera (the chance that a
@@ -92,14 +103,16 @@
 
 use super::shadow_queue::{shadow_lanes, Shadows};
 use super::splat_film::{CameraTarget, SampleSplats, SplatBuffer};
-use super::{pick_light, sample_bsdf, Integrator, Method, PathContext, RenderParams, ROULETTE_DEPTH};
+use super::{bsdf_numbers, pick_light, Integrator, Method, PathContext, RenderParams, ROULETTE_DEPTH};
 use crate::bsdf::{Scattering, ShadingFrame, TransportMode};
 use crate::camera::Camera;
-use crate::geometry::{spawn_origin, SurfaceHit};
+use crate::geometry::{spawn_origin, Ray, SurfaceHit};
 use crate::lanes::LaneScene;
 use crate::light::SceneSphere;
 use crate::lighting::crossing;
-use crate::render::{camera_for, Accumulate, CameraDims, Film, Progression, RenderOptions};
+use crate::render::{
+    camera_for, Accumulate, Branch, CameraDims, Film, PendingBranches, Progression, RenderOptions,
+};
 use crate::sampler::{Dim, Replicas, Sampler, SamplerKind};
 use crate::scene::effects::Support;
 use crate::scene::{Effect, Scene};
@@ -183,6 +196,22 @@ struct ChunkSplats {
     ends_sample: bool,
 }
 
+/// A light path between two surfaces (or a branch of one, waiting to run).
+#[derive(Clone, Copy, Debug)]
+struct LightWalk {
+    /// The ray it follows next.
+    ray: Ray,
+    /// The emitted power over its density, in the path's channels, with the factors of the
+    /// secondary wavelengths' ending.
+    beta0: Vec3,
+    /// The product of f·|cos|/pdf and absorption since emission (what Russian roulette looks at).
+    throughput: Vec3,
+    /// The absorption coefficient of the medium it travels in.
+    absorption: Vec3,
+    /// Scattering vertices so far.
+    depth: u32,
+}
+
 /// Everything fixed during a light-tracing render.
 struct Tracer<'a> {
     scene: &'a Scene,
@@ -201,6 +230,9 @@ struct Tracer<'a> {
     sphere: SceneSphere,
     /// The scene's lane form for the shadow rays, if they are tested across lanes.
     lanes: Option<LaneScene>,
+    /// Whether paths keep the hero alone at smooth dispersive refraction instead of splitting
+    /// the wavelengths (the estimator before splitting, kept to compare against).
+    hero_alone: bool,
 }
 
 /// Merge chunk buffers into the film in their order; `batch` sends the splats to the film's
@@ -230,6 +262,7 @@ impl<'a> Tracer<'a> {
             lights: scene.lights.len(),
             sphere: scene.bounding_sphere(),
             lanes: shadow_lanes(scene, &opts.params),
+            hero_alone: false,
         }
     }
 
@@ -324,7 +357,8 @@ impl Tracer<'_> {
     /// Trace light path `index`, appending its splats to `out`.
     fn trace_path(&self, index: u64, out: &mut ChunkSplats) {
         let scene = self.scene;
-        let mut ctx = PathContext::new(self.path_sampler(index));
+        let mut ctx =
+            PathContext { hero_alone: self.hero_alone, ..PathContext::new(self.path_sampler(index)) };
         let (open, close) = self.camera.shutter;
         let time = if self.dims.time { open + (close - open) * ctx.sampler.get_1d(Dim::Time) } else { open };
         if self.dims.wavelength {
@@ -346,85 +380,134 @@ impl Tracer<'_> {
             });
         }
 
-        let mut beta0 = ctx.channels.colour(emission.beta);
-        // Product of f·|cos|/pdf and absorption since emission (what Russian roulette looks at).
-        let mut throughput = Vec3::ONE;
         let mut ray = emission.ray;
         ray.time = time;
         ctx.rays.primary += 1;
         // Light is assumed to leave its light in a clear medium.
-        let mut absorption = Vec3::ZERO;
-        let mut depth = 0;
-        while depth < self.params.max_depth {
+        let mut walk = LightWalk {
+            ray,
+            beta0: ctx.channels.colour(emission.beta),
+            throughput: Vec3::ONE,
+            absorption: Vec3::ZERO,
+            depth: 0,
+        };
+        // The branches smooth dispersive glass splits the path into, run one after the other.
+        let mut branches = PendingBranches::<LightWalk>::default();
+        loop {
+            self.walk(&mut walk, time, &mut ctx, &mut branches, out);
+            let Some(branch) = branches.resume(&mut ctx.channels) else { break };
+            ctx.sampler.replay_from(branch.replay);
+            walk = branch.state;
+        }
+        out.rays += ctx.rays;
+    }
+
+    /// The random walk of a light path (or of one of its branches) from `walk` until it ends,
+    /// splatting its vertices; the wavelengths smooth dispersive glass parts from it are set
+    /// aside in `branches`.
+    fn walk(
+        &self,
+        walk: &mut LightWalk,
+        time: f32,
+        ctx: &mut PathContext,
+        branches: &mut PendingBranches<LightWalk>,
+        out: &mut ChunkSplats,
+    ) {
+        let scene = self.scene;
+        let mode = TransportMode::Importance;
+        while walk.depth < self.params.max_depth {
+            let ray = walk.ray;
             let Some(isect) = scene.intersect(&ray, f32::INFINITY) else { break };
             let hit = isect.hit;
-            if absorption != Vec3::ZERO {
-                throughput *= (-absorption * hit.t).exp();
+            if walk.absorption != Vec3::ZERO {
+                walk.throughput *= (-walk.absorption * hit.t).exp();
             }
-            depth += 1;
+            walk.depth += 1;
             let material = scene.material_of(isect.primitive);
             let bsdf = Scattering::at(material, hit.p, hit.uv, &ctx.channels);
-            beta0 *= ctx.end_secondaries_at(&material.bsdf, &bsdf);
+            walk.beta0 *= ctx.end_secondaries_at(&material.bsdf, &bsdf);
             // Importance mode: `wo` leads back towards the light, `wi` on towards the camera.
             let wo = -ray.dir;
             let frame = ShadingFrame::at(&hit, wo);
             let wo_local = frame.to_local(wo);
             if !bsdf.is_delta() {
-                let beta = beta0 * throughput;
+                let beta = walk.beta0 * walk.throughput;
                 // Rough glass: its multiply scattered light by a one-walk estimate, seeded here so
                 // that the sampler's dimensions do not depend on whether the camera is visible.
-                let mut walk = bsdf.has_multiple_scattering().then(|| {
+                let mut rough = bsdf.has_multiple_scattering().then(|| {
                     let (a, b) = (ctx.sampler.get_1d(Dim::Other), ctx.sampler.get_1d(Dim::Other));
                     Pcg32::seed_from_u64(u64::from(a.to_bits()) << 32 | u64::from(b.to_bits()))
                 });
-                self.connect(&hit, &mut ctx, time, out, |wc| {
+                self.connect(&hit, ctx, time, out, |wc| {
                     let wc_local = frame.to_local(wc);
-                    let mut f = bsdf.eval(wo_local, wc_local, TransportMode::Importance);
-                    if let Some(rng) = walk.as_mut() {
-                        f += bsdf.eval_multiple(wo_local, wc_local, TransportMode::Importance, rng);
+                    let mut f = bsdf.eval(wo_local, wc_local, mode);
+                    if let Some(rng) = rough.as_mut() {
+                        f += bsdf.eval_multiple(wo_local, wc_local, mode, rng);
                     }
-                    beta * f * (wc_local.z.abs() * frame.factor(wo, wc, TransportMode::Importance))
+                    beta * f * (wc_local.z.abs() * frame.factor(wo, wc, mode))
                 });
             }
-            if depth >= self.params.max_depth {
+            if walk.depth >= self.params.max_depth {
                 break;
             }
-            let Some(s) = sample_bsdf(&bsdf, wo_local, TransportMode::Importance, &mut ctx.sampler) else {
-                break;
-            };
+            let numbers = bsdf_numbers(&bsdf, &mut ctx.sampler);
+            let Some(s) = bsdf.sample(wo_local, numbers.0, numbers.1, mode) else { break };
             if s.pdf <= 0.0 || s.f == Vec3::ZERO {
                 break;
             }
             let wi = frame.to_world(s.wi);
-            let shading = frame.factor(wo, wi, TransportMode::Importance);
+            let shading = frame.factor(wo, wi, mode);
             if shading == 0.0 {
                 break;
             }
-            throughput *=
-                s.f * (s.wi.z.abs() / s.pdf) * ctx.secondaries_after(&material.bsdf, &s, wo_local) * shading;
-            if let Some(c) = crossing(&material.bsdf, ray.dir, hit.n, ctx.channels.hero()) {
-                let medium = if s.is_transmission { c.transmitted } else { c.incident };
-                absorption = ctx.channels.colour(medium.absorption);
+            // The absorption of the medium a ray in `channels` enters, where it crosses one.
+            let medium_after = |transmitted: bool, channels: &Channels| {
+                crossing(&material.bsdf, ray.dir, hit.n, channels.hero()).map(|c| {
+                    let medium = if transmitted { c.transmitted } else { c.incident };
+                    channels.colour(medium.absorption)
+                })
+            };
+            let mut step = s.f * (s.wi.z.abs() / s.pdf) * shading;
+            if ctx.channels.is_spectral() {
+                // Smooth dispersive glass: the wavelengths it parts become branches, replaying
+                // this path's numbers from here on.
+                let (factor, parted) =
+                    ctx.part_wavelengths(material, &hit, &frame, wo, &s, wo_local, numbers, mode);
+                let replay = ctx.sampler.dimension();
+                for p in parted.into_iter().flatten() {
+                    let absorption = medium_after(p.sample.is_transmission, &p.channels);
+                    let state = LightWalk {
+                        ray: ray.spawn(spawn_origin(&hit, p.wi), p.wi),
+                        throughput: walk.throughput * p.weight,
+                        absorption: absorption.unwrap_or(walk.absorption),
+                        ..*walk
+                    };
+                    branches.push(Branch { channel: p.channel, state, replay });
+                }
+                step *= factor;
+            }
+            walk.throughput *= step;
+            if let Some(absorption) = medium_after(s.is_transmission, &ctx.channels) {
+                walk.absorption = absorption;
             }
             if s.is_transmission {
                 ctx.rays.refracted += 1;
             } else {
                 ctx.rays.reflected += 1;
             }
-            ray = ray.spawn(spawn_origin(&hit, wi), wi);
-            if depth > ROULETTE_DEPTH {
+            walk.ray = ray.spawn(spawn_origin(&hit, wi), wi);
+            if walk.depth > ROULETTE_DEPTH {
                 // No η² correction: the importance-mode throughput is a ratio of fluxes.
-                let rr = throughput.max_element();
+                let rr = walk.throughput.max_element();
                 if rr < 1.0 {
                     let q = (1.0 - rr).max(0.0);
                     if ctx.sampler.get_1d(Dim::Other) < q {
                         break;
                     }
-                    throughput /= 1.0 - q;
+                    walk.throughput /= 1.0 - q;
                 }
             }
         }
-        out.rays += ctx.rays;
     }
 
     /// Connect the vertex `hit` to the camera at time `time`: `value(wc)` is the vertex's
@@ -443,3 +526,6 @@ impl Tracer<'_> {
         target.splat(hit, ctx, time, &mut out.splats, |_, c| value(-c.dir));
     }
 }
+
+#[cfg(test)]
+mod tests;

@@ -39,12 +39,13 @@ pub use vertex_merging::{
 pub use wavefront::{Occupancy, StageOccupancy, Wavefront};
 pub use whitted::Whitted;
 
-use crate::bsdf::{BsdfSample, Scattering, TransportMode};
-use crate::material::Bsdf;
+use crate::bsdf::{BsdfSample, Scattering, ShadingFrame, TransportMode};
+use crate::geometry::SurfaceHit;
+use crate::material::{Bsdf, Material};
 use crate::optics::fresnel_dielectric;
 use crate::sampler::{Dim, Sampler};
-use crate::spectrum::{Channels, HERO_ONLY};
-use glam::Vec3;
+use crate::spectrum::{Channels, HERO_ONLY, HERO_WAVELENGTHS};
+use glam::{Vec2, Vec3};
 
 /// A sample of `bsdf` for the local direction `wo`, drawing from `sampler` only the numbers it
 /// uses: a lobe choice only where the model has lobes to choose between, then the direction.
@@ -55,9 +56,16 @@ pub(crate) fn sample_bsdf(
     mode: TransportMode,
     sampler: &mut Sampler,
 ) -> Option<BsdfSample> {
-    let uc = if bsdf.chooses_lobe() { sampler.get_1d(Dim::Bsdf) } else { 0.0 };
-    let u = sampler.get_2d(Dim::Bsdf);
+    let (uc, u) = bsdf_numbers(bsdf, sampler);
     bsdf.sample(wo, uc, u, mode)
+}
+
+/// The numbers a sample of `bsdf` takes from `sampler` ([`sample_bsdf`]): a lobe choice only
+/// where the model has lobes to choose between (0 otherwise), then the direction pair.
+#[inline]
+pub(crate) fn bsdf_numbers(bsdf: &Scattering, sampler: &mut Sampler) -> (f32, Vec2) {
+    let uc = if bsdf.chooses_lobe() { sampler.get_1d(Dim::Bsdf) } else { 0.0 };
+    (uc, sampler.get_2d(Dim::Bsdf))
 }
 
 /// One of `count` (at least one) lights, chosen uniformly with the numbers of `sampler`; a
@@ -124,6 +132,106 @@ impl PathContext {
             return HERO_ONLY;
         }
         Vec3::new(1.0, reflectance(w.lambda[1]) / hero, reflectance(w.lambda[2]) / hero)
+    }
+}
+
+/// A wavelength that smooth dispersive glass parted from the lead of a spectral path
+/// ([`PathContext::part_wavelengths`]): its own sample of the interface, which the method
+/// follows as a branch of its own (its channel alone).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct PartedWavelength {
+    /// Its channel.
+    pub channel: usize,
+    /// Its sample of the interface: at its own index, with the lead's numbers.
+    pub sample: BsdfSample,
+    /// The sampled direction, in the world.
+    pub wi: Vec3,
+    /// The factor its branch's throughput takes at the interface: its sample's f·|cos|/pdf
+    /// times the shading normal's factor, in its channel, 0 in the others.
+    pub weight: Vec3,
+    /// The path's channels with indices taken at its wavelength (the branch's channels).
+    pub channels: Channels,
+}
+
+/// What smooth dispersive glass does to the wavelengths of a path ([`PathContext::part_wavelengths`]):
+/// the factor the path's own throughput takes, and the wavelengths it parted from the path.
+pub(crate) type Parting = (Vec3, [Option<PartedWavelength>; HERO_WAVELENGTHS - 1]);
+
+/// The channel `c` alone: 1 there, 0 in the others.
+#[inline]
+pub(crate) fn channel_alone(c: usize) -> Vec3 {
+    Vec3::from_array(std::array::from_fn(|i| if i == c { 1.0 } else { 0.0 }))
+}
+
+/// Wavelength splitting, the one decision every method that splits (`path`, `light`) takes.
+impl PathContext {
+    /// Wavelength splitting at smooth dispersive glass `material` at `hit` (shading frame
+    /// `frame`, `wo` the world direction back along the path and `wo_local` in the frame), after
+    /// `s`, the sample of the lead wavelength drawn in `mode` with the numbers `(uc, u)`. Each
+    /// wavelength chooses reflection or refraction by its own Fresnel reflectance with the same
+    /// numbers (its own sample of the interface at its own index). Where all three reflect they
+    /// go on together along the one mirror direction, each with its own weight (1): factor 1,
+    /// nothing parted. Otherwise the wavelengths part: the path goes on with the lead's channel
+    /// alone (the factor is 1 there, 0 in the others), and every other wavelength whose sample
+    /// carries light is returned to become a branch of its own, its ray counted now; every
+    /// channel is then its own unbiased estimate (no weight 3), and the context carries one
+    /// wavelength from here on ([`hero_only`](Self::hero_only)). A path already down to one
+    /// wavelength, an RGB path, and any other interface: factor 1. With
+    /// [`hero_alone`](Self::hero_alone) (the estimator before splitting, kept to compare
+    /// against), the secondaries end at a refraction instead ([`secondaries_after`](Self::secondaries_after)).
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn part_wavelengths(
+        &mut self,
+        material: &Material,
+        hit: &SurfaceHit,
+        frame: &ShadingFrame,
+        wo: Vec3,
+        s: &BsdfSample,
+        wo_local: Vec3,
+        (uc, u): (f32, Vec2),
+        mode: TransportMode,
+    ) -> Parting {
+        let none = [None; HERO_WAVELENGTHS - 1];
+        let Channels::Spectral(w) = self.channels else {
+            return (Vec3::ONE, none);
+        };
+        if self.hero_only || !material.bsdf.is_dispersive() || !s.is_specular {
+            return (Vec3::ONE, none);
+        }
+        if self.hero_alone {
+            return (self.secondaries_after(&material.bsdf, s, wo_local), none);
+        }
+        let lead = w.lead();
+        let at = |channel: usize| Channels::Spectral(w.led_by(channel));
+        let samples: [Option<BsdfSample>; HERO_WAVELENGTHS] = std::array::from_fn(|i| {
+            if i == lead {
+                return Some(*s);
+            }
+            Scattering::at(material, hit.p, hit.uv, &at(i)).sample(wo_local, uc, u, mode)
+        });
+        if samples.iter().all(|x| x.is_some_and(|x| !x.is_transmission)) {
+            // All reflect, each with probability and weight its own F: on together.
+            return (Vec3::ONE, none);
+        }
+        let mut parted = none;
+        let others = samples.iter().enumerate().filter(|&(i, _)| i != lead);
+        for (slot, (i, si)) in parted.iter_mut().zip(others) {
+            let Some(si) = *si else { continue };
+            let wi = frame.to_world(si.wi);
+            let shading = frame.factor(wo, wi, mode);
+            if si.pdf <= 0.0 || si.f == Vec3::ZERO || shading == 0.0 {
+                continue;
+            }
+            if wi.dot(hit.n) * wo.dot(hit.n) > 0.0 {
+                self.rays.reflected += 1;
+            } else {
+                self.rays.refracted += 1;
+            }
+            let weight = si.f * (si.wi.z.abs() / si.pdf) * channel_alone(i) * shading;
+            *slot = Some(PartedWavelength { channel: i, sample: si, wi, weight, channels: at(i) });
+        }
+        self.hero_only = true;
+        (channel_alone(lead), parted)
     }
 }
 

@@ -29,7 +29,7 @@ use crate::render::RenderOptions;
 use crate::sampler::Dim;
 use crate::scene::effects::Support;
 use crate::scene::{Effect, Intersection, Scene};
-use crate::spectrum::{Channels, HERO_WAVELENGTHS};
+use crate::spectrum::Channels;
 use glam::Vec3;
 
 use super::ROULETTE_DEPTH;
@@ -585,15 +585,11 @@ impl PathContext {
     /// Wavelength splitting at smooth dispersive glass (`isect`), for `path`: the factor the
     /// throughput of `path` (its state at the vertex, not yet updated) takes after `s`, the
     /// sample of its lead wavelength drawn with the numbers `u` = (lobe choice, pair) for the
-    /// direction `wo` (local frame). Each wavelength chooses reflection or refraction by its own
-    /// Fresnel reflectance with the same number (its own sample of the interface at its own
-    /// index). Where all three reflect they go on together, along the one mirror direction, each
-    /// with its own weight (1). Otherwise the wavelengths part: the path goes on with the lead's
-    /// channel alone (factor 1 there, 0 in the others), and every other wavelength becomes a
-    /// branch of its own (its channel's throughput, direction, origin, medium, η² and MIS
-    /// state), set aside in [`pending`](Self::pending), to run when the path ends; its ray is
-    /// counted now. Every channel is then its own unbiased estimate (no weight 3). A path
-    /// already down to one wavelength, an RGB path, and any other interface: 1.
+    /// direction `wo` (local frame), as [`part_wavelengths`](Self::part_wavelengths) decides.
+    /// Every wavelength it parts from the path becomes a branch of its own (its channel's
+    /// throughput, direction, origin, medium, η² and MIS state), set aside in
+    /// [`pending`](Self::pending) to run when the path ends, replaying the path's numbers from
+    /// dimension `replay` on.
     #[allow(clippy::too_many_arguments)]
     pub(crate) fn split_wavelengths(
         &mut self,
@@ -605,47 +601,25 @@ impl PathContext {
         path: &PathState,
         replay: u32,
     ) -> Vec3 {
+        if !self.channels.is_spectral() || self.hero_only {
+            return Vec3::ONE;
+        }
         let material = scene.material_of(isect.primitive);
-        let Channels::Spectral(w) = self.channels else {
-            return Vec3::ONE;
-        };
-        if self.hero_only || !material.bsdf.is_dispersive() || !s.is_specular {
-            return Vec3::ONE;
-        }
-        if self.hero_alone {
-            return self.secondaries_after(&material.bsdf, s, wo_local);
-        }
-        let lead = w.lead();
-        let at = |channel: usize| Channels::Spectral(w.led_by(channel));
-        let samples: [Option<BsdfSample>; HERO_WAVELENGTHS] = std::array::from_fn(|i| {
-            if i == lead {
-                return Some(*s);
-            }
-            let model = Scattering::at(material, isect.hit.p, isect.hit.uv, &at(i));
-            model.sample(wo_local, uc, u.into(), TransportMode::Radiance)
-        });
-        if samples.iter().all(|x| x.is_some_and(|x| !x.is_transmission)) {
-            // All reflect, each with probability and weight its own F: on together.
-            return Vec3::ONE;
-        }
         let wo = -path.dir;
         let frame = ShadingFrame::at(&isect.hit, wo);
+        let mode = TransportMode::Radiance;
+        let (factor, parted) =
+            self.part_wavelengths(material, &isect.hit, &frame, wo, s, wo_local, (uc, u.into()), mode);
         let n = isect.hit.n;
-        for (i, si) in samples.iter().enumerate() {
-            let Some(si) = si.filter(|_| i != lead) else { continue };
-            let wi = frame.to_world(si.wi);
-            let shading = frame.factor(wo, wi, TransportMode::Radiance);
-            if si.pdf <= 0.0 || si.f == Vec3::ZERO || shading == 0.0 {
-                continue;
-            }
-            let channel = Vec3::from_array(std::array::from_fn(|c| if c == i { 1.0 } else { 0.0 }));
-            let (crosses, absorption) = medium_after(scene, isect, path.dir, si.is_transmission, &at(i));
+        for p in parted.into_iter().flatten() {
+            let si = p.sample;
+            let (crosses, absorption) = medium_after(scene, isect, path.dir, si.is_transmission, &p.channels);
             let branch = PathState {
-                origin: offset_origin(isect.hit.p, n, isect.hit.p_error, wi),
-                dir: wi,
+                origin: offset_origin(isect.hit.p, n, isect.hit.p_error, p.wi),
+                dir: p.wi,
                 time: path.time,
                 l: Vec3::ZERO,
-                beta: path.beta * (si.f * (si.wi.z.abs() / si.pdf) * channel * shading),
+                beta: path.beta * p.weight,
                 eta_scale: if si.is_transmission {
                     path.eta_scale * (si.eta * si.eta)
                 } else {
@@ -657,15 +631,9 @@ impl PathContext {
                 depth: path.depth + 1.0,
                 chain: path.chain,
             };
-            if wi.dot(n) * wo.dot(n) > 0.0 {
-                self.rays.reflected += 1;
-            } else {
-                self.rays.refracted += 1;
-            }
-            self.pending.push(Branch { channel: i, state: branch, replay });
+            self.pending.push(Branch { channel: p.channel, state: branch, replay });
         }
-        self.hero_only = true;
-        Vec3::from_array(std::array::from_fn(|c| if c == lead { 1.0 } else { 0.0 }))
+        factor
     }
 }
 
@@ -689,10 +657,7 @@ impl PathContext {
     /// dimension of the random stream it replays from, which the caller sets.
     #[inline]
     pub(crate) fn resume_branch(&mut self, path: &mut PathState) -> Option<u32> {
-        let branch = self.pending.pop()?;
-        if let Channels::Spectral(w) = self.channels {
-            self.channels = Channels::Spectral(w.led_by(branch.channel));
-        }
+        let branch = self.pending.resume(&mut self.channels)?;
         *path = PathState { l: path.l, ..branch.state };
         Some(branch.replay)
     }

@@ -41,7 +41,8 @@
 //!   precomputed coefficient table per colour and are not linear; linearity lets a path
 //!   project each colour with one 3×3 product at its wavelengths.
 //! - **Dispersion**: where a path refracts through a dispersive interface, the directions of
-//!   the three wavelengths part. `path` splits it there (smooth glass): each wavelength chooses
+//!   the three wavelengths part. `path` and `light` split it there (smooth glass, one decision:
+//!   `PathContext::part_wavelengths` in `integrators/mod.rs`): each wavelength chooses
 //!   reflection or refraction by its own Fresnel reflectance with the same random number and
 //!   follows its own direction; if all three reflect they go on together, otherwise each goes on
 //!   as a branch of its own, carrying its channel alone with weight 1, its indices taken at its
@@ -51,8 +52,8 @@
 //!   is unchanged. Hero-wavelength MIS (Wilkie et al. 2014) would not help there: at a smooth
 //!   interface the other wavelengths' densities of the hero's direction are zero, so it reduces
 //!   to ending them. Elsewhere a path ends the two secondary wavelengths and carries the hero
-//!   alone with weight 3 ([`HERO_ONLY`], as pbrt-v4's `TerminateSecondary`): `path` at rough
-//!   dispersive glass (whose value feeds next-event estimation at one index), `light` and the
+//!   alone with weight 3 ([`HERO_ONLY`], as pbrt-v4's `TerminateSecondary`): `path` and `light`
+//!   at rough dispersive glass (whose value feeds next-event estimation at one index), the
 //!   bidirectional methods where smooth glass refracts (where it reflects they keep all three,
 //!   each weighted by its Fresnel reflectance over the hero's), and the deterministic recursions
 //!   (`whitted`, `distributed`), which follow both branches at once. On `glass-of-water` the

@@ -1,7 +1,8 @@
 //! `light` (light tracing): determinism at any thread count, the pixel-area normalisation of its
 //! splats against `path`, lights seen directly, what it cannot see (specular surfaces seen
 //! directly), the analytic closed sphere, the diffuse Cornell box, caustics (from point lights
-//! too), the thin lens, motion blur, spectral mode and time budgets.
+//! too), the thin lens, motion blur, spectral mode (wavelengths split at dispersive glass at any
+//! thread count) and time budgets.
 //!
 //! Statistical checks estimate each render's per-pixel variance from two independent seeds,
 //! `s² ≈ (a − b)² / 2`, and the variance of a block mean as the sum of its pixels' variances
@@ -151,6 +152,30 @@ fn splatting_is_bit_identical_at_any_thread_count() {
     // The check can fail: another seed gives another image.
     opts.seed = 12;
     assert_ne!(bits(&run(2, &opts).image), bits(&one.image));
+}
+
+#[test]
+fn split_wavelengths_are_bit_identical_at_any_thread_count() {
+    // Spectral `glass-of-water`: light paths split at its dispersive glass and water into one
+    // branch per wavelength (run after the path in flight, replaying its numbers), all within
+    // the path's chunk, so the image and the ray counts do not depend on the thread count.
+    let file = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/glass-of-water.toml");
+    let scene = vitrum::scene::load(&file).unwrap();
+    let integrator = vitrum::integrators::create("light").unwrap();
+    let mut opts = RenderOptions::for_method(&scene, integrator.as_ref(), 8);
+    opts.resolution = Some((64, 64));
+    opts.seed = 5;
+    let run = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        pool.install(|| render_opts(&scene, "light", &opts))
+    };
+    let (one, two) = (run(1), run(2));
+    assert!(one.spectral, "the scene's named indices turn spectral mode on");
+    let bits = |img: &Image| img.pixels.iter().map(|p| p.to_array().map(f32::to_bits)).collect::<Vec<_>>();
+    assert_eq!(bits(&one.image), bits(&two.image), "images differ between 1 and 2 threads");
+    assert_eq!(one.rays, two.rays, "ray counts differ between 1 and 2 threads");
+    // The paths reached the glass and the camera saw their light.
+    assert!(one.rays.refracted > 0 && one.image.pixels.iter().any(|p| p.max_element() > 0.0));
 }
 
 #[test]

@@ -2,7 +2,7 @@
 use super::*;
 use crate::material::Bsdf;
 use crate::sampler::{Sampler, SamplerKind};
-use crate::spectrum::Wavelengths;
+use crate::spectrum::{Wavelengths, HERO_WAVELENGTHS};
 
 /// A glass slab of dispersive `ior` (two facing quads at z = ±0.5) seen by a camera on +z.
 fn slab(ior: &str) -> Scene {

@@ -169,9 +169,9 @@ pub struct PathContext {
     /// What the channels of the sample's radiance hold: RGB, or its wavelengths.
     pub channels: Channels,
     /// Whether the path has ended its secondary wavelengths (at a dispersive interface), or
-    /// carries one wavelength alone (a branch of a `path` split there).
+    /// carries one wavelength alone (a branch of a `path` or `light` split there).
     pub hero_only: bool,
-    /// Whether `path` keeps the hero alone at smooth dispersive refraction instead of
+    /// Whether `path` and `light` keep the hero alone at smooth dispersive refraction instead of
     /// splitting the wavelengths (the estimator before splitting, kept to compare against).
     pub(crate) hero_alone: bool,
     /// In spectral mode, what the camera ray itself sees (an emitter, the background), in RGB:

@@ -4,7 +4,7 @@
 //! the method's (`integrators/path.rs`).
 
 use crate::lanes::{Mask3, Vector};
-use crate::spectrum::HERO_WAVELENGTHS;
+use crate::spectrum::{Channels, HERO_WAVELENGTHS};
 use glam::Vec3;
 use std::mem::MaybeUninit;
 
@@ -44,21 +44,22 @@ pub(crate) struct PathState<V: Vector = Vec3> {
     pub chain: V::Real,
 }
 
-/// The branches of a spectral camera path that smooth dispersive glass split, waiting for the
+/// The branches of a spectral path that smooth dispersive glass split, waiting for the
 /// branch in flight to end (last in, first out): each the channel of the one wavelength it
-/// carries and its state where it leaves the glass. The live branches share out the
+/// carries and its state `S` where it leaves the glass (a camera path's [`PathState`] by
+/// default; a light path of `light` its own). The live branches share out the
 /// [`HERO_WAVELENGTHS`] channels, so at most two wait.
 #[derive(Clone, Copy)]
 #[repr(C)]
-pub(crate) struct PendingBranches {
+pub(crate) struct PendingBranches<S: Copy = PathState> {
     /// How many wait (first, so that a new context writes it without touching the branches).
     count: u8,
     /// The branches, the first `count` of them set (the others never read: a camera sample's
     /// context is made without writing them, so RGB renders, which never split, pay nothing).
-    branches: [MaybeUninit<Branch>; HERO_WAVELENGTHS - 1],
+    branches: [MaybeUninit<Branch<S>>; HERO_WAVELENGTHS - 1],
 }
 
-impl std::fmt::Debug for PendingBranches {
+impl<S: Copy> std::fmt::Debug for PendingBranches<S> {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("PendingBranches").field("count", &self.count).finish_non_exhaustive()
     }
@@ -66,27 +67,27 @@ impl std::fmt::Debug for PendingBranches {
 
 /// A branch of a split path waiting to run.
 #[derive(Clone, Copy, Debug)]
-pub(crate) struct Branch {
+pub(crate) struct Branch<S = PathState> {
     /// The channel of the one wavelength it carries.
     pub channel: usize,
     /// Its state where it leaves the glass.
-    pub state: PathState,
+    pub state: S,
     /// The dimension of the path's random stream it draws from when it runs: where the branch
     /// in flight drew its next numbers after the split, so that it replays them.
     pub replay: u32,
 }
 
-impl Default for PendingBranches {
+impl<S: Copy> Default for PendingBranches<S> {
     #[inline]
-    fn default() -> PendingBranches {
+    fn default() -> PendingBranches<S> {
         PendingBranches { branches: [MaybeUninit::uninit(); HERO_WAVELENGTHS - 1], count: 0 }
     }
 }
 
-impl PendingBranches {
+impl<S: Copy> PendingBranches<S> {
     /// Sets aside `branch`.
     #[inline]
-    pub(crate) fn push(&mut self, branch: Branch) {
+    pub(crate) fn push(&mut self, branch: Branch<S>) {
         let slot = self.branches.get_mut(self.count as usize);
         slot.expect("at most two branches wait: one per other wavelength").write(branch);
         self.count += 1;
@@ -94,11 +95,22 @@ impl PendingBranches {
 
     /// The branch set aside last, taken out.
     #[inline]
-    pub(crate) fn pop(&mut self) -> Option<Branch> {
+    pub(crate) fn pop(&mut self) -> Option<Branch<S>> {
         (self.count > 0).then(|| {
             self.count -= 1;
             // SAFETY: the first `count` slots were written by `push`.
             unsafe { self.branches[self.count as usize].assume_init() }
         })
+    }
+
+    /// The branch set aside last, taken out to run: `channels`, the path's, then take their
+    /// indices at the one wavelength it carries.
+    #[inline]
+    pub(crate) fn resume(&mut self, channels: &mut Channels) -> Option<Branch<S>> {
+        let branch = self.pop()?;
+        if let Channels::Spectral(w) = *channels {
+            *channels = Channels::Spectral(w.led_by(branch.channel));
+        }
+        Some(branch)
     }
 }
