@@ -216,22 +216,47 @@ impl PathContext {
         let mut parted = none;
         let others = samples.iter().enumerate().filter(|&(i, _)| i != lead);
         for (slot, (i, si)) in parted.iter_mut().zip(others) {
-            let Some(si) = *si else { continue };
-            let wi = frame.to_world(si.wi);
-            let shading = frame.factor(wo, wi, mode);
-            if si.pdf <= 0.0 || si.f == Vec3::ZERO || shading == 0.0 {
-                continue;
-            }
-            if wi.dot(hit.n) * wo.dot(hit.n) > 0.0 {
-                self.rays.reflected += 1;
-            } else {
-                self.rays.refracted += 1;
-            }
-            let weight = si.f * (si.wi.z.abs() / si.pdf) * channel_alone(i) * shading;
-            *slot = Some(PartedWavelength { channel: i, sample: si, wi, weight, channels: at(i) });
+            *slot = si.and_then(|si| self.parted(i, si, hit, frame, wo, mode, 1.0));
         }
         self.hero_only = true;
         (channel_alone(lead), parted)
+    }
+
+    /// Channel `i`'s wavelength parted from the path at `hit` along its own sample `si` (local to
+    /// `frame`, `wo` the world direction back along the path, drawn in `mode`), its throughput
+    /// factor times `weight`; its ray is counted now. `None` where the sample carries nothing.
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn parted(
+        &mut self,
+        i: usize,
+        si: BsdfSample,
+        hit: &SurfaceHit,
+        frame: &ShadingFrame,
+        wo: Vec3,
+        mode: TransportMode,
+        weight: f32,
+    ) -> Option<PartedWavelength> {
+        let Channels::Spectral(w) = self.channels else {
+            return None;
+        };
+        let wi = frame.to_world(si.wi);
+        let shading = frame.factor(wo, wi, mode);
+        if si.pdf <= 0.0 || si.f == Vec3::ZERO || shading == 0.0 {
+            return None;
+        }
+        if wi.dot(hit.n) * wo.dot(hit.n) > 0.0 {
+            self.rays.reflected += 1;
+        } else {
+            self.rays.refracted += 1;
+        }
+        let weight = si.f * (si.wi.z.abs() / si.pdf) * (channel_alone(i) * weight) * shading;
+        Some(PartedWavelength {
+            channel: i,
+            sample: si,
+            wi,
+            weight,
+            channels: Channels::Spectral(w.led_by(i)),
+        })
     }
 }
 

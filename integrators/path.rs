@@ -13,9 +13,13 @@
 //! light inside glass is not killed early. Media absorb by Beer–Lambert's law. In spectral mode
 //! the path carries three wavelengths (see [`crate::spectrum`]); where smooth dispersive glass
 //! parts them it splits into one branch per wavelength, run one after the other
-//! ([`PathContext::split_wavelengths`]); rough dispersive glass ends the secondary ones and the
-//! hero goes on alone. What the camera ray sees directly is added in RGB
-//! ([`PathContext::radiance_seen`]).
+//! ([`PathContext::split_wavelengths`]). At rough dispersive glass a wavelength chosen uniformly
+//! samples the direction and, after one facet, all three go on weighted by MIS over their
+//! densities (hero-wavelength MIS, Wilkie et al. 2014), next-event estimation evaluating each
+//! wavelength and weighing with the same mean density; light scattered between several facets
+//! has no density, so there the wavelengths whose walks do the same split as at smooth glass
+//! (`integrators/path/wavelengths.rs` says why this keeps every channel unbiased). What the
+//! camera ray sees directly is added in RGB ([`PathContext::radiance_seen`]).
 
 use super::{light_index, Integrator, PathContext, RenderParams};
 use super::{CameraEstimator, EngineChoice, Method, Progression};
@@ -173,7 +177,8 @@ pub(crate) trait PathWorld {
         ctx: &mut Self::Context,
     ) -> (Mask3<Self::V>, Self::V, Self::R);
     /// The hit's scattering model, and the factor the path's throughput takes there before
-    /// anything is sampled (a spectral path ending its secondary wavelengths; 1 otherwise).
+    /// anything is sampled (a `hero_alone` spectral path ending its secondary wavelengths at
+    /// rough dispersive glass; 1 otherwise).
     fn bsdf(&self, hit: &Self::Hit, active: Mask3<Self::V>, ctx: &mut Self::Context)
         -> (Self::Bsdf, Self::V);
     /// The hit's shading frame for the direction `wo` back along the path.
@@ -206,10 +211,13 @@ pub(crate) trait PathWorld {
         ctx: &mut Self::Context,
     ) -> Self::Shadow;
     /// The factor a spectral path's throughput takes after the BSDF sample `s` of its lead
-    /// wavelength, drawn with the numbers `uc` and `u` from `path` (the state at the vertex,
-    /// not yet updated): where smooth dispersive glass parts the wavelengths, the lead's
-    /// channel alone, every other wavelength set aside in the context as a branch of its own
-    /// ([`PathContext::split_wavelengths`]); 1 otherwise.
+    /// wavelength (or, where the wavelengths mix, of the one
+    /// [`sample_wavelengths`](Self::sample_wavelengths) chose), drawn with the numbers `uc`
+    /// and `u` from `path` (the state at the vertex, not yet updated): where dispersive glass
+    /// parts the wavelengths, the sampling wavelength's channel alone, every other wavelength
+    /// set aside in the context as a branch of its own ([`PathContext::split_wavelengths`]); 1
+    /// otherwise. Asked wherever the sample is there, also where the path itself cannot go on
+    /// along it (the branches can).
     #[allow(clippy::too_many_arguments)]
     fn split_wavelengths(
         &self,
@@ -222,6 +230,37 @@ pub(crate) trait PathWorld {
         active: Mask3<Self::V>,
         ctx: &mut Self::Context,
     ) -> Self::V;
+    /// Where the hit is rough dispersive glass whose wavelengths a spectral path carries on
+    /// together, weighted by MIS over their densities ([`PathContext::mixes_wavelengths`];
+    /// `integrators/path/wavelengths.rs`).
+    fn mixes_wavelengths(
+        &self,
+        hit: &Self::Hit,
+        active: Mask3<Self::V>,
+        ctx: &Self::Context,
+    ) -> Mask3<Self::V>;
+    /// Where the wavelengths mix (`active`): f at each channel's wavelength for the local
+    /// directions `wo`, `wi`, and the mean of their densities ([`PathContext::eval_wavelengths`]).
+    fn eval_wavelengths(
+        &self,
+        hit: &Self::Hit,
+        wo: Self::V,
+        wi: Self::V,
+        active: Mask3<Self::V>,
+        ctx: &Self::Context,
+    ) -> (Self::V, Self::R);
+    /// Where the wavelengths mix (`active`): the BSDF sample of the wavelength the lobe number
+    /// `uc` chooses, with f per channel and the mean density after one facet
+    /// ([`PathContext::sample_wavelengths`]), and where there is one.
+    fn sample_wavelengths(
+        &self,
+        hit: &Self::Hit,
+        wo: Self::V,
+        uc: Self::R,
+        u: (Self::R, Self::R),
+        active: Mask3<Self::V>,
+        ctx: &Self::Context,
+    ) -> (Mask3<Self::V>, BsdfSample<Self::V>);
     /// Where a path has `ended`, the next branch its context holds put in its place in `path`
     /// (the radiance gathered kept): the paths that go on with one.
     fn resume(
@@ -484,6 +523,8 @@ impl<V: Vector> PathState<V> {
         self.beta = V::select(scatters, self.beta * ends_secondaries, self.beta);
         let frame = world.frame(hit, wo);
         let wo_local = frame.to_local(wo);
+        // Rough dispersive glass whose wavelengths go on together, weighted by MIS over them.
+        let mixed = if SPECTRAL { world.mixes_wavelengths(hit, scatters, ctx) & scatters } else { none };
         // Next-event estimation: one uniformly chosen light, sampled.
         let nee = scatters & !bsdf.is_delta() & V::Real::mask(lights > 0);
         if V::Real::any(nee) {
@@ -492,14 +533,26 @@ impl<V: Vector> PathState<V> {
             let u = world.draw_2d(ctx, Dim::Light, nee);
             let LightDraw { sample: ls, delta, target } = world.sample_light(hit, light, u, nee, ctx);
             let wi_local = frame.to_local(ls.wi);
-            let f = bsdf.eval(wo_local, wi_local) * (wi_local.z().abs() * frame.factor(vzero, ls.wi));
+            let mut f = bsdf.eval(wo_local, wi_local);
+            // Where the wavelengths mix: f at each and the mean of their densities.
+            let mut mixture = (none, zero);
+            if SPECTRAL && V::Real::any(mixed & nee) {
+                let (fm, pm) = world.eval_wavelengths(hit, wo_local, wi_local, mixed & nee, ctx);
+                f = V::select(mixed & nee, fm, f);
+                mixture = (mixed & nee, pm);
+            }
+            let f = f * (wi_local.z().abs() * frame.factor(vzero, ls.wi));
             let pending = nee & ls.sampled & !f.is_zero();
             let shadow = world.shadow(hit, target, light, self.time, pending, ctx);
             let pdf = light_pick * ls.pdf;
             // A delta light has no density for BSDF sampling to match: no MIS.
             let weighted = pending & !delta;
             let w = if V::Real::any(weighted) {
-                V::Real::select(weighted, power_heuristic(pdf, bsdf.pdf(wo_local, wi_local)), one)
+                let mut bsdf_pdf = bsdf.pdf(wo_local, wi_local);
+                if SPECTRAL {
+                    bsdf_pdf = V::Real::select(mixture.0, mixture.1, bsdf_pdf);
+                }
+                V::Real::select(weighted, power_heuristic(pdf, bsdf_pdf), one)
             } else {
                 one
             };
@@ -520,8 +573,12 @@ impl<V: Vector> PathState<V> {
                     let found = found & mnee;
                     if V::Real::any(found) {
                         let wi_local = frame.to_local(wi);
-                        let f =
-                            bsdf.eval(wo_local, wi_local) * (wi_local.z().abs() * frame.factor(vzero, wi));
+                        let mut f = bsdf.eval(wo_local, wi_local);
+                        if SPECTRAL && V::Real::any(found & mixed) {
+                            let (fm, _) = world.eval_wavelengths(hit, wo_local, wi_local, found & mixed, ctx);
+                            f = V::select(found & mixed, fm, f);
+                        }
+                        let f = f * (wi_local.z().abs() * frame.factor(vzero, wi));
                         let value = self.beta * f * radiance * (one / light_pick);
                         self.l = V::select(found, self.l + value, self.l);
                     }
@@ -533,11 +590,25 @@ impl<V: Vector> PathState<V> {
         // The BSDF sample that makes the next ray.
         let uc = world.draw_1d(ctx, Dim::Bsdf, scatters & bsdf.chooses_lobe());
         let u = world.draw_2d(ctx, Dim::Bsdf, scatters);
-        let (sampled, s) = bsdf.sample(wo_local, uc, u, scatters);
-        let mut scatters = scatters & sampled & !(s.pdf.le(zero) | s.f.is_zero());
+        let (sampled, s) = if SPECTRAL && V::Real::any(mixed) {
+            // Where the wavelengths mix, the sample of one chosen by `uc`, weighted for all.
+            let (sampled, s) = bsdf.sample(wo_local, uc, u, scatters & !mixed);
+            let (mixed_sampled, m) = world.sample_wavelengths(hit, wo_local, uc, u, mixed, ctx);
+            ((mixed & mixed_sampled) | (!mixed & sampled), BsdfSample::select(mixed, &m, &s))
+        } else {
+            bsdf.sample(wo_local, uc, u, scatters)
+        };
+        let sampled = scatters & sampled & !(s.pdf.le(zero) | s.f.is_zero());
         let wi = frame.to_world(s.wi);
         let shading = frame.factor(wo, wi);
-        scatters = scatters & shading.ne(zero);
+        // The wavelengths dispersive glass parts, set aside as branches even where the sampled
+        // one cannot go on.
+        let split = if SPECTRAL && V::Real::any(sampled) {
+            world.split_wavelengths(hit, &s, wo_local, uc, u, self, sampled, ctx)
+        } else {
+            V::splat(Vec3::ONE)
+        };
+        let scatters = sampled & shading.ne(zero);
         if !V::Real::any(scatters) {
             return step;
         }
@@ -546,7 +617,7 @@ impl<V: Vector> PathState<V> {
         }
         let mut beta = s.f * (s.wi.z().abs() / s.pdf);
         if SPECTRAL {
-            beta = beta * world.split_wavelengths(hit, &s, wo_local, uc, u, self, scatters, ctx);
+            beta = beta * split;
         }
         let beta = self.beta * (beta * shading);
         let (crosses, absorption) = world.medium_after(hit, self.dir, s.is_transmission, scatters, ctx);
@@ -589,7 +660,9 @@ impl PathContext {
     /// Every wavelength it parts from the path becomes a branch of its own (its channel's
     /// throughput, direction, origin, medium, η² and MIS state), set aside in
     /// [`pending`](Self::pending) to run when the path ends, replaying the path's numbers from
-    /// dimension `replay` on.
+    /// dimension `replay` on. At rough dispersive glass whose wavelengths mix, a sample that
+    /// scattered several times splits the wavelengths whose walks do too
+    /// ([`split_multiple`](Self::split_multiple), the module `wavelengths`).
     #[allow(clippy::too_many_arguments)]
     pub(crate) fn split_wavelengths(
         &mut self,
@@ -601,37 +674,24 @@ impl PathContext {
         path: &PathState,
         replay: u32,
     ) -> Vec3 {
-        if !self.channels.is_spectral() || self.hero_only {
+        if !self.channels.is_spectral() {
             return Vec3::ONE;
         }
         let material = scene.material_of(isect.primitive);
+        if !s.is_evaluable() && self.mixes_wavelengths(material, &isect.hit) {
+            // Rough dispersive glass scattered several times: no density to weigh with.
+            return self.split_multiple(scene, isect, s, wo_local, (uc, u), path, replay);
+        }
+        if self.hero_only {
+            return Vec3::ONE;
+        }
         let wo = -path.dir;
         let frame = ShadingFrame::at(&isect.hit, wo);
         let mode = TransportMode::Radiance;
         let (factor, parted) =
             self.part_wavelengths(material, &isect.hit, &frame, wo, s, wo_local, (uc, u.into()), mode);
-        let n = isect.hit.n;
-        for p in parted.into_iter().flatten() {
-            let si = p.sample;
-            let (crosses, absorption) = medium_after(scene, isect, path.dir, si.is_transmission, &p.channels);
-            let branch = PathState {
-                origin: offset_origin(isect.hit.p, n, isect.hit.p_error, p.wi),
-                dir: p.wi,
-                time: path.time,
-                l: Vec3::ZERO,
-                beta: path.beta * p.weight,
-                eta_scale: if si.is_transmission {
-                    path.eta_scale * (si.eta * si.eta)
-                } else {
-                    path.eta_scale
-                },
-                skip_mis: !si.is_evaluable(),
-                bsdf_pdf: si.pdf,
-                absorption: if crosses { absorption } else { path.absorption },
-                depth: path.depth + 1.0,
-                chain: path.chain,
-            };
-            self.pending.push(Branch { channel: p.channel, state: branch, replay });
+        for p in parted.iter().flatten() {
+            self.set_aside(scene, isect, path, p, replay);
         }
         factor
     }
@@ -664,6 +724,7 @@ impl PathContext {
 }
 
 mod one_ray;
+mod wavelengths;
 
 use one_ray::medium_after;
 pub(crate) use one_ray::{light_draw, manifold_draw, OneRay};

@@ -51,10 +51,14 @@
 //!   colours correlated; every channel is its own unbiased estimate and [`Wavelengths::to_rgb`]
 //!   is unchanged. Hero-wavelength MIS (Wilkie et al. 2014) would not help there: at a smooth
 //!   interface the other wavelengths' densities of the hero's direction are zero, so it reduces
-//!   to ending them. Elsewhere a path ends the two secondary wavelengths and carries the hero
-//!   alone with weight 3 ([`HERO_ONLY`], as pbrt-v4's `TerminateSecondary`): `path` and `light`
-//!   at rough dispersive glass (whose value feeds next-event estimation at one index), the
-//!   bidirectional methods where smooth glass refracts (where it reflects they keep all three,
+//!   to ending them. At rough dispersive glass `path` uses it: a wavelength chosen uniformly
+//!   samples the direction and, after one facet, all three go on weighted by the balance
+//!   heuristic over their densities (where the microsurface scatters several times, without a
+//!   density, it splits as at smooth glass; `integrators/path/wavelengths.rs`). `light` splits
+//!   at smooth dispersive glass as `path` does. Elsewhere a path ends the two secondary
+//!   wavelengths and carries the hero alone with weight 3 ([`HERO_ONLY`], as pbrt-v4's
+//!   `TerminateSecondary`): `light` at rough dispersive glass, the bidirectional methods at rough
+//!   dispersive glass and where smooth glass refracts (where it reflects they keep all three,
 //!   each weighted by its Fresnel reflectance over the hero's), and the deterministic recursions
 //!   (`whitted`, `distributed`), which follow both branches at once. On `glass-of-water` the
 //!   variance at equal samples went from 2.46× RGB mode's (the hero alone) to 1.89× by splitting

@@ -137,6 +137,26 @@ fn every_sampler_and_the_spectral_mode_give_the_scalar_bits_across_lanes() {
 }
 
 #[test]
+fn rough_dispersive_glass_gives_the_scalar_bits_across_lanes() {
+    // frosted-glass in bk7: hero-wavelength MIS at its rough glass and the branches of multiple
+    // scattering, lane by lane, with every sampler.
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
+    let text = std::fs::read_to_string(root.join("frosted-glass.toml"))
+        .unwrap()
+        .replace("ior = 1.52", "ior = \"bk7\"");
+    let scene = load_str(&text, "frosted-glass in bk7", Some(&root)).unwrap();
+    for sampler in SamplerKind::ALL {
+        let [scalar, wavefront] = [EngineOption::Scalar, EngineOption::Wavefront]
+            .map(|engine| path_render(&scene, engine, 16, 3, 5, sampler));
+        assert!(scalar.spectral);
+        let (a, b) = (bits(&scalar.image), bits(&wavefront.image));
+        let differing = a.iter().zip(&b).filter(|(x, y)| x != y).count();
+        assert_eq!(differing, 0, "{}: {differing} of {} pixels differ", sampler.name(), a.len());
+        assert_eq!(scalar.rays, wavefront.rays, "{}: ray counts", sampler.name());
+    }
+}
+
+#[test]
 fn independent_renders_of_the_two_engines_agree_within_noise() {
     // Different seeds: the images differ by their noise alone. χ² of the 8×8 block means in
     // their variances (per-pixel s²/n, which overestimates the error of the Sobol' sampler's

@@ -123,7 +123,9 @@ impl<'a> PathWorld for OneRay<'a> {
         let isect = surface(hit);
         let material = self.scene.material_of(isect.primitive);
         let bsdf = Scattering::at(material, isect.hit.p, isect.hit.uv, &ctx.channels);
-        let ends = ctx.end_secondaries_at(&material.bsdf, &bsdf);
+        // Rough dispersive glass ends the secondaries only in the estimator kept to compare
+        // against; otherwise they go on, weighted by MIS over the wavelengths.
+        let ends = if ctx.hero_alone { ctx.end_secondaries_at(&material.bsdf, &bsdf) } else { Vec3::ONE };
         (bsdf, ends)
     }
 
@@ -202,6 +204,48 @@ impl<'a> PathWorld for OneRay<'a> {
     ) -> Vec3 {
         let replay = ctx.sampler.dimension();
         ctx.split_wavelengths(self.scene, surface(hit), s, wo_local, (uc, u), path, replay)
+    }
+
+    #[inline]
+    fn mixes_wavelengths(&self, hit: &Self::Hit, active: bool, ctx: &PathContext) -> bool {
+        active && {
+            let isect = surface(hit);
+            ctx.mixes_wavelengths(self.scene.material_of(isect.primitive), &isect.hit)
+        }
+    }
+
+    #[inline]
+    fn eval_wavelengths(
+        &self,
+        hit: &Self::Hit,
+        wo: Vec3,
+        wi: Vec3,
+        _: bool,
+        ctx: &PathContext,
+    ) -> (Vec3, f32) {
+        let isect = surface(hit);
+        ctx.eval_wavelengths(self.scene.material_of(isect.primitive), &isect.hit, wo, wi, None)
+    }
+
+    #[inline]
+    fn sample_wavelengths(
+        &self,
+        hit: &Self::Hit,
+        wo: Vec3,
+        uc: f32,
+        u: (f32, f32),
+        active: bool,
+        ctx: &PathContext,
+    ) -> (bool, BsdfSample) {
+        if !active {
+            return (false, no_sample());
+        }
+        let isect = surface(hit);
+        let material = self.scene.material_of(isect.primitive);
+        match ctx.sample_wavelengths(material, &isect.hit, wo, uc, u) {
+            Some(s) => (true, s),
+            None => (false, no_sample()),
+        }
     }
 
     #[inline]

@@ -157,6 +157,21 @@ impl RoughDielectric {
         self.eval(wo, wi, TransportMode::Importance).x * wi.z.abs()
     }
 
+    /// [`eval`](Self::eval) in `mode` and [`pdf`](Self::pdf) from one evaluation (the same bits
+    /// as the two calls): the density is the importance-mode value times |cos θi|, and the
+    /// radiance-mode value of a refraction is that value over η'².
+    pub fn eval_with_pdf(&self, wo: Vec3, wi: Vec3, mode: TransportMode) -> (Vec3, f32) {
+        let importance = self.eval(wo, wi, TransportMode::Importance).x;
+        let refracted_radiance = mode == TransportMode::Radiance && wo.z * wi.z < 0.0;
+        let f = if refracted_radiance {
+            let etap = if wo.z > 0.0 { self.eta } else { 1.0 / self.eta };
+            importance / (etap * etap)
+        } else {
+            importance
+        };
+        (Vec3::splat(f), importance * wi.z.abs())
+    }
+
     /// An unbiased estimate of the multiply scattered remainder of f(wo, wi), which `eval` leaves
     /// out, from one random walk drawn with `rng`.
     pub fn eval_multiple<R: Rng>(&self, wo: Vec3, wi: Vec3, mode: TransportMode, rng: &mut R) -> Vec3 {
@@ -431,6 +446,20 @@ pub(crate) mod tests {
             }
         }
         println!("largest relative eval/pdf mismatch {worst:.2e}");
+    }
+
+    #[test]
+    fn eval_with_pdf_gives_the_bits_of_eval_and_pdf() {
+        let mut rng = Pcg32::seed_from_u64(35);
+        for (label, d, wo) in grid() {
+            for _ in 0..2_000 {
+                let wi = random_direction(&mut rng);
+                for mode in [TransportMode::Radiance, TransportMode::Importance] {
+                    let both = (d.eval(wo, wi, mode), d.pdf(wo, wi));
+                    assert_eq!(d.eval_with_pdf(wo, wi, mode), both, "{label} {mode:?} wi {wi}");
+                }
+            }
+        }
     }
 
     #[test]

@@ -171,13 +171,14 @@ pub struct PathContext {
     /// Whether the path has ended its secondary wavelengths (at a dispersive interface), or
     /// carries one wavelength alone (a branch of a `path` or `light` split there).
     pub hero_only: bool,
-    /// Whether `path` and `light` keep the hero alone at smooth dispersive refraction instead of
-    /// splitting the wavelengths (the estimator before splitting, kept to compare against).
+    /// Whether `path` and `light` keep the hero alone at dispersive glass: at smooth refraction
+    /// instead of splitting the wavelengths, and (`path`) at rough glass instead of MIS over them
+    /// (the estimator before both, kept to compare against).
     pub(crate) hero_alone: bool,
     /// In spectral mode, what the camera ray itself sees (an emitter, the background), in RGB:
     /// added to the RGB estimate of the channels ([`PathContext::rgb`]).
     pub seen_rgb: Vec3,
-    /// The branches of a `path` split at smooth dispersive glass that wait for the one in
+    /// The branches of a `path` split at dispersive glass that wait for the one in
     /// flight to end (one wavelength each). Last: see above.
     pub(crate) pending: super::PendingBranches,
 }

@@ -44,7 +44,8 @@ pub(crate) struct PathState<V: Vector = Vec3> {
     pub chain: V::Real,
 }
 
-/// The branches of a spectral path that smooth dispersive glass split, waiting for the
+/// The branches of a spectral path that dispersive glass split (smooth glass, or rough
+/// glass that scattered the light between several facets), waiting for the
 /// branch in flight to end (last in, first out): each the channel of the one wavelength it
 /// carries and its state `S` where it leaves the glass (a camera path's [`PathState`] by
 /// default; a light path of `light` its own). The live branches share out the

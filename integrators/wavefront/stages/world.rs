@@ -432,6 +432,66 @@ impl<'a, 's> PathWorld for LaneWorld<'a, 's> {
     }
 
     #[inline(always)]
+    fn mixes_wavelengths(&self, hit: &LaneHit, active: Mask, ctx: &LaneCtx<'a>) -> Mask {
+        let mut mixes = Mask::NONE;
+        if self.stages.tables {
+            // RGB: no wavelengths.
+            return mixes;
+        }
+        let one_ray = OneRay { scene: self.scene };
+        for k in lanes_of(active & hit.scalar) {
+            mixes.0[k] = one_ray.mixes_wavelengths(&hit.isect[k], true, ctx.path(k));
+        }
+        mixes
+    }
+
+    #[inline(always)]
+    fn eval_wavelengths(
+        &self,
+        hit: &LaneHit,
+        wo: Vec3x,
+        wi: Vec3x,
+        active: Mask,
+        ctx: &LaneCtx<'a>,
+    ) -> (Vec3x, F32x) {
+        let (mut f, mut pdf) = (Vec3x::ZERO, F32x::ZERO);
+        let one_ray = OneRay { scene: self.scene };
+        for k in lanes_of(active) {
+            let (fk, pk) = one_ray.eval_wavelengths(&hit.isect[k], wo.lane(k), wi.lane(k), true, ctx.path(k));
+            f.set_lane(k, fk);
+            pdf.0[k] = pk;
+        }
+        (f, pdf)
+    }
+
+    #[inline(always)]
+    fn sample_wavelengths(
+        &self,
+        hit: &LaneHit,
+        wo: Vec3x,
+        uc: F32x,
+        (ux, uy): (F32x, F32x),
+        active: Mask,
+        ctx: &LaneCtx<'a>,
+    ) -> (Mask, BsdfSample<Vec3x>) {
+        let (mut ok, mut s) = (Mask::NONE, no_sample());
+        let one_ray = OneRay { scene: self.scene };
+        for k in lanes_of(active) {
+            let (sampled, one) = one_ray.sample_wavelengths(
+                &hit.isect[k],
+                wo.lane(k),
+                uc.0[k],
+                (ux.0[k], uy.0[k]),
+                true,
+                ctx.path(k),
+            );
+            ok.0[k] = sampled;
+            set_sample_lane(&mut s, k, &one);
+        }
+        (ok, s)
+    }
+
+    #[inline(always)]
     fn resume(&self, path: &mut PathState<Vec3x>, ended: Mask, ctx: &mut LaneCtx<'a>) -> Mask {
         let mut resumed = Mask::NONE;
         if self.stages.tables {
