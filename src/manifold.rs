@@ -574,40 +574,7 @@ mod tests {
 
     /// A glass ball of radius 0.5 on a diffuse floor, lit from the side by a small sphere light
     /// (`tests/mnee.rs`'s partition scene).
-    const BALL: &str = r#"
-[camera]
-position = [0.0, 2.2, 2.2]
-look_at = [0.0, 0.0, 0.0]
-fov = 40.0
-resolution = [32, 32]
-
-[materials.floor]
-type = "diffuse"
-color = 0.6
-
-[materials.glass]
-type = "dielectric"
-ior = 1.5
-
-[[objects]]
-shape = "quad"
-corner = [-3.0, 0.0, -3.0]
-u = [0.0, 0.0, 6.0]
-v = [6.0, 0.0, 0.0]
-material = "floor"
-
-[[objects]]
-shape = "sphere"
-center = [0.0, 0.5, 0.0]
-radius = 0.5
-material = "glass"
-
-[[lights]]
-type = "sphere"
-center = [-1.2, 1.0, -1.2]
-radius = 0.25
-radiance = 40.0
-"#;
+    const BALL: &str = include_str!("../tests/data/glass-ball-under-a-sphere-light.toml");
 
     /// The solver from the point of the light at `u` to the floor point `x`.
     fn solver<'a>(scene: &'a Scene, channels: &'a Channels, u: Vec2, x: Vec3) -> Solver<'a> {

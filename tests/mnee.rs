@@ -152,9 +152,11 @@ fn small_light_over_a_glass_ball() -> Scene {
     small_light_over(BALL)
 }
 
-/// The glass ball of [`small_light_over_a_glass_ball`]: an analytic sphere.
-const BALL: &str = r#"
-[[objects]]
+/// The scene file of [`small_light_over_a_glass_ball`] (shared with `src/manifold.rs`'s tests).
+const BALL_SCENE: &str = include_str!("data/glass-ball-under-a-sphere-light.toml");
+
+/// The glass ball of [`BALL_SCENE`]: an analytic sphere.
+const BALL: &str = r#"[[objects]]
 shape = "sphere"
 center = [0.0, 0.5, 0.0]
 radius = 0.5
@@ -163,8 +165,7 @@ material = "glass"
 
 /// The same ball as a smooth-normal mesh (`scenes/meshes/smooth-sphere.obj`, 960 triangles,
 /// vertex normals): one interface of many triangles, which Newton steps cross.
-const MESH_BALL: &str = r#"
-[[objects]]
+const MESH_BALL: &str = r#"[[objects]]
 shape = "mesh"
 file = "smooth-sphere.obj"
 transform = { scale = 0.5, translate = [0.0, 0.5, 0.0] }
@@ -173,36 +174,8 @@ material = "glass"
 
 /// The scene of [`small_light_over_a_glass_ball`] with `ball` (TOML objects) as its glass.
 fn small_light_over(ball: &str) -> Scene {
-    let text = r#"
-[camera]
-position = [0.0, 2.2, 2.2]
-look_at = [0.0, 0.0, 0.0]
-up = [0.0, 1.0, 0.0]
-fov = 40.0
-resolution = [32, 32]
-
-[materials.floor]
-type = "diffuse"
-color = 0.6
-
-[materials.glass]
-type = "dielectric"
-ior = 1.5
-
-[[objects]]
-shape = "quad"
-corner = [-3.0, 0.0, -3.0]
-u = [0.0, 0.0, 6.0]
-v = [6.0, 0.0, 0.0]
-material = "floor"
-
-[[lights]]
-type = "sphere"
-center = [-1.2, 1.0, -1.2]
-radius = 0.25
-radiance = 40.0
-"#;
-    let text = format!("{text}{ball}");
+    assert!(BALL_SCENE.contains(BALL), "the ball of {BALL_SCENE}");
+    let text = BALL_SCENE.replace(BALL, ball);
     load_str(&text, "small light over a glass ball", Some(&root().join("scenes/meshes"))).unwrap()
 }
 
