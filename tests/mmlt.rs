@@ -11,7 +11,6 @@ mod common;
 
 use common::replicas::{blocks, render_replicas, z};
 use std::path::Path;
-use std::process::Command;
 use vitrum::integrators::{Accumulate, Mmlt};
 use vitrum::render::{RenderOptions, RenderOutput};
 use vitrum::scene::{load, load_str, Scene};
@@ -205,31 +204,20 @@ fn renders_are_bit_identical_at_any_thread_count_and_in_any_split() {
 
 #[test]
 fn bad_settings_exit_2_naming_file_line_and_field() {
-    for (line, field) in [
-        ("large_step = 0.0", "large_step"),
-        ("large_step = 1.5", "large_step"),
-        ("sigma = 0.0", "sigma"),
-        ("bootstrap = 0", "bootstrap"),
-        ("chains = 0", "chains"),
-        ("max_depth = 300", "max_depth"),
-    ] {
-        let (code, err, last) = common::render_cornell_with_table("mmlt", &format!("[render.mmlt]\n{line}"));
-        assert_eq!(code, Some(2), "{line}: {err}");
-        assert!(!err.contains("panicked"), "{line}: {err}");
-        assert!(err.contains(&format!("scene.toml:{last}:")), "{line}: no line {last} in {err}");
-        assert!(err.contains(&format!("render.mmlt.{field}")), "{line}: {err}");
-    }
     let good = "[render.mmlt]\nlarge_step = 1.0\nsigma = 0.05\nbootstrap = 16\nchains = 4\nmax_depth = 3";
-    let (code, err, _) = common::render_cornell_with_table("mmlt", good);
-    assert_eq!(code, Some(0), "good settings: {err}");
     // `vitrum info --json` shows the settings the scene sets, apart from `pssmlt`'s.
-    let dir = tempfile::tempdir().unwrap();
-    let scene = dir.path().join("scene.toml");
-    let text = std::fs::read_to_string(root().join("scenes/cornell-glass.toml")).unwrap() + "\n" + good;
-    std::fs::write(&scene, text).unwrap();
-    let out =
-        Command::new(env!("CARGO_BIN_EXE_vitrum")).arg("info").arg(&scene).arg("--json").output().unwrap();
-    let info: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let info = common::check_method_settings(
+        "mmlt",
+        &[
+            ("large_step = 0.0", "large_step"),
+            ("large_step = 1.5", "large_step"),
+            ("sigma = 0.0", "sigma"),
+            ("bootstrap = 0", "bootstrap"),
+            ("chains = 0", "chains"),
+            ("max_depth = 300", "max_depth"),
+        ],
+        good,
+    );
     let m = &info["render"]["methods"]["mmlt"];
     assert_eq!((m["large_step"].as_f64(), m["sigma"].as_f64()), (Some(1.0), Some(0.05f32 as f64)), "{m}");
     assert_eq!((m["bootstrap"].as_u64(), m["chains"].as_u64()), (Some(16), Some(4)), "{m}");

@@ -14,7 +14,6 @@ mod common;
 
 use common::replicas::{blocks, z};
 use std::path::Path;
-use std::process::Command;
 use vitrum::integrators::Pssmlt;
 use vitrum::render::{Accumulate, RenderOptions, RenderOutput};
 use vitrum::sampler::primary::{with_primary, PrimarySamples};
@@ -385,32 +384,20 @@ fn a_rejected_proposal_restores_every_value_exactly_and_chains_are_pure_function
 
 #[test]
 fn bad_settings_exit_2_naming_file_line_and_field() {
-    for (line, field) in [
-        ("large_step = 0.0", "large_step"),
-        ("large_step = 1.5", "large_step"),
-        ("sigma = 0.0", "sigma"),
-        ("sigma = -0.1", "sigma"),
-        ("bootstrap = 0", "bootstrap"),
-        ("chains = 0", "chains"),
-    ] {
-        let (code, err, last) =
-            common::render_cornell_with_table("pssmlt", &format!("[render.pssmlt]\n{line}"));
-        assert_eq!(code, Some(2), "{line}: {err}");
-        assert!(!err.contains("panicked"), "{line}: {err}");
-        assert!(err.contains(&format!("scene.toml:{last}:")), "{line}: no line {last} in {err}");
-        assert!(err.contains(&format!("render.pssmlt.{field}")), "{line}: {err}");
-    }
     let good = "[render.pssmlt]\nlarge_step = 1.0\nsigma = 0.05\nbootstrap = 16\nchains = 4";
-    let (code, err, _) = common::render_cornell_with_table("pssmlt", good);
-    assert_eq!(code, Some(0), "good settings: {err}");
     // `vitrum info --json` shows the settings the scene sets.
-    let dir = tempfile::tempdir().unwrap();
-    let scene = dir.path().join("scene.toml");
-    let text = std::fs::read_to_string(root().join("scenes/cornell-glass.toml")).unwrap() + "\n" + good;
-    std::fs::write(&scene, text).unwrap();
-    let out =
-        Command::new(env!("CARGO_BIN_EXE_vitrum")).arg("info").arg(&scene).arg("--json").output().unwrap();
-    let info: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let info = common::check_method_settings(
+        "pssmlt",
+        &[
+            ("large_step = 0.0", "large_step"),
+            ("large_step = 1.5", "large_step"),
+            ("sigma = 0.0", "sigma"),
+            ("sigma = -0.1", "sigma"),
+            ("bootstrap = 0", "bootstrap"),
+            ("chains = 0", "chains"),
+        ],
+        good,
+    );
     let m = &info["render"]["methods"]["pssmlt"];
     assert_eq!((m["large_step"].as_f64(), m["sigma"].as_f64()), (Some(1.0), Some(0.05f32 as f64)), "{m}");
     assert_eq!((m["bootstrap"].as_u64(), m["chains"].as_u64()), (Some(16), Some(4)), "{m}");

@@ -181,32 +181,9 @@ fn dispersive_glass_of_water_costs_little_more_than_rgb_mode() {
 }
 
 /// A white furnace (environment of radiance 1) around a sphere of dispersive `ior` and GGX
-/// `roughness`, seen by `path`.
+/// `roughness`, seen by `path` at 32×32.
 fn dispersive_furnace(ior: &str, roughness: f32) -> Scene {
-    let text = format!(
-        r#"
-[camera]
-position = [0.0, 0.0, 4.0]
-look_at = [0.0, 0.0, 0.0]
-fov = 30.0
-resolution = [32, 32]
-[render]
-integrator = "path"
-[materials.glass]
-type = "dielectric"
-ior = "{ior}"
-roughness = {roughness}
-[[objects]]
-shape = "sphere"
-center = [0.0, 0.0, 0.0]
-radius = 1.0
-material = "glass"
-[[lights]]
-type = "environment"
-radiance = 1.0
-"#
-    );
-    scene::load_str(&text, "rough dispersive furnace", None).unwrap()
+    common::glass_furnace_of(&format!("\"{ior}\""), roughness, 32)
 }
 
 #[test]

@@ -240,6 +240,12 @@ pub fn entries(dir: &std::path::Path) -> Vec<String> {
 /// `ppm` and `bpm` merge within 0.1 (the sphere's field is the same at every point, so only the
 /// tilt of the normal within the kernel biases a merge; 256 photons per iteration need a wide one).
 pub fn glass_furnace(roughness: f32, size: u32) -> Scene {
+    glass_furnace_of("1.5", roughness, size)
+}
+
+/// [`glass_furnace`] with the glass's `ior` written as this TOML value (`"1.5"`, or a dispersive
+/// `"\"sf11\""`).
+pub fn glass_furnace_of(ior: &str, roughness: f32, size: u32) -> Scene {
     let text = format!(
         r#"
 [camera]
@@ -255,7 +261,7 @@ radius = 0.1
 radius = 0.1
 [materials.glass]
 type = "dielectric"
-ior = 1.5
+ior = {ior}
 roughness = {roughness}
 [[objects]]
 shape = "sphere"
@@ -313,6 +319,34 @@ pub fn block_chi2(a: &(Image, Image), b: &(Image, Image)) -> (f64, usize) {
 /// The closed bright room of `tests/data/bright-room.toml` (its comment says what it is): 96²
 /// pixels, at most 9216 light paths per iteration.
 pub const BRIGHT_ROOM: &str = include_str!("../data/bright-room.toml");
+
+/// The settings table of `method` checked end to end on `scenes/cornell-glass.toml`: every
+/// `(line, field)` of `bad`, appended under `[render.METHOD]`, exits with code 2 naming the
+/// scene's file, the line and `render.METHOD.FIELD`, without a panic; the table `good` (whole,
+/// its header included) renders; returns `vitrum info --json` of the scene with `good`.
+pub fn check_method_settings(method: &str, bad: &[(&str, &str)], good: &str) -> serde_json::Value {
+    for (line, field) in bad {
+        let (code, err, last) = render_cornell_with_table(method, &format!("[render.{method}]\n{line}"));
+        assert_eq!(code, Some(2), "{line}: {err}");
+        assert!(!err.contains("panicked"), "{line}: {err}");
+        assert!(err.contains(&format!("scene.toml:{last}:")), "{line}: no line {last} in {err}");
+        assert!(err.contains(&format!("render.{method}.{field}")), "{line}: {err}");
+    }
+    let (code, err, _) = render_cornell_with_table(method, good);
+    assert_eq!(code, Some(0), "good settings: {err}");
+    let dir = tempfile::tempdir().unwrap();
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    let scene = dir.path().join("scene.toml");
+    let text = std::fs::read_to_string(root.join("scenes/cornell-glass.toml")).unwrap() + "\n" + good;
+    std::fs::write(&scene, text).unwrap();
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_vitrum"))
+        .arg("info")
+        .arg(&scene)
+        .arg("--json")
+        .output()
+        .unwrap();
+    serde_json::from_slice(&out.stdout).unwrap()
+}
 
 /// `vitrum render -i METHOD` (1 spp, 8×8) of `scenes/cornell-glass.toml` with `table` appended:
 /// its exit code, its stderr and the number of the text's last line (where a bad value of the
