@@ -59,8 +59,10 @@
 //! the path goes on with its lead wavelength's channel alone and every other wavelength becomes
 //! a branch ([`LightWalk`], its channel's throughput, ray and medium), set aside and run when the
 //! walk in flight ends, replaying its random numbers from the split. Each channel is then its own
-//! unbiased estimate, with weight 1. Rough dispersive glass ends the secondary wavelengths and the
-//! hero goes on alone with weight 3 ([`PathContext::end_secondaries_at`]).
+//! unbiased estimate, with weight 1. At rough dispersive glass the wavelengths go on together,
+//! weighted by MIS over their densities, and light that the microsurface scattered several times
+//! splits the same way (`crate::integrators::wavelengths`, the decisions `path` takes, here in
+//! importance mode); the connection to the camera there evaluates each wavelength's BSDF.
 //!
 //! # What light tracing cannot see
 //! - **Specular surfaces seen directly.** A smooth mirror or smooth glass scatters only into delta
@@ -116,7 +118,7 @@ use crate::render::{
 use crate::sampler::{Dim, Replicas, Sampler, SamplerKind};
 use crate::scene::effects::Support;
 use crate::scene::{Effect, Scene};
-use crate::spectrum::{Channels, Wavelengths};
+use crate::spectrum::{Channels, Wavelengths, HERO_WAVELENGTHS};
 use crate::stats::RayCounts;
 use glam::Vec3;
 use rand::SeedableRng;
@@ -425,7 +427,13 @@ impl Tracer<'_> {
             walk.depth += 1;
             let material = scene.material_of(isect.primitive);
             let bsdf = Scattering::at(material, hit.p, hit.uv, &ctx.channels);
-            walk.beta0 *= ctx.end_secondaries_at(&material.bsdf, &bsdf);
+            // Rough dispersive glass: the wavelengths go on together, weighted by MIS over their
+            // densities (`crate::integrators::wavelengths`); the estimator kept to compare against
+            // ends the secondaries there instead.
+            let mixed = ctx.mixes_wavelengths(material, &hit);
+            if !mixed {
+                walk.beta0 *= ctx.end_secondaries_at(&material.bsdf, &bsdf);
+            }
             // Importance mode: `wo` leads back towards the light, `wi` on towards the camera.
             let wo = -ray.dir;
             let frame = ShadingFrame::at(&hit, wo);
@@ -438,12 +446,26 @@ impl Tracer<'_> {
                     let (a, b) = (ctx.sampler.get_1d(Dim::Other), ctx.sampler.get_1d(Dim::Other));
                     Pcg32::seed_from_u64(u64::from(a.to_bits()) << 32 | u64::from(b.to_bits()))
                 });
+                // Where the wavelengths mix, each channel's value is its own wavelength's.
+                let models: Option<[Scattering; HERO_WAVELENGTHS]> =
+                    mixed.then(|| std::array::from_fn(|i| ctx.model_at(material, &hit, i)));
                 self.connect(&hit, ctx, time, out, |wc| {
                     let wc_local = frame.to_local(wc);
-                    let mut f = bsdf.eval(wo_local, wc_local, mode);
-                    if let Some(rng) = rough.as_mut() {
-                        f += bsdf.eval_multiple(wo_local, wc_local, mode, rng);
-                    }
+                    let f = match (&models, rough.as_mut()) {
+                        (Some(models), rough) => Vec3::from_array(std::array::from_fn(|i| {
+                            let single = models[i].eval(wo_local, wc_local, mode).x;
+                            // The same walk's numbers at every wavelength.
+                            let multiple = rough.as_ref().map_or(0.0, |rng| {
+                                models[i].eval_multiple(wo_local, wc_local, mode, &mut (*rng).clone()).x
+                            });
+                            single + multiple
+                        })),
+                        (None, Some(rng)) => {
+                            bsdf.eval(wo_local, wc_local, mode)
+                                + bsdf.eval_multiple(wo_local, wc_local, mode, rng)
+                        }
+                        (None, None) => bsdf.eval(wo_local, wc_local, mode),
+                    };
                     beta * f * (wc_local.z.abs() * frame.factor(wo, wc, mode))
                 });
             }
@@ -451,15 +473,12 @@ impl Tracer<'_> {
                 break;
             }
             let numbers = bsdf_numbers(&bsdf, &mut ctx.sampler);
-            let Some(s) = bsdf.sample(wo_local, numbers.0, numbers.1, mode) else { break };
-            if s.pdf <= 0.0 || s.f == Vec3::ZERO {
-                break;
-            }
-            let wi = frame.to_world(s.wi);
-            let shading = frame.factor(wo, wi, mode);
-            if shading == 0.0 {
-                break;
-            }
+            let sampled = if mixed {
+                ctx.sample_wavelengths(material, &hit, wo_local, numbers.0, numbers.1.into(), mode)
+            } else {
+                bsdf.sample(wo_local, numbers.0, numbers.1, mode)
+            };
+            let Some(s) = sampled else { break };
             // The absorption of the medium a ray in `channels` enters, where it crosses one.
             let medium_after = |transmitted: bool, channels: &Channels| {
                 crossing(&material.bsdf, ray.dir, hit.n, channels.hero()).map(|c| {
@@ -467,13 +486,16 @@ impl Tracer<'_> {
                     channels.colour(medium.absorption)
                 })
             };
-            let mut step = s.f * (s.wi.z.abs() / s.pdf) * shading;
-            if ctx.channels.is_spectral() {
-                // Smooth dispersive glass: the wavelengths it parts become branches, replaying
-                // this path's numbers from here on.
-                let (factor, parted) =
-                    ctx.part_wavelengths(material, &hit, &frame, wo, &s, wo_local, numbers, mode);
-                let replay = ctx.sampler.dimension();
+            // Dispersive glass: the wavelengths it parts become branches, replaying this path's
+            // numbers from here on, set aside even where the lead cannot go on.
+            let mut factor = Vec3::ONE;
+            if ctx.channels.is_spectral() && s.pdf > 0.0 {
+                let (u, replay) = (numbers.1.into(), ctx.sampler.dimension());
+                let (f, parted) = if mixed && !s.is_evaluable() {
+                    ctx.part_multiple(material, &hit, &frame, wo, &s, wo_local, (numbers.0, u), mode)
+                } else {
+                    ctx.part_wavelengths(material, &hit, &frame, wo, &s, wo_local, numbers, mode)
+                };
                 for p in parted.into_iter().flatten() {
                     let absorption = medium_after(p.sample.is_transmission, &p.channels);
                     let state = LightWalk {
@@ -484,8 +506,17 @@ impl Tracer<'_> {
                     };
                     branches.push(Branch { channel: p.channel, state, replay });
                 }
-                step *= factor;
+                factor = f;
             }
+            if s.pdf <= 0.0 || s.f == Vec3::ZERO {
+                break;
+            }
+            let wi = frame.to_world(s.wi);
+            let shading = frame.factor(wo, wi, mode);
+            if shading == 0.0 {
+                break;
+            }
+            let step = s.f * (s.wi.z.abs() / s.pdf) * shading * factor;
             walk.throughput *= step;
             if let Some(absorption) = medium_after(s.is_transmission, &ctx.channels) {
                 walk.absorption = absorption;

@@ -15,6 +15,7 @@ mod splat_film;
 mod ssaa;
 mod vertex_merging;
 mod wavefront;
+mod wavelengths;
 mod whitted;
 
 pub use crate::methods::Method;

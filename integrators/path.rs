@@ -18,10 +18,10 @@
 //! densities (hero-wavelength MIS, Wilkie et al. 2014), next-event estimation evaluating each
 //! wavelength and weighing with the same mean density; light scattered between several facets
 //! has no density, so there the wavelengths whose walks do the same split as at smooth glass
-//! (`integrators/path/wavelengths.rs` says why this keeps every channel unbiased). What the
+//! (`integrators/wavelengths.rs` says why this keeps every channel unbiased). What the
 //! camera ray sees directly is added in RGB ([`PathContext::radiance_seen`]).
 
-use super::{light_index, Integrator, PathContext, RenderParams};
+use super::{light_index, Integrator, PartedWavelength, PathContext, RenderParams};
 use super::{CameraEstimator, EngineChoice, Method, Progression};
 use crate::bsdf::{BsdfSample, Scattering, ShadingFrame, TransportMode};
 use crate::geometry::{offset_origin, Ray};
@@ -232,7 +232,7 @@ pub(crate) trait PathWorld {
     ) -> Self::V;
     /// Where the hit is rough dispersive glass whose wavelengths a spectral path carries on
     /// together, weighted by MIS over their densities ([`PathContext::mixes_wavelengths`];
-    /// `integrators/path/wavelengths.rs`).
+    /// `integrators/wavelengths.rs`).
     fn mixes_wavelengths(
         &self,
         hit: &Self::Hit,
@@ -662,7 +662,7 @@ impl PathContext {
     /// [`pending`](Self::pending) to run when the path ends, replaying the path's numbers from
     /// dimension `replay` on. At rough dispersive glass whose wavelengths mix, a sample that
     /// scattered several times splits the wavelengths whose walks do too
-    /// ([`split_multiple`](Self::split_multiple), the module `wavelengths`).
+    /// ([`part_multiple`](Self::part_multiple)).
     #[allow(clippy::too_many_arguments)]
     pub(crate) fn split_wavelengths(
         &mut self,
@@ -678,22 +678,52 @@ impl PathContext {
             return Vec3::ONE;
         }
         let material = scene.material_of(isect.primitive);
-        if !s.is_evaluable() && self.mixes_wavelengths(material, &isect.hit) {
-            // Rough dispersive glass scattered several times: no density to weigh with.
-            return self.split_multiple(scene, isect, s, wo_local, (uc, u), path, replay);
-        }
-        if self.hero_only {
+        let multiple = !s.is_evaluable() && self.mixes_wavelengths(material, &isect.hit);
+        if self.hero_only && !multiple {
             return Vec3::ONE;
         }
-        let wo = -path.dir;
+        let (wo, mode) = (-path.dir, TransportMode::Radiance);
         let frame = ShadingFrame::at(&isect.hit, wo);
-        let mode = TransportMode::Radiance;
-        let (factor, parted) =
-            self.part_wavelengths(material, &isect.hit, &frame, wo, s, wo_local, (uc, u.into()), mode);
+        let numbers = (uc, u);
+        let (factor, parted) = if multiple {
+            // Rough dispersive glass scattered several times: no density to weigh with.
+            self.part_multiple(material, &isect.hit, &frame, wo, s, wo_local, numbers, mode)
+        } else {
+            self.part_wavelengths(material, &isect.hit, &frame, wo, s, wo_local, (uc, u.into()), mode)
+        };
         for p in parted.iter().flatten() {
             self.set_aside(scene, isect, path, p, replay);
         }
         factor
+    }
+
+    /// Sets aside the wavelength `p` parted from `path` (its state at the vertex `isect`, not yet
+    /// updated) as a branch of its own, to run when the path in flight ends, replaying its
+    /// numbers from dimension `replay` on.
+    pub(super) fn set_aside(
+        &mut self,
+        scene: &Scene,
+        isect: &Intersection,
+        path: &PathState,
+        p: &PartedWavelength,
+        replay: u32,
+    ) {
+        let si = &p.sample;
+        let (crosses, absorption) = medium_after(scene, isect, path.dir, si.is_transmission, &p.channels);
+        let branch = PathState {
+            origin: offset_origin(isect.hit.p, isect.hit.n, isect.hit.p_error, p.wi),
+            dir: p.wi,
+            time: path.time,
+            l: Vec3::ZERO,
+            beta: path.beta * p.weight,
+            eta_scale: if si.is_transmission { path.eta_scale * (si.eta * si.eta) } else { path.eta_scale },
+            skip_mis: !si.is_evaluable(),
+            bsdf_pdf: si.pdf,
+            absorption: if crosses { absorption } else { path.absorption },
+            depth: path.depth + 1.0,
+            chain: path.chain,
+        };
+        self.pending.push(Branch { channel: p.channel, state: branch, replay });
     }
 }
 
@@ -724,7 +754,6 @@ impl PathContext {
 }
 
 mod one_ray;
-mod wavelengths;
 
 use one_ray::medium_after;
 pub(crate) use one_ray::{light_draw, manifold_draw, OneRay};

@@ -54,7 +54,7 @@
 //!   to ending them. At rough dispersive glass `path` uses it: a wavelength chosen uniformly
 //!   samples the direction and, after one facet, all three go on weighted by the balance
 //!   heuristic over their densities (where the microsurface scatters several times, without a
-//!   density, it splits as at smooth glass; `integrators/path/wavelengths.rs`). `light` splits
+//!   density, it splits as at smooth glass; `integrators/wavelengths.rs`). `light` splits
 //!   at smooth dispersive glass as `path` does. Elsewhere a path ends the two secondary
 //!   wavelengths and carries the hero alone with weight 3 ([`HERO_ONLY`], as pbrt-v4's
 //!   `TerminateSecondary`): `light` at rough dispersive glass, the bidirectional methods at rough

@@ -224,7 +224,14 @@ impl<'a> PathWorld for OneRay<'a> {
         ctx: &PathContext,
     ) -> (Vec3, f32) {
         let isect = surface(hit);
-        ctx.eval_wavelengths(self.scene.material_of(isect.primitive), &isect.hit, wo, wi, None)
+        ctx.eval_wavelengths(
+            self.scene.material_of(isect.primitive),
+            &isect.hit,
+            wo,
+            wi,
+            None,
+            TransportMode::Radiance,
+        )
     }
 
     #[inline]
@@ -242,7 +249,7 @@ impl<'a> PathWorld for OneRay<'a> {
         }
         let isect = surface(hit);
         let material = self.scene.material_of(isect.primitive);
-        match ctx.sample_wavelengths(material, &isect.hit, wo, uc, u) {
+        match ctx.sample_wavelengths(material, &isect.hit, wo, uc, u, TransportMode::Radiance) {
             Some(s) => (true, s),
             None => (false, no_sample()),
         }

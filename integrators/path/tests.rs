@@ -255,7 +255,8 @@ fn mis_at_rough_dispersive_glass_keeps_every_wavelength_unbiased() {
         let mut ctx = new_ctx();
         assert!(ctx.mixes_wavelengths(material, &isect.hit));
         let path = PathState::new(ray);
-        let Some(s) = ctx.sample_wavelengths(material, &isect.hit, wo_local, uc, u) else {
+        let Some(s) = ctx.sample_wavelengths(material, &isect.hit, wo_local, uc, u, TransportMode::Radiance)
+        else {
             mis.add(&[]);
             continue;
         };

@@ -1,5 +1,7 @@
-//! Hero-wavelength MIS at rough dispersive glass: how a spectral path of `path` keeps its three
-//! wavelengths through rough dielectric interfaces whose index depends on the wavelength.
+//! Hero-wavelength MIS at rough dispersive glass: how a spectral path keeps its three wavelengths
+//! through rough dielectric interfaces whose index depends on the wavelength. Written once, used
+//! by `path` (radiance) and `light` (importance); the same argument holds in either transport
+//! mode, since only f changes with the mode and the densities do not.
 //!
 //! At such a vertex each wavelength λᵢ has its own BSDF fᵢ (its own index), whose sample is the
 //! random walk on the microsurface ([`crate::bsdf::rough_dielectric`]): after one facet a
@@ -18,14 +20,16 @@
 //!    Σⱼ ⅓ ∫ pⱼ fᵢ L / p̄ = Iᵢˢ, wherever some pⱼ > 0 (every pᵢ > 0 where fᵢ > 0). p̄ is the
 //!    vertex's BSDF density for MIS against next-event estimation, which evaluates fᵢ at each
 //!    wavelength ([`PathContext::eval_wavelengths`]) and weighs with the same p̄, so the two
-//!    strategies stay a partition for every channel.
+//!    strategies stay a partition for every channel. (In `light` the connection to the camera is the vertex's
+//!    one strategy for the light leaving it there: it takes each fᵢ, with no weight.)
 //! 3. After several facets (or at a wavelength whose interface is index-matched, a delta),
 //!    there is no density to weigh with. The fallback is splitting, as at smooth glass: every
 //!    wavelength walks with the same numbers r, and M(r) is the set of those whose walk also
 //!    scatters several times. Where j ∈ M(r), each i ∈ M(r) goes on along its own walk's
 //!    direction with weight wᵢ·3/|M(r)|: j's in flight (its wavelength leading from then on),
-//!    the others as branches of their own ([`PendingBranches`](crate::render::PendingBranches)),
-//!    which replay the path's numbers from there. Over j: E[1{j ∈ M}·3/|M|] = 1 for every i in
+//!    the others as branches of their own ([`PathContext::part_multiple`]; each method keeps
+//!    them in its [`PendingBranches`](crate::render::PendingBranches)), which replay the path's
+//!    numbers from there. Over j: E[1{j ∈ M}·3/|M|] = 1 for every i in
 //!    M(r), so channel i's estimate integrates E_r[wᵢ L 1{i ∈ M(r)}] = Iᵢᵐ: unbiased. The same
 //!    numbers give all three walks nearly the same facets, so usually |M| = 3 and the weights
 //!    are 1, each branch carrying its channel alone as a split at smooth glass does.
@@ -40,12 +44,13 @@
 //! splitting), an RGB path, and `hero_alone` (which keeps the old estimator, ending the
 //! secondaries at rough dispersive glass, to compare against) never come here.
 
-use super::*;
+use super::{channel_alone, Parting, PathContext};
+use crate::bsdf::{BsdfSample, Scattering, ShadingFrame, TransportMode};
 use crate::geometry::SurfaceHit;
-use crate::integrators::PartedWavelength;
 use crate::material::Material;
 use crate::sampler::ONE_MINUS_EPSILON;
-use crate::spectrum::HERO_WAVELENGTHS;
+use crate::spectrum::{Channels, HERO_WAVELENGTHS};
+use glam::Vec3;
 
 /// The wavelength (channel) whose walk samples a vertex, chosen uniformly by the lobe number
 /// `uc`, and the lobe number its walk uses: (⌊3uc⌋, 3uc − ⌊3uc⌋).
@@ -71,7 +76,7 @@ impl PathContext {
 
     /// The scattering model of `material` at `hit` at channel `i`'s wavelength.
     #[inline]
-    fn model_at<'m>(&self, material: &'m Material, hit: &SurfaceHit, i: usize) -> Scattering<'m> {
+    pub(crate) fn model_at<'m>(&self, material: &'m Material, hit: &SurfaceHit, i: usize) -> Scattering<'m> {
         let channels = match self.channels {
             Channels::Spectral(w) => Channels::Spectral(w.led_by(i)),
             rgb => rgb,
@@ -80,8 +85,8 @@ impl PathContext {
     }
 
     /// At a vertex where the wavelengths mix ([`mixes_wavelengths`](Self::mixes_wavelengths)),
-    /// for the local directions `wo`, `wi`: f (single scattering, radiance) at each channel's
-    /// wavelength, and the mean of the wavelengths' densities of `wi` (the vertex's BSDF density
+    /// for the local directions `wo`, `wi`: f (single scattering, in transport `mode`) at each
+    /// channel's wavelength, and the mean of the wavelengths' densities of `wi` (the vertex's BSDF density
     /// for MIS). `known`: channel j's (f, density), already at hand.
     pub(crate) fn eval_wavelengths(
         &self,
@@ -90,6 +95,7 @@ impl PathContext {
         wo: Vec3,
         wi: Vec3,
         known: Option<(usize, f32, f32)>,
+        mode: TransportMode,
     ) -> (Vec3, f32) {
         let (mut f, mut pdf) = (Vec3::ZERO, 0.0);
         for i in 0..HERO_WAVELENGTHS {
@@ -97,10 +103,10 @@ impl PathContext {
                 Some((j, fj, pj)) if j == i => (fj, pj),
                 _ => match self.model_at(material, hit, i) {
                     Scattering::Dielectric(d) => {
-                        let (f, pdf) = d.eval_with_pdf(wo, wi, TransportMode::Radiance);
+                        let (f, pdf) = d.eval_with_pdf(wo, wi, mode);
                         (f.x, pdf)
                     }
-                    model => (model.eval(wo, wi, TransportMode::Radiance).x, model.pdf(wo, wi)),
+                    model => (model.eval(wo, wi, mode).x, model.pdf(wo, wi)),
                 },
             };
             f[i] = fi;
@@ -111,10 +117,10 @@ impl PathContext {
 
     /// BSDF sampling where the wavelengths mix: the walk of the wavelength the lobe number `uc`
     /// chooses ([`wavelength_choice`]) with the rest of its numbers and `u`, for the local
-    /// direction `wo`. After one facet, f per channel and the mean density
+    /// direction `wo`, in transport `mode`. After one facet, f per channel and the mean density
     /// ([`eval_wavelengths`](Self::eval_wavelengths)), so f·|cos θ|/pdf is every channel's MIS
     /// weight; after several (not evaluable), the walk's own sample, which
-    /// [`split_wavelengths`](Self::split_wavelengths) then splits.
+    /// [`part_multiple`](Self::part_multiple) then splits.
     pub(crate) fn sample_wavelengths(
         &self,
         material: &Material,
@@ -122,87 +128,57 @@ impl PathContext {
         wo: Vec3,
         uc: f32,
         u: (f32, f32),
+        mode: TransportMode,
     ) -> Option<BsdfSample> {
         let (j, uc) = wavelength_choice(uc);
-        let s = self.model_at(material, hit, j).sample(wo, uc, u.into(), TransportMode::Radiance)?;
+        let s = self.model_at(material, hit, j).sample(wo, uc, u.into(), mode)?;
         if !s.is_evaluable() {
             return Some(s);
         }
-        let (f, pdf) = self.eval_wavelengths(material, hit, wo, s.wi, Some((j, s.f.x, s.pdf)));
+        let (f, pdf) = self.eval_wavelengths(material, hit, wo, s.wi, Some((j, s.f.x, s.pdf)), mode);
         Some(BsdfSample { f, pdf, ..s })
     }
 
-    /// The split of a path whose wavelengths mix at `isect` after `s`, a sample that is not
-    /// evaluable, drawn by [`sample_wavelengths`](Self::sample_wavelengths) with the numbers
-    /// (`uc`, `u`) for `wo_local`: every other wavelength walks with the same numbers, those
-    /// that also scatter several times go on as branches (`replay` their stream's dimension),
-    /// each weighted 3/|M| with M the wavelengths whose walk does; the returned factor keeps the
-    /// sampling wavelength's channel alone, with that weight, and it leads from here on.
+    /// The split of a path whose wavelengths mix at `hit` (shading frame `frame`, `wo` the world
+    /// direction back along the path and `wo_local` in the frame) after `s`, a sample that is
+    /// not evaluable, drawn by [`sample_wavelengths`](Self::sample_wavelengths) in `mode` with the
+    /// numbers `(uc, u)`: every other wavelength walks with the same numbers, and those whose walk
+    /// also scatters several times are parted from the path, each weighted 3/|M| with M the
+    /// wavelengths whose walk does (their rays counted now). The factor keeps the sampling
+    /// wavelength's channel alone, with that weight, and it leads the path from here on.
     #[allow(clippy::too_many_arguments)]
-    pub(super) fn split_multiple(
+    pub(crate) fn part_multiple(
         &mut self,
-        scene: &Scene,
-        isect: &Intersection,
+        material: &Material,
+        hit: &SurfaceHit,
+        frame: &ShadingFrame,
+        wo: Vec3,
         s: &BsdfSample,
         wo_local: Vec3,
         (uc, u): (f32, (f32, f32)),
-        path: &PathState,
-        replay: u32,
-    ) -> Vec3 {
+        mode: TransportMode,
+    ) -> Parting {
+        let mut parted = [None; HERO_WAVELENGTHS - 1];
         let Channels::Spectral(w) = self.channels else {
-            return Vec3::ONE;
+            return (Vec3::ONE, parted);
         };
-        let material = scene.material_of(isect.primitive);
         let (j, uc) = wavelength_choice(uc);
         let walks: [Option<BsdfSample>; HERO_WAVELENGTHS] = std::array::from_fn(|i| {
             let si = if i == j {
                 Some(*s)
             } else {
-                self.model_at(material, &isect.hit, i).sample(wo_local, uc, u.into(), TransportMode::Radiance)
+                self.model_at(material, hit, i).sample(wo_local, uc, u.into(), mode)
             };
             si.filter(|si| !si.is_evaluable())
         });
         let members = walks.iter().flatten().count().max(1);
         let weight = HERO_WAVELENGTHS as f32 / members as f32;
-        let wo = -path.dir;
-        let frame = ShadingFrame::at(&isect.hit, wo);
-        for (i, si) in walks.iter().enumerate() {
-            let Some(si) = si.filter(|_| i != j) else { continue };
-            if let Some(p) = self.parted(i, si, &isect.hit, &frame, wo, TransportMode::Radiance, weight) {
-                self.set_aside(scene, isect, path, &p, replay);
-            }
+        let others = walks.iter().enumerate().filter_map(|(i, si)| si.filter(|_| i != j).map(|si| (i, si)));
+        for (slot, (i, si)) in parted.iter_mut().zip(others) {
+            *slot = self.parted(i, si, hit, frame, wo, mode, weight);
         }
         self.hero_only = true;
         self.channels = Channels::Spectral(w.led_by(j));
-        Vec3::from_array(std::array::from_fn(|c| if c == j { weight } else { 0.0 }))
-    }
-
-    /// Sets aside the wavelength `p` parted from `path` (its state at the vertex `isect`, not yet
-    /// updated) as a branch of its own, to run when the path in flight ends, replaying its
-    /// numbers from dimension `replay` on.
-    pub(super) fn set_aside(
-        &mut self,
-        scene: &Scene,
-        isect: &Intersection,
-        path: &PathState,
-        p: &PartedWavelength,
-        replay: u32,
-    ) {
-        let si = &p.sample;
-        let (crosses, absorption) = medium_after(scene, isect, path.dir, si.is_transmission, &p.channels);
-        let branch = PathState {
-            origin: offset_origin(isect.hit.p, isect.hit.n, isect.hit.p_error, p.wi),
-            dir: p.wi,
-            time: path.time,
-            l: Vec3::ZERO,
-            beta: path.beta * p.weight,
-            eta_scale: if si.is_transmission { path.eta_scale * (si.eta * si.eta) } else { path.eta_scale },
-            skip_mis: !si.is_evaluable(),
-            bsdf_pdf: si.pdf,
-            absorption: if crosses { absorption } else { path.absorption },
-            depth: path.depth + 1.0,
-            chain: path.chain,
-        };
-        self.pending.push(Branch { channel: p.channel, state: branch, replay });
+        (channel_alone(j) * weight, parted)
     }
 }
