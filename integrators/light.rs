@@ -559,4 +559,4 @@ impl Tracer<'_> {
 }
 
 #[cfg(test)]
-mod tests;
+pub(super) mod tests;

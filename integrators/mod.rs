@@ -48,20 +48,7 @@ use crate::sampler::{Dim, Sampler};
 use crate::spectrum::{Channels, HERO_ONLY, HERO_WAVELENGTHS};
 use glam::{Vec2, Vec3};
 
-/// A sample of `bsdf` for the local direction `wo`, drawing from `sampler` only the numbers it
-/// uses: a lobe choice only where the model has lobes to choose between, then the direction.
-#[inline]
-pub(crate) fn sample_bsdf(
-    bsdf: &Scattering,
-    wo: Vec3,
-    mode: TransportMode,
-    sampler: &mut Sampler,
-) -> Option<BsdfSample> {
-    let (uc, u) = bsdf_numbers(bsdf, sampler);
-    bsdf.sample(wo, uc, u, mode)
-}
-
-/// The numbers a sample of `bsdf` takes from `sampler` ([`sample_bsdf`]): a lobe choice only
+/// The numbers a sample of `bsdf` takes from `sampler`, only those it uses: a lobe choice only
 /// where the model has lobes to choose between (0 otherwise), then the direction pair.
 #[inline]
 pub(crate) fn bsdf_numbers(bsdf: &Scattering, sampler: &mut Sampler) -> (f32, Vec2) {
@@ -482,6 +469,10 @@ mod tests {
 
     #[test]
     fn bsdf_samples_draw_a_lobe_choice_only_for_glass() {
+        let sample_bsdf = |bsdf: &Scattering, wo, mode, sampler: &mut Sampler| {
+            let (uc, u) = bsdf_numbers(bsdf, sampler);
+            bsdf.sample(wo, uc, u, mode)
+        };
         let wo = Vec3::new(0.3, 0.1, 0.9).normalize();
         let diffuse = Scattering::Diffuse(Lambert::two_sided(Vec3::splat(0.5)));
         let glass = Scattering::Dielectric(RoughDielectric::new(1.5, TrowbridgeReitz::from_roughness(0.0)));

@@ -54,13 +54,13 @@
 //!   to ending them. At rough dispersive glass `path` uses it: a wavelength chosen uniformly
 //!   samples the direction and, after one facet, all three go on weighted by the balance
 //!   heuristic over their densities (where the microsurface scatters several times, without a
-//!   density, it splits as at smooth glass; `integrators/wavelengths.rs`). `light` splits
-//!   at smooth dispersive glass as `path` does. Elsewhere a path ends the two secondary
+//!   density, it splits as at smooth glass; `integrators/wavelengths.rs`), and so does `light`.
+//!   `light` and the bidirectional engine (`bpt`, `ppm`, `bpm`, `vcm`: camera and light
+//!   sub-paths) split at smooth dispersive glass as `path` does. Elsewhere a path ends the two secondary
 //!   wavelengths and carries the hero alone with weight 3 ([`HERO_ONLY`], as pbrt-v4's
-//!   `TerminateSecondary`): `light` at rough dispersive glass, the bidirectional methods at rough
-//!   dispersive glass and where smooth glass refracts (where it reflects they keep all three,
-//!   each weighted by its Fresnel reflectance over the hero's), and the deterministic recursions
-//!   (`whitted`, `distributed`), which follow both branches at once. On `glass-of-water` the
+//!   `TerminateSecondary`): the bidirectional engine at rough dispersive glass, `mmlt` also where smooth glass refracts (where it reflects it keeps all three, each
+//!   weighted by its Fresnel reflectance over the hero's; its sample is one path), and the
+//!   deterministic recursions (`whitted`, `distributed`), which follow both branches at once. On `glass-of-water` the
 //!   variance at equal samples went from 2.46× RGB mode's (the hero alone) to 1.89× by splitting
 //!   (README, "Spectral rendering").
 //! - **Light seen directly**: what a camera ray itself meets (an emitter, the background) is

@@ -52,6 +52,31 @@ fn lanes_and_one_ray_at_a_time_give_the_same_bits() {
 }
 
 #[test]
+fn wavelengths_split_at_dispersive_glass_give_the_same_bits() {
+    // Spectral glass-of-water (quads, a cylinder and disks: every primitive tested across lanes):
+    // sub-paths split their wavelengths at its glass and water, and a camera path's branches walk
+    // on in its lane where it ends, in the order of the walk one ray at a time.
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
+    let scene = load(&root.join("glass-of-water.toml")).unwrap();
+    for method in ["bpt", "ppm", "bpm", "vcm"] {
+        let integrator = create(method).unwrap();
+        let [scalar, lanes] = [EngineOption::Scalar, EngineOption::Auto].map(|engine| {
+            let mut opts = RenderOptions::for_method(&scene, integrator.as_ref(), 2);
+            opts.resolution = Some((32, 32));
+            opts.spectral = vitrum::scene::SpectralMode::On;
+            opts.params.engine = engine;
+            render_opts(&scene, method, &opts)
+        });
+        assert!(scalar.spectral, "{method}");
+        let (a, b) = (bits(&scalar.image), bits(&lanes.image));
+        let differing = a.iter().zip(&b).filter(|(x, y)| x != y).count();
+        assert_eq!(differing, 0, "{method}: {differing} of {} pixels differ", a.len());
+        assert_eq!(scalar.rays, lanes.rays, "{method}: ray counts");
+        assert!(scalar.rays.refracted > 1000, "{method}: {} refracted rays", scalar.rays.refracted);
+    }
+}
+
+#[test]
 fn light_paths_cut_at_a_chunks_vertex_bound_give_the_same_bits() {
     // A closed room of bright walls: a light path stores about 10 vertices, so the first round's
     // chunks (sized for 3 per path) stop at their vertex bound partway through their paths, and

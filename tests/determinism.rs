@@ -98,6 +98,19 @@ fn vertex_connection_and_merging_is_independent_of_the_thread_count() {
 }
 
 #[test]
+fn bidirectional_wavelength_splitting_is_independent_of_the_thread_count() {
+    // Spectral glass-of-water: camera and light sub-paths split their wavelengths at its
+    // dispersive glass and water, and the branches walk from the paths' own random streams.
+    let scene = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/glass-of-water.toml"));
+    for method in ["bpt", "vcm"] {
+        assert_thread_count_invariant(
+            Some(scene),
+            &["-i", method, "--spp", "2", "--seed", "4", "--spectral", "on"],
+        );
+    }
+}
+
+#[test]
 fn metropolis_is_independent_of_the_thread_count() {
     // Bootstraps and chains in parallel, several sample indices at once, splats in chain order;
     // a scene with depth of field (the lens dimensions of the primary sample vector).

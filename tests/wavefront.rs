@@ -110,6 +110,7 @@ fn both_engines_render_every_shipped_scene_to_the_same_bits() {
         "hollow-spheres.toml",
         "ior-one.toml",
         "light-behind-camera.toml",
+        "small-glass-ball-far-light.toml",
         "soft-shadows.toml",
         "thin-coating.toml",
     ];

@@ -42,8 +42,9 @@ fn render(scene: &Scene, method: &dyn Accumulate, size: u32, spp: u32, seed: u64
 }
 
 /// Per channel, the mean over each `block`² block (row by row), then over the whole image
-/// (last), and the variance of that mean from the spread of the replicas.
-fn blocks(out: &RenderOutput, block: usize) -> Vec<(glam::DVec3, glam::DVec3)> {
+/// (last), and the variance of that mean from the spread of the replicas (the bidirectional
+/// engine's splitting test uses it too).
+pub(crate) fn blocks(out: &RenderOutput, block: usize) -> Vec<(glam::DVec3, glam::DVec3)> {
     let reps = out.replicas.as_ref().expect("replicas");
     let (w, h) = (reps.width(), reps.height());
     let mut regions: Vec<Vec<usize>> = (0..h.div_ceil(block) * w.div_ceil(block))

@@ -202,6 +202,7 @@ impl Engine<'_> {
         let stream = self.replicas.stream(self.seed, s, 0);
         let mut ctx = PathContext::new(Sampler::of_stream(self.sampler, stream, j as u64));
         ctx.channels = channels;
+        ctx.hero_alone = self.hero_alone;
         let (x, y) = ((j % cam.width as usize) as u32, (j / cam.width as usize) as u32);
         let film = cam.film_point(x, y, ctx.sampler.get_2d(Dim::Pixel));
         let lens = if self.dims.lens { ctx.sampler.get_2d(Dim::Lens) } else { Vec2::ZERO };
@@ -298,6 +299,11 @@ impl Engine<'_> {
         v: &LightVertex,
         k: &IterationConstants,
     ) -> Shadowed {
+        // Halves that share no channel (a branch of another wavelength) join to nothing.
+        let joined = joined(path.carries, v.carries);
+        if joined == 0.0 {
+            return None;
+        }
         let d = v.p - at.hit.p;
         let dist2 = d.length_squared();
         if !(dist2 > 0.0 && dist2.is_finite()) {
@@ -313,7 +319,7 @@ impl Engine<'_> {
             return None;
         }
         let material = self.scene.material_of(v.primitive);
-        let light_bsdf = Scattering::at(material, v.p, v.uv, &path.ctx.channels);
+        let light_bsdf = Scattering::at(material, v.p, v.uv, &v.carries.channels(&path.ctx.channels));
         let light_frame = ShadingFrame::at(&v.hit(), v.wo);
         let light_wo = light_frame.to_local(v.wo);
         let light_wi = light_frame.to_local(-dir);
@@ -336,7 +342,7 @@ impl Engine<'_> {
         let target = spawn_origin(&v.hit(), -dir);
         let g = cos_camera * cos_light / dist2 * light_frame.factor(v.wo, -dir, TransportMode::Importance);
         // Where the two see each other the transmittance is 1: the value is the same bits.
-        let value = camera.f * light.f * v.beta * (weight * g * joined(path.ctx.hero_only, v.hero_only));
+        let value = camera.f * light.f * v.beta * (weight * g * joined);
         Some((value, target, None))
     }
 
@@ -354,7 +360,8 @@ impl Engine<'_> {
         let ppm = self.algorithm == Algorithm::Ppm;
         found.visit(grid, buckets, |i| {
             let v = &vertices[i];
-            if v.segments + path.segments > self.max_segments {
+            let joined = joined(path.carries, v.carries);
+            if v.segments + path.segments > self.max_segments || joined == 0.0 {
                 return;
             }
             if at.frame.factor(at.wo, v.wo, TransportMode::Radiance) == 0.0 {
@@ -371,7 +378,7 @@ impl Engine<'_> {
             if f == Vec3::ZERO {
                 return;
             }
-            sum += f * v.beta * (weight * joined(path.ctx.hero_only, v.hero_only));
+            sum += f * v.beta * (weight * joined);
         });
         sum * k.vm_norm
     }
@@ -531,9 +538,10 @@ impl WalkVisitor for CameraVisitor<'_, '_, '_> {
                 found = Some((grid, (buckets, ahead)));
             }
             if let Some(partner) = light.of(self.partner).filter(|_| e.keeps(Strategy::Connection)) {
+                // (The branches' vertices follow the path's: the segments do not grow along them.)
                 for v in partner {
                     if v.segments + path.segments + 1 > e.max_segments {
-                        break;
+                        continue;
                     }
                     let term = e.connect(at, path, v, k);
                     self.row.add_shadowed(self.slot, path.beta, term, at.hit, self.time, &mut path.ctx.rays);

@@ -6,8 +6,8 @@
 //! the chunks or the thread count.
 
 use super::{
-    mis, store_bound, store_budget, Engine, IterationConstants, Mis, Next, PhotonGrid, SubPath, Vertex,
-    WalkVisitor, CHUNK_PATHS, CHUNK_VERTICES, LIGHT_STREAM, VERTICES_PER_PATH,
+    mis, store_bound, store_budget, Carries, Engine, IterationConstants, Mis, Next, PhotonGrid, SubPath,
+    Vertex, WalkVisitor, CHUNK_PATHS, CHUNK_VERTICES, LIGHT_STREAM, VERTICES_PER_PATH,
 };
 use crate::bsdf::TransportMode;
 use crate::camera::CameraConnection;
@@ -48,8 +48,8 @@ pub(super) struct LightVertex {
     pub(super) segments: u32,
     /// The primitive hit (its material).
     pub(super) primitive: u32,
-    /// Whether the path has ended its secondary wavelengths.
-    pub(super) hero_only: bool,
+    /// What the light sub-path's channels carry here (a branch of a split: its one channel).
+    pub(super) carries: Carries,
 }
 
 impl LightVertex {
@@ -66,7 +66,7 @@ impl LightVertex {
             mis: path.mis,
             segments: path.segments,
             primitive,
-            hero_only: path.ctx.hero_only,
+            carries: path.carries,
         }
     }
 
@@ -127,8 +127,9 @@ impl LightStore {
 }
 
 impl LightPaths<'_> {
-    /// The vertices of light path `j` of the iteration, from the light on; `None` when the path
-    /// is not in this batch.
+    /// The vertices of light path `j` of the iteration, from the light on, then those of the
+    /// branches split from it at smooth dispersive glass, each from its split on; `None` when
+    /// the path is not in this batch.
     pub fn of(&self, j: usize) -> Option<&[LightVertex]> {
         let i = j.checked_sub(self.first).filter(|&i| i < self.ends.len())?;
         let start = if i == 0 { 0 } else { self.ends[i - 1] as usize };
@@ -235,6 +236,7 @@ impl Engine<'_> {
         let (channels, time) = self.channels_and_time(j, s);
         let mut ctx = PathContext::new(self.light_sampler(j, s));
         ctx.channels = channels;
+        ctx.hero_alone = self.hero_alone;
         let Some((light, e, mut path)) = self.light_subpath(ctx, k) else { return };
         if let (Some(Strategy::CameraSplat), Some((origin, inv_pdf))) = (self.only, e.origin) {
             self.splat_emission_point(light, &origin, inv_pdf, &mut path, time, out);

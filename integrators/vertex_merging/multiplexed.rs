@@ -20,6 +20,17 @@
 //! `N` the film region's pixel count, its densities are those of one camera path uniform over
 //! the region and one light path, which is what a sample here is. Delta vertices cannot be
 //! connected: a strategy that would connect one gives zero, as in the engine.
+//!
+//! # The hero alone at smooth dispersive glass
+//! Where smooth dispersive glass parts the wavelengths, the other methods of the engine split
+//! the sub-path into one branch per wavelength ([`PathContext::part_wavelengths`]); here the
+//! sub-paths keep the hero alone instead ([`PathContext::hero_alone`]: at a refraction its
+//! secondary wavelengths end and it goes on at weight 3). A sample's state is one path per
+//! strategy (s, t), which the chain mutates and weighs by its contribution: split sub-paths
+//! would make a tree of up to three camera and three light ends, whose joins the strategy's
+//! MIS weight and the chain's acceptance (a scalar contribution of one path) do not define, and
+//! each branch's numbers would have to come from the primary sample vector too. Keeping the
+//! hero alone leaves every sample one path; its colour noise at dispersive glass is the price.
 
 use super::light_paths::LightVertex;
 use super::{Algorithm, Engine, IterationConstants, Next, SubPath, Vertex, WalkVisitor};
@@ -70,6 +81,7 @@ impl<'a> Multiplexed<'a> {
         let engine = Engine {
             light_paths: (region.round() as usize).max(1),
             roulette: false,
+            hero_alone: true,
             ..Engine::one_ray(scene, opts, Algorithm::Bpt, camera, dims)
         };
         let k = engine.constants(0);
@@ -110,9 +122,9 @@ impl<'a> Multiplexed<'a> {
             Channels::Rgb
         };
         let mut rays = RayCounts::default();
-        let mut light_ctx = PathContext::new(light);
+        let mut light_ctx = PathContext { hero_alone: e.hero_alone, ..PathContext::new(light) };
         light_ctx.channels = channels;
-        let mut camera_ctx = PathContext::new(camera);
+        let mut camera_ctx = PathContext { hero_alone: e.hero_alone, ..PathContext::new(camera) };
         camera_ctx.channels = channels;
         let n = n as f32;
         if e.lights == 0 && s > 0 {

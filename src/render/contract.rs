@@ -169,11 +169,12 @@ pub struct PathContext {
     /// What the channels of the sample's radiance hold: RGB, or its wavelengths.
     pub channels: Channels,
     /// Whether the path has ended its secondary wavelengths (at a dispersive interface), or
-    /// carries one wavelength alone (a branch of a `path` or `light` split there).
+    /// carries one wavelength alone (a branch of a split there, or the lead that goes on).
     pub hero_only: bool,
-    /// Whether `path` and `light` keep the hero alone at dispersive glass: at smooth refraction
-    /// instead of splitting the wavelengths, and (`path`) at rough glass instead of MIS over them
-    /// (the estimator before both, kept to compare against).
+    /// Whether the methods that split keep the hero alone at dispersive glass: at smooth
+    /// refraction instead of splitting the wavelengths, and (`path`) at rough glass instead of
+    /// MIS over them (the estimator before both, kept to compare against; and `mmlt`'s, whose
+    /// sample is one path).
     pub(crate) hero_alone: bool,
     /// In spectral mode, what the camera ray itself sees (an emitter, the background), in RGB:
     /// added to the RGB estimate of the channels ([`PathContext::rgb`]).
