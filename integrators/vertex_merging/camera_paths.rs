@@ -30,7 +30,7 @@ type Shadowed = Option<(Vec3, Vec3, Option<u32>)>;
 
 /// The bytes a [`CameraRow`] holds per pixel (its rows are those of a band being traced, so at
 /// most [`super::CAMERA_BAND_PIXELS`] pixels' worth at once).
-pub(super) const ROW_BYTES_PER_PIXEL: u64 = (std::mem::size_of::<Vec3>()
+pub(super) const ROW_BYTES_PER_PIXEL: u64 = (2 * std::mem::size_of::<Vec3>()
     + std::mem::size_of::<Option<Channels>>()
     + std::mem::size_of::<u32>()) as u64;
 
@@ -42,6 +42,10 @@ pub(super) struct CameraRow<'s> {
     radiance: Vec<Vec3>,
     /// Per pixel of the row, the channels of its path at its end (`None`: no path, 0).
     channels: Vec<Option<Channels>>,
+    /// Per pixel of the row, in RGB, what its camera ray itself meets (an emitter, the
+    /// background) in spectral mode, as `path` adds it ([`PathContext::seen_rgb`]): the
+    /// expectation of its spectral estimate over the wavelengths is exactly its RGB.
+    seen: Vec<Vec3>,
     /// Per pixel of the row, its terms waiting in `terms` (a term of a pixel with none waiting
     /// whose ray is answered, or that has none, is added at once).
     waiting: Vec<u32>,
@@ -59,6 +63,7 @@ impl<'s> CameraRow<'s> {
             shadows,
             radiance: vec![Vec3::ZERO; pixels],
             channels: vec![None; pixels],
+            seen: vec![Vec3::ZERO; pixels],
             waiting: vec![0; pixels],
             terms: ShadowQueue::default(),
             rays: RayCounts::default(),
@@ -90,6 +95,17 @@ impl<'s> CameraRow<'s> {
     #[inline]
     fn add_clear(&mut self, slot: u32, term: Vec3) {
         self.add(slot, term, Vec3::ONE, Ticket::CLEAR);
+    }
+
+    /// Adds the RGB radiance `rgb` that the camera ray of pixel `slot` meets itself (weight
+    /// `weight`), in the path's `channels`: in RGB where those are wavelengths.
+    #[inline]
+    fn add_seen(&mut self, slot: u32, channels: &Channels, rgb: Vec3, weight: f32) {
+        if channels.is_spectral() {
+            self.seen[slot as usize] += rgb * weight;
+        } else {
+            self.add_clear(slot, channels.colour(rgb) * weight);
+        }
     }
 
     /// Adds `factor` times the shadowed term `term` of the path at `from` (time `time`) to pixel
@@ -124,8 +140,8 @@ impl<'s> CameraRow<'s> {
     /// The row's estimates in RGB once every term is in, and how many are not finite.
     pub fn finish(mut self) -> (Vec<Vec3>, RayCounts, u64) {
         self.settle(true);
-        let values: Vec<Vec3> = (self.radiance.iter().zip(&self.channels))
-            .map(|(&l, channels)| channels.map_or(Vec3::ZERO, |c| c.to_rgb(l)))
+        let values: Vec<Vec3> = (self.radiance.iter().zip(&self.channels).zip(&self.seen))
+            .map(|((&l, channels), &seen)| channels.map_or(Vec3::ZERO, |c| c.to_rgb(l) + seen))
             .collect();
         let non_finite = values.iter().filter(|l| !l.is_finite()).count() as u64;
         (values, self.rays, non_finite)
@@ -492,7 +508,13 @@ impl WalkVisitor for CameraVisitor<'_, '_, '_> {
             None => 1.0,
             Some(i) => self.emitter_weight(path, || e.scene.lights[i].environment_pdfs(&e.sphere, dir)),
         };
-        self.row.add_clear(self.slot, path.beta * path.ctx.channels.colour(e.scene.background(dir)) * weight);
+        let background = e.scene.background(dir);
+        if path.segments == 1 {
+            // The camera ray itself (its weight is 1).
+            self.row.add_seen(self.slot, &path.ctx.channels, background, weight);
+        } else {
+            self.row.add_clear(self.slot, path.beta * path.ctx.channels.colour(background) * weight);
+        }
     }
 
     fn reached(&mut self, path: &mut SubPath, ray: &Ray, isect: &Intersection) -> bool {
@@ -504,7 +526,12 @@ impl WalkVisitor for CameraVisitor<'_, '_, '_> {
             if le != Vec3::ZERO && e.keeps(Strategy::EmitterHit) && self.first_batch {
                 let weight =
                     self.emitter_weight(path, || emitter.emission_pdfs(ray.origin, hit.p, hit.n, wo));
-                self.row.add_clear(self.slot, path.beta * path.ctx.channels.colour(le) * weight);
+                if path.segments == 1 {
+                    // The camera ray itself (its weight is 1).
+                    self.row.add_seen(self.slot, &path.ctx.channels, le, weight);
+                } else {
+                    self.row.add_clear(self.slot, path.beta * path.ctx.channels.colour(le) * weight);
+                }
             }
         }
         path.segments < e.max_segments
