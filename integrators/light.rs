@@ -559,4 +559,4 @@ impl Tracer<'_> {
 }
 
 #[cfg(test)]
-pub(super) mod tests;
+mod tests;

@@ -3,6 +3,8 @@
 //! from the table of methods ([`crate::methods`]).
 
 mod distributed;
+#[cfg(test)]
+mod hero_alone_check;
 mod light;
 mod metropolis;
 mod mmlt;

@@ -1005,7 +1005,7 @@ trait WalkVisitor {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::render::{render_accumulated, RenderOutput};
+    use crate::integrators::hero_alone_check::{agree_block_by_block, render_spectral, variance_within};
     use crate::scene::load_str;
 
     /// The engine of an algorithm keeping the hero alone at smooth dispersive refraction (the
@@ -1034,76 +1034,24 @@ mod tests {
         }
     }
 
-    /// `method` (an engine of `algorithm`: splitting, or the hero alone) on `scene` at `size`²
-    /// pixels, `spp` iterations in 16 replicas, independent sampling with `seed`, spectrally.
-    fn render(
-        scene: &Scene,
-        algorithm: Algorithm,
-        method: &dyn Accumulate,
-        size: u32,
-        spp: u32,
-        seed: u64,
-    ) -> RenderOutput {
-        let mut opts = RenderOptions::for_method(scene, &VertexMerging(algorithm), spp);
-        opts.resolution = Some((size, size));
-        opts.replicas = Replicas::new(16).unwrap();
-        opts.sampler = SamplerKind::Independent;
-        opts.seed = seed;
-        opts.spectral = crate::scene::SpectralMode::On;
-        let out = render_accumulated(scene, method, &opts, &|_, _| {});
-        assert!(out.spectral);
-        assert_eq!(out.non_finite_samples, 0);
-        out
-    }
-
     #[test]
     fn splitting_and_the_hero_alone_estimate_the_same_glass_of_water() {
-        use crate::integrators::light::tests::blocks;
         let file = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/glass-of-water.toml");
         let scene = crate::scene::load(&file).unwrap();
         let (size, spp) = (48, 64);
         for algorithm in [Algorithm::Bpt, Algorithm::Vcm] {
-            let split = render(&scene, algorithm, &VertexMerging(algorithm), size, spp, 1);
-            let hero = render(&scene, algorithm, &HeroAlone(algorithm), size, spp, 2);
-            // Both unbiased: per channel, each 8×8 block's mean (36 blocks) and the whole image's
-            // agree within 4.5 standard errors of their difference (the replicas' spread: 15
-            // degrees of freedom each).
-            let (a, b) = (blocks(&split, 8), blocks(&hero, 8));
-            let mut worst = 0.0f64;
-            for (k, ((ms, vs), (mh, vh))) in a.iter().zip(&b).enumerate() {
-                for c in 0..3 {
-                    let z = (ms[c] - mh[c]) / (vs[c] + vh[c]).sqrt().max(1e-12);
-                    assert!(
-                        z.abs() < 4.5,
-                        "{algorithm:?}: block {k} channel {c}: split {} vs hero {} (z = {z:.2})",
-                        ms[c],
-                        mh[c]
-                    );
-                    worst = worst.max(z.abs());
-                }
-            }
+            let integrator = VertexMerging(algorithm);
+            let split = render_spectral(&scene, &integrator, &integrator, size, spp, 1);
+            let hero = render_spectral(&scene, &integrator, &HeroAlone(algorithm), size, spp, 2);
+            let worst = agree_block_by_block(&split, &hero, &format!("{algorithm:?}"));
             // The splitting took place: the branches' rays were traced.
             assert!(split.rays.refracted > hero.rays.refracted, "{:?} vs {:?}", split.rays, hero.rays);
-            // The variance (the replicas' spread, summed over pixels and channels) over the whole
-            // image and around the glass (x 3/8–13/16, y 19/32–31/32 of the image).
-            let variance = |out: &RenderOutput, glass: bool| {
-                let v = out.replicas.as_ref().unwrap().variance();
-                let w = v.width;
-                let near = |i: usize| {
-                    let (x, y) = ((i % w) as f64 / w as f64, (i / w) as f64 / w as f64);
-                    !glass || ((0.375..0.8125).contains(&x) && (0.59375..0.96875).contains(&y))
-                };
-                let pixels = v.pixels.iter().enumerate().filter(|&(i, _)| near(i));
-                pixels.map(|(_, p)| p.element_sum() as f64).sum::<f64>()
-            };
-            let whole = variance(&split, false) / variance(&hero, false);
-            let glass = variance(&split, true) / variance(&hero, true);
-            eprintln!(
-                "{algorithm:?}, glass of water: split {} vs hero alone {}, worst |z| {worst:.2}; \
-                 variance split/hero {whole:.3}, around the glass {glass:.3}",
-                a[a.len() - 1].0,
-                b[b.len() - 1].0
-            );
+            // The variance over the whole image and around the glass (x 3/8–13/16, y 19/32–31/32
+            // of the image).
+            let near = |x: f64, y: f64| (0.375..0.8125).contains(&x) && (0.59375..0.96875).contains(&y);
+            let whole = variance_within(&split, |_, _| true) / variance_within(&hero, |_, _| true);
+            let glass = variance_within(&split, near) / variance_within(&hero, near);
+            eprintln!("{algorithm:?}, glass of water: worst |z| {worst:.2}; variance split/hero {whole:.3}, around the glass {glass:.3}");
             // Around the glass splitting removes most of the hero's colour noise (measured 0.26 for
             // `bpt`, 0.21 for `vcm`; worst |z| 2.55 and 1.35); over the whole image the room's own
             // colour noise dominates and the ratio is about 1, within the spread of 16 replicas'

@@ -1,7 +1,8 @@
 //! Unit tests of how `light` keeps the wavelengths at dispersive glass: splitting at smooth
 //! glass, MIS over the wavelengths at rough glass.
 use super::*;
-use crate::render::{render_accumulated, RenderOutput};
+use crate::integrators::hero_alone_check::{agree_block_by_block, render_spectral, variance_within};
+use crate::render::RenderOutput;
 use crate::scene::load;
 
 /// `light` keeping the hero alone at smooth dispersive refraction (the estimator before
@@ -26,79 +27,20 @@ impl Accumulate for HeroAlone {
     }
 }
 
-/// `light` (`method`: splitting, or the hero alone) on `scene` at `size`² pixels, `spp` samples
-/// in 16 replicas, independent sampling with `seed`, spectrally.
-fn render(scene: &Scene, method: &dyn Accumulate, size: u32, spp: u32, seed: u64) -> RenderOutput {
-    let mut opts = RenderOptions::for_method(scene, &LightTracer, spp);
-    opts.resolution = Some((size, size));
-    opts.replicas = Replicas::new(16).unwrap();
-    opts.sampler = SamplerKind::Independent;
-    opts.seed = seed;
-    opts.spectral = crate::scene::SpectralMode::On;
-    let out = render_accumulated(scene, method, &opts, &|_, _| {});
-    assert!(out.spectral);
-    assert_eq!(out.non_finite_samples, 0);
-    out
-}
-
-/// Per channel, the mean over each `block`² block (row by row), then over the whole image
-/// (last), and the variance of that mean from the spread of the replicas (the bidirectional
-/// engine's splitting test uses it too).
-pub(crate) fn blocks(out: &RenderOutput, block: usize) -> Vec<(glam::DVec3, glam::DVec3)> {
-    let reps = out.replicas.as_ref().expect("replicas");
-    let (w, h) = (reps.width(), reps.height());
-    let mut regions: Vec<Vec<usize>> = (0..h.div_ceil(block) * w.div_ceil(block))
-        .map(|b| {
-            let (bx, by) = (b % w.div_ceil(block) * block, b / w.div_ceil(block) * block);
-            (by..(by + block).min(h))
-                .flat_map(|y| (bx..(bx + block).min(w)).map(move |x| y * w + x))
-                .collect()
-        })
-        .collect();
-    regions.push((0..w * h).collect());
-    let r = reps.count() as f64;
-    regions
-        .iter()
-        .map(|pixels| {
-            let values: Vec<glam::DVec3> = (0..reps.count())
-                .map(|j| pixels.iter().map(|&p| reps.means[j].pixels[p].as_dvec3()).sum::<glam::DVec3>())
-                .map(|sum| sum / pixels.len() as f64)
-                .collect();
-            let mean = values.iter().sum::<glam::DVec3>() / r;
-            let var = values.iter().map(|v| (*v - mean) * (*v - mean)).sum::<glam::DVec3>() / (r * (r - 1.0));
-            (mean, var)
-        })
-        .collect()
-}
-
 /// `light` on `scene` at `size`² pixels and `spp` samples, spectrally, with the wavelengths kept
 /// (seed 1) and with the hero alone (seed 2): both unbiased, so per channel each 8×8 block's mean
 /// and the whole image's (the last) agree within 4.5 standard errors of their difference (the
 /// replicas' spread: 15 degrees of freedom each). Returns both renders and the worst |z|.
 fn against_the_hero_alone(scene: &Scene, size: u32, spp: u32) -> (RenderOutput, RenderOutput, f64) {
-    let split = render(scene, &LightTracer, size, spp, 1);
-    let hero = render(scene, &HeroAlone, size, spp, 2);
-    let (a, b) = (blocks(&split, 8), blocks(&hero, 8));
-    let mut worst = 0.0f64;
-    for (k, ((ms, vs), (mh, vh))) in a.iter().zip(&b).enumerate() {
-        for c in 0..3 {
-            let z = (ms[c] - mh[c]) / (vs[c] + vh[c]).sqrt().max(1e-12);
-            assert!(z.abs() < 4.5, "block {k} channel {c}: kept {} vs hero {} (z = {z:.2})", ms[c], mh[c]);
-            worst = worst.max(z.abs());
-        }
-    }
-    eprintln!(
-        "light: wavelengths kept {} vs hero alone {}, worst |z| {worst:.2}",
-        a[a.len() - 1].0,
-        b[b.len() - 1].0
-    );
-    (split, hero, worst)
+    let kept = render_spectral(scene, &LightTracer, &LightTracer, size, spp, 1);
+    let hero = render_spectral(scene, &LightTracer, &HeroAlone, size, spp, 2);
+    let worst = agree_block_by_block(&kept, &hero, "light");
+    (kept, hero, worst)
 }
 
 /// The summed per-pixel variance of a render (from the spread of its replicas).
 fn variance(out: &RenderOutput) -> f64 {
-    let v = out.replicas.as_ref().unwrap().variance();
-    v.pixels.iter().map(|p| p.element_sum() as f64).sum::<f64>()
+    variance_within(out, |_, _| true)
 }
 
 #[test]
