@@ -121,19 +121,14 @@
 
 use super::shadow_queue::{shadow_lanes, Shadows};
 use super::splat_film::SampleSplats;
-use super::{
-    bsdf_numbers, Integrator, MergeParams, Method, PathContext, RenderParams, Strategy, ROULETTE_DEPTH,
-};
-use crate::bsdf::{Scattering, ShadingFrame, TransportMode};
+use super::{bsdf_numbers, Integrator, MergeParams, Method, RenderParams, Strategy, ROULETTE_DEPTH};
+use crate::bsdf::{Scattering, ShadingFrame};
 use crate::camera::Camera;
 use crate::geometry::{spawn_origin, Ray, SurfaceHit};
 use crate::lanes::{LaneScene, RayLanes, WIDTH};
 use crate::light::SceneSphere;
 use crate::lighting::crossing;
-use crate::material::Material;
-use crate::render::{
-    camera_for, Accumulate, Branch, CameraDims, Film, PendingBranches, Progression, RenderOptions,
-};
+use crate::render::{camera_for, Accumulate, CameraDims, Film, Progression, RenderOptions};
 use crate::sampler::{Dim, Replicas, Sampler, SamplerKind};
 use crate::scene::effects::Support;
 use crate::scene::{Effect, Intersection, Scene};
@@ -149,10 +144,12 @@ mod light_paths;
 mod mis;
 mod multiplexed;
 mod photon_grid;
+mod sub_path;
 use camera_paths::CameraRow;
 use light_paths::{LightPaths, LightStore};
 use mis::{mis, Mis};
 use photon_grid::PhotonGrid;
+use sub_path::{joined, Carries, SubPath};
 
 pub(crate) use multiplexed::Multiplexed;
 
@@ -382,142 +379,6 @@ struct IterationConstants {
     mis_vc: f32,
     /// `1 / (π r² N)`: the merge kernel over the number of light paths.
     vm_norm: f32,
-}
-
-/// The running state of a sub-path.
-struct SubPath {
-    ctx: PathContext,
-    /// Camera paths gather radiance, light paths carry importance.
-    mode: TransportMode,
-    /// The path's weight: its value over its density, the light's emitted power included.
-    beta: Vec3,
-    /// `beta` without the light's emission and the spectral factors: the roulette's measure of
-    /// a light path.
-    throughput: Vec3,
-    /// The product of η² over the refractions so far: the radiance scaling a camera path's
-    /// roulette leaves out (pbrt-v4's `etaScale`).
-    eta_scale: f32,
-    mis: Mis,
-    segments: u32,
-    specular_path: bool,
-    /// The distance from the sub-path's true start to its first ray's origin: a camera ray
-    /// clipped by the near plane starts that far from the lens point, which the first
-    /// segment's density conversion must count (0 otherwise).
-    start_offset: f32,
-    /// What its channels carry (for joining it with another half).
-    carries: Carries,
-    /// The branches smooth dispersive glass split from it (one wavelength each), waiting for the
-    /// walk in flight to end ([`SubPath::resume_branch`]).
-    branches: PendingBranches<BranchStart>,
-}
-
-/// What a sub-path's channels carry, which decides the factor of a full path joined from two
-/// halves ([`joined`]).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(super) enum Carries {
-    /// Every channel, each at weight 1 (RGB, or the three wavelengths together).
-    All,
-    /// The hero's channel alone at weight 3 ([`crate::spectrum::HERO_ONLY`]): its secondary
-    /// wavelengths ended (rough dispersive glass; `mmlt`'s smooth dispersive refraction).
-    Hero,
-    /// This one channel at weight 1: the sub-path split its wavelengths at smooth dispersive
-    /// glass (its lead goes on with its own channel, every branch with its own).
-    Channel(u8),
-}
-
-impl Carries {
-    /// The channel it carries alone, if it does (the hero's is channel 0).
-    fn channel(self) -> Option<u8> {
-        match self {
-            Carries::All => None,
-            Carries::Hero => Some(0),
-            Carries::Channel(c) => Some(c),
-        }
-    }
-
-    /// The channels a vertex of a sub-path carrying this evaluates its scattering in, from a
-    /// path's `channels`: those of its own wavelength where it carries one channel.
-    pub(super) fn channels(self, channels: &Channels) -> Channels {
-        match (self, channels) {
-            (Carries::Channel(c), Channels::Spectral(w)) => Channels::Spectral(w.led_by(c as usize)),
-            _ => *channels,
-        }
-    }
-}
-
-/// Where a branch of a split sub-path starts: its walk and its state past the glass.
-#[derive(Clone, Copy)]
-struct BranchStart {
-    walk: Walk,
-    beta: Vec3,
-    throughput: Vec3,
-    eta_scale: f32,
-    mis: Mis,
-    segments: u32,
-    specular_path: bool,
-}
-
-impl SubPath {
-    /// A sub-path of weight `beta` and MIS state `mis` at its first segment.
-    fn new(ctx: PathContext, mode: TransportMode, beta: Vec3, mis: Mis) -> SubPath {
-        SubPath {
-            ctx,
-            mode,
-            beta,
-            throughput: Vec3::ONE,
-            eta_scale: 1.0,
-            mis,
-            segments: 1,
-            specular_path: true,
-            start_offset: 0.0,
-            carries: Carries::All,
-            branches: PendingBranches::default(),
-        }
-    }
-
-    /// Puts the next branch waiting (if one does) in the place of the sub-path, whose walk
-    /// `walk` has ended: its state and walk, its channels' indices taken at its wavelength, its
-    /// random stream replaying from the split. False where none waits.
-    #[inline]
-    fn resume_branch(&mut self, walk: &mut Walk) -> bool {
-        let Some(branch) = self.branches.resume(&mut self.ctx.channels) else { return false };
-        self.ctx.sampler.replay_from(branch.replay);
-        let b = branch.state;
-        *walk = b.walk;
-        (self.beta, self.throughput, self.eta_scale) = (b.beta, b.throughput, b.eta_scale);
-        (self.mis, self.segments, self.specular_path) = (b.mis, b.segments, b.specular_path);
-        self.carries = Carries::Channel(branch.channel as u8);
-        true
-    }
-
-    /// The MIS update on scattering into `wi` with forward density `pdf` and reverse density
-    /// `rev` (both ignored for specular and multiply scattered samples).
-    fn scatter(&mut self, k: &IterationConstants, cos_out: f32, pdf: f32, rev: f32, evaluable: bool) {
-        self.mis.scatter(k, cos_out, pdf, rev, evaluable);
-        self.specular_path &= !evaluable;
-    }
-
-    /// The probability Russian roulette keeps the path with (before clamping to 1): a camera
-    /// path's weight without the radiance scaling of refraction, a light path's throughput.
-    fn survival(&self) -> f32 {
-        match self.mode {
-            TransportMode::Radiance => (self.beta * self.eta_scale).max_element(),
-            TransportMode::Importance => self.throughput.max_element(),
-        }
-    }
-}
-
-/// The factor of a full path joined from two halves that carry `a` and `b`: 1/3 when both
-/// carry the hero alone at weight 3 (the path counts the factor 3 once); 0 when they carry no
-/// channel in common (a branch of one wavelength with another's, or with the hero alone); 1
-/// otherwise (a branch's one channel at weight 1 joined with anything that carries it).
-#[inline]
-fn joined(a: Carries, b: Carries) -> f32 {
-    match (a.channel(), b.channel()) {
-        _ if a == Carries::Hero && b == Carries::Hero => 1.0 / 3.0,
-        (Some(x), Some(y)) if x != y => 0.0,
-        _ => 1.0,
-    }
 }
 
 /// Everything fixed during a render.
@@ -889,73 +750,6 @@ impl<'a> Engine<'a> {
     }
 }
 
-impl Engine<'_> {
-    /// Wavelength splitting at smooth dispersive glass `material` at vertex `at` of `path`
-    /// (walking `walk`), after `smp`, the lead wavelength's sample drawn with `numbers`, as
-    /// [`PathContext::part_wavelengths`] decides: the factor the sub-path's own weight takes
-    /// (its lead's channel alone where the wavelengths part). Every wavelength parted from it
-    /// becomes a branch set aside in `path` ([`SubPath::resume_branch`]): the sub-path's state
-    /// here, updated by the branch's own sample (its weight, direction, medium and η², the MIS
-    /// update of a specular sample), replaying the sub-path's numbers from here on.
-    #[allow(clippy::too_many_arguments)]
-    fn split_wavelengths(
-        &self,
-        walk: &Walk,
-        path: &mut SubPath,
-        k: &IterationConstants,
-        at: &Vertex,
-        material: &Material,
-        smp: &crate::bsdf::BsdfSample,
-        numbers: (f32, glam::Vec2),
-    ) -> Vec3 {
-        let hero_only = path.ctx.hero_only;
-        let (factor, parted) = path.ctx.part_wavelengths(
-            material,
-            at.hit,
-            at.frame,
-            at.wo,
-            smp,
-            at.wo_local,
-            numbers,
-            path.mode,
-        );
-        if hero_only || !path.ctx.hero_only {
-            return factor;
-        }
-        let Channels::Spectral(w) = path.ctx.channels else { return factor };
-        if path.ctx.hero_alone {
-            // The secondaries ended at a refraction: the hero alone, weight 3.
-            path.carries = Carries::Hero;
-            return factor;
-        }
-        path.carries = Carries::Channel(w.lead() as u8);
-        let replay = path.ctx.sampler.dimension();
-        for p in parted.into_iter().flatten() {
-            let mut mis = path.mis;
-            mis.scatter(k, p.sample.wi.z.abs(), p.sample.pdf, 0.0, false);
-            let absorption = crossing(&material.bsdf, walk.ray.dir, at.hit.n, p.channels.hero()).map_or(
-                walk.absorption,
-                |c| {
-                    let medium = if p.sample.is_transmission { c.transmitted } else { c.incident };
-                    p.channels.colour(medium.absorption)
-                },
-            );
-            let eta = if p.sample.is_transmission { p.sample.eta * p.sample.eta } else { 1.0 };
-            let state = BranchStart {
-                walk: Walk { ray: walk.ray.spawn(spawn_origin(at.hit, p.wi), p.wi), absorption, ..*walk },
-                beta: path.beta * p.weight,
-                throughput: path.throughput * p.weight,
-                eta_scale: path.eta_scale * eta,
-                mis,
-                segments: path.segments + 1,
-                specular_path: path.specular_path,
-            };
-            path.branches.push(Branch { channel: p.channel, state, replay });
-        }
-        factor
-    }
-}
-
 /// Where a sub-path's walk is between two surfaces: the ray it follows, the absorption of the
 /// medium it is in, and whether its first segment came from the environment.
 #[derive(Clone, Copy)]
@@ -1003,97 +797,4 @@ trait WalkVisitor {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::integrators::hero_alone_check::{agree_block_by_block, render_spectral, variance_within};
-    use crate::scene::load_str;
-
-    /// The engine of an algorithm keeping the hero alone at smooth dispersive refraction (the
-    /// estimator before splitting), to compare the split estimate against.
-    struct HeroAlone(Algorithm);
-
-    impl Accumulate for HeroAlone {
-        fn film(&self, scene: &Scene, opts: &RenderOptions) -> Film {
-            VertexMerging(self.0).film(scene, opts)
-        }
-
-        fn add_samples(
-            &self,
-            scene: &Scene,
-            opts: &RenderOptions,
-            samples: Range<u32>,
-            film: &mut Film,
-            _: &(dyn Fn(u64, u64) + Sync),
-        ) {
-            let integrator = VertexMerging(self.0);
-            let engine = Engine { hero_alone: true, ..Engine::new(scene, &integrator, opts) };
-            let mut work = Workspace::default();
-            for s in samples {
-                engine.iteration(s, film, &mut work);
-            }
-        }
-    }
-
-    #[test]
-    fn splitting_and_the_hero_alone_estimate_the_same_glass_of_water() {
-        let file = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/glass-of-water.toml");
-        let scene = crate::scene::load(&file).unwrap();
-        let (size, spp) = (48, 64);
-        for algorithm in [Algorithm::Bpt, Algorithm::Vcm] {
-            let integrator = VertexMerging(algorithm);
-            let split = render_spectral(&scene, &integrator, &integrator, size, spp, 1);
-            let hero = render_spectral(&scene, &integrator, &HeroAlone(algorithm), size, spp, 2);
-            let worst = agree_block_by_block(&split, &hero, &format!("{algorithm:?}"));
-            // The splitting took place: the branches' rays were traced.
-            assert!(split.rays.refracted > hero.rays.refracted, "{:?} vs {:?}", split.rays, hero.rays);
-            // The variance over the whole image and around the glass (x 3/8–13/16, y 19/32–31/32
-            // of the image).
-            let near = |x: f64, y: f64| (0.375..0.8125).contains(&x) && (0.59375..0.96875).contains(&y);
-            let whole = variance_within(&split, |_, _| true) / variance_within(&hero, |_, _| true);
-            let glass = variance_within(&split, near) / variance_within(&hero, near);
-            eprintln!("{algorithm:?}, glass of water: worst |z| {worst:.2}; variance split/hero {whole:.3}, around the glass {glass:.3}");
-            // Around the glass splitting removes most of the hero's colour noise (measured 0.26 for
-            // `bpt`, 0.21 for `vcm`; worst |z| 2.55 and 1.35); over the whole image the room's own
-            // colour noise dominates and the ratio is about 1, within the spread of 16 replicas'
-            // variance (measured 1.08 for both; 0.94 and 0.96 at 160×160 from two seeds' renders,
-            // README "Spectral rendering"), so only the glass is held to a bound.
-            assert!(glass < 0.6, "{algorithm:?}: variance split/hero alone around the glass {glass:.3}");
-        }
-    }
-
-    /// The closed bright room of the integration tests: a light path stores about 10 vertices.
-    const BRIGHT_ROOM: &str = include_str!("../tests/data/bright-room.toml");
-
-    #[test]
-    fn the_working_memory_bounds_what_a_bright_closed_room_holds() {
-        // At 128² with a cap of 16 384 light paths a batch holds at most 49 152 vertices: an
-        // iteration's paths store about 164 000 and take four batches, and the arrays the engine
-        // holds (their room, not only what they use) stay within the estimate, for a merging
-        // method and for `bpt`.
-        let scene = load_str(BRIGHT_ROOM, "bright room", None).unwrap();
-        for algorithm in [Algorithm::Vcm, Algorithm::Bpt] {
-            let integrator = VertexMerging(algorithm);
-            let mut opts = RenderOptions::for_method(&scene, &integrator, 2);
-            opts.resolution = Some((128, 128));
-            opts.params.merging.max_light_paths = 1 << 14;
-            let engine = Engine::new(&scene, &integrator, &opts);
-            let mut film = integrator.film(&scene, &opts);
-            let mut work = Workspace::default();
-            for s in 0..2 {
-                engine.iteration(s, &mut film, &mut work);
-            }
-            let budget = store_budget(&opts.params.merging);
-            assert_eq!(budget, 49_152);
-            assert!(work.batches >= 6, "{algorithm:?}: {} batches in 2 iterations", work.batches);
-            assert!(
-                work.peak_vertices <= budget,
-                "{algorithm:?}: a batch of {} vertices",
-                work.peak_vertices
-            );
-            let held = work.store.bytes_held() + work.grid.as_ref().map_or(0, PhotonGrid::bytes_held);
-            let estimate = integrator.working_memory(&scene, &opts);
-            println!("{algorithm:?}: {} batches, {held} bytes held, estimate {estimate}", work.batches);
-            assert!(held <= estimate, "{algorithm:?}: {held} bytes held, estimate {estimate}");
-        }
-    }
-}
+mod tests;
