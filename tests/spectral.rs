@@ -54,6 +54,16 @@ fn render_method(
     out
 }
 
+/// The variance of one render of `method` in spectral mode over that of RGB mode, each from the
+/// squared difference of two renders with seeds 1 and 2 ([`Pair::render_variance`]).
+fn spectral_over_rgb(scene: &Scene, method: &str, size: u32, spp: u32) -> f64 {
+    let variance = |mode| {
+        let [a, b] = [1, 2].map(|seed| render_method(scene, method, size, spp, seed, mode));
+        Pair::new(&a, &b).render_variance()
+    };
+    variance(SpectralMode::On) / variance(SpectralMode::Off)
+}
+
 /// Per pixel, the mean of two independent renders, the variance of that mean from the renders'
 /// own estimates, and the squared difference of the two.
 struct Pair {
@@ -182,12 +192,7 @@ fn dispersive_glass_of_water_costs_little_more_than_rgb_mode() {
     let scene = scene::load(&scenes_dir().join("glass-of-water.toml")).unwrap();
     assert!(scene.effects.names().contains("dispersion"));
     let (size, spp) = (80, 64);
-    let renders = |mode| {
-        let [a, b] = [1, 2].map(|seed| render_path(&scene, size, spp, seed, mode));
-        Pair::new(&a, &b)
-    };
-    let (spectral, rgb) = (renders(SpectralMode::On), renders(SpectralMode::Off));
-    let ratio = spectral.render_variance() / rgb.render_variance();
+    let ratio = spectral_over_rgb(&scene, "path", size, spp);
     eprintln!("glass-of-water, path {size}x{size} {spp} spp: spectral/RGB variance {ratio:.3}");
     assert!(ratio < 1.3, "spectral mode costs {ratio:.2}× the variance of RGB mode");
 }
@@ -201,12 +206,7 @@ fn the_bidirectional_methods_on_dispersive_glass_of_water_cost_little_more_than_
     let scene = scene::load(&scenes_dir().join("glass-of-water.toml")).unwrap();
     let (size, spp) = (80, 16);
     for method in ["bpt", "vcm"] {
-        let renders = |mode| {
-            let [a, b] = [1, 2].map(|seed| render_method(&scene, method, size, spp, seed, mode));
-            Pair::new(&a, &b)
-        };
-        let (spectral, rgb) = (renders(SpectralMode::On), renders(SpectralMode::Off));
-        let ratio = spectral.render_variance() / rgb.render_variance();
+        let ratio = spectral_over_rgb(&scene, method, size, spp);
         eprintln!("glass-of-water, {method} {size}x{size} {spp} spp: spectral/RGB variance {ratio:.3}");
         assert!(ratio < 1.3, "{method}: spectral mode costs {ratio:.2}× the variance of RGB mode");
     }
@@ -270,12 +270,7 @@ fn rough_dispersive_glass_costs_little_more_than_rgb_mode() {
     let scene = scene::load_str(&text, "frosted-glass in bk7", Some(&scenes_dir())).unwrap();
     assert!(scene.effects.names().contains("dispersion"));
     let (size, spp) = (64, 64);
-    let renders = |mode| {
-        let [a, b] = [1, 2].map(|seed| render_path(&scene, size, spp, seed, mode));
-        Pair::new(&a, &b)
-    };
-    let (spectral, rgb) = (renders(SpectralMode::On), renders(SpectralMode::Off));
-    let ratio = spectral.render_variance() / rgb.render_variance();
+    let ratio = spectral_over_rgb(&scene, "path", size, spp);
     eprintln!("frosted-glass in bk7, path {size}x{size} {spp} spp: spectral/RGB variance {ratio:.3}");
     assert!(ratio < 1.5, "spectral mode costs {ratio:.2}× the variance of RGB mode");
 }
