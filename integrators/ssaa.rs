@@ -15,7 +15,7 @@
 //! Contrast is Mitchell's per channel, (max − min) / (max + min), over the square's corners.
 //! The default is the thesis's single subdivision (at most 16 rays per pixel) with threshold
 //! 0.1. Deeper levels save more rays but, since an unsplit square is estimated from its corners
-//! alone, lose accuracy faster than a regular grid of the same spacing (see the README).
+//! alone, lose accuracy faster than a regular grid of the same spacing (docs/methods.md, the `ssaa` row).
 
 use super::whitted::{deterministic_support, trace, Sampling, Segment};
 use super::{FixedImage, Integrator, Method, PathContext, RenderParams};

@@ -1,4 +1,4 @@
-//! Error metrics between a test image and a reference, with the one definition of the README's
+//! Error metrics between a test image and a reference, with the one definition of docs/workflow.md's
 //! "Metrics" section, and the split of the MSE into its bias and its variance.
 //!
 //! With test image x and reference r, over the compared pixels and their three channels:
@@ -205,7 +205,7 @@ pub enum MetricsError {
     },
 }
 
-/// The offset added to r² in the denominator of the relative squared error (the README's "Metrics").
+/// The offset added to r² in the denominator of the relative squared error (docs/workflow.md, "Metrics").
 pub const REL_EPSILON: f64 = 0.01;
 
 /// The fraction of pixels, those of largest error, that the trimmed relMSE leaves out: 0.1%.

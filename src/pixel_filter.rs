@@ -66,7 +66,7 @@ impl Default for PixelFilter {
     }
 }
 
-/// What the filter means for each method (`vitrum info`, the README): the methods that draw
+/// What the filter means for each method (`vitrum info`, docs/methods.md): the methods that draw
 /// camera samples place them by the filter, the splatting methods share splats by it, and the
 /// deterministic patterns say what they do with it.
 pub const METHOD_MEANING: &str = "path, distributed, bpt, ppm, bpm, vcm and raycast/whitted with more than one sample place \

@@ -19,7 +19,7 @@
 //!   against 0.31 with pbrt-v4's density, 3.0 for the hero alone and 4.2 for the single
 //!   wavelength of vitrum's first spectral mode (‖w‖^0.5 gives 0.035, (Σ|w_c|)^0.7 0.049). On
 //!   `path` over `soft-shadows` the three wavelengths cost 1.06× the variance of RGB mode at equal
-//!   samples, the light seen directly added in RGB (README, "Spectral rendering").
+//!   samples, the light seen directly added in RGB (docs/performance.md, "Spectral rendering").
 //! - **Back to RGB** ([`Wavelengths::to_rgb`]): a spectral radiance L at λ₁, λ₂, λ₃ becomes
 //!   RGB = Σᵢ L(λᵢ) w(λᵢ) / (3 p(λᵢ)), an unbiased estimate of ∫ L(λ) w(λ) dλ.
 //!   w(λ) ([`rgb_weight`]) is the linear-sRGB colour of monochromatic light (CIE 1931 2°
@@ -61,8 +61,8 @@
 //!   `TerminateSecondary`): the bidirectional engine at rough dispersive glass, `mmlt` also where smooth glass refracts (where it reflects it keeps all three, each
 //!   weighted by its Fresnel reflectance over the hero's; its sample is one path), and the
 //!   deterministic recursions (`whitted`, `distributed`), which follow both branches at once. On `glass-of-water` the
-//!   variance at equal samples went from 2.46× RGB mode's (the hero alone) to 1.89× by splitting
-//!   (README, "Spectral rendering").
+//!   variance at equal samples is 1.19× RGB mode's (docs/performance.md, "Spectral cost of
+//!   `path`").
 //! - **Light seen directly**: what a camera ray itself meets (an emitter, the background) is
 //!   added in RGB (`PathContext::seen_rgb`), because the expectation of its spectral estimate
 //!   over the wavelengths is its RGB exactly (the basis keeps every RGB under the colour

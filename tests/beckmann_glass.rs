@@ -54,7 +54,7 @@ fn a_beckmann_glass_sphere_in_the_white_furnace_stays_one() {
 fn beckmann_differs_from_ggx_of_the_same_alpha() {
     // The distribution must reach the renderer: a small light seen through a frosted slab is
     // blurred by each distribution's own lobe (Beckmann's tails are much lighter than GGX's; the
-    // same scene in Mitsuba 3 and vitrum gives the same radial profiles, README).
+    // same scene in Mitsuba 3 and vitrum gives the same radial profiles, docs/accuracy.md).
     let scene =
         |distribution: &str| mitsuba::load_str(&frosted_slab(distribution), "slab.xml", None, false).unwrap();
     let (b, sb) = common::mean_and_error(&scene("beckmann"), "path", 8, 32);

@@ -423,10 +423,10 @@ fn ssaa_states_its_real_rays_per_pixel_and_is_marked_biased() {
     let md = fs::read_to_string(folder.join("compare.md")).unwrap();
     let ssaa_line = md.lines().find(|l| l.starts_with("| ssaa |")).unwrap();
     assert!(ssaa_line.contains(&format!("| {per_pixel:.2} |")) && ssaa_line.contains("| biased |"), "{md}");
-    for needle in ["relMSE 99.9%", "PSNR LDR", "SSIM", "bias part", "README"] {
+    for needle in ["relMSE 99.9%", "PSNR LDR", "SSIM", "bias part", "docs/workflow.md"] {
         assert!(md.contains(needle), "compare.md lacks `{needle}`: {md}");
     }
-    // It cites the README, not a DESIGN.md that the repository does not have.
+    // It cites the manual's page, not a DESIGN.md that the repository does not have.
     assert!(!md.contains("DESIGN.md"), "{md}");
 }
 

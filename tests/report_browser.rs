@@ -457,7 +457,7 @@ fn a_six_method_800_by_800_report_loads_cleanly() {
     );
 }
 
-/// The README's picture (`docs/images/report.png`): `cargo test --release --test report_browser
+/// The README's picture of the report (`docs/images/report.png`): `cargo test --release --test report_browser
 /// readme_screenshot -- --ignored` renders cornell-glass with path, bpt and vcm at 64 spp and shows
 /// path split against the reference.
 #[test]

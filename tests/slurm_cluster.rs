@@ -1,5 +1,5 @@
 //! vitrum's cluster recipes run for real: the Slurm scripts (`scripts/slurm/`) on a single-node
-//! Slurm cluster that the test starts on localhost, and the README's GNU parallel one-liner.
+//! Slurm cluster that the test starts on localhost, and the GNU parallel one-liner of docs/scale-out.md.
 //!
 //! - The cluster: `munged`, `slurmctld` and `slurmd` run as root in the foreground, with their
 //!   key, sockets, state, spool and logs in a temporary folder, on free ports, from a `slurm.conf`
@@ -11,7 +11,7 @@
 //!   resumes its checkpoint (its log says so, Slurm counts the restart); the merge is still the
 //!   single render.
 //! - Tasks that fail leave vitrum's error in their logs, and the merge is cancelled.
-//! - The README's `parallel … --shard {}/16 … && vitrum merge …` line, with a small render.
+//! - The `parallel … --shard {}/16 … && vitrum merge …` line of docs/scale-out.md, with a small render.
 //!
 //! Merged shards equal the single render within f64 summation rounding (relative 1e-6), not bit
 //! for bit: partial sums round differently from one running sum (see `vitrum::parts` and
@@ -38,7 +38,7 @@ use common::system::{is_root, may_run, missing_programs};
 const VITRUM: &str = env!("CARGO_BIN_EXE_vitrum");
 const SCRIPTS: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/scripts/slurm");
 const SCENES: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes");
-const README: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/README.md");
+const SCALE_OUT: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/docs/scale-out.md");
 /// The scene every render here splits.
 const SCENE: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell-glass.toml");
 /// The test cluster's one node (`slurmd -N`; its `NodeHostname` is this machine's).
@@ -658,25 +658,27 @@ fn missing_gnu_parallel() -> Vec<String> {
     }
 }
 
-/// The README's command on the line after the one with `marker` (a line that is one code span).
-fn readme_command_after(marker: &str) -> String {
-    let readme = fs::read_to_string(README).expect("README.md");
-    let at = readme.find(marker).unwrap_or_else(|| panic!("README.md: no {marker}"));
-    let line = readme[at..].lines().nth(1).unwrap_or_default().trim();
-    let code = line.strip_prefix('`').and_then(|l| l.split('`').next());
-    code.unwrap_or_else(|| panic!("README.md: no command after {marker}: {line}")).to_string()
+/// The first line of the first code block after the line with `marker` in the scale-out page.
+fn documented_command_after(marker: &str) -> String {
+    let page = fs::read_to_string(SCALE_OUT).expect("docs/scale-out.md");
+    let at = page.find(marker).unwrap_or_else(|| panic!("docs/scale-out.md: no {marker}"));
+    let mut lines = page[at..].lines().skip_while(|l| !l.starts_with("```"));
+    let fence = lines.next().unwrap_or_default();
+    let line = lines.next().unwrap_or_default().trim();
+    assert!(fence.starts_with("```") && !line.is_empty(), "docs/scale-out.md: no command after {marker}");
+    line.to_string()
 }
 
 #[test]
-fn the_readme_gnu_parallel_one_liner_renders_shards_that_merge_into_the_single_render() {
+fn the_documented_gnu_parallel_one_liner_renders_shards_that_merge_into_the_single_render() {
     if !may_run(&missing_gnu_parallel(), "apt-get install parallel") {
         return;
     }
     let _serial = serial();
     let start = Instant::now();
-    let line = readme_command_after("**GNU parallel**");
+    let line = documented_command_after("**GNU parallel**");
     assert!(line.contains("scenes/cornell-glass.toml") && line.contains("--spp 65536"), "{line}");
-    // The README's command as written, with its render made small.
+    // The documented command as written, with its render made small.
     let small =
         line.replace("scenes/", &format!("{SCENES}/")).replace("--spp 65536", "--spp 32 --resolution 32x32");
     let dir = tempfile::tempdir().unwrap();

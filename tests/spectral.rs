@@ -1,7 +1,7 @@
 //! Hero-wavelength spectral transport (`src/spectrum.rs`) end to end, with `path`:
 //! - on a scene without dispersion (`soft-shadows`), spectral mode estimates the RGB image (8×8
 //!   blocks agree at the noise floor) and costs little: its variance at equal samples is at most
-//!   1.6× RGB mode's (README "Spectral rendering": 1.06× at 160×160);
+//!   1.6× RGB mode's (docs/performance.md, "Spectral rendering": 1.06× at 160×160);
 //! - a white furnace around a glass of water with dispersive indices stays white: the
 //!   wavelengths split at the glass, each along its own path, stay unbiased (and the background
 //!   the camera sees directly, added in RGB, is exactly white);
@@ -134,7 +134,7 @@ fn spectral_path_matches_rgb_on_soft_shadows_at_little_extra_variance() {
     }
 
     // The cost: per-render variance, spectral over RGB. Measured 1.06× at 160×160 and 64 spp
-    // (README); the bound leaves room for the pair estimate's own noise at this size.
+    // (docs/performance.md); the bound leaves room for the pair estimate's own noise at this size.
     let ratio = spectral.render_variance() / rgb.render_variance();
     eprintln!("soft-shadows, path {size}x{size} {spp} spp: spectral/RGB variance {ratio:.3}, worst block |z| {worst:.2}");
     assert!(ratio < 1.6, "spectral mode costs {ratio:.2}× the variance of RGB mode");
@@ -186,9 +186,9 @@ fn a_white_furnace_around_a_dispersive_glass_of_water_stays_white() {
 
 #[test]
 fn dispersive_glass_of_water_costs_little_more_than_rgb_mode() {
-    // Issue 35's bound at 160×160 (README "Spectral rendering": 1.19×, over seeds 1 to 8 pairs
-    // 1.12–1.23×; 2.46× with the hero alone), here at 80×80: measured 1.12× for seeds 1 and 2,
-    // 1.11–1.14× over seeds 1 to 8 in pairs.
+    // Measured at 160×160 (docs/performance.md, "Spectral cost of `path`": 1.19×, over seeds 1
+    // to 8 in pairs 1.12–1.23×); here at 80×80: 1.12× for seeds 1 and 2, 1.11–1.14× over seeds
+    // 1 to 8 in pairs.
     let scene = scene::load(&scenes_dir().join("glass-of-water.toml")).unwrap();
     assert!(scene.effects.names().contains("dispersion"));
     let (size, spp) = (80, 64);
@@ -200,7 +200,7 @@ fn dispersive_glass_of_water_costs_little_more_than_rgb_mode() {
 #[test]
 fn the_bidirectional_methods_on_dispersive_glass_of_water_cost_little_more_than_rgb_mode() {
     // Both sub-paths split at smooth dispersive glass and the light the camera ray meets itself
-    // is added in RGB, as in `path`: at 160×160, 16 spp (README "Spectral rendering") `bpt`
+    // is added in RGB, as in `path`: at 160×160, 16 spp (docs/performance.md, "Spectral cost of `bpt` and `vcm`") `bpt`
     // went from 2.32× (hero alone) to 1.06×, `vcm` from 2.06× to 1.02×; here measured 1.016× and
     // 1.019× (2× without the light seen in RGB).
     let scene = scene::load(&scenes_dir().join("glass-of-water.toml")).unwrap();
@@ -261,7 +261,7 @@ fn a_white_furnace_around_rough_dispersive_glass_stays_white() {
 
 #[test]
 fn rough_dispersive_glass_costs_little_more_than_rgb_mode() {
-    // frosted-glass with its rough sphere and cylinder in bk7 (README "Spectral rendering": at
+    // frosted-glass with its rough sphere and cylinder in bk7 (docs/performance.md, "Spectral cost of `path`": at
     // 160×160 and 64 spp 1.13×, 2.59× when rough glass ended the secondaries); here at 64×64:
     // measured 1.11× for seeds 1 and 2 (2.10× when it ended them).
     let text = std::fs::read_to_string(scenes_dir().join("frosted-glass.toml"))

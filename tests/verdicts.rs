@@ -1,5 +1,5 @@
 //! The bias verdict measured on renders of known bias: how often it calls an unbiased method
-//! biased (false alarms), and how often it misses a known bias. The README's "Metrics"
+//! biased (false alarms), and how often it misses a known bias. docs/accuracy.md's "Verdicts: false alarms and misses"
 //! states the rates these tests measure (run with `--nocapture` to print them).
 //!
 //! Every render here uses the default sampler (Owen-scrambled Sobol') and 8 replicas, as
@@ -60,7 +60,7 @@ fn unbiased_methods_are_rarely_called_biased() {
         .map(|seed| verdict("bpt", &render_at(&scene, "bpt", (res, 8, seed), |_| {}), &reference))
         .collect();
     eprintln!("false alarms: path {} of 40, bpt {} of 20: {path:?} {bpt:?}", biased(&path), biased(&bpt));
-    // The README's bound: at most 5% of renders without bias are called biased.
+    // The documented bound: at most 5% of renders without bias are called biased.
     assert!(biased(&path) <= 2, "path: {path:?}");
     assert!(biased(&bpt) <= 1, "bpt: {bpt:?}");
     // And the verdict is not a shrug: most of them are "no bias detected".

@@ -53,7 +53,7 @@ fn splitting_and_the_hero_alone_estimate_the_same_glass_of_water() {
     let ratio = variance(&split) / variance(&hero);
     eprintln!("light, glass of water: variance split/hero {ratio:.3}");
     // Light tracing's variance here is mostly the room's (spectral mode costs it 1.12× RGB
-    // mode's at 160×160, README "Spectral rendering"), so splitting changes it by little
+    // mode's at 160×160, docs/performance.md, "Spectral cost of `light`"), so splitting changes it by little
     // (measured 1.03×, within the spread of the replicas' variance): it must not raise it much.
     assert!(ratio < 1.25, "variance split/hero alone {ratio:.3}");
 }

@@ -52,7 +52,7 @@ fn splitting_and_the_hero_alone_estimate_the_same_glass_of_water() {
         // `bpt`, 0.21 for `vcm`; worst |z| 2.55 and 1.35); over the whole image the room's own
         // colour noise dominates and the ratio is about 1, within the spread of 16 replicas'
         // variance (measured 1.08 for both; 0.94 and 0.96 at 160×160 from two seeds' renders,
-        // README "Spectral rendering"), so only the glass is held to a bound.
+        // docs/performance.md, "Spectral cost of `bpt` and `vcm`"), so only the glass is held to a bound.
         assert!(glass < 0.6, "{algorithm:?}: variance split/hero alone around the glass {glass:.3}");
     }
 }

@@ -1094,8 +1094,8 @@ fn markdown_table(plan: &Plan, rows: &[Row], reference: &str, reference_variance
     let mut s = format!("# vitrum compare: {}\n\n", plan.scene_name);
     let _ = writeln!(
         s,
-        "{} ({}); {}x{} pixels; reference: {}{}. Metrics over the whole image, defined in the \
-         README's \"Metrics\" section: relMSE with its 95% interval and relMSE without the 0.1% \
+        "{} ({}); {}x{} pixels; reference: {}{}. Metrics over the whole image, defined in \
+         docs/workflow.md's \"Metrics\" section: relMSE with its 95% interval and relMSE without the 0.1% \
          worst pixels; PSNR on the HDR values (peak = largest reference value, stated) and on the \
          8-bit sRGB preview at exposure {} EV (peak 1); SSIM of the preview's luma. The relative \
          error (weights 1/(r̃²+0.01), r̃ the reference's mean over each pixel's 8 neighbours) = bias \

@@ -34,7 +34,7 @@
 //!     make it, cannot explain). With the jackknife's R − 1 = 7 degrees of freedom (R = 8) a
 //!     render with no bias crosses 3 standard errors with a probability of about 1% (Student's
 //!     t), fewer in practice (the jackknife errs large); the false-alarm and miss rates
-//!     measured on renders of known bias are in the README.
+//!     measured on renders of known bias are in docs/accuracy.md ("Verdicts: false alarms and misses").
 //!   - `reference too noisy`: the reference's variance V_r is more than
 //!     [`REFERENCE_SHARE_LIMIT`] (a tenth) of the render's error E: the reference's own noise is
 //!     too large a part of what is measured to judge a bias; render a longer reference.
@@ -502,7 +502,7 @@ mod tests {
     fn planted_biases_are_found_and_none_is_invented() {
         // No bias, a reference 4 times less noisy (variance 1/16): 200 trials. The test at 3
         // jackknife standard errors with 7 degrees of freedom should cross by chance in about 1%;
-        // the README's bound is 5%.
+        // the documented bound (docs/workflow.md, "Verdicts") is 5%.
         let none = verdicts(0.0, 0.1, 0.025, 200);
         let false_alarms = none.iter().filter(|v| **v == Verdict::Biased).count();
         assert!(false_alarms <= 10, "{false_alarms} of 200 renders without bias called biased");

@@ -4,8 +4,8 @@
 //! (a warning, and a comment in the TOML), ignored with a warning (the parameters only Mitsuba
 //! 0.5/0.6 knew, [`LEGACY_PARAMETERS`]), or refused: an unknown parameter or a plugin vitrum
 //! lacks is an error at its position listing what is supported, or with `lenient` a warning
-//! saying what was dropped or approximated. The supported subset is documented in the README
-//! ("Scenes from other renderers").
+//! saying what was dropped or approximated. The supported subset is documented in
+//! docs/other-renderers.md ("What is translated").
 
 use super::toml_writer::{number, vector, TomlWriter};
 use super::xml::{Document, Object, Position, Property, Value, XmlError};
