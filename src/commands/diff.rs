@@ -119,6 +119,28 @@ struct Found {
 
 /// Runs `vitrum diff`.
 pub fn run(args: &DiffArgs) -> Result<(), CliError> {
+    let (found, image) = measure(args)?;
+    let text = if args.json {
+        json_summary(&found, args, &image).to_string() + "\n"
+    } else {
+        table(&found, args, &image)
+    };
+    std::io::stdout()
+        .lock()
+        .write_all(text.as_bytes())
+        .map_err(|e| CliError::Failure(format!("cannot write the metrics to stdout: {e}")))
+}
+
+/// The metrics `vitrum diff --json` prints for `args` (the error map written when asked for):
+/// the entry point of a library user (the Python package).
+pub fn metrics_json(args: &DiffArgs) -> Result<serde_json::Value, CliError> {
+    let (found, image) = measure(args)?;
+    Ok(json_summary(&found, args, &image))
+}
+
+/// Reads and measures the images of `args` (writing the error map when asked for), with notes
+/// on stderr about the pixels left out; returns what was found and the test image.
+fn measure(args: &DiffArgs) -> Result<(Found, Image), CliError> {
     // Refuse a bad output path before reading anything.
     if let Some(path) = &args.error_map {
         check_output_path(path, "png")?;
@@ -167,15 +189,7 @@ pub fn run(args: &DiffArgs) -> Result<(), CliError> {
     }
 
     let found = Found { metrics: m, split, reference_variance: reference.variance.is_some(), map };
-    let text = if args.json {
-        json_summary(&found, args, &test.image).to_string() + "\n"
-    } else {
-        table(&found, args, &test.image)
-    };
-    std::io::stdout()
-        .lock()
-        .write_all(text.as_bytes())
-        .map_err(|e| CliError::Failure(format!("cannot write the metrics to stdout: {e}")))
+    Ok((found, test.image))
 }
 
 /// Reads an EXR with its variance; any failure (missing, not an EXR, truncated) is bad input

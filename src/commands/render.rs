@@ -288,28 +288,13 @@ pub fn run(args: &RenderArgs) -> Result<(), CliError> {
     for w in &scene.warnings {
         eprintln!("vitrum: warning: {w}");
     }
-    let integrator = integrator_named(args.integrator.as_deref().unwrap_or(&scene.settings.integrator))?;
-    let mut opts = render_options(&scene, integrator.as_ref(), args)?;
-    check_output_path(&output, "exr")?;
-    for png in [&args.png, &args.density_map].into_iter().flatten() {
-        check_output_path(png, "png")?;
-    }
-    check_effects(&scene, integrator.as_ref(), &opts, args.strict)?;
-    if args.variance {
-        if let render::Progression::Fixed(image) = integrator.progression() {
-            return Err(CliError::BadInput(format!(
-                "--variance: `{}` renders a fixed sample pattern ({}); it has no sample variance",
-                integrator.name(),
-                image.why()
-            )));
+    let (integrator, mut opts) = prepare(&scene, args, |_| {
+        check_output_path(&output, "exr")?;
+        for png in [&args.png, &args.density_map].into_iter().flatten() {
+            check_output_path(png, "png")?;
         }
-        if opts.budget == Budget::Samples(1) {
-            return Err(CliError::BadInput("--variance needs at least 2 samples per pixel (--spp 2)".into()));
-        }
-        if opts.replicas.count() < 2 {
-            return Err(CliError::BadInput("--variance needs at least 2 replicas (--replicas 2)".into()));
-        }
-    }
+        Ok(())
+    })?;
     // A render part (a shard, a resumed or checkpointed render) keeps its sums in the output.
     let mut part = parts::plan(args, &scene, integrator.as_ref(), &mut opts, resumed)?;
     if let (true, Some(p), Some(resumed)) = (finished, &part, &args.resume) {
@@ -322,9 +307,7 @@ pub fn run(args: &RenderArgs) -> Result<(), CliError> {
             return Ok(());
         }
     }
-    // Before anything of the render is allocated: refuse what the machine cannot hold.
-    crate::memory::check(&scene, integrator.as_ref(), &opts).map_err(CliError::BadInput)?;
-    let pool = thread_pool(args.threads)?;
+    let pool = worker_pool(&scene, integrator.as_ref(), &opts, args.threads)?;
 
     let bar = (!args.quiet && std::io::stderr().is_terminal()).then(|| {
         let bar = indicatif::ProgressBar::new(1);
@@ -375,16 +358,16 @@ pub fn run(args: &RenderArgs) -> Result<(), CliError> {
     if let Some(b) = bar {
         b.finish_and_clear();
     }
-    let interrupted = interrupt::stop_requested().then(|| match &part {
+    let mut rendered = Rendered::new(&scene, integrator, opts, out, args);
+    if let (Some(p), Some(_)) = (&part, &rendered.interrupted) {
         // A part: which of its sample indices are done (`vitrum render --resume` continues).
-        Some(p) => format!(
+        rendered.interrupted = Some(format!(
             "SIGINT after the samples {} of {}..{}",
             p.info.samples, p.info.target.start, p.info.target.end
-        ),
-        None => interruption(integrator.as_ref(), &opts, &out),
-    });
+        ));
+    }
+    let out = &rendered.out;
 
-    let meta = exr_metadata(&scene, integrator.name(), opts.seed, (out.spp, out.seconds, out.rays));
     // Encode every output first and publish them together: a failure leaves none behind.
     let failure = |e: crate::output::OutputError| CliError::Failure(e.to_string());
     if args.variance && out.variance.is_none() {
@@ -393,31 +376,26 @@ pub fn run(args: &RenderArgs) -> Result<(), CliError> {
             out.spp
         );
     }
-    // A part keeps its replicas' sums in its film layer; a plain render their means as channels.
-    let (extra, mut notes) = match (&part, args.no_variance) {
-        (_, true) => (Vec::new(), Vec::new()),
-        (Some(_), false) => match (&out.variance, args.variance) {
-            (Some(variance), true) => {
-                (variance_channels(variance, &vec![out.spp as f32; variance.pixels.len()]), Vec::new())
-            }
-            _ => (Vec::new(), Vec::new()),
-        },
-        (None, false) => render_channels(&out),
-    };
-    notes.extend(interrupted.iter().map(|what| ("vitrum:interrupted".to_string(), what.clone())));
-    let exposure = args.exposure.unwrap_or(scene.settings.exposure);
-    notes.push((super::diff::EXPOSURE_ATTRIBUTE.to_string(), exposure.to_string()));
     let exr = match &part {
-        Some(part) => crate::output::film::stage_part(&output, &part.film, &part.info, &meta, &extra, &notes),
-        None => stage_exr_with_notes(&output, &out.image, &meta, &extra, &notes),
+        // A part keeps its replicas' sums in its film layer.
+        Some(part) => {
+            let extra = match (&out.variance, args.variance && !args.no_variance) {
+                (Some(variance), true) => {
+                    variance_channels(variance, &vec![out.spp as f32; variance.pixels.len()])
+                }
+                _ => Vec::new(),
+            };
+            let meta = rendered.metadata(&scene);
+            crate::output::film::stage_part(&output, &part.film, &part.info, &meta, &extra, &rendered.notes())
+        }
+        None => rendered.stage_exr(&scene, &output),
     };
     let mut staged = vec![exr.map_err(failure)?];
     if let Some(png) = &args.png {
-        let exposure = args.exposure.unwrap_or(scene.settings.exposure);
-        staged.push(stage_png(png, &out.image, exposure).map_err(failure)?);
+        staged.push(stage_png(png, &out.image, rendered.exposure).map_err(failure)?);
     }
     if let Some(path) = &args.density_map {
-        staged.push(stage_density_map(path, &out).map_err(failure)?);
+        staged.push(stage_density_map(path, out).map_err(failure)?);
     }
     for file in staged {
         file.commit().map_err(failure)?;
@@ -425,12 +403,228 @@ pub fn run(args: &RenderArgs) -> Result<(), CliError> {
     if out.non_finite_samples > 0 {
         eprintln!("vitrum: warning: {} sample(s) were NaN or infinite", out.non_finite_samples);
     }
-    if let Some(what) = &interrupted {
+    if let Some(what) = &rendered.interrupted {
         eprintln!("vitrum: warning: interrupted: {what}; written to {}", output.display());
     }
-    let engine = integrator.engine(&scene, &opts);
-    report(args, &output, &scene, (integrator.name(), &engine), &opts, &out);
+    report(args, &output, &scene, &rendered);
     Ok(())
+}
+
+/// The integrator and the options of a render of `scene` with `args` (the scene's defaults
+/// with the arguments applied), checked as every render is before it starts: the caller's
+/// `outputs` check (given the options; `vitrum render` checks its output paths there), then the
+/// effects the method does not simulate (a warning on stderr, or refused with `--strict`) and
+/// `--variance`.
+pub fn prepare(
+    scene: &Scene,
+    args: &RenderArgs,
+    outputs: impl FnOnce(&RenderOptions) -> Result<(), CliError>,
+) -> Result<(Box<dyn Integrator>, RenderOptions), CliError> {
+    let integrator = integrator_named(args.integrator.as_deref().unwrap_or(&scene.settings.integrator))?;
+    let opts = render_options(scene, integrator.as_ref(), args)?;
+    outputs(&opts)?;
+    check_effects(scene, integrator.as_ref(), &opts, args.strict)?;
+    if args.variance {
+        if let render::Progression::Fixed(image) = integrator.progression() {
+            return Err(CliError::BadInput(format!(
+                "--variance: `{}` renders a fixed sample pattern ({}); it has no sample variance",
+                integrator.name(),
+                image.why()
+            )));
+        }
+        if opts.budget == Budget::Samples(1) {
+            return Err(CliError::BadInput("--variance needs at least 2 samples per pixel (--spp 2)".into()));
+        }
+        if opts.replicas.count() < 2 {
+            return Err(CliError::BadInput("--variance needs at least 2 replicas (--replicas 2)".into()));
+        }
+    }
+    Ok((integrator, opts))
+}
+
+/// The worker pool of a render of `threads` threads (all cores when `None`), once the render
+/// is known to fit in the machine's memory (checked before anything of it is allocated).
+pub fn worker_pool(
+    scene: &Scene,
+    integrator: &dyn Integrator,
+    opts: &RenderOptions,
+    threads: Option<usize>,
+) -> Result<rayon::ThreadPool, CliError> {
+    crate::memory::check(scene, integrator, opts).map_err(CliError::BadInput)?;
+    thread_pool(threads)
+}
+
+/// Renders `scene` with `args` in memory, as `vitrum render` does without its outputs: the
+/// entry point of a library user (the Python package). `progress` receives (work done, total).
+/// A stop requested through [`crate::interrupt::request_stop`] ends the render at its next
+/// pass boundary with the samples done ([`Rendered::interrupted`]). The options that make
+/// a render part (`--resume`, `--samples`, `--shard`, `--checkpoint`) write files and are
+/// refused here; the output options (`-o`, `--png`, `--density-map`, `--json`, `--quiet`) are
+/// ignored: the caller writes the EXR with [`Rendered::stage_exr`].
+pub fn render_in_memory(
+    scene: &Scene,
+    args: &RenderArgs,
+    progress: &(dyn Fn(u64, u64) + Sync),
+) -> Result<Rendered, CliError> {
+    let part_option = [
+        (args.resume.is_some(), "--resume"),
+        (args.samples.is_some(), "--samples"),
+        (args.shard.is_some(), "--shard"),
+        (args.checkpoint.is_some(), "--checkpoint"),
+    ];
+    if let Some((_, option)) = part_option.iter().find(|(given, _)| *given) {
+        return Err(CliError::BadInput(format!(
+            "{option}: a render part is written to a file as it renders; use `vitrum render` for it"
+        )));
+    }
+    let (integrator, opts) = prepare(scene, args, |_| Ok(()))?;
+    let pool = worker_pool(scene, integrator.as_ref(), &opts, args.threads)?;
+    let out = pool.install(|| render::render(scene, integrator.as_ref(), &opts, progress));
+    Ok(Rendered::new(scene, integrator, opts, out, args))
+}
+
+/// A finished (or interrupted) render and how it was made: what `vitrum render` writes
+/// ([`Rendered::stage_exr`]) and prints ([`Rendered::summary`]).
+pub struct Rendered {
+    /// The method that rendered.
+    pub integrator: Box<dyn Integrator>,
+    /// The options it rendered with.
+    pub options: RenderOptions,
+    /// The image, its variance, its replicas and its statistics.
+    pub out: RenderOutput,
+    /// What a stop request interrupted (the `vitrum:interrupted` attribute), `None` when the
+    /// render ran to its budget.
+    pub interrupted: Option<String>,
+    /// The exposure of the preview in stops (`--exposure`, else the scene's).
+    pub exposure: f32,
+    /// Whether the EXR leaves out the variance and replica channels (`--no-variance`).
+    pub no_variance: bool,
+}
+
+impl Rendered {
+    /// The render `out` of `scene` by `integrator` with `options` and the arguments `args`;
+    /// interrupted when a stop has been requested ([`crate::interrupt::stop_requested`]).
+    pub fn new(
+        scene: &Scene,
+        integrator: Box<dyn Integrator>,
+        options: RenderOptions,
+        out: RenderOutput,
+        args: &RenderArgs,
+    ) -> Rendered {
+        let interrupted =
+            interrupt::stop_requested().then(|| interruption(integrator.as_ref(), &options, &out));
+        let exposure = args.exposure.unwrap_or(scene.settings.exposure);
+        Rendered { integrator, options, out, interrupted, exposure, no_variance: args.no_variance }
+    }
+
+    /// The EXR header metadata of the render of `scene`.
+    pub fn metadata(&self, scene: &Scene) -> ExrMetadata {
+        let out = &self.out;
+        exr_metadata(scene, self.integrator.name(), self.options.seed, (out.spp, out.seconds, out.rays))
+    }
+
+    /// The notes of the EXR header: what interrupted the render, and the preview's exposure.
+    pub fn notes(&self) -> Vec<(String, String)> {
+        let interrupted =
+            self.interrupted.iter().map(|what| ("vitrum:interrupted".to_string(), what.clone()));
+        interrupted
+            .chain([(super::diff::EXPOSURE_ATTRIBUTE.to_string(), self.exposure.to_string())])
+            .collect()
+    }
+
+    /// The EXR file of the render of `scene` (image, variance and replica channels unless
+    /// `--no-variance`, metadata) encoded into a temporary file beside `path`, to be published
+    /// with [`crate::output::Staged::commit`].
+    pub fn stage_exr(
+        &self,
+        scene: &Scene,
+        path: &Path,
+    ) -> Result<crate::output::Staged, crate::output::OutputError> {
+        let (extra, mut notes) = match self.no_variance {
+            true => (Vec::new(), Vec::new()),
+            false => render_channels(&self.out),
+        };
+        notes.extend(self.notes());
+        stage_exr_with_notes(path, &self.out.image, &self.metadata(scene), &extra, &notes)
+    }
+
+    /// The summary `vitrum render --json` prints, of the render of `scene` written to
+    /// `output` (and the preview `png`).
+    pub fn summary(&self, scene: &Scene, output: Option<&Path>, png: Option<&Path>) -> serde_json::Value {
+        let (out, opts, integrator) = (&self.out, &self.options, self.integrator.name());
+        let engine = self.integrator.engine(scene, opts);
+        let (depth, merging) = depth_and_merging(scene, integrator, opts);
+        json!({
+            "integrator": integrator,
+            "scene": scene.origin.name,
+            "scene_hash": scene.origin.hash,
+            "width": out.image.width,
+            "height": out.image.height,
+            "spp": out.spp,
+            "seed": opts.seed,
+            // The depth the render used (`null` for `raycast`, which has none).
+            "max_depth": depth,
+            // The initial merge radius and its α (`null` for the methods that do not merge).
+            "merging": merging.map(|(radius, alpha)| json!({"radius": radius, "alpha": alpha})),
+            // The one strategy rendered alone (`--strategy`), or `null`.
+            "strategy": opts.params.merging.only.map(|s| s.name()),
+            // The engine that traced the paths (`wavefront` or `scalar`), how, and why.
+            "engine": {"name": engine.name(), "description": engine.describe(), "reason": engine.reason},
+            "seconds": out.seconds,
+            "rays": {
+                "primary": out.rays.primary,
+                "reflected": out.rays.reflected,
+                "refracted": out.rays.refracted,
+                "shadow": out.rays.shadow,
+                "total": out.rays.total(),
+            },
+            "mrays_per_second": mrays_per_second(out),
+            "rays_per_pixel": out.rays.total() as f64 / (out.image.width * out.image.height).max(1) as f64,
+            "non_finite_samples": out.non_finite_samples,
+            "spectral": out.spectral,
+            "samples_per_pixel": out.samples_per_pixel.as_ref().map(|c| {
+                let n = c.len().max(1) as f32;
+                json!({"mean": c.iter().sum::<f32>() / n, "min": c.iter().copied().fold(f32::INFINITY, f32::min),
+                       "max": c.iter().copied().fold(0.0f32, f32::max)})
+            }),
+            "effects": scene.effects.names(),
+            // The reference-free noise estimate (see `render`'s module documentation).
+            "noise": out.noise().map(|n| json!({
+                "std_error": n.std_error,
+                "mse": n.mse,
+                "non_finite_pixels": n.non_finite,
+                "basis": noise_basis(opts, out),
+            })),
+            "output": output,
+            "png": png,
+            // Whether Ctrl-C stopped the render (`spp` is then the samples done), and the
+            // sample count asked for.
+            "interrupted": self.interrupted.is_some(),
+            "requested_spp": match opts.budget {
+                Budget::Samples(n) => Some(n),
+                Budget::Time(_) => None,
+            },
+        })
+    }
+}
+
+/// The depth a render by `integrator` used (`None` for a method without one) and its initial
+/// merge radius and α (`None` for the methods that do not merge).
+fn depth_and_merging(
+    scene: &Scene,
+    integrator: &str,
+    opts: &RenderOptions,
+) -> (Option<u32>, Option<(f32, f32)>) {
+    let depth = crate::scene::desc::has_max_depth(integrator).then_some(opts.params.max_depth);
+    let merging = crate::scene::desc::MERGING_METHODS.contains(&integrator).then(|| {
+        (integrators::initial_radius(scene, &opts.params.merging, opts.resolution), opts.params.merging.alpha)
+    });
+    (depth, merging)
+}
+
+/// Millions of rays per second of a render.
+fn mrays_per_second(out: &RenderOutput) -> f64 {
+    out.rays.total() as f64 / out.seconds.max(1e-9) / 1e6
 }
 
 /// The time a render has left after `elapsed`, having done `done` of `total` work units: for a
@@ -516,74 +710,13 @@ fn stage_density_map(path: &Path, out: &RenderOutput) -> Result<Staged, crate::o
 }
 
 /// Print the one-line summary (or the JSON object).
-fn report(
-    args: &RenderArgs,
-    output: &Path,
-    scene: &Scene,
-    (integrator, engine): (&str, &integrators::EngineChoice),
-    opts: &RenderOptions,
-    out: &RenderOutput,
-) {
-    let mrays = out.rays.total() as f64 / out.seconds.max(1e-9) / 1e6;
-    let noise = out.noise();
-    let depth = crate::scene::desc::has_max_depth(integrator).then_some(opts.params.max_depth);
-    let merging = crate::scene::desc::MERGING_METHODS.contains(&integrator).then(|| {
-        (integrators::initial_radius(scene, &opts.params.merging, opts.resolution), opts.params.merging.alpha)
-    });
+fn report(args: &RenderArgs, output: &Path, scene: &Scene, rendered: &Rendered) {
+    let (out, opts, integrator) = (&rendered.out, &rendered.options, rendered.integrator.name());
     if args.json {
-        let summary = json!({
-            "integrator": integrator,
-            "scene": scene.origin.name,
-            "scene_hash": scene.origin.hash,
-            "width": out.image.width,
-            "height": out.image.height,
-            "spp": out.spp,
-            "seed": opts.seed,
-            // The depth the render used (`null` for `raycast`, which has none).
-            "max_depth": depth,
-            // The initial merge radius and its α (`null` for the methods that do not merge).
-            "merging": merging.map(|(radius, alpha)| json!({"radius": radius, "alpha": alpha})),
-            // The one strategy rendered alone (`--strategy`), or `null`.
-            "strategy": opts.params.merging.only.map(|s| s.name()),
-            // The engine that traced the paths (`wavefront` or `scalar`), how, and why.
-            "engine": {"name": engine.name(), "description": engine.describe(), "reason": engine.reason},
-            "seconds": out.seconds,
-            "rays": {
-                "primary": out.rays.primary,
-                "reflected": out.rays.reflected,
-                "refracted": out.rays.refracted,
-                "shadow": out.rays.shadow,
-                "total": out.rays.total(),
-            },
-            "mrays_per_second": mrays,
-            "rays_per_pixel": out.rays.total() as f64 / (out.image.width * out.image.height).max(1) as f64,
-            "non_finite_samples": out.non_finite_samples,
-            "spectral": out.spectral,
-            "samples_per_pixel": out.samples_per_pixel.as_ref().map(|c| {
-                let n = c.len().max(1) as f32;
-                json!({"mean": c.iter().sum::<f32>() / n, "min": c.iter().copied().fold(f32::INFINITY, f32::min),
-                       "max": c.iter().copied().fold(0.0f32, f32::max)})
-            }),
-            "effects": scene.effects.names(),
-            // The reference-free noise estimate (see `render`'s module documentation).
-            "noise": noise.map(|n| json!({
-                "std_error": n.std_error,
-                "mse": n.mse,
-                "non_finite_pixels": n.non_finite,
-                "basis": noise_basis(opts, out),
-            })),
-            "output": output,
-            "png": args.png,
-            // Whether Ctrl-C stopped the render (`spp` is then the samples done), and the
-            // sample count asked for.
-            "interrupted": interrupt::stop_requested(),
-            "requested_spp": match opts.budget {
-                Budget::Samples(n) => Some(n),
-                Budget::Time(_) => None,
-            },
-        });
-        println!("{summary}");
+        println!("{}", rendered.summary(scene, Some(output), args.png.as_deref()));
     } else if !args.quiet {
+        let engine = rendered.integrator.engine(scene, opts);
+        let (depth, merging) = depth_and_merging(scene, integrator, opts);
         eprintln!(
             "{integrator}: {}x{} at {} spp{}{}{}{} in {:.3} s, {} rays ({:.1} per pixel: primary {}, reflected {}, refracted {}, shadow {}), {:.2} Mrays/s, {} -> {}\n  engine: {}",
             out.image.width,
@@ -600,8 +733,8 @@ fn report(
             out.rays.reflected,
             out.rays.refracted,
             out.rays.shadow,
-            mrays,
-            match noise {
+            mrays_per_second(out),
+            match out.noise() {
                 Some(n) => format!("std error {:.3e}", n.std_error),
                 None => "std error n/a".to_string(),
             },

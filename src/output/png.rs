@@ -44,6 +44,11 @@ pub fn stage_png(path: &Path, image: &Image, exposure_ev: f32) -> Result<Staged,
     stage_rgb8(path, image.width, image.height, &to_srgb8(image, exposure_ev))
 }
 
+/// The preview of [`stage_png`] encoded as PNG bytes in memory (a notebook's display of a render).
+pub fn preview_png(image: &Image, exposure_ev: f32) -> Result<Vec<u8>, String> {
+    encode_rgb8(image.width, image.height, &to_srgb8(image, exposure_ev))
+}
+
 /// Grey levels `values` in [0, 1] (clamped), staged linearly as 8-bit RGB: for data such as
 /// sample-density maps, not for radiance.
 pub fn stage_grey_png(
@@ -61,13 +66,19 @@ pub fn stage_grey_png(
 
 /// Stage packed RGB8 bytes as a PNG file.
 pub fn stage_rgb8(path: &Path, width: usize, height: usize, bytes: &[u8]) -> Result<Staged, OutputError> {
-    let too_big = || OutputError::format(path, "image too large for PNG");
+    // Encoded in memory, then staged (see `stage_bytes`).
+    let png = encode_rgb8(width, height, bytes).map_err(|e| OutputError::format(path, e))?;
+    stage_bytes(path, &png)
+}
+
+/// Packed RGB8 bytes (row-major, top row first) encoded as PNG.
+pub fn encode_rgb8(width: usize, height: usize, bytes: &[u8]) -> Result<Vec<u8>, String> {
+    let too_big = || "image too large for PNG".to_string();
     let width = u32::try_from(width).map_err(|_| too_big())?;
     let height = u32::try_from(height).map_err(|_| too_big())?;
     if bytes.len() as u64 != width as u64 * height as u64 * 3 {
-        return Err(OutputError::format(path, "byte count does not match the image size"));
+        return Err("byte count does not match the image size".into());
     }
-    // Encoded in memory, then staged (see `stage_bytes`).
     let mut png = Vec::new();
     ::image::ImageEncoder::write_image(
         ::image::codecs::png::PngEncoder::new(&mut png),
@@ -76,8 +87,8 @@ pub fn stage_rgb8(path: &Path, width: usize, height: usize, bytes: &[u8]) -> Res
         height,
         ::image::ExtendedColorType::Rgb8,
     )
-    .map_err(|e| OutputError::format(path, format!("cannot encode PNG: {e}")))?;
-    stage_bytes(path, &png)
+    .map_err(|e| format!("cannot encode PNG: {e}"))?;
+    Ok(png)
 }
 
 #[cfg(test)]
