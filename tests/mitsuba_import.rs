@@ -216,6 +216,29 @@ fn what_vitrum_lacks_is_refused_or_with_lenient_dropped_with_a_warning() {
 }
 
 #[test]
+fn a_checkerboard_texture_is_refused_naming_the_textures_vitrum_reads() {
+    // vitrum's own checker exported for Mitsuba 3 (the floor of cornell-glass) is a uv
+    // `checkerboard`, which vitrum does not read back: refused with the one texture it reads,
+    // dropped with --lenient.
+    let dir = tempfile::tempdir().unwrap();
+    let scene = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell-glass.toml");
+    let export =
+        vitrum(dir.path(), &["export", scene.to_str().unwrap(), "--format", "mitsuba", "-o", "cg.xml"]);
+    assert!(export.status.success(), "{}", stderr(&export));
+    let strict = vitrum(dir.path(), &["info", "cg.xml"]);
+    assert_eq!(strict.status.code(), Some(2), "{}", stderr(&strict));
+    let err = stderr(&strict);
+    assert!(
+        err.contains("cg.xml:")
+            && err.contains("checkerboard")
+            && err.contains("supported <texture> plugins: bitmap"),
+        "{err}"
+    );
+    let lenient = vitrum(dir.path(), &["info", "--lenient", "cg.xml"]);
+    assert!(lenient.status.success() && stderr(&lenient).contains("checkerboard"), "{}", stderr(&lenient));
+}
+
+#[test]
 fn flip_normals_on_a_sphere_is_kept_where_it_changes_nothing_and_refused_elsewhere() {
     // vitrum's spheres face outwards: a flipped sphere is exact only when its BSDF looks the same
     // from both sides and it emits nothing.

@@ -53,7 +53,7 @@ pub const NAMED_IORS: [(&str, f64); 23] = [
 ];
 
 /// The plugins translated, by tag, for the error listing what is supported.
-pub const SUPPORTED: [(&str, &str); 8] = [
+pub const SUPPORTED: [(&str, &str); 9] = [
     ("sensor", "perspective, thinlens"),
     ("film", "hdrfilm, ldrfilm"),
     ("rfilter", "box, tent (radius), gaussian (stddev)"),
@@ -68,6 +68,7 @@ pub const SUPPORTED: [(&str, &str); 8] = [
         "emitter",
         "area (on rectangles, spheres, disks and cylinders; on cubes and meshes as two-sided emission), point, spot, directional, constant, envmap",
     ),
+    ("texture", "bitmap (a diffuse reflectance; a to_uv that scales and moves)"),
 ];
 
 /// What the import takes from a `<film>`.
